@@ -1,0 +1,1 @@
+"""Finite-element references (scikit-fem): beam, plate and solid reeds; seat and stop."""

@@ -1,0 +1,11 @@
+"""Parametric geometry of the valve parts: one description for formulas and meshes."""
+
+from .disc import DiscValveGeometry, load_disc_geometry
+from .errors import InputError
+from .reed import Groove, Material, Reed
+from .reed_io import PRESETS, load_reed, parse_reed, reed_to_toml
+
+__all__ = [
+    "DiscValveGeometry", "Groove", "InputError", "Material", "PRESETS", "Reed",
+    "load_disc_geometry", "load_reed", "parse_reed", "reed_to_toml",
+]

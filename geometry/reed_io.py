@@ -1,0 +1,214 @@
+"""Read and validate reed geometry files (TOML, see CONTRACT.md) and the presets.
+
+Every field is checked and a bad one raises :class:`~geometry.errors.InputError`
+naming it (``reed.grooves[1].depth``), so the command line can exit 2 with one line.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+from dataclasses import replace
+
+from .reed import Groove, Material, Reed
+
+#: Presets of Table 3.1 of the thesis; each is a packaged file in the user format.
+PRESETS = ("uniform", "stepped1", "stepped2", "prototype")
+
+_REED_KEYS = {
+    "length", "thickness", "width_root", "width_tip", "step_fraction", "tip_radius",
+    "material", "grooves", "name",
+}
+_MATERIAL_KEYS = {"youngs_modulus", "density", "poisson_ratio"}
+_RECT_KEYS = {"kind", "s_start", "s_end", "y_center", "width", "depth"}
+_RING_KEYS = {"kind", "s_center", "r_inner", "r_outer", "depth"}
+
+
+def load_reed(spec: str | Path) -> Reed:
+    """Reed from a preset name (``uniform``, ``stepped1``, ``stepped2``, ``prototype``) or a TOML path."""
+    spec_str = str(spec)
+    if spec_str in PRESETS:
+        text = resources.files("geometry").joinpath(f"data/reed_{spec_str}.toml").read_text()
+        return parse_reed(tomllib.loads(text), source=spec_str)
+    path = Path(spec_str)
+    if not path.is_file():
+        raise InputError(
+            spec_str,
+            "no such file; expected a preset (" + ", ".join(PRESETS) + ") or a reed TOML file",
+        )
+    try:
+        data = tomllib.loads(path.read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(spec_str, f"not valid TOML ({exc})") from None
+    return parse_reed(data, source=path.stem)
+
+
+def _number(table: dict, key: str, where: str, *, required: bool = True, default=None) -> float:
+    if key not in table:
+        if required:
+            raise InputError(f"{where}.{key}", "missing; expected a number in SI units")
+        return default
+    v = table[key]
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise InputError(f"{where}.{key}", f"expected a number, got {v!r}")
+    v = float(v)
+    if not math.isfinite(v):
+        raise InputError(f"{where}.{key}", f"expected a finite number, got {v}")
+    return v
+
+
+def _positive(table: dict, key: str, where: str, **kw) -> float:
+    v = _number(table, key, where, **kw)
+    if v is not None and v <= 0.0:
+        raise InputError(f"{where}.{key}", f"must be positive, got {v:g}")
+    return v
+
+
+def _check_keys(table: dict, allowed: set[str], where: str) -> None:
+    if not isinstance(table, dict):
+        raise InputError(where, "expected a table")
+    for k in table:
+        if k not in allowed:
+            raise InputError(f"{where}.{k}", "unknown field; expected one of " + ", ".join(sorted(allowed)))
+
+
+def parse_reed(data: dict, source: str = "custom") -> Reed:
+    """Validated :class:`Reed` from the parsed TOML mapping (top-level table ``[reed]``)."""
+    if "reed" not in data:
+        raise InputError("reed", "missing [reed] table")
+    r = data["reed"]
+    _check_keys(r, _REED_KEYS, "reed")
+    length = _positive(r, "length", "reed")
+    thickness = _positive(r, "thickness", "reed")
+    width_tip = _positive(r, "width_tip", "reed")
+    step_fraction = _number(r, "step_fraction", "reed", required=False, default=0.0)
+    if not 0.0 <= step_fraction < 1.0:
+        raise InputError("reed.step_fraction", f"must be in [0, 1), got {step_fraction:g}")
+    if step_fraction > 0.0:
+        width_root = _positive(r, "width_root", "reed")
+    else:
+        width_root = _positive(r, "width_root", "reed", required=False, default=width_tip)
+    tip_radius = _number(r, "tip_radius", "reed", required=False, default=0.0)
+    if tip_radius < 0.0:
+        raise InputError("reed.tip_radius", f"must be >= 0, got {tip_radius:g}")
+    if tip_radius > width_tip / 2 * (1 + 1e-12):
+        raise InputError(
+            "reed.tip_radius",
+            f"{tip_radius:g} m is wider than the reed: at most width_tip / 2 = {width_tip / 2:g} m",
+        )
+    tip_radius = min(tip_radius, width_tip / 2)
+    if tip_radius > length * (1.0 - step_fraction):
+        raise InputError(
+            "reed.tip_radius",
+            f"{tip_radius:g} m reaches past the step at {step_fraction * length:g} m; "
+            "expected tip_radius <= length * (1 - step_fraction)",
+        )
+    if "material" not in r:
+        raise InputError("reed.material", "missing [reed.material] table")
+    m = r["material"]
+    _check_keys(m, _MATERIAL_KEYS, "reed.material")
+    material = Material(
+        youngs_modulus=_positive(m, "youngs_modulus", "reed.material"),
+        density=_positive(m, "density", "reed.material"),
+        poisson_ratio=_number(m, "poisson_ratio", "reed.material"),
+    )
+    if not 0.0 <= material.poisson_ratio < 0.5:
+        raise InputError(
+            "reed.material.poisson_ratio", f"must be in [0, 0.5), got {material.poisson_ratio:g}"
+        )
+    name = r.get("name", source)
+    if not isinstance(name, str):
+        raise InputError("reed.name", f"expected a string, got {name!r}")
+    reed = Reed(
+        length=length, thickness=thickness, width_root=width_root, width_tip=width_tip,
+        step_fraction=step_fraction, tip_radius=tip_radius, material=material, name=name,
+    )
+    grooves_raw = r.get("grooves", [])
+    if not isinstance(grooves_raw, list):
+        raise InputError("reed.grooves", "expected an array of tables [[reed.grooves]]")
+    grooves = tuple(_parse_groove(g, f"reed.grooves[{i}]", reed) for i, g in enumerate(grooves_raw))
+    return replace(reed, grooves=grooves)
+
+
+def _parse_groove(g: dict, where: str, reed: Reed) -> Groove:
+    if not isinstance(g, dict):
+        raise InputError(where, "expected a table")
+    kind = g.get("kind", "rect")
+    if kind not in ("rect", "half_ring"):
+        raise InputError(f"{where}.kind", f"expected 'rect' or 'half_ring', got {kind!r}")
+    depth = _positive(g, "depth", where)
+    if depth >= reed.thickness:
+        raise InputError(
+            f"{where}.depth", f"{depth:g} m is not shallower than the reed thickness {reed.thickness:g} m"
+        )
+    if kind == "rect":
+        _check_keys(g, _RECT_KEYS, where)
+        groove = Groove(
+            depth=depth, kind="rect",
+            s_start=_number(g, "s_start", where), s_end=_number(g, "s_end", where),
+            y_center=_number(g, "y_center", where), width=_positive(g, "width", where),
+        )
+        if groove.s_start < 0.0:
+            raise InputError(f"{where}.s_start", f"must be >= 0 (the clamp line), got {groove.s_start:g}")
+        if groove.s_end <= groove.s_start:
+            raise InputError(f"{where}.s_end", f"must exceed s_start = {groove.s_start:g} m")
+        if groove.s_end > reed.length:
+            raise InputError(f"{where}.s_end", f"{groove.s_end:g} m is beyond the reed tip at {reed.length:g} m")
+        s = np.linspace(groove.s_start, groove.s_end, 401)
+        ys = [(groove.y_center - groove.width / 2, "y_center"), (groove.y_center + groove.width / 2, "y_center")]
+        half = reed.width(s) / 2
+        for yv, _ in ys:
+            if np.any(np.abs(yv) > half * (1 + 1e-9)):
+                k = int(np.argmax(np.abs(yv) > half * (1 + 1e-9)))
+                raise InputError(
+                    f"{where}.y_center",
+                    f"groove edge at y = {yv:g} m leaves the reed (half width {half[k]:g} m at s = {s[k]:g} m)",
+                )
+    else:
+        _check_keys(g, _RING_KEYS, where)
+        groove = Groove(
+            depth=depth, kind="half_ring", s_center=_number(g, "s_center", where),
+            r_inner=_number(g, "r_inner", where), r_outer=_positive(g, "r_outer", where),
+        )
+        if not 0.0 <= groove.r_inner < groove.r_outer:
+            raise InputError(f"{where}.r_inner", f"must be in [0, r_outer), got {groove.r_inner:g}")
+        if groove.s_center < 0.0:
+            raise InputError(f"{where}.s_center", f"must be >= 0, got {groove.s_center:g}")
+        th = np.linspace(-np.pi / 2, np.pi / 2, 721)
+        s = groove.s_center + groove.r_outer * np.cos(th)
+        y = groove.r_outer * np.sin(th)
+        if np.any(s > reed.length) or np.any(np.abs(y) > reed.width(s) / 2 * (1 + 1e-9)):
+            raise InputError(f"{where}.r_outer", "the half ring leaves the reed outline")
+    return groove
+
+
+def reed_to_toml(reed: Reed) -> str:
+    """The reed as a TOML document in the user format (round-trips through :func:`parse_reed`)."""
+    m = reed.material
+    lines = [
+        "[reed]",
+        f'name = "{reed.name}"',
+        f"length = {reed.length!r}",
+        f"thickness = {reed.thickness!r}",
+        f"width_root = {reed.width_root!r}",
+        f"width_tip = {reed.width_tip!r}",
+        f"step_fraction = {reed.step_fraction!r}",
+        f"tip_radius = {reed.tip_radius!r}",
+        "",
+        "[reed.material]",
+        f"youngs_modulus = {m.youngs_modulus!r}",
+        f"density = {m.density!r}",
+        f"poisson_ratio = {m.poisson_ratio!r}",
+    ]
+    for g in reed.grooves:
+        lines += ["", "[[reed.grooves]]", f'kind = "{g.kind}"']
+        keys = ("s_start", "s_end", "y_center", "width") if g.kind == "rect" else ("s_center", "r_inner", "r_outer")
+        lines += [f"{k} = {getattr(g, k)!r}" for k in keys]
+        lines.append(f"depth = {g.depth!r}")
+    return "\n".join(lines) + "\n"

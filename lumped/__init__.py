@@ -1,0 +1,1 @@
+"""Lumped (ODE) models: oil, disc and reed check valves, the piston pump."""

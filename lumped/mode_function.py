@@ -1,0 +1,79 @@
+"""Mode-function parameters (thesis Table 3.4) and the reed properties every fidelity returns.
+
+Analytic (Euler-Bernoulli) and FEA models of a reed all return
+:class:`ReedProperties`, so the pump model and the multi-fidelity check take
+whichever fidelity the user chose without knowing how it was computed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.integrate import simpson
+
+
+def mode_parameters(s, psi, width, width_ref: float) -> tuple[float, float, float]:
+    """gamma1, gamma2, gamma3 of Table 3.4 from a sampled mode function psi(s) (dimensionless).
+
+    gamma1 = int psi W / int psi^2 W, gamma2 = int psi^3 W / int psi^2 W,
+    gamma3 = int psi^2 W^2 / (W_2 int psi^2 W); ``width_ref`` is W_2 [m].
+    ``s`` [m] must be increasing; sample densely (Simpson's rule is used).
+    """
+    s = np.asarray(s, dtype=float)
+    psi = np.asarray(psi, dtype=float)
+    W = np.asarray(width, dtype=float)
+    m2 = simpson(psi**2 * W, x=s)
+    g1 = simpson(psi * W, x=s) / m2
+    g2 = simpson(psi**3 * W, x=s) / m2
+    g3 = simpson(psi**2 * W**2, x=s) / (width_ref * m2)
+    return float(g1), float(g2), float(g3)
+
+
+def effective_thickness(gamma1: float, kappa: float, density: float, omega_n: float) -> float:
+    """h_eff = gamma1 kappa / (rho_c omega_n^2) [m] (eq 3.62)."""
+    return gamma1 * kappa / (density * omega_n**2)
+
+
+def gamma1_alternative(density: float, h_eff: float, omega_n: float, kappa: float) -> float:
+    """gamma1 = rho_c h_eff omega_n^2 / kappa (eq 3.48), from frequency and stiffness alone."""
+    return density * h_eff * omega_n**2 / kappa
+
+
+@dataclass(frozen=True)
+class ReedProperties:
+    """What any reed model (analytic, beam, plate, solid) gives the lumped reed valve.
+
+    omega_n: first bending natural frequency in vacuum [rad/s];
+    kappa: uniform pressure / tip deflection [Pa/m] (eq 3.30);
+    gamma1..3: Table 3.4 parameters from the static uniform-load deflection shape;
+    h_eff: effective thickness [m] (eq 3.62); s, psi: that shape on the centre line
+    (psi(L) = 1); dofs, mesh_size: None for the analytic model.
+    """
+
+    fidelity: str
+    omega_n: float
+    kappa: float
+    gamma1: float
+    gamma2: float
+    gamma3: float
+    h_eff: float
+    s: np.ndarray
+    psi: np.ndarray
+    dofs: int | None = None
+    mesh_size: float | None = None
+
+    def as_contract(self, geometry: str) -> dict:
+        """The JSON object of ``valvelab reed --json`` (CONTRACT.md)."""
+        return {
+            "geometry": geometry,
+            "fidelity": self.fidelity,
+            "omega_n": float(self.omega_n),
+            "kappa": float(self.kappa),
+            "gamma1": float(self.gamma1),
+            "gamma2": float(self.gamma2),
+            "gamma3": float(self.gamma3),
+            "h_eff": float(self.h_eff),
+            "dofs": None if self.dofs is None else int(self.dofs),
+            "mesh_size": None if self.mesh_size is None else float(self.mesh_size),
+        }

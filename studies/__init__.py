@@ -1,0 +1,1 @@
+"""User workflows: the command line, tables, validation, discrepancy, sweeps."""

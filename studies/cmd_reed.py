@@ -1,0 +1,53 @@
+"""``valvelab reed GEOMETRY --fidelity F``: natural frequency, stiffness and mode parameters of a reed."""
+
+from __future__ import annotations
+
+import importlib
+
+from geometry import load_reed
+from geometry.errors import InputError
+
+HELP = "first bending frequency, stiffness and mode-function parameters of a reed"
+
+#: fidelity -> "module:function" with signature f(reed, mesh_size=None) -> ReedProperties
+FIDELITIES: dict[str, str] = {
+    "analytic": "lumped.reed_beam:reed_properties",
+    "beam": "fea.beam:reed_properties",
+    "plate": "fea.plate:reed_properties",
+    "solid": "fea.solid:reed_properties",
+}
+
+
+def reed_model(fidelity: str):
+    """The ``reed_properties`` function of a fidelity (analytic, beam, plate, solid)."""
+    if fidelity not in FIDELITIES:
+        raise InputError("--fidelity", f"expected one of {', '.join(FIDELITIES)}, got {fidelity!r}")
+    modname, func = FIDELITIES[fidelity].split(":")
+    return getattr(importlib.import_module(modname), func)
+
+
+def configure(p):
+    p.add_argument("geometry", help="preset (uniform, stepped1, stepped2, prototype) or reed TOML file")
+    p.add_argument("--fidelity", default="analytic", help="analytic (default), beam, plate or solid")
+    p.add_argument("--mesh-size", type=float, default=None, help="FEA element size [m] (default: converged)")
+
+
+def run(args) -> dict:
+    reed = load_reed(args.geometry)
+    if args.mesh_size is not None and not args.mesh_size > 0:
+        raise InputError("--mesh-size", f"must be a positive length in m, got {args.mesh_size}")
+    props = reed_model(args.fidelity)(reed, mesh_size=args.mesh_size)
+    return props.as_contract(args.geometry)
+
+
+def render(r: dict) -> str:
+    lines = [
+        f"reed {r['geometry']} ({r['fidelity']})",
+        f"  omega_n = {r['omega_n']:.1f} rad/s ({r['omega_n'] / 6.283185307:.1f} Hz)",
+        f"  kappa   = {r['kappa'] / 1e6:.4f} MPa/m",
+        f"  gamma1..3 = {r['gamma1']:.4f}, {r['gamma2']:.4f}, {r['gamma3']:.4f}",
+        f"  h_eff   = {r['h_eff'] * 1e3:.4f} mm",
+    ]
+    if r["dofs"] is not None:
+        lines.append(f"  dofs = {r['dofs']}, mesh size = {r['mesh_size'] * 1e3:.3f} mm")
+    return "\n".join(lines)
