@@ -1,0 +1,196 @@
+"""Candidate effects: named, switchable extensions of the baseline pump/valve model.
+
+The discrepancy workflow (``studies/discrepancy.py``) asks which physics the
+baseline is missing. Each candidate is one :class:`Effect`: its parameters with
+search bounds, a physical prior (the value physics predicts and where it comes
+from: a thesis equation, an FEA result, a correlation) and a plausibility range,
+plus a function ``apply(params, values, target) -> params`` that switches the effect
+on in the model's frozen parameter dataclasses (``dataclasses.replace``).
+
+Adding an effect is one new :func:`register` call with one new :class:`Effect`;
+the workflow, the synthetic-data generator and the report pick it up by name.
+The entries for the pump model of the thesis are in :mod:`lumped.effect_library`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+#: where an effect acts: one candidate per valve, or one for the whole pump
+PER_VALVE = ("inlet", "delivery")
+BOTH_VALVES = ("both",)
+PUMP = ("pump",)
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One parameter of an effect (SI units).
+
+    ``prior`` is the value physics predicts (``source`` says from where);
+    ``bounds`` the range searched (in log space if ``log``); ``plausible`` the
+    range a fitted value must fall in to be believed. A fit that ends on a bound
+    or outside ``plausible`` is reported but never added to the model.
+    """
+
+    name: str
+    unit: str
+    prior: float
+    bounds: tuple[float, float]
+    plausible: tuple[float, float]
+    source: str
+    log: bool = True
+
+    def __post_init__(self):
+        lo, hi = self.bounds
+        if not lo < hi:
+            raise ValueError(f"{self.name}: bounds must be increasing")
+        if self.log and lo <= 0:
+            raise ValueError(f"{self.name}: log-space bounds must be positive")
+        if not lo <= self.prior <= hi:
+            raise ValueError(f"{self.name}: prior {self.prior} outside bounds {self.bounds}")
+
+    def to_unit(self, value: float) -> float:
+        """Position of ``value`` within the bounds, 0..1 (log or linear)."""
+        lo, hi = self.bounds
+        if self.log:
+            return (math.log(value) - math.log(lo)) / (math.log(hi) - math.log(lo))
+        return (value - lo) / (hi - lo)
+
+    def from_unit(self, u: float) -> float:
+        """Inverse of :meth:`to_unit`."""
+        lo, hi = self.bounds
+        u = min(max(u, 0.0), 1.0)
+        if self.log:
+            return math.exp(math.log(lo) + u * (math.log(hi) - math.log(lo)))
+        return lo + u * (hi - lo)
+
+    def plausibility(self, value: float, bound_tol: float = 0.01) -> str | None:
+        """None if ``value`` is plausible, else the reason (on a search bound, outside the range)."""
+        u = self.to_unit(value)
+        if u <= bound_tol or u >= 1.0 - bound_tol:
+            return f"{self.name} = {value:.4g} {self.unit} ran into the search bound {self.bounds}"
+        lo, hi = self.plausible
+        if not lo <= value <= hi:
+            return (f"{self.name} = {value:.4g} {self.unit} is outside the physically plausible range "
+                    f"{lo:.3g}-{hi:.3g} ({self.source})")
+        return None
+
+
+@dataclass(frozen=True)
+class Effect:
+    """A named extension of the baseline model.
+
+    ``apply(params, values, target)`` returns the model parameters with the effect
+    switched on, ``values`` mapping parameter names to values and ``target`` one of
+    ``targets`` ("inlet"/"delivery" for an effect of one valve, "both", "pump").
+    ``derived(values)`` gives reported quantities that follow from the fitted ones
+    (e.g. the critical seat damping from the seat stiffness). ``candidate=False``
+    marks a model error the synthetic-data generator can inject but the workflow
+    never searches (e.g. a discharge coefficient a few percent off).
+    ``applicable(runs)`` returns None, or why the effect is not a candidate for a
+    dataset (e.g. entrained air when run.toml states the air content).
+    """
+
+    name: str
+    summary: str
+    parameters: tuple[Parameter, ...]
+    apply: Callable[[Any, dict, str], Any]
+    valve_types: tuple[str, ...] = ("disc", "reed")
+    targets: tuple[str, ...] = BOTH_VALVES
+    derived: Callable[[dict], dict] | None = None
+    candidate: bool = True
+    applicable: Callable[[list], str | None] | None = None
+
+    def prior_values(self) -> dict:
+        return {p.name: p.prior for p in self.parameters}
+
+    def parameter(self, name: str) -> Parameter:
+        for p in self.parameters:
+            if p.name == name:
+                return p
+        raise KeyError(name)
+
+    def plausibility(self, values: dict) -> str | None:
+        """None if every fitted value is plausible, else the first reason."""
+        for p in self.parameters:
+            why = p.plausibility(values[p.name])
+            if why:
+                return why
+        return None
+
+    def report(self, values: dict) -> dict:
+        """Fitted and derived values as reported in JSON."""
+        out = {p.name: float(values[p.name]) for p in self.parameters}
+        if self.derived is not None:
+            out.update({k: float(v) for k, v in self.derived(values).items()})
+        return out
+
+
+@dataclass(frozen=True)
+class Applied:
+    """An effect switched on at one target with its parameter values (hashable: a cache key)."""
+
+    name: str
+    target: str
+    values: tuple[tuple[str, float], ...]
+
+    @staticmethod
+    def of(name: str, target: str, values: dict) -> "Applied":
+        return Applied(name, target, tuple(sorted((k, float(v)) for k, v in values.items())))
+
+    @property
+    def value_dict(self) -> dict:
+        return dict(self.values)
+
+    @property
+    def key(self) -> str:
+        return self.name if self.target in ("both", "pump") else f"{self.name}@{self.target}"
+
+
+@dataclass
+class Library:
+    """A registry of effects by name (the workflow takes one; tests may build their own)."""
+
+    effects: dict = field(default_factory=dict)
+
+    def register(self, effect: Effect) -> Effect:
+        if effect.name in self.effects:
+            raise ValueError(f"effect {effect.name!r} is registered twice")
+        for t in effect.targets:
+            if t not in PER_VALVE + BOTH_VALVES + PUMP:
+                raise ValueError(f"effect {effect.name!r}: unknown target {t!r}")
+        self.effects[effect.name] = effect
+        return effect
+
+    def __getitem__(self, name: str) -> Effect:
+        return self.effects[name]
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.effects
+
+    def names(self, candidates_only: bool = False) -> list[str]:
+        return [n for n, e in self.effects.items() if e.candidate or not candidates_only]
+
+    def candidates(self, valve_type: str, runs: list | None = None) -> tuple[list, dict]:
+        """(effect, target) pairs the workflow searches for a dataset, and the excluded ones with reasons."""
+        out, excluded = [], {}
+        for e in self.effects.values():
+            if not e.candidate:
+                continue
+            if valve_type not in e.valve_types:
+                excluded[e.name] = f"does not apply to the {valve_type} valve"
+                continue
+            why = e.applicable(runs or []) if e.applicable else None
+            if why:
+                excluded[e.name] = why
+                continue
+            out += [(e, t) for t in e.targets]
+        return out, excluded
+
+    def apply(self, params, model: tuple[Applied, ...]):
+        """``params`` with every applied effect switched on, in order."""
+        for a in model:
+            params = self.effects[a.name].apply(params, a.value_dict, a.target)
+        return params
