@@ -23,6 +23,8 @@ from geometry.errors import InputError
 COMMANDS: dict[str, str] = {
     "reed": "studies.cmd_reed",
     "table": "studies.cmd_table",
+    "synth": "studies.cmd_synth",
+    "discrepancy": "studies.cmd_discrepancy",
 }
 
 

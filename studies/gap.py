@@ -19,7 +19,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from .measured import Run
 
@@ -104,9 +103,17 @@ def fold(run: Run) -> Folded:
     return Folded(crank, pos, noise)
 
 
+def _periodic_table(crank: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Crank samples in [0, 360) extended by one sample each side so plain interpolation wraps."""
+    c = np.concatenate([[crank[-1] - 360.0], crank, [crank[0] + 360.0]])
+    v = np.concatenate([[values[-1]], values, [values[0]]])
+    return c, v
+
+
 def periodic_interp(theta: np.ndarray, crank: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """Linear interpolation of a 360-deg periodic signal at ``theta`` [deg]."""
-    return np.interp(np.mod(theta, 360.0), crank, values, period=360.0)
+    """Linear interpolation of a 360-deg periodic signal at ``theta`` [deg] (``crank`` sorted in [0, 360))."""
+    c, v = _periodic_table(np.asarray(crank, float), np.asarray(values, float))
+    return np.interp(np.mod(theta, 360.0), c, v)
 
 
 def predict(sim: CycleTrace, valve: str, theta: np.ndarray, speed_rpm: float, nuisance: Nuisance) -> np.ndarray:
@@ -120,45 +127,67 @@ def predict(sim: CycleTrace, valve: str, theta: np.ndarray, speed_rpm: float, nu
 
 def fit_nuisance(
     runs: list[Run], folded: dict, sims: dict, *, scale_bounds=(0.95, 1.05), offset_bounds_s=(-1e-3, 1e-3),
-    n_grid: int = 41,
+    n_grid: int = 21,
 ) -> Nuisance:
     """Sensor scale per valve and one time offset minimising the position residual over ``runs``.
 
     For a given offset the best scale of each valve is linear least squares (closed
-    form, clipped to ``scale_bounds``); the offset is found on a grid, then refined.
+    form, clipped to ``scale_bounds``); the offset is found on a grid, refined on a
+    finer grid around the best point and polished by a parabola through three points.
     ``folded``/``sims`` map run name -> :class:`Folded` / :class:`CycleTrace`.
+    Each trace weighs 1/N (its mean square), like the fit objective.
     """
-    runs = [r for r in runs if r.trace is not None]
-    if not runs:
+    traces = []
+    for r in runs:
+        if r.trace is None:
+            continue
+        f, s = folded[r.name], sims[r.name]
+        for valve, th in f.crank_deg.items():
+            c, v = _periodic_table(s.crank_deg, s.positions[valve])
+            m = f.position[valve]
+            traces.append((valve, th, m, c, v, r.speed_rpm * 6.0, 1.0 / m.size))
+    if not traces:
         return Nuisance()
 
-    def solve(offset):
-        num = {v: 0.0 for v in VALVES}
-        den = {v: 0.0 for v in VALVES}
-        preds = []
-        for r in runs:
-            f, s = folded[r.name], sims[r.name]
-            for valve in f.position:
-                p = predict(s, valve, f.crank_deg[valve], r.speed_rpm, Nuisance(offset_s=offset))
-                m = f.position[valve]
-                w = 1.0 / m.size
-                num[valve] += w * float(p @ m)
-                den[valve] += w * float(p @ p)
-                preds.append((valve, p, m, w))
-        scale = {
-            v: float(np.clip(num[v] / den[v], *scale_bounds)) if den[v] > 0 else 1.0 for v in VALVES
-        }
-        cost = sum(w * float(np.sum((m - scale[v] * p) ** 2)) for v, p, m, w in preds)
+    def solve(offsets: np.ndarray):
+        """(cost per offset, scale per valve per offset)."""
+        k = offsets.size
+        pm = {v: np.zeros(k) for v in VALVES}
+        pp = {v: np.zeros(k) for v in VALVES}
+        mm = 0.0
+        for valve, th, m, c, v, omega, w in traces:
+            x = np.mod(th[None, :] - offsets[:, None] * omega, 360.0)
+            p = np.interp(x.ravel(), c, v).reshape(k, th.size)
+            pm[valve] += w * (p @ m)
+            pp[valve] += w * np.einsum("ij,ij->i", p, p)
+            mm += w * float(m @ m)
+        cost = np.full(k, mm)
+        scale = {}
+        for valve in VALVES:
+            with np.errstate(invalid="ignore", divide="ignore"):
+                sv = np.where(pp[valve] > 0, pm[valve] / pp[valve], 1.0)
+            sv = np.clip(sv, *scale_bounds)
+            cost += -2.0 * sv * pm[valve] + sv**2 * pp[valve]
+            scale[valve] = sv
         return cost, scale
 
-    grid = np.linspace(*offset_bounds_s, n_grid)
-    costs = [solve(o)[0] for o in grid]
-    i = int(np.argmin(costs))
-    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, n_grid - 1)]
-    res = minimize_scalar(lambda o: solve(o)[0], bounds=(lo, hi), method="bounded",
-                          options={"xatol": 1e-7})
-    best = float(res.x) if res.fun <= costs[i] else float(grid[i])
-    return Nuisance(scale=solve(best)[1], offset_s=best)
+    lo, hi = offset_bounds_s
+    grid = np.linspace(lo, hi, n_grid)
+    for _ in range(2):   # coarse grid, then a fine grid around its best point
+        cost, _ = solve(grid)
+        i = int(np.argmin(cost))
+        step = grid[1] - grid[0]
+        grid = np.linspace(max(lo, grid[i] - step), min(hi, grid[i] + step), 11)
+    cost, _ = solve(grid)
+    i = int(np.argmin(cost))
+    best = float(grid[i])
+    if 0 < i < grid.size - 1:   # parabola through the best point and its neighbours
+        c0, c1, c2 = cost[i - 1: i + 2]
+        den = c0 - 2 * c1 + c2
+        if den > 0:
+            best += 0.5 * (c0 - c2) / den * (grid[1] - grid[0])
+    _, scale = solve(np.array([best]))
+    return Nuisance(scale={v: float(scale[v][0]) for v in VALVES}, offset_s=best)
 
 
 # --------------------------------------------------------------------------- events
@@ -222,16 +251,17 @@ def valve_events(theta: np.ndarray, x: np.ndarray, threshold_m: float, smooth_de
         return float(np.mod(ta + np.clip(frac, 0.0, 1.0) * (tb - ta), 360.0))
 
     opening = cross(r)
-    closing = cross(f) if f < n - 1 else float(theta[idx[-1]])
+    closing = cross(f)  # f = n - 1: between the last rotated sample and the first (closed) one
     open_mask = np.zeros(n, bool)
     open_mask[idx[r + 1: f + 1]] = True
     seated = float(np.median(xs[~open_mask])) if (~open_mask).any() else None
     return Events(opening, closing, peak, seated, open_mask)
 
 
-def wrap_deg(a: float) -> float:
-    """Angle difference wrapped to (-180, 180]."""
-    return float(-(np.mod(-a + 180.0, 360.0) - 180.0))
+def wrap_deg(a):
+    """Angle difference(s) wrapped to (-180, 180] [deg]."""
+    w = -(np.mod(-np.asarray(a, float) + 180.0, 360.0) - 180.0)
+    return float(w) if w.ndim == 0 else w
 
 
 def closed_window(theta: np.ndarray, ev: Events, margin_deg: float = 10.0) -> np.ndarray:
@@ -241,7 +271,7 @@ def closed_window(theta: np.ndarray, ev: Events, margin_deg: float = 10.0) -> np
         return closed
     far = np.ones_like(closed)
     for a in (ev.opening_deg, ev.closing_deg):
-        far &= np.abs([wrap_deg(t - a) for t in theta]) > margin_deg
+        far &= np.abs(wrap_deg(theta - a)) > margin_deg
     return closed & far
 
 
@@ -467,30 +497,29 @@ def describe(found: list[Finding], n_runs: dict) -> list[str]:
         vals = np.array([f.value for f in fs])
         mean = float(np.mean(vals))
         cnt = f"{len(fs)} of {n_runs.get(valve, len(fs))} runs"
+        unit, mul = {"seated": (" mm", 1e3), "peak": (" mm", 1e3), "delivery": (" %", 1.0)}.get(kind, (" deg", 1.0))
         rng = "" if len(fs) == 1 else (
-            f", {np.min(np.abs(vals)) * (1e3 if kind in ('seated', 'peak') else 1):.2f}-"
-            f"{np.max(np.abs(vals)) * (1e3 if kind in ('seated', 'peak') else 1):.2f}"
-        )
+            f", {np.min(np.abs(vals)) * mul:.2f}-{np.max(np.abs(vals)) * mul:.2f}{unit}")
         wins = [f.window for f in fs if f.window is not None]
         if kind == "seated":
             w = _fmt_window(wins[0]) if wins else ""
             where = stroke(_mid(wins[0])) if wins else "closed phase"
             s = (f"{valve} valve sits {abs(mean) * 1e3:.2f} mm {'below' if sign < 0 else 'above'} its modelled "
-                 f"seated position during the {where} ({w}; {cnt}{rng} mm)")
+                 f"seated position during the {where} ({w}; {cnt}{rng})")
             weight = abs(mean) / 2e-5
         elif kind in ("opening", "closing"):
             verb = "opens" if kind == "opening" else "closes"
             at = wins[0][1] if wins else 0.0
             s = (f"{valve} valve {verb} {abs(mean):.1f} deg {'late' if sign > 0 else 'early'} "
-                 f"(measured near crank {at:.0f} deg, {stroke(at)}; {cnt}{rng} deg)")
+                 f"(measured near crank {at:.0f} deg, {stroke(at)}; {cnt}{rng})")
             weight = abs(mean) / 2.0
         elif kind == "peak":
             s = (f"{valve} valve opens {abs(mean) * 1e3:.2f} mm {'wider' if sign > 0 else 'less'} than modelled "
-                 f"at its peak ({cnt}{rng} mm)")
+                 f"at its peak ({cnt}{rng})")
             weight = abs(mean) / 2e-5
         else:  # delivery
             s = (f"the pump delivers {abs(mean):.2f} % {'more' if sign > 0 else 'less'} than modelled "
-                 f"({cnt}{rng} %)")
+                 f"({cnt}{rng})")
             weight = abs(mean) / 0.5
         scored.append((weight * len(fs), s))
     return [s for _, s in sorted(scored, key=lambda t: -t[0])]

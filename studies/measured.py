@@ -148,7 +148,7 @@ def parse_run_toml(data: dict, where: str) -> dict:
     d = _num(data, "delivery_cc_per_rev", where, False)
     if d is not None:
         vmax = 1.1 * swept_volume_m3() * 1e6
-        if not 0.0 < d <= vmax:
+        if not 0.01 * vmax < d <= vmax:
             hint = " (is it in m^3 or L?)" if 0 < d < 1e-3 else ""
             raise InputError(
                 f"{where}: delivery_cc_per_rev",
@@ -273,7 +273,7 @@ def read_trace(path: Path, measured_valve: str | None, speed_rpm: float) -> tupl
             i = big[0]
             raise InputError(
                 f"{where}, line {_csv_line(i)}, {col}",
-                f"{p[i]:g} Pa is above {MAX_PRESSURE_TRACE_PA:g} Pa; expected Pa (is it in mPa or psi*1000?)",
+                f"{p[i]:g} Pa is above {MAX_PRESSURE_TRACE_PA:g} Pa; expected a pressure in Pa",
             )
         i = int(np.argmax(np.abs(p)))
         if abs(p[i]) < MIN_PRESSURE_PEAK_PA:

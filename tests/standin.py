@@ -36,7 +36,7 @@ def _set_seat(p, v, t):
     return replace(p, **({"k_seat_inlet": k} if t == "inlet" else {"k_seat_delivery": k}))
 
 
-LIB = Library()
+LIBRARY = LIB = Library()
 LIB.register(Effect(
     "seat_compliance", "compliant seat", (Parameter("k_seat", "N/m", 3.0e9, (1e5, 1e10), (1e5, 3.1e9), "FEA"),),
     _set_seat, targets=PER_VALVE, derived=lambda v: {"c_seat": 2 * math.sqrt(v["k_seat"] * 3.9e-3)}))

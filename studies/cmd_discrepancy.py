@@ -1,0 +1,98 @@
+"""``valvelab discrepancy DATASET``: find what the model is missing, add it, show the gap shrink."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from geometry.errors import InputError
+
+from .discrepancy import Settings, Workflow
+from .discrepancy_report import write_report
+from .gap import GapScales
+from .measured import read_dataset
+from .model_choice import load_model
+
+HELP = "name the effects the baseline model misses in a measured dataset, fit them, report the gap"
+
+
+def configure(p):
+    p.add_argument("dataset", help="folder of run folders (run.toml, trace.csv), or one run folder")
+    p.add_argument("--report", default=None,
+                   help="report folder (default: <dataset name>_discrepancy in the current folder)")
+    p.add_argument("--no-report", action="store_true", help="print the result only")
+    p.add_argument("--force", action="store_true", help="write the report into a folder valvelab did not create")
+    p.add_argument("--holdout", action="append", default=None, metavar="RUN",
+                   help="run held out from fitting (repeatable; default: every third operating condition)")
+    p.add_argument("--position-tolerance-um", type=float, default=20.0,
+                   help="position RMS gap worth one unit [um] (default 20)")
+    p.add_argument("--delivery-tolerance-pct", type=float, default=0.5,
+                   help="delivery error worth one unit [%%] (default 0.5)")
+    p.add_argument("--min-improvement-pct", type=float, default=30.0,
+                   help="how much an effect must shrink the held-out gap to be added [%%] (default 30)")
+    p.add_argument("--max-rounds", type=int, default=3, help="most effects added (default 3)")
+    p.add_argument("--workers", type=int, default=2, help="parallel simulations (default 2)")
+    p.add_argument("--model", default=None, help="model module (default studies.pump_sim)")
+
+
+def _positive(v, flag):
+    if not (math.isfinite(v) and v > 0):
+        raise InputError(flag, f"must be a positive number, got {v}")
+    return v
+
+
+def run(args) -> dict:
+    scales = GapScales(_positive(args.position_tolerance_um, "--position-tolerance-um") * 1e-6,
+                       _positive(args.delivery_tolerance_pct, "--delivery-tolerance-pct") / 100.0)
+    rel = _positive(args.min_improvement_pct, "--min-improvement-pct") / 100.0
+    if rel >= 1:
+        raise InputError("--min-improvement-pct", "must be below 100")
+    if args.max_rounds < 0:
+        raise InputError("--max-rounds", "must be 0 or more")
+    if args.workers < 1:
+        raise InputError("--workers", "must be 1 or more")
+    runs = read_dataset(args.dataset)
+    report = None
+    if not args.no_report:
+        report = Path(args.report) if args.report else Path(f"{Path(args.dataset).resolve().name}_discrepancy")
+        # refuse a user's folder before spending minutes on the search
+        if report.exists() and any(report.iterdir()) and not (report / ".valvelab-output").exists() \
+                and not args.force:
+            raise InputError("--report", f"{report} is a non-empty folder valvelab did not create; "
+                             "choose another (or pass --force)")
+    simulate, library = load_model(args.model)
+    settings = Settings(scales=scales, min_rel_improvement=rel, max_rounds=args.max_rounds,
+                        holdout=tuple(args.holdout) if args.holdout else None, workers=args.workers)
+    outcome = Workflow(runs, simulate, library, settings, progress=True).run()
+    result = outcome.as_contract()
+    result["dataset"] = str(args.dataset)
+    result["report"] = None
+    if report is not None:
+        result["report"] = str(report)
+        write_report(report, outcome, runs, result, force=args.force)
+    return result
+
+
+def render(r: dict) -> str:
+    def gap(g):
+        p = "-" if g["position_rms_m"] is None else f"{g['position_rms_m'] * 1e3:.3f} mm"
+        d = "-" if g["delivery_error_pct"] is None else f"{g['delivery_error_pct']:.2f} %"
+        return f"position RMS {p}, delivery error {d}"
+
+    lines = [f"dataset {r['dataset']}: {len(r['runs'])} runs"]
+    lines += ["disagreements of the baseline:"]
+    lines += [f"  - {s}" for s in r["disagreements"]] or ["  none beyond the tolerances"]
+    if r["effects_added"]:
+        for name in r["effects_added"]:
+            vals = ", ".join(f"{k} = {v:.4g}" for k, v in r["parameters"][name].items())
+            lines.append(f"added {name} ({r['targets'][name]}): {vals}")
+    else:
+        lines.append("no effect added: no candidate shrinks the held-out gap significantly")
+    lines.append(f"gap before: {gap(r['gap_before'])}")
+    lines.append(f"gap after:  {gap(r['gap_after'])}")
+    if r["held_out"]:
+        lines.append(f"held out ({', '.join(r['held_out']['runs'])}): before {gap(r['held_out']['gap_before'])}; "
+                     f"after {gap(r['held_out']['gap_after'])}")
+    if r["report"]:
+        lines.append(f"report: {r['report']}")
+    return "\n".join(lines)

@@ -1,0 +1,75 @@
+"""``valvelab synth`` and ``valvelab discrepancy`` as a user runs them (stand-in model: --model tests.standin)."""
+
+import json
+
+import pytest
+
+MODEL = ("--model", "tests.standin")
+
+
+def test_synth_then_discrepancy_json_and_report(cli, tmp_path):
+    rc, out, err, obj = cli("synth", "ds", "--effect", "seat_compliance@delivery:k_seat=1.5e6",
+                            "--air-content", "0.013", "--seed", "3", *MODEL, "--json")
+    assert rc == 0, err
+    assert len(obj["runs"]) == 6 and (tmp_path / "ds" / "truth.toml").is_file()
+    rc, out, err, res = cli("discrepancy", "ds", "--workers", "1", *MODEL, "--json")
+    assert rc == 0, err
+    for key in ("effects_added", "parameters", "gap_before", "gap_after", "disagreements", "held_out"):
+        assert key in res
+    for g in ("gap_before", "gap_after"):
+        assert set(res[g]) == {"position_rms_m", "delivery_error_pct"}
+    assert res["effects_added"] == ["seat_compliance"]
+    assert set(res["parameters"]["seat_compliance"]) == {"k_seat", "c_seat"}
+    assert "discrepancy round" in err or "discrepancy:" in err   # progress on stderr
+    rep = tmp_path / "ds_discrepancy"
+    for f in ("ranking.csv", "ranking.md", "disagreements.txt", "gap_bars.png", "residuals.png", "summary.json"):
+        assert (rep / f).is_file(), f
+    assert len(list(rep.glob("traces_*.png"))) == 6
+    assert json.loads((rep / "summary.json").read_text())["effects_added"] == ["seat_compliance"]
+    # a second run may replace the report valvelab wrote, and prints readable text without --json
+    rc, out, err = cli("discrepancy", "ds", "--workers", "1", *MODEL)
+    assert rc == 0 and "added seat_compliance (delivery)" in out
+
+
+def test_bad_dataset_exits_2_naming_file_line_field(cli, tmp_path):
+    rc, *_ = cli("synth", "ds", "--seed", "1", *MODEL, "--json")
+    assert rc == 0
+    csv = next((tmp_path / "ds").glob("run03*/trace.csv"))
+    lines = csv.read_text().splitlines()
+    cells = lines[9].split(",")
+    cells[1] = "nan"
+    lines[9] = ",".join(cells)
+    csv.write_text("\n".join(lines) + "\n")
+    rc, out, err = cli("discrepancy", "ds", *MODEL)
+    assert rc == 2 and out == ""
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert "trace.csv, line 10, valve_position_m" in err
+
+
+def test_report_refuses_a_user_folder(cli, tmp_path):
+    assert cli("synth", "ds", "--seed", "1", *MODEL)[0] == 0
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "notes.txt").write_text("keep me")
+    rc, out, err = cli("discrepancy", "ds", "--report", "mine", *MODEL)
+    assert rc == 2 and "mine" in err
+    assert (tmp_path / "mine" / "notes.txt").read_text() == "keep me"
+
+
+def test_synth_refuses_to_overwrite_and_checks_effects(cli, tmp_path):
+    (tmp_path / "ds").mkdir()
+    (tmp_path / "ds" / "data.csv").write_text("mine")
+    rc, out, err = cli("synth", "ds", *MODEL)
+    assert rc == 2 and "did not create" in err
+    rc, out, err = cli("synth", "x", "--effect", "unicorn:k=1", *MODEL)
+    assert rc == 2 and "unicorn" in err and "seat_compliance" in err
+    rc, out, err = cli("synth", "x", "--effect", "seat_compliance:k_seat=-5", *MODEL)
+    assert rc == 2 and "k_seat" in err
+    rc, out, err = cli("synth", "x", "--condition", "600:2760", *MODEL)
+    assert rc == 2 and "MPa" in err
+
+
+@pytest.mark.parametrize("flag,value", [("--position-tolerance-um", "-1"), ("--min-improvement-pct", "150"),
+                                        ("--workers", "0")])
+def test_discrepancy_flags_checked(cli, tmp_path, flag, value):
+    rc, out, err = cli("discrepancy", "ds", flag, value, *MODEL)   # flags are checked before any data
+    assert rc == 2 and flag in err

@@ -1,0 +1,108 @@
+"""The search machinery on a cheap stand-in pump (tests/standin.py): hidden effects are found.
+
+The physics acceptance tests with valvelab's pump model are in test_discrepancy_pump.py;
+these check the fitting, nuisance handling, held-out scoring, significance and
+stopping logic in a fraction of a second per simulation.
+"""
+
+import math
+from dataclasses import replace
+
+import pytest
+
+import standin
+from lumped.effects import Applied, Effect, Library, Parameter
+from studies.discrepancy import Settings, Workflow, conditions, split
+from studies.synth import Condition, Noise, synthesize
+
+THESIS_DISC = [Condition(593, 2.76e6, "inlet"), Condition(593, 2.79e6, "delivery"),
+               Condition(743, 2.81e6, "inlet"), Condition(743, 2.75e6, "delivery"),
+               Condition(591, 3.67e6, "inlet"), Condition(591, 3.78e6, "delivery")]
+
+
+def find(truth, seed=0, conds=THESIS_DISC, library=standin.LIB, **settings):
+    runs, _ = synthesize(standin.simulate, "disc", conds, truth, Noise(), seed=seed)
+    return Workflow(runs, standin.simulate, library, Settings(**settings), progress=False).run().as_contract()
+
+
+def test_conditions_and_split_follow_the_thesis_runs():
+    runs, _ = synthesize(standin.simulate, "disc", THESIS_DISC, (), Noise(), seed=0)
+    groups = conditions(runs)
+    assert [len(g) for g in groups] == [2, 2, 2]
+    fit, held = split(runs)
+    assert {r.speed_rpm for r in held} == {593.0} and len(fit) == 4
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_hidden_seat_compliance_found_and_recovered(seed):
+    out = find((Applied.of("seat_compliance", "delivery", {"k_seat": 1.5e6}),), seed=seed)
+    assert out["effects_added"] == ["seat_compliance"] and out["targets"]["seat_compliance"] == "delivery"
+    assert out["parameters"]["seat_compliance"]["k_seat"] == pytest.approx(1.5e6, rel=0.2)
+    assert out["held_out"]["position_rms_reduction_pct"] >= 70
+    assert any("delivery valve sits" in s and "below" in s for s in out["disagreements"])
+
+
+def test_nothing_hidden_nothing_added():
+    out = find((), seed=3)
+    assert out["effects_added"] == []
+    assert out["gap_after"] == out["gap_before"]
+
+
+def test_two_hidden_effects_both_named():
+    truth = (Applied.of("seat_compliance", "inlet", {"k_seat": 3e6}),
+             Applied.of("piston_leakage", "pump", {"leak_per_mpa": 0.02}))
+    out = find(truth, seed=4)
+    assert sorted(out["effects_added"]) == ["piston_leakage", "seat_compliance"]
+    assert out["targets"]["seat_compliance"] == "inlet"
+    assert out["parameters"]["piston_leakage"]["leak_per_mpa"] == pytest.approx(0.02, rel=0.2)
+
+
+def test_model_error_outside_the_library_is_not_dressed_up_as_an_effect():
+    # the discharge coefficient is 3 % off in the "truth"; no candidate models that
+    out = find((Applied.of("discharge_scale", "pump", {"scale": 1.03}),), seed=5)
+    assert out["effects_added"] == []
+
+
+def test_large_sensor_nuisances_are_not_effects():
+    runs, truth = synthesize(standin.simulate, "disc", THESIS_DISC, (),
+                             Noise(scale_error=(0.03, -0.03), time_offset_s=4e-4), seed=6)
+    out = Workflow(runs, standin.simulate, standin.LIB, Settings(), progress=False).run().as_contract()
+    assert out["effects_added"] == []
+    assert out["nuisance"]["before"]["scale_inlet"] == pytest.approx(1.03, abs=0.003)
+    assert out["nuisance"]["before"]["time_offset_s"] == pytest.approx(4e-4, abs=2e-5)
+
+
+def test_a_new_effect_is_one_entry(monkeypatch):
+    # registering one Effect is all it takes: the simulator applies it, the workflow searches it
+    monkeypatch.setattr(standin, "LIB", Library(dict(standin.LIB.effects)))
+    standin.LIB.register(Effect("air_twin", "same as entrained air under another name",
+                                (Parameter("R", "-", 0.01, (1e-4, 0.2), (1e-4, 0.1), "test"),),
+                                lambda p, v, t: replace(p, air=v["R"]), targets=("pump",)))
+    out = find((Applied.of("entrained_air", "pump", {"R": 0.01}),), seed=7, library=standin.LIB, max_rounds=1)
+    names = {row["effect"] for row in out["ranking"]}
+    assert "air_twin" in names
+    assert out["effects_added"][0] in ("entrained_air", "air_twin")
+
+
+def test_implausible_fit_is_never_added():
+    # the truth lies beyond the plausible range of the only matching candidate
+    out = find((Applied.of("closing_lag", "both", {"lag_deg": 60.0}),), seed=8)
+    row = next(r for r in out["ranking"] if r["effect"] == "closing_lag")
+    assert not row["plausible"] and "plausible" in row["why_not_plausible"]
+    assert "closing_lag" not in out["effects_added"]
+
+
+def test_parameter_bounds_and_plausibility():
+    p = Parameter("k", "N/m", 1e6, (1e5, 1e9), (2e5, 5e8), "test")
+    assert p.from_unit(p.to_unit(3.3e6)) == pytest.approx(3.3e6)
+    assert p.plausibility(1e6) is None
+    assert "bound" in p.plausibility(1.0001e5)
+    assert "plausible" in p.plausibility(1.5e5)
+    with pytest.raises(ValueError):
+        Parameter("k", "N/m", 1e4, (1e5, 1e9), (1e5, 1e9), "test")
+    lib = Library()
+    e = Effect("x", "", (p,), lambda a, v, t: a)
+    lib.register(e)
+    with pytest.raises(ValueError):
+        lib.register(e)
+    assert math.isclose(Applied.of("x", "both", {"k": 2.0}).value_dict["k"], 2.0)
