@@ -85,12 +85,15 @@ class Effect:
     ``apply(params, values, target)`` returns the model parameters with the effect
     switched on, ``values`` mapping parameter names to values and ``target`` one of
     ``targets`` ("inlet"/"delivery" for an effect of one valve, "both", "pump").
-    ``derived(values)`` gives reported quantities that follow from the fitted ones
-    (e.g. the critical seat damping from the seat stiffness). ``candidate=False``
-    marks a model error the synthetic-data generator can inject but the workflow
-    never searches (e.g. a discharge coefficient a few percent off).
-    ``applicable(runs)`` returns None, or why the effect is not a candidate for a
-    dataset (e.g. entrained air when run.toml states the air content).
+    ``parameters`` may be empty (a pure switch). ``variants`` overrides them for a
+    valve type whose model states the effect differently (the reed's seat stiffness is
+    a pressure per metre, the disc's a force per metre). ``derived(values, valve_type)``
+    gives reported quantities that follow from the fitted ones (e.g. the critical seat
+    damping from the seat stiffness). ``candidate=False`` marks a model error the
+    synthetic-data generator can inject but the workflow never searches (e.g. a
+    discharge coefficient a few percent off). ``applicable(runs)`` returns None, or why
+    the effect is not a candidate for a dataset (e.g. entrained air when run.toml
+    states the air content).
     """
 
     name: str
@@ -99,32 +102,37 @@ class Effect:
     apply: Callable[[Any, dict, str], Any]
     valve_types: tuple[str, ...] = ("disc", "reed")
     targets: tuple[str, ...] = BOTH_VALVES
-    derived: Callable[[dict], dict] | None = None
+    derived: Callable[[dict, str], dict] | None = None
     candidate: bool = True
     applicable: Callable[[list], str | None] | None = None
+    variants: dict = field(default_factory=dict)
 
-    def prior_values(self) -> dict:
-        return {p.name: p.prior for p in self.parameters}
+    def parameters_for(self, valve_type: str | None = None) -> tuple[Parameter, ...]:
+        """The parameters of the effect for a valve type."""
+        return self.variants.get(valve_type, self.parameters)
 
-    def parameter(self, name: str) -> Parameter:
-        for p in self.parameters:
+    def prior_values(self, valve_type: str | None = None) -> dict:
+        return {p.name: p.prior for p in self.parameters_for(valve_type)}
+
+    def parameter(self, name: str, valve_type: str | None = None) -> Parameter:
+        for p in self.parameters_for(valve_type):
             if p.name == name:
                 return p
         raise KeyError(name)
 
-    def plausibility(self, values: dict) -> str | None:
+    def plausibility(self, values: dict, valve_type: str | None = None) -> str | None:
         """None if every fitted value is plausible, else the first reason."""
-        for p in self.parameters:
+        for p in self.parameters_for(valve_type):
             why = p.plausibility(values[p.name])
             if why:
                 return why
         return None
 
-    def report(self, values: dict) -> dict:
+    def report(self, values: dict, valve_type: str | None = None) -> dict:
         """Fitted and derived values as reported in JSON."""
-        out = {p.name: float(values[p.name]) for p in self.parameters}
+        out = {p.name: float(values[p.name]) for p in self.parameters_for(valve_type)}
         if self.derived is not None:
-            out.update({k: float(v) for k, v in self.derived(values).items()})
+            out.update({k: float(v) for k, v in self.derived(values, valve_type).items()})
         return out
 
 

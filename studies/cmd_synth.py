@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import sys
 from pathlib import Path
 
 from geometry.errors import InputError
@@ -10,6 +11,7 @@ from lumped.effects import Applied
 
 from .measured import MEASURED_VALVES, VALVE_TYPES
 from .model_choice import load_model
+from .discrepancy import ModelFailure
 from .synth import Condition, Noise, synthesize, write_synthetic
 from .thesis import experiments
 
@@ -65,16 +67,16 @@ def parse_effect(spec: str, library, valve_type: str) -> Applied:
     target = target or eff.targets[-1]
     if target not in eff.targets:
         raise InputError("--effect", f"{name}: target {target!r}; expected one of {', '.join(eff.targets)}")
-    values = eff.prior_values()
+    values = eff.prior_values(valve_type)
     for item in filter(None, tail.split(",")):
         k, eq, v = item.partition("=")
         if not eq:
             raise InputError("--effect", f"{name}: expected PARAM=VALUE, got {item!r}")
         if k not in values:
             raise InputError("--effect", f"{name}: unknown parameter {k!r}; expected "
-                             + ", ".join(p.name for p in eff.parameters))
+                             + (", ".join(p.name for p in eff.parameters_for(valve_type)) or "none (a switch)"))
         x = _number(v, f"--effect {name}:{k}")
-        par = eff.parameter(k)
+        par = eff.parameter(k, valve_type)
         if par.log and x <= 0:
             raise InputError(f"--effect {name}:{k}", f"must be positive ({par.unit}), got {x:g}")
         values[k] = x
@@ -132,7 +134,11 @@ def run(args) -> dict:
         time_offset_s=None if args.time_offset_ms is None else args.time_offset_ms * 1e-3,
         sample_rate_hz=args.sample_rate_hz, revolutions=args.revolutions,
     )
-    runs, truth_doc = synthesize(simulate, args.valve, conds, truth, noise, seed=args.seed, workers=args.workers)
+    try:
+        runs, truth_doc = synthesize(simulate, args.valve, conds, truth, noise, seed=args.seed, workers=args.workers)
+    except ModelFailure as exc:   # not a user mistake: exit 1 with one line, no traceback
+        sys.stderr.write(f"valvelab synth: error: {exc}\n")
+        raise SystemExit(1) from None
     folder = write_synthetic(Path(args.out), runs, truth_doc, force=args.force)
     return {"dataset": str(folder), "runs": [r.name for r in runs], "truth": truth_doc}
 

@@ -43,6 +43,10 @@ from .gap import (
 from .measured import Run
 
 
+class ModelFailure(RuntimeError):
+    """The model could not simulate a run of the dataset with the baseline or the final effects."""
+
+
 @dataclass(frozen=True)
 class RunCondition:
     """What a simulator needs to know of a run (picklable and hashable: a cache key)."""
@@ -157,6 +161,7 @@ class Outcome:
     seconds: float
     excluded: dict
     notes: list
+    valve_type: str = "disc"
 
     def as_contract(self) -> dict:
         """The contract's JSON keys plus the details behind them."""
@@ -164,7 +169,7 @@ class Outcome:
         for a in self.model:
             eff = self.library[a.name]
             names.append(a.name)
-            params[a.name] = eff.report(a.value_dict)
+            params[a.name] = eff.report(a.value_dict, self.valve_type)
             targets[a.name] = a.target
 
         def gap_of(ev: Evaluation, runs) -> dict:
@@ -402,7 +407,7 @@ class Workflow:
         sims = self.simulate(model, self.runs)
         bad = [n for n, s in sims.items() if isinstance(s, SimulationFailure)]
         if bad:
-            raise RuntimeError(f"the model failed for run {bad[0]}: {sims[bad[0]].reason}")
+            raise ModelFailure(f"the model failed for run {bad[0]}: {sims[bad[0]].reason}")
         nuis = self._nuisance(sims)
         gaps = []
         for r in self.runs:
@@ -445,13 +450,15 @@ class Workflow:
             narrow: float | None = None) -> tuple[dict, float, Nuisance, int]:
         """Fit ``effect`` at ``target`` on top of ``base``: (values, fit cost, nuisance, simulations used)."""
         n0 = self.sims.count
-        params = effect.parameters
+        params = effect.parameters_for(self.valve_type)
 
         def model_of(units) -> tuple:
             vals = {p.name: p.from_unit(u) for p, u in zip(params, units)}
             return base + (Applied.of(effect.name, target, vals),)
 
-        if len(params) == 1:
+        if not params:   # a pure switch: nothing to fit
+            units = []
+        elif len(params) == 1:
             p = params[0]
             if narrow is None:
                 grid = np.linspace(0.0, 1.0, self.settings.n_grid)
@@ -473,7 +480,7 @@ class Workflow:
                     best_u, best_c = float(res.x), float(res.fun)
             units = [best_u]
         else:
-            x0 = np.array([p.to_unit((start or effect.prior_values())[p.name]) for p in params])
+            x0 = np.array([p.to_unit((start or effect.prior_values(self.valve_type))[p.name]) for p in params])
 
             def fun(u):
                 r = self.residual_vector(model_of(u))
@@ -494,6 +501,8 @@ class Workflow:
         for i, a in enumerate(model):
             others = tuple(model[:i] + model[i + 1:])
             eff = self.library[a.name]
+            if not eff.parameters_for(self.valve_type):
+                continue
             vals, *_ = self.fit(others, eff, a.target, start=a.value_dict, narrow=0.1)
             model[i] = Applied.of(a.name, a.target, vals)
         return tuple(model)
@@ -552,14 +561,15 @@ class Workflow:
         self.sims.__exit__()
         return Outcome(current, self.library, before, after, self.fit_runs, self.held_runs, ranking,
                        describe(fb, n_runs), describe(fa, n_runs), fb, self.sims.count,
-                       time.process_time() - t0, excluded, self.notes)
+                       time.process_time() - t0, excluded, self.notes, self.valve_type)
 
     def _candidate(self, current: tuple, cur: Evaluation, eff: Effect, target: str, n_eff: float) -> CandidateFit:
         n0 = self.sims.count
+        vt = self.valve_type
         try:
-            vals, cost, nuis, _ = self.fit(current, eff, target, start=eff.prior_values())
+            vals, cost, nuis, _ = self.fit(current, eff, target, start=eff.prior_values(vt))
         except (ArithmeticError, ValueError, RuntimeError) as exc:
-            return CandidateFit(eff.name, target, eff.prior_values(), {}, math.inf, None, math.inf,
+            return CandidateFit(eff.name, target, eff.prior_values(vt), {}, math.inf, None, math.inf,
                                 "fit failed", self.sims.count - n0, cur.fit_cost, cur.held_cost,
                                 failed=f"{type(exc).__name__}: {exc}")
         model = current + (Applied.of(eff.name, target, vals),)
@@ -567,16 +577,17 @@ class Workflow:
         if self.held_runs and math.isfinite(cost):
             try:
                 held = self.evaluate(model).held_cost
-            except RuntimeError as exc:
-                return CandidateFit(eff.name, target, vals, eff.report(vals), cost, None, math.inf,
+            except ModelFailure as exc:
+                return CandidateFit(eff.name, target, vals, eff.report(vals, vt), cost, None, math.inf,
                                     "held-out simulation failed", self.sims.count - n0, cur.fit_cost,
                                     cur.held_cost, failed=str(exc))
         base_fit = self.fit_objective(current)[0]
-        k = len(eff.parameters)
+        k = max(1, len(eff.parameters_for(vt)))   # a pure switch still costs one degree of freedom
         dbic = (n_eff * math.log(max(cost, 1e-12) / max(base_fit, 1e-12)) + k * math.log(n_eff)
                 if math.isfinite(cost) else math.inf)
-        return CandidateFit(eff.name, target, vals, eff.report(vals), cost, held, dbic, eff.plausibility(vals),
-                            self.sims.count - n0, base_fit, cur.held_cost, nuisance=nuis)
+        return CandidateFit(eff.name, target, vals, eff.report(vals, vt), cost, held, dbic,
+                            eff.plausibility(vals, vt), self.sims.count - n0, base_fit, cur.held_cost,
+                            nuisance=nuis)
 
     def _significant(self, f: CandidateFit) -> bool:
         st = self.settings

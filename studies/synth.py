@@ -20,7 +20,7 @@ import tomli_w
 
 from lumped.effects import Applied
 
-from .discrepancy import RunCondition, Simulations
+from .discrepancy import ModelFailure, RunCondition, Simulations
 from .gap import periodic_interp
 from .measured import Run, Trace, write_dataset
 
@@ -71,7 +71,7 @@ def synthesize(simulator, valve_type: str, conditions: list[Condition], truth: t
     runs = []
     for c, rc, sim in zip(conditions, conds, results):
         if not hasattr(sim, "positions"):
-            raise RuntimeError(f"the model failed for {rc.name}: {sim.reason}")
+            raise ModelFailure(f"the model failed for {rc.name}: {sim.reason}")
         period = 60.0 / c.speed_rpm
         n = int(round(noise.revolutions * period * noise.sample_rate_hz))
         t = np.arange(n) * (noise.revolutions * period / n)   # uniform, whole revolutions
