@@ -120,14 +120,26 @@ class CandidateFit:
         return 1.0 - self.fit_cost / self.base_fit_cost if self.base_fit_cost else 0.0
 
     def row(self, rank: int, round_: int) -> dict:
-        return {
+        """One ranking-table row (JSON-safe: a failed fit's infinities become None)."""
+        return _json_safe({
             "round": round_, "rank": rank, "effect": self.effect, "target": self.target,
             "parameters": self.reported, "fit_cost": self.fit_cost, "held_out_cost": self.held_cost,
             "held_out_improvement_pct": None if self.held_improvement is None else 100 * self.held_improvement,
             "fit_improvement_pct": 100 * self.fit_improvement, "delta_bic": self.delta_bic,
             "plausible": self.plausible_reason is None, "why_not_plausible": self.plausible_reason,
             "simulations": self.n_sims, "accepted": self.accepted, "failed": self.failed,
-        }
+        })
+
+
+def _json_safe(obj):
+    """``obj`` with non-finite floats replaced by None (JSON has no infinity)."""
+    if isinstance(obj, dict):
+        return {k: _json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_json_safe(v) for v in obj]
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
 
 
 @dataclass
@@ -345,6 +357,7 @@ class Workflow:
         self.conds = {r.name: RunCondition.of(r) for r in usable}
         self.sims = Simulations(simulator, settings.workers)
         self.notes: list[str] = []
+        self.last_failure: str | None = None
 
     # -- evaluation -----------------------------------------------------------------
 
@@ -366,7 +379,9 @@ class Workflow:
     def fit_objective(self, model: tuple) -> tuple[float, Nuisance]:
         """Cost on the fitting runs, nuisances profiled out (inf if a simulation failed)."""
         sims = self.simulate(model, self.fit_runs)
-        if any(isinstance(s, SimulationFailure) for s in sims.values()):
+        bad = [s for s in sims.values() if isinstance(s, SimulationFailure)]
+        if bad:
+            self.last_failure = bad[0].reason
             return math.inf, Nuisance()
         nuis = self._nuisance(sims)
         sc = self.settings.scales
@@ -572,9 +587,13 @@ class Workflow:
             return CandidateFit(eff.name, target, eff.prior_values(vt), {}, math.inf, None, math.inf,
                                 "fit failed", self.sims.count - n0, cur.fit_cost, cur.held_cost,
                                 failed=f"{type(exc).__name__}: {exc}")
+        if not math.isfinite(cost):
+            return CandidateFit(eff.name, target, vals, eff.report(vals, vt), math.inf, None, math.inf,
+                                "fit failed", self.sims.count - n0, cur.fit_cost, cur.held_cost,
+                                failed=f"the model failed for every value tried ({self.last_failure})")
         model = current + (Applied.of(eff.name, target, vals),)
         held = None
-        if self.held_runs and math.isfinite(cost):
+        if self.held_runs:
             try:
                 held = self.evaluate(model).held_cost
             except ModelFailure as exc:

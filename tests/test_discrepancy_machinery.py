@@ -106,3 +106,20 @@ def test_parameter_bounds_and_plausibility():
     with pytest.raises(ValueError):
         lib.register(e)
     assert math.isclose(Applied.of("x", "both", {"k": 2.0}).value_dict["k"], 2.0)
+
+
+def test_a_candidate_the_model_cannot_simulate_is_reported_not_fatal(monkeypatch):
+    import json
+
+    def broken(p, v, t):
+        raise RuntimeError("integrator failed")
+
+    monkeypatch.setattr(standin, "LIB", Library(dict(standin.LIB.effects)))
+    standin.LIB.register(Effect("broken", "always fails", (Parameter("a", "-", 1.0, (0.1, 10.0), (0.1, 10.0), "t"),),
+                                broken, targets=("pump",)))
+    out = find((Applied.of("seat_compliance", "delivery", {"k_seat": 1.5e6}),), seed=9, library=standin.LIB,
+               max_rounds=1)
+    assert out["effects_added"] == ["seat_compliance"]
+    row = next(r for r in out["ranking"] if r["effect"] == "broken")
+    assert row["failed"] and not row["accepted"]
+    json.dumps(out, allow_nan=False)   # no infinities leak into the JSON
