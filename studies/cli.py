@@ -23,6 +23,8 @@ from geometry.errors import InputError
 COMMANDS: dict[str, str] = {
     "reed": "studies.cmd_reed",
     "table": "studies.cmd_table",
+    "sweep": "studies.cmd_sweep",
+    "sweep-plot": "studies.cmd_sweep_plot",
 }
 
 
