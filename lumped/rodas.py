@@ -48,13 +48,61 @@ H31, H32, H33, H34, H35 = 1.638054557396973, -0.7373619806678748, 8.477918219238
 SAFE, FAC_MIN, FAC_MAX = 0.9, 0.2, 6.0  # step ratio limits of RODAS
 
 #: solver status codes
-OK, MAX_STEPS, STEP_TOO_SMALL = 0, 1, 2
-STATUS_TEXT = {OK: "ok", MAX_STEPS: "too many steps", STEP_TOO_SMALL: "step size underflow"}
+OK, MAX_STEPS, STEP_TOO_SMALL, TOO_MANY_EVENTS = 0, 1, 2, 3
+STATUS_TEXT = {OK: "ok", MAX_STEPS: "too many steps", STEP_TOO_SMALL: "step size underflow",
+               TOO_MANY_EVENTS: "too many events (chatter)"}
 
 
 @numba.njit(cache=True)
 def rhs(t, y, p, dydt):  # pragma: no cover - placeholder, replaced by specialize()
     dydt[:] = 0.0
+
+
+@numba.njit(cache=True)
+def event_values(t, y, p, g):  # pragma: no cover - placeholder: no events
+    g[:] = 1.0
+
+
+@numba.njit(cache=True)
+def apply_event(k, t, y, p):  # pragma: no cover - placeholder
+    return 0
+
+
+@numba.njit(cache=True)
+def step_tag(p):  # pragma: no cover - placeholder
+    return 0
+
+
+@numba.njit(cache=True)
+def jacobian(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h):  # pragma: no cover - placeholder
+    return -1
+
+
+@numba.njit(cache=True)
+def fd_jacobian(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h):
+    """Forward-difference df/dy (first n_dyn columns; the rest are zero) and df/dt into jac, ft.
+
+    f0 = f(t, y); yp, fp are scratch vectors. Increments: sqrt(eps) times max(|y_j|, atol_j/rtol)
+    (the state's own scale), and sqrt(eps) max(|t|, h) in time. Returns the rhs calls made.
+    """
+    n = y.shape[0]
+    sq = 1.4901161193847656e-08
+    for j in range(n):
+        for i in range(n):
+            jac[i, j] = 0.0
+    for j in range(n_dyn):
+        scale = max(abs(y[j]), atol[j] / rtol)
+        yp[:] = y
+        yp[j] = y[j] + sq * scale
+        dy = yp[j] - y[j]
+        rhs(t, yp, p, fp)
+        for i in range(n):
+            jac[i, j] = (fp[i] - f0[i]) / dy
+    dt = sq * max(abs(t), abs(h), 1e-10)
+    rhs(t + dt, y, p, fp)
+    for i in range(n):
+        ft[i] = (fp[i] - f0[i]) / dt
+    return n_dyn + 1
 
 
 @numba.njit(cache=True)
@@ -116,21 +164,92 @@ def dense(s, y0, y1, q2, q3):
 
 @numba.njit(cache=True)
 def _grow(a, m):
-    b = np.empty((2 * a.shape[0] + 16,) + a.shape[1:])
+    b = np.empty((2 * a.shape[0] + 16,) + a.shape[1:], dtype=a.dtype)
     b[:m] = a[:m]
     return b
 
 
 @numba.njit(cache=True)
-def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record):
+def _dense_into(s, y0, y1, q2, q3, out):
+    for i in range(y0.shape[0]):
+        out[i] = y0[i] * (1.0 - s) + s * (y1[i] + (1.0 - s) * (q2[i] + s * q3[i]))
+
+
+# Points per step where the event functions are checked: the step end only, as scipy's
+# solve_ivp does. Scanning the interpolant inside the step would also catch a crossing and
+# return within one step, but the interpolant of a stiff transient (a valve settling on
+# its stop) can dip across a surface the solution never crosses: spurious switches.
+N_SCAN = 1
+
+
+@numba.njit(cache=True)
+def _locate_event(t, h, y0, y1, q2, q3, p, g0, g, ybuf, n_events):
+    """(k, s): the event that fires first in this step and the step fraction where it does.
+
+    An event k fires where g_k drops from >= 0 to < 0. The interpolant is checked at
+    N_SCAN points to bracket the first crossing, which bisection on the interpolant then
+    refines to ~1e-13 of the step. k = -1 if no event fires.
+    """
+    lo = 0.0
+    hi = -1.0
+    for j in range(1, N_SCAN + 1):
+        sj = j / N_SCAN
+        _dense_into(sj, y0, y1, q2, q3, ybuf)
+        event_values(t + sj * h, ybuf, p, g)
+        for kk in range(n_events):
+            if g[kk] < 0.0:
+                hi = sj
+        if hi > 0.0:
+            break
+        lo = sj
+    if hi < 0.0:
+        return -1, 2.0
+    # which events are negative at hi (any already negative at the start fire at once)
+    best_k = -1
+    best_s = 2.0
+    for kk in range(n_events):
+        if g0[kk] < 0.0 and g[kk] < 0.0:
+            return kk, 0.0
+    for kk in range(n_events):
+        if g[kk] >= 0.0:
+            continue
+        a = lo
+        b = hi
+        while b - a > 1e-13:
+            mid = 0.5 * (a + b)
+            _dense_into(mid, y0, y1, q2, q3, ybuf)
+            event_values(t + mid * h, ybuf, p, g0)  # g0 as scratch: reset below
+            if g0[kk] < 0.0:
+                b = mid
+            else:
+                a = mid
+        if b < best_s:
+            best_s = b
+            best_k = kk
+    # g0 served as scratch: the caller recomputes it at the start of the next step
+    return best_k, best_s
+
+
+@numba.njit(cache=True)
+def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n_events, max_events,
+          jac_reuse):
     """Integrate y' = rhs(t, y, p) from t0 through every time in ``tstops`` (ascending).
 
     Steps land exactly on each stop; ``y_stops[i]`` is the state there. From ``t_record`` on
     every accepted step is kept with its dense-output coefficients (``rec_t``, ``rec_y``,
     ``rec_q2``, ``rec_q3``: step i runs from rec_t[i-1] to rec_t[i], its coefficients stored
-    at i). Error control: RMS over components of err_i / (atol_i + rtol max(|y_i|, |y_new_i|)).
+    at i) and ``rec_tag[i] = step_tag(p)`` during it. Error control: RMS over components of
+    err_i / (atol_i + rtol max(|y_i|, |y_new_i|)).
 
-    Returns (status, y_stops, rec_t, rec_y, rec_q2, rec_q3, n_steps, n_rejected, n_rhs).
+    Events (``n_events`` > 0): ``event_values(t, y, p, g)`` gives one value per event; event
+    k fires where g_k drops from >= 0 to < 0. The step is cut at the first crossing (found
+    on the dense output), ``apply_event(k, t, y, p)`` switches the model (it may change
+    ``p`` and ``y``; its return value is logged) and integration restarts there, so the
+    right-hand side is smooth inside every step. Events are logged in ``ev_t``, ``ev_k``,
+    ``ev_code``.
+
+    Returns (status, y_stops, rec_t, rec_y, rec_q2, rec_q3, rec_tag, ev_t, ev_k, ev_code,
+    n_steps, n_rejected, n_rhs, h_next): h_next is the step size to continue with.
     """
     n = y0.shape[0]
     y = y0.copy()
@@ -153,21 +272,30 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record):
     u = np.empty(n)
     yp = np.empty(n)
     ynew = np.empty(n)
+    q2 = np.empty(n)
+    q3 = np.empty(n)
+    g0 = np.empty(max(n_events, 1))
+    g1 = np.empty(max(n_events, 1))
     cap = 1024
     rec_t = np.empty(cap)
     rec_y = np.empty((cap, n))
     rec_q2 = np.empty((cap, n))
     rec_q3 = np.empty((cap, n))
+    rec_tag = np.empty(cap, dtype=np.int64)
+    ecap = 64
+    ev_t = np.empty(ecap)
+    ev_k = np.empty(ecap, dtype=np.int64)
+    ev_code = np.empty(ecap, dtype=np.int64)
+    n_ev = 0
     m = 0
     if t_record <= t0:
         rec_t[0] = t
         rec_y[0] = y
         rec_q2[0] = 0.0
         rec_q3[0] = 0.0
+        rec_tag[0] = step_tag(p)
         m = 1
 
-    eps = 2.220446049250313e-16
-    sq = np.sqrt(eps)
     h = min(h0, hmax, t_end - t0)
     n_steps = 0
     n_rej = 0
@@ -181,7 +309,8 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record):
     err_acc = 1.0
     first = True
     reject = False
-    jac_fresh = False
+    f_fresh = False
+    jac_age = jac_reuse  # forces a Jacobian at the first step
     while i_stop < n_stops:
         if n_steps >= max_steps:
             status = MAX_STEPS
@@ -195,35 +324,27 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record):
         if h_try <= 1e-14 * max(abs(t), 1e-300) or h_try <= 0.0:
             status = STEP_TOO_SMALL
             break
-        # Jacobian and time derivative by forward differences (reused after a rejection)
-        if not jac_fresh:
+        # f(t, y) at the step start; the Jacobian and f_t by forward differences, kept for
+        # up to jac_reuse accepted steps (fresh after an event or a rejection)
+        if not f_fresh:
             rhs(t, y, p, f0)
             n_rhs += 1
-            for j in range(n):
-                for i in range(n):
-                    jac[i, j] = 0.0
-            for j in range(n_dyn):
-                scale = max(abs(y[j]), atol[j] / rtol)
-                dy = sq * scale
-                yp[:] = y
-                yp[j] = y[j] + dy
-                dy = yp[j] - y[j]
-                rhs(t, yp, p, fp)
-                n_rhs += 1
-                for i in range(n):
-                    jac[i, j] = (fp[i] - f0[i]) / dy
-            dt = sq * max(abs(t), abs(h_try), 1e-10)
-            rhs(t + dt, y, p, fp)
-            n_rhs += 1
-            for i in range(n):
-                ft[i] = (fp[i] - f0[i]) / dt
-            jac_fresh = True
+            if n_events > 0:
+                event_values(t, y, p, g0)
+            f_fresh = True
+        if jac_age >= jac_reuse or (reject and jac_age > 0):
+            nj = jacobian(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h_try)
+            if nj < 0:
+                nj = fd_jacobian(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h_try)
+            n_rhs += nj
+            jac_age = 0
         fac = 1.0 / (h_try * GAMMA)
         for i in range(n):
             for j in range(n):
                 w[i, j] = -jac[i, j]
             w[i, i] += fac
         ok = lu_factor(w, piv)
+        err = 0.0
         if ok:
             hc21, hc31, hc32 = C21 / h_try, C31 / h_try, C32 / h_try
             hc41, hc42, hc43 = C41 / h_try, C42 / h_try, C43 / h_try
@@ -263,7 +384,6 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record):
                 k6[i] += hc61 * k1[i] + hc62 * k2[i] + hc63 * k3[i] + hc64 * k4[i] + hc65 * k5[i]
             lu_solve(w, piv, k6)
             n_rhs += 5
-            err = 0.0
             for i in range(n):
                 ynew[i] = u[i] + k6[i]
                 sk = atol[i] + rtol * max(abs(y[i]), abs(ynew[i]))
@@ -280,71 +400,132 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record):
         n_steps += 1
         fac_h = max(1.0 / FAC_MAX, min(1.0 / FAC_MIN, err**0.25 / SAFE))
         h_new = h_try / fac_h
-        if err <= 1.0:
-            if not first:
-                # Gustafsson's predictive controller (as in RODAS)
-                fg = (h_acc / h_try) * (err * err / err_acc) ** 0.25 / SAFE
-                fg = max(1.0 / FAC_MAX, min(1.0 / FAC_MIN, fg))
-                fac_h = max(fac_h, fg)
-                h_new = h_try / fac_h
-            h_acc = h_try
-            err_acc = max(1e-2, err)
-            first = False
-            t_old = t
-            t = t_stop if hit else t + h_try
-            if t >= t_record:
-                if m == 0 and t > t_record:
-                    # the step that crosses t_record: keep its start too
-                    rec_t[0] = t_old
-                    rec_y[0] = y
-                    rec_q2[0] = 0.0
-                    rec_q3[0] = 0.0
-                    m = 1
-                if m >= rec_t.shape[0]:
-                    rec_t = _grow(rec_t, m)
-                    rec_y = _grow(rec_y, m)
-                    rec_q2 = _grow(rec_q2, m)
-                    rec_q3 = _grow(rec_q3, m)
-                rec_t[m] = t
-                rec_y[m] = ynew
-                for i in range(n):
-                    rec_q2[m, i] = H21 * k1[i] + H22 * k2[i] + H23 * k3[i] + H24 * k4[i] + H25 * k5[i]
-                    rec_q3[m, i] = H31 * k1[i] + H32 * k2[i] + H33 * k3[i] + H34 * k4[i] + H35 * k5[i]
-                m += 1
-            y[:] = ynew
-            jac_fresh = False
-            if reject:
-                h_new = min(h_new, h_try)
-            reject = False
-            if hit:
-                while i_stop < n_stops and tstops[i_stop] <= t:
-                    y_stops[i_stop] = y
-                    i_stop += 1
-                # a step clipped to land on a stop does not shrink the next one
-                h = max(h_new, h)
-            else:
-                h = h_new
-        else:
+        if err > 1.0:
             n_rej += 1
             h = h_new if not first else 0.1 * h_try
             reject = True
-    return status, y_stops, rec_t[:m], rec_y[:m], rec_q2[:m], rec_q3[:m], n_steps, n_rej, n_rhs
+            continue
+        # ---- accepted
+        if not first:
+            # Gustafsson's predictive controller (as in RODAS)
+            fg = (h_acc / h_try) * (err * err / err_acc) ** 0.25 / SAFE
+            fg = max(1.0 / FAC_MAX, min(1.0 / FAC_MIN, fg))
+            fac_h = max(fac_h, fg)
+            h_new = h_try / fac_h
+        h_acc = h_try
+        err_acc = max(1e-2, err)
+        first = False
+        if reject:
+            h_new = min(h_new, h_try)
+        reject = False
+        for i in range(n):
+            q2[i] = H21 * k1[i] + H22 * k2[i] + H23 * k3[i] + H24 * k4[i] + H25 * k5[i]
+            q3[i] = H31 * k1[i] + H32 * k2[i] + H33 * k3[i] + H34 * k4[i] + H35 * k5[i]
+        t_old = t
+        t = t_stop if hit else t + h_try
+        # ---- events: cut the step at the first crossing
+        k_ev = -1
+        s_ev = 2.0
+        if n_events > 0:
+            k_ev, s_ev = _locate_event(t_old, h_try, y, ynew, q2, q3, p, g0, g1, yp, n_events)
+        tag = step_tag(p)
+        if k_ev >= 0:
+            # the sub-step [t_old, t_old + s h]: its end state and its own dense coefficients
+            y_e = dense(s_ev, y, ynew, q2, q3)
+            for i in range(n):
+                # P(s x) - y0 (1 - x) - x P(s) = x (1 - x) (a + b x): fit a, b at x = 1/3, 2/3
+                r1 = dense(s_ev / 3.0, y, ynew, q2, q3)[i] - y[i] * (2.0 / 3.0) - y_e[i] / 3.0
+                r2 = dense(2.0 * s_ev / 3.0, y, ynew, q2, q3)[i] - y[i] / 3.0 - y_e[i] * (2.0 / 3.0)
+                a1 = r1 / (2.0 / 9.0)
+                a2 = r2 / (2.0 / 9.0)
+                bb = 3.0 * (a2 - a1)
+                q3[i] = bb
+                q2[i] = a1 - bb / 3.0
+            ynew[:] = y_e
+            t = t_old + s_ev * h_try
+            hit = False
+        if t >= t_record and (t > t_old or m == 0):
+            if m == 0 and t > t_record:
+                # the step that crosses t_record: keep its start too
+                rec_t[0] = t_old
+                rec_y[0] = y
+                rec_q2[0] = 0.0
+                rec_q3[0] = 0.0
+                rec_tag[0] = tag
+                m = 1
+            if m >= rec_t.shape[0]:
+                rec_t = _grow(rec_t, m)
+                rec_y = _grow(rec_y, m)
+                rec_q2 = _grow(rec_q2, m)
+                rec_q3 = _grow(rec_q3, m)
+                rec_tag = _grow(rec_tag, m)
+            rec_t[m] = t
+            rec_y[m] = ynew
+            rec_q2[m] = q2
+            rec_q3[m] = q3
+            rec_tag[m] = tag
+            m += 1
+        y[:] = ynew
+        f_fresh = False
+        jac_age += 1
+        if k_ev >= 0:
+            jac_age = jac_reuse
+            code = apply_event(k_ev, t, y, p)
+            if n_ev >= ev_t.shape[0]:
+                ev_t = _grow(ev_t, n_ev)
+                ev_k = _grow(ev_k, n_ev)
+                ev_code = _grow(ev_code, n_ev)
+            ev_t[n_ev] = t
+            ev_k[n_ev] = k_ev
+            ev_code[n_ev] = code
+            n_ev += 1
+            if n_ev >= max_events:
+                status = TOO_MANY_EVENTS
+                break
+            # the dynamics change here: restart the step-size history
+            first = True
+            h = max(min(h_new, h_try), 1e-6 * h_try)
+            continue
+        if hit:
+            while i_stop < n_stops and tstops[i_stop] <= t:
+                y_stops[i_stop] = y
+                i_stop += 1
+            # a step clipped to land on a stop does not shrink the next one
+            h = max(h_new, h)
+        else:
+            h = h_new
+    return (status, y_stops, rec_t[:m], rec_y[:m], rec_q2[:m], rec_q3[:m], rec_tag[:m],
+            ev_t[:n_ev], ev_k[:n_ev], ev_code[:n_ev], n_steps, n_rej, n_rhs, h)
 
 
-def specialize(rhs_func, tag: str, cache: bool = True):
-    """A compiled :func:`solve` whose right-hand side is ``rhs_func`` (a numba.njit function).
-
-    ``tag`` names the compiled copy (its on-disk cache entry), e.g. "pump"; a tag must be
-    used for one right-hand side only.
-    """
-    base = solve.py_func
-    g = dict(base.__globals__)
-    g["rhs"] = rhs_func
-    fn = types.FunctionType(base.__code__, g, base.__name__, base.__defaults__, base.__closure__)
+def _rebind(func, scope: dict, tag: str, cache: bool = False):
+    """A numba.njit copy of ``func`` (a dispatcher) reading its globals from ``scope``."""
+    base = func.py_func
+    fn = types.FunctionType(base.__code__, scope, base.__name__, base.__defaults__, base.__closure__)
     fn.__qualname__ = f"{base.__qualname__}__{tag}"
     fn.__module__ = base.__module__
     fn.__doc__ = base.__doc__
     return numba.njit(cache=cache)(fn)
+
+
+def specialize(rhs_func, tag: str, events=None, apply=None, tagger=None, jac=None, cache: bool = True):
+    """A compiled :func:`solve` bound to a model's functions (numba.njit), inlined, no Python.
+
+    ``rhs_func(t, y, p, dydt)``; optional ``events(t, y, p, g)``, ``apply(k, t, y, p) -> int``,
+    ``tagger(p) -> int`` and ``jac(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h) -> int``
+    (fills df/dy and df/dt, returns the rhs calls used, or -1 to fall back to forward
+    differences). ``tag`` names the compiled copy (its on-disk cache entry), e.g.
+    "pump_<hash>"; a tag must stand for one set of functions.
+    """
+    scope = dict(solve.py_func.__globals__)
+    scope["rhs"] = rhs_func
+    for name, f in (("event_values", events), ("apply_event", apply), ("step_tag", tagger), ("jacobian", jac)):
+        if f is not None:
+            scope[name] = f
+    # helpers that call the model's functions get the same bindings
+    scope["fd_jacobian"] = _rebind(fd_jacobian, scope, tag)
+    scope["_locate_event"] = _rebind(_locate_event, scope, tag)
+    return _rebind(solve, scope, tag, cache=cache)
 
 
 def interpolate(t, rec_t, rec_y, rec_q2, rec_q3):

@@ -15,9 +15,11 @@ The pieces, each usable alone:
 - :func:`main_effects` / :func:`plot_main_effects`: the mean response against each factor.
 
 A *model* is a module with ``OUTPUTS`` (output column -> "float64" | "int64" | "bool" |
-"string"), ``evaluate(design: dict) -> dict`` and optionally ``check(name, value)`` (raise
-InputError for an unknown input or a bad value, before anything runs) and ``STATUS``
-handling: ``evaluate`` may return a ``status`` key (default ``"ok"``). ``model = "pump"``
+"string") and ``evaluate(design: dict) -> dict``; optionally ``check(name, value)`` (raise
+InputError for an unknown input or a bad value, before anything runs), ``REQUIRED``
+(inputs every design needs) and ``MAIN_RESPONSES`` (what sweep-plot shows by default).
+``evaluate`` may return a ``status`` (default ``"ok"``); an exception is recorded as
+``"error"``. ``model = "pump"``
 is the piston pump (:mod:`studies.sweep_pump`); any importable module name works.
 """
 
@@ -268,6 +270,10 @@ def check_spec(spec: SweepSpec, model) -> None:
     clash = ({f.name for f in spec.factors} | set(spec.fixed_dict)) & set(model.OUTPUTS)
     if clash:
         raise InputError(sorted(clash)[0], "is an output column of the model, not an input")
+    given = {f.name for f in spec.factors} | set(spec.fixed_dict)
+    for name in getattr(model, "REQUIRED", ()):
+        if name not in given:
+            raise InputError("fixed", f"model {spec.model} needs {name!r}: give it as a factor or in [fixed]")
     if check is None:
         return
     for f in spec.factors:

@@ -36,7 +36,33 @@ def _impact(t, y, p, dy):
     dy[1] = f / m
 
 
+@numba.njit(cache=True)
+def _ball(t, y, p, dy):
+    # a ball in flight under gravity (y = height, velocity); the floor is an event
+    dy[0] = y[1]
+    dy[1] = -p[0]
+
+
+@numba.njit(cache=True)
+def _ball_events(t, y, p, g):
+    g[0] = y[0] if y[1] < 0.0 else 1.0   # hits the floor on the way down
+
+
+@numba.njit(cache=True)
+def _ball_bounce(k, t, y, p):
+    y[0] = 0.0
+    y[1] = -p[1] * y[1]                    # restitution
+    p[2] += 1.0                            # bounce counter, changes the model state
+    return int(p[2])
+
+
+@numba.njit(cache=True)
+def _ball_tag(p):
+    return int(p[2])
+
+
 vdp = rodas.specialize(_vdp, "test_vdp")
+ball = rodas.specialize(_ball, "test_ball", events=_ball_events, apply=_ball_bounce, tagger=_ball_tag)
 forced = rodas.specialize(_forced, "test_forced")
 impact = rodas.specialize(_impact, "test_impact")
 
@@ -50,8 +76,8 @@ def test_stiff_van_der_pol_matches_radau():
     )
     steps = []
     for rtol, tol in [(1e-6, 2e-6), (1e-9, 5e-9)]:
-        st, ys, *_, ns, nr, nf = vdp(0.0, y0, np.array([T]), np.array([eps]), rtol, np.full(2, rtol),
-                                     1e-6, np.inf, 10**6, 2, np.inf)
+        st, ys, *_, ns, nr, nf, h = vdp(0.0, y0, np.array([T]), np.array([eps]), rtol, np.full(2, rtol),
+                                     1e-6, np.inf, 10**6, 2, np.inf, 0, 0, 1)
         assert st == rodas.OK
         assert np.allclose(ys[-1], ref.y[:, -1], rtol=0, atol=tol)
         steps.append(ns)
@@ -61,8 +87,8 @@ def test_stiff_van_der_pol_matches_radau():
 def test_stops_dense_output_and_quadrature_against_closed_form():
     lam = -1e4
     stops = np.array([0.5, 1.0, 2.0, 3.0])
-    st, ys, rt, ry, q2, q3, ns, nr, nf = forced(0.0, np.array([1.0, 0.0]), stops, np.array([lam]), 1e-8,
-                                                 np.array([1e-12, 1e-12]), 1e-8, np.inf, 10**6, 1, 1.0)
+    st, ys, rt, ry, q2, q3, tags, et, ek, ec, ns, nr, nf, h = forced(0.0, np.array([1.0, 0.0]), stops, np.array([lam]), 1e-8,
+                                                 np.array([1e-12, 1e-12]), 1e-8, np.inf, 10**6, 1, 1.0, 0, 0, 1)
     assert st == rodas.OK
     exact = np.sin(stops) + np.exp(lam * stops)
     assert np.allclose(ys[:, 0], exact, rtol=0, atol=1e-9)
@@ -86,7 +112,7 @@ def test_impact_restitution_matches_the_damped_oscillator(zeta):
     t_contact = x0 / -v0 + math.pi / wd
     T = t_contact + 2e-5
     st, ys, *_ = impact(0.0, np.array([x0, v0]), np.array([T]), np.array([k, c, m]), 1e-9,
-                        np.array([1e-15, 1e-9]), 1e-7, np.inf, 10**6, 2, np.inf)
+                        np.array([1e-15, 1e-9]), 1e-7, np.inf, 10**6, 2, np.inf, 0, 0, 1)
     assert st == rodas.OK
     e = math.exp(-zeta * math.pi / math.sqrt(1 - zeta**2))
     assert ys[-1, 1] == pytest.approx(-e * v0, rel=1e-6)
@@ -95,7 +121,7 @@ def test_impact_restitution_matches_the_damped_oscillator(zeta):
 
 def test_step_budget_is_reported():
     st, *_ = vdp(0.0, np.array([2.0, -0.66]), np.array([2.0]), np.array([1e-6]), 1e-8, np.full(2, 1e-8),
-                 1e-6, np.inf, 50, 2, np.inf)
+                 1e-6, np.inf, 50, 2, np.inf, 0, 0, 1)
     assert st == rodas.MAX_STEPS
 
 
@@ -108,3 +134,26 @@ def test_lu_solves_a_pivoting_system():
     assert rodas.lu_factor(lu, piv)
     rodas.lu_solve(lu, piv, x)
     assert np.allclose(a @ x, b, rtol=0, atol=1e-12)
+
+
+def test_events_are_located_on_the_dense_output():
+    """A bouncing ball: bounce times 2 v0/g e^k sums in closed form; the step is cut at each."""
+    g, e, v0 = 9.81, 0.8, 3.0
+    p = np.array([g, e, 0.0])
+    T = 1.5
+    st, ys, rt, ry, q2, q3, tags, ev_t, ev_k, ev_code, ns, nr, nf, h = ball(
+        0.0, np.array([0.0, v0]), np.array([T]), p, 1e-6, np.array([1e-9, 1e-9]), 1e-3, np.inf, 10**5, 2, 0.0,
+        1, 100, 1)
+    assert st == rodas.OK
+    flights = 2 * v0 / g * e ** np.arange(20)
+    exact = np.cumsum(flights)
+    exact = exact[exact < T]
+    assert len(ev_t) == len(exact) and list(ev_code) == list(range(1, len(exact) + 1))
+    assert np.allclose(ev_t, exact, rtol=0, atol=1e-9)
+    # the steps end on the events and carry the model state (tag) that held during them
+    assert set(exact.round(9)) <= set(np.round(rt, 9))
+    assert tags[-1] == len(exact) and p[2] == len(exact)
+    # after the last bounce: free flight from 0 with speed v0 e^n
+    tau = T - exact[-1]
+    vn = v0 * e ** len(exact)
+    assert ys[-1, 0] == pytest.approx(vn * tau - g * tau**2 / 2, abs=1e-9)
