@@ -1,0 +1,82 @@
+"""The pump, table and validate commands (CONTRACT.md): JSON, traces, refusals, exit status 2."""
+
+import csv
+import json
+
+import pytest
+
+CONTRACT_KEYS = {"valve", "speed_rpm", "load_pressure_pa", "delivery_cc_per_rev", "revolutions", "cpu_seconds",
+                 "mass_balance_error"}
+
+
+def test_pump_json_and_trace(cli, tmp_path):
+    trace = tmp_path / "trace.csv"
+    rc, out, err, obj = cli("pump", "--valve", "disc", "--speed-rpm", "593", "--load-pressure-mpa", "2.76",
+                            "--revolutions", "3", "--trace", trace, "--json")
+    assert rc == 0, err
+    assert CONTRACT_KEYS <= set(obj)
+    assert obj["valve"] == "disc" and obj["speed_rpm"] == 593 and obj["load_pressure_pa"] == pytest.approx(2.76e6)
+    assert obj["delivery_cc_per_rev"] == pytest.approx(1.731, rel=0.01)        # Table 5.4 baseline
+    assert obj["revolutions"] == 3 and obj["mass_balance_error"] < 1e-9 and obj["cyclic_steady"]
+    rows = list(csv.reader(open(trace)))
+    assert rows[0] == ["time_s", "valve_position_m", "cylinder_pressure_pa", "load_pressure_pa",
+                       "inlet_position_m", "delivery_position_m"]
+    assert float(rows[1][0]) == 0.0 and len(rows) > 1000
+    assert out.count("\n") == 1                                                 # exactly one JSON object
+    # never overwrite the user's file
+    rc, out, err, obj = cli("pump", "--valve", "disc", "--speed-rpm", "593", "--load-pressure-mpa", "2.76",
+                            "--trace", trace, "--json")
+    assert rc == 2 and obj is None and "--trace" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("args, flag", [
+    (["--speed-rpm", "-600"], "--speed-rpm"),
+    (["--speed-rpm", "nan"], "--speed-rpm"),
+    (["--load-pressure-mpa", "inf"], "--load-pressure-mpa"),
+    (["--air-content", "1.2"], "--air-content"),
+    (["--revolutions", "1"], "--revolutions"),
+    (["--circuit", "open"], "--circuit"),
+    (["--speed-rpm", "fast"], "--speed-rpm"),
+    (["--reed-geometry", "prototype"], "--reed-geometry"),          # a disc pump has no reed
+    (["--dead-volume-m3", "0"], "--dead-volume-m3"),
+])
+def test_pump_bad_flags_exit_2_naming_the_flag(args, flag, capsys):
+    # in-process (studies.cli.main) to keep the suite fast; the subprocess path is tested above
+    from studies.cli import main
+
+    base = {"--valve": "disc", "--speed-rpm": "600", "--load-pressure-mpa": "2.76"}
+    for k, v in zip(args[::2], args[1::2]):
+        base[k] = v
+    argv = ["pump", *[x for kv in base.items() for x in kv], "--json"]
+    try:
+        rc = main(argv)
+    except SystemExit as e:                     # argparse's own errors
+        rc = e.code
+    out, err = capsys.readouterr()
+    assert rc == 2 and out == ""
+    assert flag in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_validate_quick_writes_tables_plots_and_summary(cli, tmp_path):
+    out = tmp_path / "out"
+    rc, stdout, err, obj = cli("validate", "--quick", "--valve", "disc", "--out", out, "--json", timeout=900)
+    assert rc == 0, err
+    for name in ("table_5_4.md", "table_5_4.csv", "table_2_3.md", "summary.md", "summary.json",
+                 "fig_5_7_disc_inlet_baseline.png", "fig_5_12_disc_delivery_high_pressure.png"):
+        assert (out / name).is_file(), name
+    rows = list(csv.DictReader(open(out / "table_5_4.csv")))
+    assert len(rows) == 6
+    assert {"condition", "measured_valve", "modeled_cc", "measured_cc", "error_pct", "thesis_modeled_cc",
+            "thesis_error_pct"} <= set(rows[0])
+    for r in rows:     # the disc model reproduces the thesis's model (quick settings: 3 revolutions)
+        assert float(r["modeled_cc"]) == pytest.approx(float(r["thesis_modeled_cc"]), rel=0.01)
+    s = json.loads((out / "summary.json").read_text())
+    assert s["tables"]["5.4"]["max_abs_diff_from_thesis_model_pct"] < 1.0
+    assert "step 2/4" in err and "step 4/4" in err                            # progress on stderr
+    assert obj["steps"]["pump_cases"]["cases"] == 6
+    # a second run may replace its own output, but not a user's folder
+    user = tmp_path / "mine"
+    user.mkdir()
+    (user / "notes.txt").write_text("mine")
+    rc, stdout, err = cli("validate", "--quick", "--valve", "disc", "--out", user)
+    assert rc == 2 and "--out" in err
