@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import math
-
 from geometry import load_disc_geometry
 from lumped import oil as oil_mod
 from lumped.disc_valve import c1_coefficient, c2_coefficient, helical_spring_stiffness
@@ -89,6 +87,3 @@ def table_5_6() -> dict:
     return _pump_table("5.6", ["Thesis configuration of Table 3.13 (f1 = 0.22, f2 = 0.35); R = 0.008.",
                                REED_NOTE])
 
-
-def finite_or_none(v):
-    return v if isinstance(v, float) and math.isfinite(v) else None

@@ -8,8 +8,8 @@ modeled delivery is compared with the measured one and with the thesis's modeled
 from __future__ import annotations
 
 import csv
-import math
 import os
+import sys
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
 from pathlib import Path
@@ -73,7 +73,7 @@ def run_cases(selected: list[dict], *, params_for=None, quick: bool = False, tra
     bar = None
     if progress:
         from tqdm import tqdm
-        bar = tqdm(total=len(work), desc="pump cases", unit="case", file=__import__("sys").stderr)
+        bar = tqdm(total=len(work), desc="pump cases", unit="case", file=sys.stderr)
     results: list[PumpResult] = []
     if jobs > 1:
         with ProcessPoolExecutor(max_workers=jobs) as ex:
@@ -255,6 +255,3 @@ def default_jobs() -> int:
     except ValueError:
         return 1
 
-
-def finite(v) -> bool:
-    return isinstance(v, (int, float)) and math.isfinite(v)

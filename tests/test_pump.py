@@ -8,9 +8,7 @@ import pytest
 
 from geometry.errors import InputError
 from lumped import pump as P
-from lumped.params import (
-    G_AP, G_LEAK, OFF_DEL, OFF_IN, V_XSTOP, baseline_model, load_pump, pack, set_effect, thesis_model,
-)
+from lumped.params import G_LEAK, baseline_model, load_pump, pack, set_effect, thesis_model
 from studies.thesis import experiments
 
 PUMP = load_pump()

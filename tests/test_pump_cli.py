@@ -80,3 +80,57 @@ def test_validate_quick_writes_tables_plots_and_summary(cli, tmp_path):
     (user / "notes.txt").write_text("mine")
     rc, stdout, err = cli("validate", "--quick", "--valve", "disc", "--out", user)
     assert rc == 2 and "--out" in err
+
+
+def _fake_props(reed=None, mesh_size=None):
+    import numpy as np
+
+    from lumped.mode_function import ReedProperties
+    return ReedProperties(fidelity="analytic", omega_n=2500.0, kappa=6.4e6, gamma1=1.62, gamma2=0.70, gamma3=0.87,
+                          h_eff=1.2e-3, s=np.linspace(0, 0.0254, 9), psi=np.linspace(0, 1, 9) ** 2)
+
+
+def test_pump_takes_reed_parameters_from_a_reed_model(monkeypatch, capsys):
+    """--reed-geometry/--reed-fidelity go through studies.cmd_reed.reed_model (stubbed until task A lands)."""
+    import studies.cmd_reed as cr
+    from studies.cli import main
+
+    monkeypatch.setattr(cr, "reed_model", lambda fidelity: _fake_props)
+    rc = main(["pump", "--valve", "reed", "--speed-rpm", "595", "--load-pressure-mpa", "2.76", "--revolutions", "2",
+               "--reed-geometry", "prototype", "--json"])
+    out, err = capsys.readouterr()
+    assert rc == 0, err
+    obj = json.loads(out)
+    assert "analytic model of prototype" in obj["reed_parameters"]
+    # a softer reed (6.4 vs 7.709 MPa/m) opens wider than Table 3.13's
+    rc = main(["pump", "--valve", "reed", "--speed-rpm", "595", "--load-pressure-mpa", "2.76", "--revolutions", "2",
+               "--json"])
+    ref = json.loads(capsys.readouterr()[0])
+    assert obj["peak_opening_m"]["inlet"] > ref["peak_opening_m"]["inlet"]
+    assert ref["reed_parameters"] == "Table 3.13"
+
+
+def test_reed_parameter_chain_wiring(monkeypatch):
+    """Step 1 of validate calls studies.reed_check.multi_fidelity_check (task B) when it exists."""
+    import sys
+    import types
+
+    from studies import validation as V
+
+    calls = {}
+
+    def multi_fidelity_check(reed, fidelities=("analytic",), progress=True):
+        calls["reed"], calls["fidelities"] = reed, fidelities
+        return [{"fidelity": "analytic", "kappa": 6.4e6}], _fake_props()
+
+    fake = types.ModuleType("studies.reed_check")
+    fake.multi_fidelity_check = multi_fidelity_check
+    monkeypatch.setitem(sys.modules, "studies.reed_check", fake)
+    out = V.reed_parameter_chain(progress=False)
+    assert out["status"] == "ok" and out["selected"].kappa == 6.4e6 and calls["reed"].name
+    m = V.reed_model_from(out["selected"])
+    assert m.inlet.stiffness == 6.4e6 and m.delivery.preload == pytest.approx(-0.18e-3)
+    # without task B's module the step says so and the pump keeps Table 3.13
+    monkeypatch.setitem(sys.modules, "studies.reed_check", None)
+    out = V.reed_parameter_chain(progress=False)
+    assert out["status"] == "unavailable" and out["selected"] is None and "reed_check" in out["reason"]
