@@ -71,7 +71,8 @@ def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: 
     e = rho0 / rho
     # pure-liquid root: (1 - R) exp(-(P - P0)/beta) = E
     p_liq = p0 - beta * math.log(e / (1.0 - air))
-    if air <= 0.0:
+    if air <= 1e-200:
+        # air-free (or so little air that the pure-air root underflows): explicit
         return p_liq, 0
     inv_g = 1.0 / gamma
     # pure-air root: R (P0/P)^(1/gamma) = E; both single-term roots are lower bounds
@@ -82,6 +83,8 @@ def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: 
         # air root with the liquid term frozen at its P0 value: close to the root while
         # P << beta (a lower bound below P0, an upper bound above it)
         p2 = p0 * (air / (e - (1.0 - air))) ** gamma
+        if p2 <= 0.0:
+            p2 = p
         ta = air * (p0 / p2) ** inv_g
         tl = (1.0 - air) * math.exp(-(p2 - p0) / beta)
         f = ta + tl - e

@@ -337,6 +337,11 @@ def thesis_air_content(valve: str) -> float:
     return _data("pump")["air_content"][valve]
 
 
+def inferred_reed_dead_volume() -> float:
+    """V_tdc [m^3] with which the thesis's reed model reproduces Table 5.6 (not printed; see pump.toml)."""
+    return _data("pump")["reed_manifold"]["dead_volume"]
+
+
 def load_disc_valve(position: str) -> DiscValve:
     """Disc valve of Table 2.3 in the thesis configuration for its position.
 

@@ -202,6 +202,25 @@ def _rhs_py(t, y, p, mode):
     return rhs(t, y.tolist(), p, mode)
 
 
+def _make_jac(n: int, scale: np.ndarray):
+    """Forward-difference Jacobian over the dynamic states; the running totals (quadratures)
+    feed back into nothing, so their columns are zero and cost no evaluations."""
+    dyn = [i for i in range(n) if i not in QUADRATURES]
+    eps = math.sqrt(np.finfo(float).eps)
+
+    def jac(t, y, p, mode):
+        f0 = rhs(t, y.tolist(), p, mode)
+        jm = np.zeros((n, n))
+        for j in dyn:
+            h = eps * max(abs(y[j]), scale[j])
+            yy = y.tolist()
+            yy[j] += h
+            h = yy[j] - y[j]                      # the step actually taken
+            jm[:, j] = (rhs(t, yy, p, mode) - f0) / h
+        return jm
+    return jac
+
+
 def auto_mode(y, p) -> list:
     """Contact state and pressure regime of both valves decided from the state (mode -1 resolved)."""
     out = []
@@ -228,6 +247,8 @@ class PumpTrace:
     delivery_position: np.ndarray # [m]
     inlet_mass_flow: np.ndarray   # [kg/s] into the cylinder
     delivery_mass_flow: np.ndarray  # [kg/s] out of the cylinder
+    inlet_velocity: np.ndarray    # [m/s]
+    delivery_velocity: np.ndarray # [m/s]
 
 
 @dataclass(frozen=True)
@@ -252,6 +273,7 @@ class PumpResult:
     closing_angle: tuple          # crank angle where it ends
     stop_contacts: tuple          # number of stop impacts in the last revolution
     mean_load_pressure: float     # over the last revolution [Pa]
+    leakage_per_rev: float        # piston leakage of the last revolution [m^3 at atmospheric density]
     needle_area: float | None     # complete circuit [m^2]
     rhs_evaluations: int
     events: int                   # located switches (seat, stop, regime) in all revolutions
@@ -275,25 +297,36 @@ def _event(index: int, level: float, direction: int):
     return g
 
 
+#: hysteresis of the reverse crossings [m]: a mode entered exactly on its switching surface
+#: must not switch back at its first step (a zero-length segment); 0.1 nm is far below
+#: any opening the model resolves
+HYSTERESIS = 1e-10
+
+
 def _events_for(mode: list, p) -> list:
-    """Terminal events leaving the current mode: (function, valve slot, kind, new value)."""
+    """Terminal events leaving the current mode: (function, mode slot, old, new, level).
+
+    Seat -> free at x = 0, free -> seat at x = -HYSTERESIS; free -> stop at x_stop,
+    stop -> free at x_stop - HYSTERESIS; the same for the Poiseuille/orifice transition.
+    """
     out = []
+    h = HYSTERESIS
     for v, (o, xi) in enumerate(((OFF_IN, S_XIN), (OFF_DEL, S_XDEL))):
         c, r = mode[2 * v], mode[2 * v + 1]
         xstop = p[o + V_XSTOP]
         if c == SEAT:
             out.append((_event(xi, 0.0, 1), 2 * v, SEAT, FREE, 0.0))
         elif c == FREE:
-            out.append((_event(xi, 0.0, -1), 2 * v, FREE, SEAT, 0.0))
+            out.append((_event(xi, -h, -1), 2 * v, FREE, SEAT, -h))
             out.append((_event(xi, xstop, 1), 2 * v, FREE, STOP, xstop))
         else:
-            out.append((_event(xi, xstop, -1), 2 * v, STOP, FREE, xstop))
+            out.append((_event(xi, xstop - h, -1), 2 * v, STOP, FREE, xstop - h))
         if p[o + V_KIND] != KIND_REED and p[o + V_POIS] > 0.5:
             xt = p[o + V_XTRANS]
             if r == POISEUILLE:
                 out.append((_event(xi, xt, 1), 2 * v + 1, POISEUILLE, ORIFICE, xt))
             else:
-                out.append((_event(xi, xt, -1), 2 * v + 1, ORIFICE, POISEUILLE, xt))
+                out.append((_event(xi, xt - h, -1), 2 * v + 1, ORIFICE, POISEUILLE, xt - h))
     return out
 
 
@@ -398,10 +431,7 @@ def simulate(valve: str, speed_rpm: float, load_pressure: float, *, air_content:
     omega = p[G_OMEGA]
     period = 2.0 * math.pi / omega
     atol_v = _atol_vector(n, atol, p, model)
-    sparsity = np.ones((n, n))
-    for q in QUADRATURES:
-        if q < n:
-            sparsity[:, q] = 0.0              # no state depends on the running totals
+    jac = _make_jac(n, atol_v / atol) if method != "LSODA" else None
 
     y = _initial_state(model, p, n)
     mode = auto_mode(y, p)
@@ -432,7 +462,7 @@ def simulate(valve: str, speed_rpm: float, load_pressure: float, *, air_content:
             m_now = list(mode)
             sol = solve_ivp(_rhs_py, (t, t1), y, method=method, rtol=rtol, atol=atol_v,
                             events=[e[0] for e in evs], dense_output=want_dense,
-                            args=(pl_list, m_now), jac_sparsity=sparsity if method != "LSODA" else None)
+                            args=(pl_list, m_now), jac=jac)
             nfev += sol.nfev
             if sol.status < 0:
                 raise RuntimeError(f"integrator failed at t = {t:.6g} s: {sol.message}")
@@ -463,20 +493,26 @@ def simulate(valve: str, speed_rpm: float, load_pressure: float, *, air_content:
         mass_err = abs(d_cyl - (d_in - d_out - d_leak)) / max(abs(d_in), abs(d_out), 1e-300)
         deliveries.append(d_out / rho0)                          # eq 4.17 at atmospheric density
         pl_mean = _mean_load_pressure(segs, t0, t1, pl_list, circuit)
-        if tune:
-            p_new = _retune_needle(y, pl_list, load_pressure, period, d_out, pl_mean)
-            if tuned_at is None and abs(p_new / pl_list[G_NVCDA] - 1.0) < 1e-4 \
-                    and abs(pl_mean / load_pressure - 1.0) < 1e-4:
+        if tune and tuned_at is None:
+            # start-up procedure, like the experimenter's needle-valve setting (section 5.5.2):
+            # match the needle flow to the delivery at the requested mean pressure and move
+            # the load-side mass to it; the cylinder and its mass balance are not touched
+            d_nv = y[S_MNV] - y_start[S_MNV]
+            a_old = pl_list[G_NVCDA]
+            a_new = a_old * (d_out / d_nv) * math.sqrt((pl_mean - pl_list[G_PTANK]) / (load_pressure - pl_list[G_PTANK]))
+            if abs(a_new / a_old - 1.0) < 2e-4 and abs(pl_mean / load_pressure - 1.0) < 2e-4:
                 tuned_at = k + 1                                  # needle valve frozen from here on
-            if tuned_at is None:
-                pl_list[G_NVCDA] = p_new
+            else:
+                pl_list[G_NVCDA] = a_new
+                y[S_MLOAD] += load_mass(load_pressure, pl_list)[0] - load_mass(pl_mean, pl_list)[0]
         tdc_states.append(y.copy())
         if k >= 1:
             change = _cycle_change(deliveries, tdc_states, p, model)
             changes.append(change)
             settled = tuned_at is not None and k + 1 - tuned_at >= 2
             steady = change < steady_tol and (circuit == "simplified" or settled)
-        last = dict(segs=segs, events=events_rev, peak=peak, mass_err=mass_err, t0=t0, t1=t1, pl_mean=pl_mean)
+        last = dict(segs=segs, events=events_rev, peak=peak, mass_err=mass_err, t0=t0, t1=t1, pl_mean=pl_mean,
+                    leak=d_leak / rho0)
         if trace:
             keep.append(segs)
             keep = keep[-trace_revolutions:]
@@ -498,7 +534,7 @@ def simulate(valve: str, speed_rpm: float, load_pressure: float, *, air_content:
         revolutions=k, cyclic_steady=bool(steady), cycle_change=float(change), cpu_seconds=cpu,
         simulated_seconds=k * period, mass_balance_error=float(last["mass_err"]),
         peak_opening=tuple(last["peak"]), opening_angle=opening, closing_angle=closing,
-        stop_contacts=stops, mean_load_pressure=float(last["pl_mean"]),
+        stop_contacts=stops, mean_load_pressure=float(last["pl_mean"]), leakage_per_rev=float(last["leak"]),
         needle_area=(pl_list[G_NVCDA] / model.pump.needle_discharge) if circuit == "complete" else None,
         rhs_evaluations=int(nfev), events=int(n_events), method=method, rtol=rtol, atol=atol, trace=tr,
     )
@@ -528,7 +564,7 @@ def _cycle_change(deliveries, states, p, model) -> float:
 def _mean_load_pressure(segs, t0, t1, p, circuit) -> float:
     if circuit != "complete":
         return p[G_PLOAD]
-    ts = np.linspace(t0, t1, 401)
+    ts = np.linspace(t0, t1, 121)
     vals = []
     for t in ts:
         seg = _find_segment(segs, t)
@@ -543,17 +579,6 @@ def _needle_cda_estimate(model: PumpModel, p) -> float:
     ideal = model.pump.displacement - (oil.density(pl) / oil.density(pt) - 1.0) * model.pump.dead_volume
     mdot = 0.85 * ideal * oil.density_atm * p[G_OMEGA] / (2 * math.pi)
     return mdot / math.sqrt(2.0 * oil.density(pl) * (pl - pt))
-
-
-def _retune_needle(y, p, target, period, d_out, pl_mean) -> float:
-    """Needle valve Cd A that passes last revolution's delivery at the target pressure and
-    bleeds (or refills) the load-side mass offset within one revolution (section 5.5.2)."""
-    pt = p[G_PTANK]
-    rho = oil_mod.density(target, p[G_RHO0], p[G_P0], p[G_BETA], p[G_GAMMA], p[G_AIR])
-    base = math.sqrt(2.0 * rho * (target - pt))
-    excess = y[S_MLOAD] - load_mass(target, p)[0]
-    mdot = d_out / period + excess / period
-    return max(mdot, 0.05 * d_out / period) / base
 
 
 def _find_segment(segs, t):
@@ -603,12 +628,12 @@ def _sample_trace(revs, period, npts, p) -> PumpTrace:
             seg = _find_segment(segs, t)
             y = seg.sol(t)
             e = evaluate(t, y, p, seg.mode)
-            rows.append((t, y[S_XIN], y[S_XDEL], e[10], e[11], e[5], e[6]))
+            rows.append((t, y[S_XIN], y[S_XDEL], e[10], e[11], e[5], e[6], y[S_UIN], y[S_UDEL]))
     a = np.array(rows)
     t = a[:, 0] - revs[0][0].t0
     return PumpTrace(time=t, crank_angle=p[G_OMEGA] * t, cylinder_pressure=a[:, 3], load_pressure=a[:, 4],
                      inlet_position=a[:, 1], delivery_position=a[:, 2], inlet_mass_flow=a[:, 5],
-                     delivery_mass_flow=a[:, 6])
+                     delivery_mass_flow=a[:, 6], inlet_velocity=a[:, 7], delivery_velocity=a[:, 8])
 
 
 # ----------------------------------------------------------------- output

@@ -23,6 +23,10 @@ from geometry.errors import InputError
 COMMANDS: dict[str, str] = {
     "reed": "studies.cmd_reed",
     "table": "studies.cmd_table",
+    "pump": "studies.cmd_pump",
+    "validate": "studies.cmd_validate",
+    "sweep": "studies.cmd_sweep",
+    "sweep-plot": "studies.cmd_sweep_plot",
     "synth": "studies.cmd_synth",
     "discrepancy": "studies.cmd_discrepancy",
 }

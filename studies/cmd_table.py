@@ -11,7 +11,11 @@ HELP = "regenerate a table of the thesis (computed values beside the thesis's)"
 #: table id -> "module:function"; the function takes no arguments and returns a
 #: list of row dicts (thesis values in fields named ``thesis_<field>``), or a dict
 #: with ``rows`` and optional ``notes``.
-TABLES: dict[str, str] = {}
+TABLES: dict[str, str] = {
+    "2.3": "studies.tables_pump:table_2_3",
+    "5.4": "studies.tables_pump:table_5_4",
+    "5.6": "studies.tables_pump:table_5_6",
+}
 
 
 def configure(p):
