@@ -41,7 +41,7 @@ def _engine():
     """The pump integrator: the compiled fast path if installed (VALVELAB_REFERENCE=1 forces the reference)."""
     if os.environ.get("VALVELAB_REFERENCE") != "1":
         try:
-            from lumped.fast import simulate as fast_simulate   # branch "fast" (same PumpResult)
+            from lumped.pump_fast import simulate as fast_simulate   # branch "fast" (same PumpResult)
             return fast_simulate
         except ImportError:
             pass
