@@ -383,7 +383,7 @@ def simulate(valve: str, speed_rpm: float, load_pressure: float, *, air_content:
             change = ref._cycle_change(deliveries, tdc_states, p0, model)
             steady = change < steady_tol
         last = dict(events=_decode(ev_t, ev_code), mass_err=mass_err, t0=t0,
-                    peak=_peaks(rec_y, rec_q2, rec_q3))
+                    peak=_peaks(rec_y, rec_q2, rec_q3), leak=d_leak / rho0)
         if trace:
             keep.append((rec_t, rec_y, rec_q2, rec_q3, rec_tag))
             keep = keep[-trace_revolutions:]
@@ -404,7 +404,8 @@ def simulate(valve: str, speed_rpm: float, load_pressure: float, *, air_content:
         revolutions=k, cyclic_steady=bool(steady), cycle_change=float(change), cpu_seconds=cpu,
         simulated_seconds=k * period, mass_balance_error=float(last["mass_err"]),
         peak_opening=tuple(last["peak"]), opening_angle=opening, closing_angle=closing,
-        stop_contacts=stops, mean_load_pressure=load_pressure, needle_area=None,
+        stop_contacts=stops, mean_load_pressure=load_pressure, leakage_per_rev=float(last["leak"]),
+        needle_area=None,
         rhs_evaluations=nfev, events=n_events, method="fast", rtol=rtol, atol=atol, trace=tr,
     )
 
@@ -424,4 +425,5 @@ def _sample_trace(revs, period, npts, p) -> ref.PumpTrace:
     t_rel = t - revs[0][0][0]
     return ref.PumpTrace(time=t_rel, crank_angle=p[G_OMEGA] * t_rel, cylinder_pressure=e[:, 0],
                          load_pressure=e[:, 1], inlet_position=y[:, ref.S_XIN], delivery_position=y[:, ref.S_XDEL],
-                         inlet_mass_flow=e[:, 2], delivery_mass_flow=e[:, 3])
+                         inlet_mass_flow=e[:, 2], delivery_mass_flow=e[:, 3],
+                         inlet_velocity=y[:, ref.S_UIN], delivery_velocity=y[:, ref.S_UDEL])

@@ -185,6 +185,31 @@ def _parse_factor(name: str, d, sampler: str) -> Factor:
     return Factor(name, low=low, high=high, scale=scale, levels=levels, integer=integer)
 
 
+_FACTOR_KEYS = {"low", "high", "scale", "levels", "values", "integer"}
+
+
+def _flatten(d: dict, prefix: str = "") -> dict:
+    """TOML dotted keys (inlet.f1 = 0.5 makes a nested table) back to dotted names."""
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, dict):
+            out.update(_flatten(v, f"{prefix}{k}."))
+        else:
+            out[f"{prefix}{k}"] = v
+    return out
+
+
+def _flatten_factors(d: dict, prefix: str = "") -> dict:
+    """[factors.inlet.f1] nests like a dotted key: a table without factor keys is a namespace."""
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, dict) and v and not (set(v) & _FACTOR_KEYS):
+            out.update(_flatten_factors(v, f"{prefix}{k}."))
+        else:
+            out[f"{prefix}{k}"] = v
+    return out
+
+
 def parse_spec(doc: dict, text: str = "") -> SweepSpec:
     """A :class:`SweepSpec` from a parsed sweep TOML (schema: CONTRACT.md, "Sweep file")."""
     if not isinstance(doc, dict):
@@ -221,10 +246,11 @@ def parse_spec(doc: dict, text: str = "") -> SweepSpec:
     fdoc = doc.get("factors")
     if not isinstance(fdoc, dict) or not fdoc:
         raise InputError("factors", "need at least one [factors.NAME] table")
-    factors = tuple(_parse_factor(n, d, sampler) for n, d in fdoc.items())
+    factors = tuple(_parse_factor(n, d, sampler) for n, d in _flatten_factors(fdoc).items())
     fixed_doc = doc.get("fixed", {})
     if not isinstance(fixed_doc, dict):
         raise InputError("fixed", "must be a table of name = value")
+    fixed_doc = _flatten(fixed_doc)
     fixed = tuple((k, _scalar(v, f"fixed.{k}")) for k, v in fixed_doc.items())
     both = {f.name for f in factors} & set(fixed_doc)
     if both:

@@ -159,3 +159,15 @@ def test_bad_input_is_refused_like_the_reference():
     with pytest.raises(InputError) as exc:
         fast.simulate("disc", 600.0, 2.8e6, params=thesis_model("reed"))
     assert exc.value.field == "params"
+
+
+def test_leakage_and_velocities_follow_the_reference():
+    from lumped.params import set_effect
+
+    model = set_effect(thesis_model("disc"), "piston_leakage", True)
+    r = ref.simulate("disc", 593.0, 2.76e6, revolutions=2, params=model, trace=True, trace_points=360)
+    f = fast.simulate("disc", 593.0, 2.76e6, revolutions=2, params=model, trace=True, trace_points=360)
+    assert r.leakage_per_rev > 0
+    assert f.leakage_per_rev == pytest.approx(r.leakage_per_rev, rel=1e-3)
+    assert f.delivery_per_rev == pytest.approx(r.delivery_per_rev, rel=DELIVERY_RTOL)
+    assert np.median(np.abs(f.trace.inlet_velocity - r.trace.inlet_velocity)) < 1e-3

@@ -304,3 +304,48 @@ def test_cli_errors_and_plot(cli, tmp_path):
     (mine / "notes.txt").write_text("mine")
     rc, out, err = cli("sweep", good, "--out", mine)
     assert rc == 2 and "--out" in err and (mine / "notes.txt").read_text() == "mine"
+
+
+# ----------------------------------------------------------------- the pump as the swept model
+
+
+def test_pump_model_vets_names_and_values():
+    from studies import sweep_pump
+
+    base = "[sweep]\nsampler='lhs'\nsamples=4\n[factors.speed_rpm]\nlow=500\nhigh=900\n"
+    cases = [
+        ("[fixed]\nvalve='disc'\nload_pressure=2.8e6\ninlet.nonsense=1.0\n", "fixed.inlet.nonsense"),
+        ("[fixed]\nvalve='disc'\nload_pressure=2.8e6\npump.dead_volume=-1e-6\n", "fixed.pump.dead_volume"),
+        ("[fixed]\nvalve='gate'\nload_pressure=2.8e6\n", "fixed.valve"),
+        ("[fixed]\nvalve='disc'\n", "fixed"),  # load_pressure missing
+        ("[fixed]\nvalve='disc'\nload_pressure=2.8e6\neffect.magic=true\n", "fixed.effect.magic"),
+        ("[fixed]\nvalve='disc'\nload_pressure=2.8e6\nvalves.f1=1.5\n", "fixed.valves.f1"),
+    ]
+    model = sweep.load_model("pump")
+    for extra, field in cases:
+        with pytest.raises(InputError) as exc:
+            sweep.check_spec(spec_of(base + extra), model)
+        assert exc.value.field == field, (extra, exc.value)
+    sweep.check_spec(spec_of(base + "[fixed]\nvalve='reed'\nload_pressure=2.8e6\nvalves.stiffness=8e6\n"), model)
+    assert set(sweep_pump.MAIN_RESPONSES) <= set(sweep_pump.OUTPUTS)
+
+
+def test_pump_sweep_on_local_cluster(client, tmp_path):
+    """A small pump sweep on the cluster: both valve types, a model parameter, a failing design."""
+    spec = spec_of(
+        "[sweep]\nmodel='pump'\nsampler='grid'\n"
+        "[factors.valve]\nvalues=['disc', 'reed']\n"
+        "[factors.speed_rpm]\nvalues=[600.0, 800.0]\n"
+        "[factors.valves.stiffness]\nvalues=[7.7e6]\n"   # a reed parameter: disc designs fail
+        "[fixed]\nload_pressure=2.8e6\nrevolutions=2\n"
+    )
+    s = sweep.run_sweep(spec, tmp_path / "pump", client=client, progress=False)
+    df = pd.read_parquet(s["results"]).set_index(["valve", "speed_rpm"])
+    disc, reed = df.loc["disc"], df.loc["reed"]
+    assert (disc["status"] == "error").all() and disc["error"].str.contains("not a parameter of disc").all()
+    assert reed["status"].isin(["ok", "not_cyclic"]).all() and s["failed"] == 2
+    # volumetric efficiency is delivery over the swept volume 2 A_p r (Table 5.1: d = 15.88 mm, r = 5.6 mm)
+    swept = 2 * math.pi * 15.88e-3**2 / 4 * 5.6e-3
+    assert np.allclose(reed["volumetric_efficiency"], reed["delivery_m3_per_rev"] / swept, rtol=1e-12)
+    assert ((reed["volumetric_efficiency"] > 0.6) & (reed["volumetric_efficiency"] < 1.0)).all()
+    assert (reed["delivery_peak_opening_m"] > 0).all() and (reed["revolutions_run"] == 2).all()
