@@ -16,6 +16,7 @@ stroke (crank 12-171 deg)").
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -484,7 +485,8 @@ def describe(found: list[Finding], n_runs: dict) -> list[str]:
     """Sentences summarising findings over runs, largest first.
 
     ``n_runs`` maps a valve (and "pump") to the number of runs in which it was
-    measured, so a sentence says in how many of them the disagreement appears.
+    measured, so a sentence says in how many of them the disagreement appears; a
+    disagreement seen in fewer than half of them is not systematic and not said.
     """
     groups: dict = {}
     for f in found:
@@ -494,6 +496,8 @@ def describe(found: list[Finding], n_runs: dict) -> list[str]:
         groups.setdefault(key, []).append(f)
     scored = []
     for (valve, kind, sign), fs in groups.items():
+        if len(fs) < math.ceil(n_runs.get(valve, len(fs)) / 2):
+            continue   # not systematic: in fewer than half the runs (the report lists every run)
         vals = np.array([f.value for f in fs])
         mean = float(np.mean(vals))
         cnt = f"{len(fs)} of {n_runs.get(valve, len(fs))} runs"
