@@ -364,11 +364,14 @@ def run_gap(run: Run, folded: Folded, sim: CycleTrace, nuisance: Nuisance) -> Ru
 
 
 def summary(gaps: list[RunGap]) -> dict:
-    """Dataset gap: position RMS pooled over runs [m], RMS of the runs' delivery errors [%]."""
+    """Dataset gap: position RMS pooled over runs [m] (also its excess over the measurement noise,
+    the part a model can explain), RMS of the runs' delivery errors [%]."""
     pos = [g.position_rms_m for g in gaps if g.position_rms_m is not None]
+    exc = [v.excess_rms_m for g in gaps for v in g.valves]
     dele = [g.delivery_error_pct for g in gaps if g.delivery_error_pct is not None]
     return {
         "position_rms_m": float(np.sqrt(np.mean(np.square(pos)))) if pos else None,
+        "position_excess_rms_m": float(np.sqrt(np.mean(np.square(exc)))) if exc else None,
         "delivery_error_pct": float(np.sqrt(np.mean(np.square(dele)))) if dele else None,
         "runs": len(gaps),
     }

@@ -30,7 +30,8 @@ def check_found(r: dict):
     for name, err in r["relative_errors"].items():
         assert abs(err) <= 0.2, (name, err, r["parameters"])
     if r["expected"]:
-        assert r["held_out_rms_reduction_pct"] >= 70 or r["held_out_delivery_reduction_pct"] >= 70, r
+        # the gap a model can close: position RMS above the measurement noise, or the delivery error
+        assert r["held_out_excess_reduction_pct"] >= 70 or r["held_out_delivery_reduction_pct"] >= 70, r
 
 
 def test_cyclic_steady_after_the_revolutions_simulated():
