@@ -36,6 +36,9 @@ def configure(p):
                    help="delivery error worth one unit [%%] (default 0.5)")
     p.add_argument("--min-improvement-pct", type=float, default=30.0,
                    help="how much an effect must shrink the held-out gap to be added [%%] (default 30)")
+    p.add_argument("--min-gain-units", type=float, default=3.0,
+                   help="how much an effect must shrink the held-out gap in tolerance units (default 3: above "
+                        "what a 3 %% discharge-coefficient error lets a wrong effect gain)")
     p.add_argument("--max-rounds", type=int, default=3, help="most effects added (default 3)")
     p.add_argument("--workers", type=int, default=2, help="parallel simulations (default 2)")
     p.add_argument("--model", default=None, help="model module (default studies.pump_sim)")
@@ -76,6 +79,7 @@ def run(args) -> dict:
     rel = _positive(args.min_improvement_pct, "--min-improvement-pct") / 100.0
     if rel >= 1:
         raise InputError("--min-improvement-pct", "must be below 100")
+    gain = _positive(args.min_gain_units, "--min-gain-units")
     if args.max_rounds < 0:
         raise InputError("--max-rounds", "must be 0 or more")
     if args.workers < 1:
@@ -95,8 +99,9 @@ def run(args) -> dict:
             raise InputError("--report", f"{report} is a non-empty folder valvelab did not create; "
                              "choose another (or pass --force)")
     simulate, library = load_model(args.model)
-    settings = Settings(scales=scales, min_rel_improvement=rel, max_rounds=args.max_rounds,
-                        holdout=tuple(args.holdout) if args.holdout else None, workers=args.workers)
+    settings = Settings(scales=scales, min_rel_improvement=rel, min_abs_improvement=gain,
+                        max_rounds=args.max_rounds, holdout=tuple(args.holdout) if args.holdout else None,
+                        workers=args.workers)
     try:
         outcome = Workflow(runs, simulate, library, settings, progress=True).run()
     except ModelFailure as exc:   # not a user mistake: exit 1 with one line, no traceback

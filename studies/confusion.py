@@ -56,6 +56,14 @@ CASES = {
     },
 }
 
+#: robustness: baseline errors the workflow does not search, growing (the acceptance is at 3 %)
+SENSITIVITY = {
+    "disc": {f"cd{s:+d}%": [("discharge_scale", "both", {"scale": (1 + s / 100, 1 + s / 100)})]
+             for s in (-10, -5, -2, 2, 5, 10)},
+    "reed": {f"cd{s:+d}%": [("discharge_scale", "both", {"scale": (1 + s / 100, 1 + s / 100)})]
+             for s in (-10, -5, 5, 10)},
+}
+
 #: the air content each dataset states in run.toml (None for entrained-air cases: hidden)
 STATED_AIR = {"disc": 0.013, "reed": 0.008}
 
@@ -134,11 +142,13 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, default=3, help="seeds per case (default 3)")
     ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--cases", default=None, help="comma-separated subset of the cases")
+    ap.add_argument("--sensitivity", action="store_true",
+                    help="run the growing discharge-coefficient errors instead of the acceptance cases")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--model", default=None)
     args = ap.parse_args(argv)
     simulate, library = load_model(args.model)
-    cases = CASES[args.valve]
+    cases = (SENSITIVITY if args.sensitivity else CASES)[args.valve]
     names = args.cases.split(",") if args.cases else list(cases)
     for n in names:
         if n not in cases:

@@ -77,9 +77,10 @@ class Settings:
                                        # 3 % discharge-coefficient error lets a wrong effect gain
                                        # (2.4 units measured, docs/discrepancy.md)
     max_bic_increase: float = 0.0      # an effect must not raise the fit BIC
-    n_grid: int = 6                    # grid points of a one-parameter search
+    n_grid: int = 6                    # coarse grid points of a one-parameter search (log bounds)
+    n_fine: int = 5                    # fine grid points between the best coarse point's neighbours
     brent_xatol: float = 0.002         # of the log-bounds range (~2 % for 4 decades)
-    brent_maxiter: int = 10
+    brent_maxiter: int = 8
     max_rounds: int = 3
     holdout: tuple | None = None       # names of held-out runs (default: by condition)
     workers: int = 1
@@ -487,9 +488,18 @@ class Workflow:
             else:
                 u0 = p.to_unit(start[p.name])
                 grid = np.clip(np.array([u0 - narrow, u0, u0 + narrow]), 0.0, 1.0)
-            # simulate the whole grid in one batch (parallel), then evaluate from the cache
-            self.sims.many([(self.conds[r.name], model_of([u])) for u in grid for r in self.fit_runs])
-            costs = [self.fit_objective(model_of([u]))[0] for u in grid]
+            # grids are simulated in one batch each (parallel), then evaluated from the cache;
+            # a finer grid around the best coarse point guards against the ripples an oscillating
+            # valve puts into the cost (a phase that slips by a cycle), Brent's method polishes
+            stages = [grid] if narrow is not None else [grid, None]
+            for stage in stages:
+                if stage is None:
+                    i = int(np.argmin(costs))
+                    a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+                    stage = np.linspace(a, b, self.settings.n_fine + 2)[1:-1]
+                    grid = np.sort(np.concatenate([grid, stage]))
+                self.sims.many([(self.conds[r.name], model_of([u])) for u in stage for r in self.fit_runs])
+                costs = [self.fit_objective(model_of([u]))[0] for u in grid]
             i = int(np.argmin(costs))
             lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
             best_u, best_c = float(grid[i]), costs[i]

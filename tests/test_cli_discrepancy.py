@@ -69,6 +69,7 @@ def test_synth_refuses_to_overwrite_and_checks_effects(cli, tmp_path):
 
 
 @pytest.mark.parametrize("flag,value", [("--position-tolerance-um", "-1"), ("--min-improvement-pct", "150"),
+                                        ("--min-gain-units", "0"),
                                         ("--workers", "0")])
 def test_discrepancy_flags_checked(cli, tmp_path, flag, value):
     rc, out, err = cli("discrepancy", "ds", flag, value, *MODEL)   # flags are checked before any data
