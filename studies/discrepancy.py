@@ -79,8 +79,8 @@ class Settings:
     max_bic_increase: float = 0.0      # an effect must not raise the fit BIC
     n_grid: int = 6                    # coarse grid points of a one-parameter search (log bounds)
     n_fine: int = 5                    # fine grid points between the best coarse point's neighbours
-    brent_xatol: float = 0.002         # of the log-bounds range (~2 % for 4 decades)
-    brent_maxiter: int = 8
+    brent_xatol: float = 5e-4          # of the log-bounds range (~0.5 % for 4 decades)
+    brent_maxiter: int = 12
     max_rounds: int = 3
     holdout: tuple | None = None       # names of held-out runs (default: by condition)
     workers: int = 1
@@ -107,6 +107,7 @@ class CandidateFit:
     accepted: bool = False
     failed: str | None = None
     seconds: float = 0.0
+    model: tuple = ()                  # the augmented model: added effects (refitted) + this one
 
     @property
     def key(self) -> str:
@@ -578,9 +579,7 @@ class Workflow:
                 break
             self._log(f"round {rnd}: adding {winner.key} {winner.reported} "
                       f"(held-out gap -{100 * (winner.held_improvement or winner.fit_improvement):.0f} %)")
-            current = current + (Applied.of(winner.effect, winner.target, winner.values),)
-            if len(current) > 1:
-                current = self.refine(current)
+            current = winner.model
             cur = self.evaluate(current)
         after = cur
         sc = st.scales
@@ -611,6 +610,12 @@ class Workflow:
                                 "fit failed", self.sims.count - n0, cur.fit_cost, cur.held_cost,
                                 failed=f"the model failed for every value tried ({self.last_failure})")
         model = current + (Applied.of(eff.name, target, vals),)
+        if current:
+            # the effects added before were fitted without this one: refit them with it, so the
+            # candidate is judged by the augmented model it would give, not against their bias
+            model = self.refine(model)
+            vals = model[-1].value_dict
+            cost, nuis = self.fit_objective(model)
         held = None
         if self.held_runs:
             try:
@@ -623,9 +628,11 @@ class Workflow:
         k = max(1, len(eff.parameters_for(vt)))   # a pure switch still costs one degree of freedom
         dbic = (n_eff * math.log(max(cost, 1e-12) / max(base_fit, 1e-12)) + k * math.log(n_eff)
                 if math.isfinite(cost) else math.inf)
-        return CandidateFit(eff.name, target, vals, eff.report(vals, vt), cost, held, dbic,
-                            eff.plausibility(vals, vt), self.sims.count - n0, base_fit, cur.held_cost,
-                            nuisance=nuis)
+        why = eff.plausibility(vals, vt)
+        for a in model[:-1]:   # the refitted earlier effects must stay plausible too
+            why = why or self.library[a.name].plausibility(a.value_dict, vt)
+        return CandidateFit(eff.name, target, vals, eff.report(vals, vt), cost, held, dbic, why,
+                            self.sims.count - n0, base_fit, cur.held_cost, nuisance=nuis, model=model)
 
     def _significant(self, f: CandidateFit) -> bool:
         st = self.settings
