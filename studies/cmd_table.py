@@ -11,7 +11,10 @@ HELP = "regenerate a table of the thesis (computed values beside the thesis's)"
 #: table id -> "module:function"; the function takes no arguments and returns a
 #: list of row dicts (thesis values in fields named ``thesis_<field>``), or a dict
 #: with ``rows`` and optional ``notes``.
-TABLES: dict[str, str] = {}
+TABLES: dict[str, str] = {
+    "5.2": "studies.tables_lts:table_5_2",
+    "B.2": "studies.tables_lts:table_b_2",
+}
 
 
 def configure(p):
@@ -20,7 +23,8 @@ def configure(p):
 
 def run(args) -> dict:
     if args.id not in TABLES:
-        known = ", ".join(sorted(TABLES, key=lambda t: [int(x) if x.isdigit() else x for x in t.split(".")]))
+        # (0, int) before (1, str): "B.2" sorts after the numbered chapters instead of failing
+        known = ", ".join(sorted(TABLES, key=lambda t: [(0, int(x), "") if x.isdigit() else (1, 0, x) for x in t.split(".")]))
         raise InputError("ID", f"no table {args.id!r}; expected one of {known}")
     modname, func = TABLES[args.id].split(":")
     out = getattr(importlib.import_module(modname), func)()
