@@ -248,6 +248,9 @@ class ThreeSection:
         W2 = reed.width_tip
         L3 = R
         L2 = L - L1 - L3
+        if L1 + L2 <= 0.0:
+            raise ValueError("the three-section method needs a flexible part: the rounded tip fills the "
+                             "whole reed (L1 + L2 = 0), so it would be rigid")
         return cls(L1=L1, L2=L2, L3=L3, W1=W1, W2=W2, R=R, A2=L2 * W2,
                    A3=R * (W2 - (2.0 - np.pi / 2.0) * R),
                    EI1=E * W1 * h**3 / 12.0, EI2=E * W2 * h**3 / 12.0)

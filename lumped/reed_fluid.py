@@ -202,6 +202,10 @@ class SealingLayout:
     land_width: float
     base_length: float
 
+    def __post_init__(self):
+        if not (self.land_width >= 0.0 and self.base_length >= 0.0):
+            raise ValueError(f"land_width and base_length must be >= 0, got {self.land_width}, {self.base_length}")
+
     @classmethod
     def thesis(cls) -> "SealingLayout":
         d = fluid_data()["sealing"]
@@ -228,7 +232,9 @@ class SealingLayout:
             d = np.clip(s - reed.tip_start, 0.0, R)
             flat = reed.width_tip - 2 * R  # straight middle part of the tip
             a_out = np.sqrt(np.maximum(R**2 - d**2, 0.0))
-            if R > lw:
+            if lw == 0.0:  # no land: the whole tip is open
+                F3, a_in = 1.0, a_out
+            elif R > lw:
                 F3 = annulus_pressure_fraction(R - lw, R)
                 a_in = np.sqrt(np.maximum((R - lw) ** 2 - d**2, 0.0))
             else:  # a land wider than the rounding: treat it as straight
