@@ -307,3 +307,16 @@ def test_brief_steel_reed_consistent_with_closed_forms():
     # rounded version: the rigid-tip method overestimates kappa, exact E-B is the reference
     rr = make_reed(R=10e-3)
     assert rb.three_section_stiffness(rr) > rb.exact_stiffness(rr) > rb.exact_stiffness(r)
+
+
+@pytest.mark.parametrize("name", ["stepped2", "prototype"])
+def test_spectral_gammas_agree_with_simpson_mode_parameters(name):
+    """The foundation's Simpson-rule mode_parameters on a dense grid converges to the spectral gammas."""
+    from lumped.mode_function import mode_parameters
+
+    r = load_reed(name)
+    p = rb.reed_properties(r)
+    s = np.linspace(0, r.length, 20001)
+    _, psi = rb.shape(r, "load", s)
+    g = mode_parameters(s, psi, r.width(s), r.width_tip)
+    assert np.allclose(g, (p.gamma1, p.gamma2, p.gamma3), rtol=1e-5)
