@@ -476,7 +476,7 @@ def _first_mode(bm: BeamModel):
         w_new = bm.quad.Q @ th
         lam_new = float(w_new @ w / (w @ w))
         w = w_new / np.max(np.abs(w_new))
-        if abs(lam_new - lam) <= 1e-15 * abs(lam_new):
+        if abs(lam_new - lam) <= 1e-14 * abs(lam_new):
             lam = lam_new
             break
         lam = lam_new

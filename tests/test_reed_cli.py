@@ -112,3 +112,19 @@ def test_table_text_and_figure(cli, capsys, tmp_path):
     assert rc == 0 and png.stat().st_size > 10_000 and obj["plot"] == str(png)
     rc, out, err, obj = run(capsys, "table", "3.9", "--plot", tmp_path / "x.png")
     assert rc == 2 and "--plot" in err
+
+
+def test_user_reed_file_matches_closed_forms(capsys, tmp_path):
+    """A 30 mm long, 0.8 mm thick steel reed with a 10/20 mm step at 30 % (square tip): eq 3.7 and eq 3.40."""
+    from lumped import reed_beam as rb
+
+    f = tmp_path / "steel.toml"
+    f.write_text("[reed]\nlength = 30e-3\nthickness = 0.8e-3\nwidth_root = 10e-3\nwidth_tip = 20e-3\n"
+                 "step_fraction = 0.3\ntip_radius = 0.0\n[reed.material]\nyoungs_modulus = 200e9\n"
+                 "density = 7850.0\npoisson_ratio = 0.3\n")
+    rc, out, err, obj = run(capsys, "reed", f, "--json")
+    assert rc == 0, err
+    alpha = rb.stepped_frequency_parameter(0.3, 2.0)
+    assert obj["omega_n"] == pytest.approx(rb.uniform_natural_frequency(200e9, 7850.0, 0.8e-3, 30e-3, alpha), rel=1e-10)
+    assert obj["kappa"] == pytest.approx(rb.stiffness_eq_3_40(200e9, 0.8e-3, 10e-3, 20e-3, 9e-3, 21e-3), rel=1e-10)
+    assert obj["geometry"] == str(f)

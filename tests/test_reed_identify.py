@@ -121,3 +121,12 @@ def test_bad_parameters_are_named():
     assert e.value.field == "h_eff"
     with pytest.raises(InputError):
         ri.identify([], G1, RHO, HEFF)
+
+
+def test_ringdown_plot(tmp_path):
+    from studies.plots import plot_ringdown
+
+    traces = synthetic_runs(2)
+    res = ri.identify(traces, G1, RHO, HEFF)
+    p = plot_ringdown(tmp_path / "fit.png", traces, res["runs"])
+    assert p.stat().st_size > 10_000
