@@ -251,7 +251,7 @@ def poiseuille_multiplier(reed: Reed, psi, F4: float, layout: SealingLayout | No
     ``psi``: a callable psi(s) (s in m), the mode function normalised at the tip;
     ``F4`` the pressure fraction of the base section (Table 3.12 varies it over 0..1).
     """
-    from .reed_beam import ProfileQuadrature  # spectral quadrature on the pieces
+    from .quadrature import ProfileQuadrature
 
     lay = SealingLayout.thesis() if layout is None else layout
     q = ProfileQuadrature(lay.breaks(reed), nodes)
