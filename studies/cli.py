@@ -24,6 +24,8 @@ COMMANDS: dict[str, str] = {
     "reed": "studies.cmd_reed",
     "table": "studies.cmd_table",
     "lts": "studies.cmd_lts",
+    "pump": "studies.cmd_pump",
+    "validate": "studies.cmd_validate",
 }
 
 

@@ -19,6 +19,9 @@ TABLES: dict[str, str] = {
     "3.11": "studies.tables_reed:table_3_11",
     "3.12": "studies.tables_reed:table_3_12",
     "3.13": "studies.tables_reed:table_3_13",
+    "2.3": "studies.tables_pump:table_2_3",
+    "5.4": "studies.tables_pump:table_5_4",
+    "5.6": "studies.tables_pump:table_5_6",
 }
 
 

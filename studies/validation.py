@@ -1,0 +1,257 @@
+"""The pump validation of chapter 5: the 12 cases of Tables 5.3-5.6, their errors, tables and plots.
+
+Each case (``studies/data/experiments.toml``) is simulated with the thesis configuration
+of its valve type (:func:`lumped.params.thesis_model`) until cyclic steady state; the
+modeled delivery is compared with the measured one and with the thesis's modeled value.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
+from pathlib import Path
+
+from lumped.params import PumpModel, inferred_reed_dead_volume, thesis_model, with_reed_properties
+from lumped.pump import PumpResult, simulate
+from studies.thesis import experiments
+
+#: (valve, measured valve, condition) -> thesis figure of that valve's position trace
+FIGURES = {
+    ("disc", "inlet", "baseline"): "5.7", ("disc", "inlet", "high_speed"): "5.8",
+    ("disc", "inlet", "high_pressure"): "5.9", ("disc", "delivery", "baseline"): "5.10",
+    ("disc", "delivery", "high_speed"): "5.11", ("disc", "delivery", "high_pressure"): "5.12",
+    ("reed", "inlet", "low_speed"): "5.16", ("reed", "inlet", "medium_speed"): "5.17",
+    ("reed", "inlet", "high_speed"): "5.18", ("reed", "delivery", "low_speed"): "5.19",
+    ("reed", "delivery", "medium_speed"): "5.20", ("reed", "delivery", "high_speed"): "5.21",
+}
+
+#: run settings: (revolutions, max_revolutions, trace revolutions)
+FULL = dict(revolutions=5, max_revolutions=12, trace_revolutions=3)
+QUICK = dict(revolutions=3, max_revolutions=3, trace_revolutions=1)
+
+
+def cases(valve: str | None = None, table: str | None = None) -> list[dict]:
+    """The validation cases, optionally of one valve type or one table ("5.4", "5.6")."""
+    out = experiments()
+    if valve is not None:
+        out = [c for c in out if c["valve"] == valve]
+    if table is not None:
+        out = [c for c in out if c["table"] == table]
+    return out
+
+
+def case_name(case: dict) -> str:
+    """A file-name friendly id, e.g. ``disc_inlet_baseline``."""
+    return f"{case['valve']}_{case['measured_valve']}_{case['condition']}"
+
+
+def run_case(case: dict, *, params: PumpModel | None = None, quick: bool = False, trace: bool = True,
+             progress: bool = False) -> PumpResult:
+    """Simulate one validation case to cyclic steady state (thesis configuration unless ``params``)."""
+    s = QUICK if quick else FULL
+    model = params if params is not None else thesis_model(case["valve"], case["air_content"])
+    return simulate(case["valve"], case["speed_rpm"], case["load_pressure"], params=model,
+                    revolutions=s["revolutions"], max_revolutions=s["max_revolutions"], trace=trace,
+                    trace_revolutions=s["trace_revolutions"], progress=progress)
+
+
+def _run_one(args):
+    case, params, quick, trace = args
+    return run_case(case, params=params, quick=quick, trace=trace)
+
+
+def run_cases(selected: list[dict], *, params_for=None, quick: bool = False, trace: bool = True,
+              progress: bool = False, jobs: int = 1) -> list[PumpResult]:
+    """Simulate the cases (in ``jobs`` processes), progress as a count on stderr.
+
+    ``params_for(case) -> PumpModel | None`` overrides the thesis configuration per case.
+    """
+    work = [(c, params_for(c) if params_for else None, quick, trace) for c in selected]
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=len(work), desc="pump cases", unit="case", file=sys.stderr)
+    results: list[PumpResult] = []
+    if jobs > 1:
+        with ProcessPoolExecutor(max_workers=jobs) as ex:
+            for r in ex.map(_run_one, work):
+                results.append(r)
+                if bar:
+                    bar.update(1)
+    else:
+        for w in work:
+            results.append(_run_one(w))
+            if bar:
+                bar.update(1)
+    if bar:
+        bar.close()
+    return results
+
+
+def table_rows(selected: list[dict], results: list[PumpResult]) -> list[dict]:
+    """Rows of Table 5.4 / 5.6 (CONTRACT keys) with the thesis's modeled values beside ours."""
+    rows = []
+    for c, r in zip(selected, results):
+        modeled = r.delivery_per_rev * 1e6
+        measured = c["measured_delivery"] * 1e6
+        thesis = c["thesis_modeled_delivery"] * 1e6
+        err = (modeled - measured) / measured * 100
+        thesis_err = c["thesis_error_pct"]
+        rows.append({
+            "condition": c["condition"], "measured_valve": c["measured_valve"],
+            "speed_rpm": c["speed_rpm"], "load_pressure_pa": c["load_pressure"],
+            "air_content": r.air_content,
+            "modeled_cc": round(modeled, 5), "measured_cc": measured, "error_pct": round(err, 3),
+            "thesis_modeled_cc": thesis, "thesis_error_pct": thesis_err,
+            "vs_thesis_model_pct": round((modeled - thesis) / thesis * 100, 3),
+            "abs_error_worse_than_thesis_pp": round(abs(err) - abs(thesis_err), 3),
+            "cyclic_steady": r.cyclic_steady, "revolutions": r.revolutions,
+        })
+    return rows
+
+
+def reed_parameter_chain(fidelities=("analytic", "beam", "plate", "solid"), quick: bool = False,
+                         progress: bool = True) -> dict:
+    """Step 1 of ``validate``: the prototype reed's kappa, gammas, h_eff by each fidelity.
+
+    Calls ``studies.reed_check.multi_fidelity_check(reed, fidelities=..., progress=...)``
+    (task B), which returns the rows per fidelity and the selected ``ReedProperties``.
+    When that module is not installed, the step reports it and the pump uses Table 3.13.
+    """
+    try:
+        from studies.reed_check import multi_fidelity_check
+    except ImportError as exc:
+        return {"status": "unavailable", "reason": f"studies.reed_check not available ({exc})",
+                "rows": [], "selected": None}
+    from geometry import load_reed
+
+    reed = load_reed("prototype")
+    kwargs = {"fidelities": tuple(fidelities), "progress": progress}
+    if quick:
+        kwargs["quick"] = True
+    try:
+        out = multi_fidelity_check(reed, **kwargs)
+    except TypeError:                                  # no quick option
+        kwargs.pop("quick", None)
+        out = multi_fidelity_check(reed, **kwargs)
+    if isinstance(out, dict):
+        rows, selected = out.get("rows", []), out.get("selected")
+    else:
+        rows, selected = out
+    return {"status": "ok", "reason": "", "rows": list(rows), "selected": selected}
+
+
+#: extra column of Table 5.6: the reed cases with the inferred reed-manifold dead volume
+INFERRED_COLUMN = "modeled_cc_v_tdc_40cc"
+
+
+def inferred_dead_volume_model(case: dict) -> PumpModel:
+    """Thesis reed configuration with V_tdc = 4.0e-5 m^3 (docs/errata.md, 'Reed pump delivery offset')."""
+    m = thesis_model(case["valve"], case["air_content"])
+    return replace(m, pump=replace(m.pump, dead_volume=inferred_reed_dead_volume()))
+
+
+def add_inferred_column(selected: list[dict], rows: list[dict], quick: bool = False, progress: bool = False,
+                        jobs: int = 1) -> None:
+    """Run the reed cases with the inferred dead volume and add INFERRED_COLUMN to their rows."""
+    pairs = [(c, r) for c, r in zip(selected, rows) if c["valve"] == "reed"]
+    if not pairs:
+        return
+    res = run_cases([c for c, _ in pairs], params_for=inferred_dead_volume_model, quick=quick, trace=False,
+                    progress=progress, jobs=jobs)
+    for (c, row), r in zip(pairs, res):
+        d = r.delivery_per_rev * 1e6
+        row[INFERRED_COLUMN] = round(d, 5)
+        row["inferred_vs_thesis_model_pct"] = round((d - row["thesis_modeled_cc"]) / row["thesis_modeled_cc"] * 100, 3)
+        row["inferred_error_pct"] = round((d - row["measured_cc"]) / row["measured_cc"] * 100, 3)
+
+
+def reed_model_from(props) -> PumpModel:
+    """Thesis reed pump with kappa, gammas and h_eff of a reed model (Table 3.13 empirical rest)."""
+    m = thesis_model("reed")
+    return replace(m, inlet=with_reed_properties(m.inlet, props),
+                   delivery=with_reed_properties(m.delivery, props))
+
+
+# ----------------------------------------------------------------- output files
+def write_table(rows: list[dict], stem: Path, title: str, notes: list[str] = ()) -> list[Path]:
+    """Write rows as ``stem.csv`` and ``stem.md`` (Markdown table with notes)."""
+    cols: list[str] = []
+    for r in rows:
+        cols += [k for k in r if k not in cols]
+    csv_path, md_path = stem.with_suffix(".csv"), stem.with_suffix(".md")
+    with open(csv_path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=cols)
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: _cell(r.get(k)) for k in cols})
+    lines = [f"# {title}", "", "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    lines += ["| " + " | ".join(_cell(r.get(k)) for k in cols) + " |" for r in rows]
+    if notes:
+        lines += [""] + [f"- {n}" for n in notes]
+    md_path.write_text("\n".join(lines) + "\n")
+    return [csv_path, md_path]
+
+
+def _cell(v) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    return str(v)
+
+
+def plot_case(case: dict, result: PumpResult, path: Path) -> Path:
+    """Valve positions (both valves, the measured one highlighted) and pressures over the traced revolutions."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    tr = result.trace
+    t_ms = tr.time * 1e3
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True, constrained_layout=True)
+    meas = case["measured_valve"]
+    for name, pos, color in (("inlet", tr.inlet_position, "tab:blue"), ("delivery", tr.delivery_position, "tab:red")):
+        ax1.plot(t_ms, pos * 1e3, color=color, lw=2.0 if name == meas else 0.8,
+                 label=f"{name} valve" + (" (measured in the thesis)" if name == meas else ""))
+    ax1.set_ylabel("valve position [mm]")
+    ax1.axhline(0.0, color="k", lw=0.5)
+    ax1.legend(loc="upper right", fontsize=8)
+    fig_no = FIGURES.get((case["valve"], meas, case["condition"]), "")
+    ax1.set_title(f"{case['valve']} valves, {case['condition'].replace('_', ' ')}: {case['speed_rpm']:.0f} rpm, "
+                  f"{case['load_pressure'] / 1e6:.2f} MPa (model version of thesis Figure {fig_no})", fontsize=9)
+    ax2.plot(t_ms, tr.cylinder_pressure / 1e6, color="k", lw=1.0, label="cylinder")
+    ax2.plot(t_ms, tr.load_pressure / 1e6, color="tab:gray", lw=1.0, ls="--", label="load")
+    ax2.set_ylabel("pressure [MPa]")
+    ax2.set_xlabel("time from top dead centre [ms]")
+    ax2.legend(loc="upper right", fontsize=8)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def error_summary(rows: list[dict]) -> dict:
+    """Mean/max absolute error vs measured, ours and the thesis's, and the largest gap to the thesis's model."""
+    if not rows:
+        return {}
+    ours = [abs(r["error_pct"]) for r in rows]
+    th = [abs(r["thesis_error_pct"]) for r in rows]
+    gap = [abs(r["vs_thesis_model_pct"]) for r in rows]
+    return {
+        "mean_abs_error_pct": round(sum(ours) / len(ours), 3), "max_abs_error_pct": round(max(ours), 3),
+        "thesis_mean_abs_error_pct": round(sum(th) / len(th), 3), "thesis_max_abs_error_pct": round(max(th), 3),
+        "max_abs_diff_from_thesis_model_pct": round(max(gap), 3),
+        "worst_vs_thesis_pp": round(max(r["abs_error_worse_than_thesis_pp"] for r in rows), 3),
+    }
+
+
+def default_jobs() -> int:
+    """Processes for the case runs: 1 unless VALVELAB_JOBS says otherwise (the machine is shared)."""
+    try:
+        return max(1, int(os.environ.get("VALVELAB_JOBS", "1")))
+    except ValueError:
+        return 1
+
