@@ -30,8 +30,8 @@ def configure(p):
     p.add_argument("--reed-fidelity", default="analytic",
                    help="reed model for --reed-geometry: analytic (default), beam, plate or solid")
     p.add_argument("--dead-volume-m3", type=float, default=None,
-                   help="cylinder volume at TDC [m^3] (default Table 5.1: 2.17e-5; the reed model of the "
-                        "thesis reproduces with 4.0e-5, see docs/errata.md)")
+                   help="cylinder volume at TDC [m^3] (default: Table 5.1's 2.17e-5 for the disc pump, the inferred "
+                        "4.0e-5 for the reed manifolds, see docs/errata.md)")
     p.add_argument("--rtol", type=float, default=1e-6, help="integrator relative tolerance (default 1e-6)")
     p.add_argument("--atol", type=float, default=1e-6, help="integrator absolute tolerance, in state scales")
 

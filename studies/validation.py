@@ -14,7 +14,7 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 
-from lumped.params import PumpModel, inferred_reed_dead_volume, thesis_model, with_reed_properties
+from lumped.params import PumpModel, table_5_1_dead_volume, thesis_model, with_reed_properties
 from lumped.pump import PumpResult, simulate
 from studies.thesis import experiments
 
@@ -144,29 +144,29 @@ def reed_parameter_chain(fidelities=("analytic", "beam", "plate", "solid"), quic
     return {"status": "ok", "reason": "", "rows": list(rows), "selected": selected}
 
 
-#: extra column of Table 5.6: the reed cases with the inferred reed-manifold dead volume
-INFERRED_COLUMN = "modeled_cc_v_tdc_40cc"
+#: extra column of Table 5.6: the reed cases with Table 5.1's dead volume instead of the inferred one
+TABLE_5_1_COLUMN = "modeled_cc_table_5_1_v_tdc"
 
 
-def inferred_dead_volume_model(case: dict) -> PumpModel:
-    """Thesis reed configuration with V_tdc = 4.0e-5 m^3 (docs/errata.md, 'Reed pump delivery offset')."""
+def table_5_1_dead_volume_model(case: dict) -> PumpModel:
+    """Thesis configuration with Table 5.1's V_tdc = 2.17e-5 m^3 (docs/errata.md, 'Reed pump delivery offset')."""
     m = thesis_model(case["valve"], case["air_content"])
-    return replace(m, pump=replace(m.pump, dead_volume=inferred_reed_dead_volume()))
+    return replace(m, pump=replace(m.pump, dead_volume=table_5_1_dead_volume()))
 
 
-def add_inferred_column(selected: list[dict], rows: list[dict], quick: bool = False, progress: bool = False,
+def add_table_5_1_column(selected: list[dict], rows: list[dict], quick: bool = False, progress: bool = False,
                         jobs: int = 1) -> None:
-    """Run the reed cases with the inferred dead volume and add INFERRED_COLUMN to their rows."""
+    """Run the reed cases with Table 5.1's dead volume and add TABLE_5_1_COLUMN to their rows."""
     pairs = [(c, r) for c, r in zip(selected, rows) if c["valve"] == "reed"]
     if not pairs:
         return
-    res = run_cases([c for c, _ in pairs], params_for=inferred_dead_volume_model, quick=quick, trace=False,
+    res = run_cases([c for c, _ in pairs], params_for=table_5_1_dead_volume_model, quick=quick, trace=False,
                     progress=progress, jobs=jobs)
     for (c, row), r in zip(pairs, res):
         d = r.delivery_per_rev * 1e6
-        row[INFERRED_COLUMN] = round(d, 5)
-        row["inferred_vs_thesis_model_pct"] = round((d - row["thesis_modeled_cc"]) / row["thesis_modeled_cc"] * 100, 3)
-        row["inferred_error_pct"] = round((d - row["measured_cc"]) / row["measured_cc"] * 100, 3)
+        row[TABLE_5_1_COLUMN] = round(d, 5)
+        row["table_5_1_vs_thesis_model_pct"] = round((d - row["thesis_modeled_cc"]) / row["thesis_modeled_cc"] * 100, 3)
+        row["table_5_1_error_pct"] = round((d - row["measured_cc"]) / row["measured_cc"] * 100, 3)
 
 
 def reed_model_from(props) -> PumpModel:
