@@ -201,10 +201,13 @@ def face_mesh(reed: Reed, mesh_size: float, quad: bool = False, order: int = 1,
             face = cut[0][1]
             occ.remove([(1, centre)], recursive=True)  # the centre line is now the boundary
             tools = tools[1:]
-        out, out_map = occ.fragment([(2, face)], tools)
+        if tools:
+            _, out_map = occ.fragment([(2, face)], tools)
+            keep = {t for d, t in out_map[0] if d == 2}
+        else:
+            keep = {face}
         occ.synchronize()
         # keep only the pieces of the reed face (groove pieces outside it are dropped)
-        keep = {t for d, t in out_map[0] if d == 2}
         drop = [(d, t) for d, t in gmsh.model.getEntities(2) if t not in keep]
         if drop:
             gmsh.model.removeEntities(drop, recursive=True)

@@ -23,6 +23,7 @@ from geometry.errors import InputError
 COMMANDS: dict[str, str] = {
     "reed": "studies.cmd_reed",
     "table": "studies.cmd_table",
+    "check": "studies.cmd_check",
 }
 
 

@@ -12,6 +12,9 @@ HELP = "regenerate a table of the thesis (computed values beside the thesis's)"
 #: list of row dicts (thesis values in fields named ``thesis_<field>``), or a dict
 #: with ``rows`` and optional ``notes``.
 TABLES: dict[str, str] = {}
+TABLES["3.3"] = "studies.tables_fea:table_3_3"
+TABLES["3.9"] = "studies.tables_fea:table_3_9"
+TABLES["3.11"] = "studies.tables_fea:table_3_11"
 
 
 def configure(p):
