@@ -24,6 +24,8 @@ COMMANDS: dict[str, str] = {
     "reed": "studies.cmd_reed",
     "table": "studies.cmd_table",
     "check": "studies.cmd_check",
+    "seat": "studies.cmd_seat",
+    "modes": "studies.cmd_modes",
 }
 
 
