@@ -64,7 +64,7 @@ def _load(v, w):
 
 def _field(basis: Basis, fn) -> np.ndarray:
     """A function of s evaluated at the quadrature points, shaped (nelems, nq)."""
-    x = basis.global_coordinates().value[0]
+    x = np.asarray(basis.global_coordinates())[0]
     return np.asarray(fn(x.ravel()), dtype=float).reshape(x.shape)
 
 
@@ -73,7 +73,7 @@ def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> BeamR
     h = DEFAULT_MESH_SIZE if mesh_size is None else float(mesh_size)
     mesh = line_mesh(reed, h)
     basis = Basis(mesh, ElementLineHermite(), intorder=INTORDER)
-    x = basis.global_coordinates().value[0]
+    x = np.asarray(basis.global_coordinates())[0]
     A, I2 = reed.section(x.ravel())
     EI = reed.material.youngs_modulus * I2.reshape(x.shape)
     m = reed.material.density * A.reshape(x.shape)

@@ -256,6 +256,17 @@ def face_mesh(reed: Reed, mesh_size: float, quad: bool = False, order: int = 1,
     remap[used] = np.arange(len(used))
     t = remap[t]
     pts = xyz[used, :2]
+    # counter-clockwise in (s, y) (the solid sweep relies on it for right-handed hexahedra)
+    x, y = pts[t, 0], pts[t, 1]
+    nv = 4 if want == 3 else 3
+    area = sum(x[:, i] * y[:, (i + 1) % nv] - x[:, (i + 1) % nv] * y[:, i] for i in range(nv))
+    flip = area < 0
+    if want == 3:
+        t[flip] = t[flip][:, [0, 3, 2, 1]]
+    elif want == 2:
+        t[flip] = t[flip][:, [0, 2, 1]]
+    elif want == 9:
+        t[flip] = t[flip][:, [0, 2, 1, 5, 4, 3]]
     meshio_type = {2: "triangle", 3: "quad", 9: "triangle6"}[want]
     mesh = from_meshio(meshio.Mesh(pts, [(meshio_type, t)]))
     # the element's groove depth from its centroid (elements never straddle a groove edge)

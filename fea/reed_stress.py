@@ -112,7 +112,7 @@ def _stress_summary(reed, basis, u, clamp_exclusion):
     lam = m.youngs_modulus * m.poisson_ratio / ((1 + m.poisson_ratio) * (1 - 2 * m.poisson_ratio))
     mu = m.youngs_modulus / (2 * (1 + m.poisson_ratio))
     vm = von_mises(g, lam, mu)
-    x = basis.global_coordinates().value  # (3, nel, nq)
+    x = np.asarray(basis.global_coordinates())  # (3, nel, nq)
     k = np.unravel_index(np.argmax(vm), vm.shape)
     away = x[0] > clamp_exclusion
     return float(vm[k]), tuple(float(x[i][k]) for i in range(3)), float(vm[away].max())
@@ -165,7 +165,7 @@ def seat_reverse_stress(reed: Reed, seat: ReedSeat | None = None, pressure: floa
     fb = FacetBasis(mesh, basis.elem, facets=top, intorder=INTORDER)
     f = np.zeros(3 * basis.N)
     for a in range(len(fb.basis)):
-        np.add.at(f, 3 * fb.element_dofs[a] + 2, -p * (fb.basis[a][0].value * fb.dx).sum(axis=1))
+        np.add.at(f, 3 * fb.element_dofs[a] + 2, -p * (np.asarray(fb.basis[a][0]) * fb.dx).sum(axis=1))
     support = basis.get_dofs(facets=land).all()
     fixed = np.unique(np.concatenate([fixed_dofs(basis, half), 3 * support + 2]))
     u, dofs = _solve(K, f, fixed)

@@ -92,7 +92,7 @@ def _static_stiffness(mesh, material, load_facets, fixed_facets, load: float, me
     # uniform axial traction -F/A e_z (toward the support), distributed consistently
     f = np.zeros(3 * basis.N)
     for a in range(len(fb.basis)):
-        np.add.at(f, 3 * fb.element_dofs[a] + 2, -load / area * (fb.basis[a][0].value * fb.dx).sum(axis=1))
+        np.add.at(f, 3 * fb.element_dofs[a] + 2, -load / area * (np.asarray(fb.basis[a][0]) * fb.dx).sum(axis=1))
     fixed = basis.get_dofs(facets=fixed_facets).all()
     fixed = (3 * fixed[:, None] + np.arange(3)[None, :]).ravel()
     free = np.setdiff1d(np.arange(3 * basis.N), fixed)
@@ -101,7 +101,7 @@ def _static_stiffness(mesh, material, load_facets, fixed_facets, load: float, me
     # area-mean axial displacement of the loaded surface
     uz = np.zeros(basis.N)
     uz[:] = u[2::3]
-    mean = -float(sum((fb.basis[a][0].value * fb.dx).sum(axis=1) @ uz[fb.element_dofs[a]]
+    mean = -float(sum((np.asarray(fb.basis[a][0]) * fb.dx).sum(axis=1) @ uz[fb.element_dofs[a]]
                       for a in range(len(fb.basis)))) / area
     k = load / mean
     return ContactStiffness(part=part, load=load, mean_displacement=mean, stiffness=k,

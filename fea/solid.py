@@ -93,7 +93,7 @@ def assemble(basis: Basis, youngs_modulus: float, poisson_ratio: float, density:
         Ke = lam * D4 + mu * D4.transpose(0, 1, 4, 3, 2)
         Ke += mu * tr[:, :, None, :, None] * np.eye(3)[None, None, :, None, :]
         kdata[sl] = Ke.reshape(-1, 3 * nb, 3 * nb)
-        phi = np.stack([basis.basis[a][0].value[sl] for a in range(nb)], axis=1)  # (ne, nb, nq)
+        phi = np.stack([np.asarray(basis.basis[a][0])[sl] for a in range(nb)], axis=1)  # (ne, nb, nq)
         Me = density * np.matmul(phi * dx[:, None, :], phi.transpose(0, 2, 1))  # (ne, nb, nb)
         for i in range(3):
             mdata[sl, i::3, i::3] = Me
@@ -112,7 +112,7 @@ def pressure_load(sm: SolidMesh, basis: Basis, pressure: float = 1.0) -> np.ndar
     f = np.zeros(3 * basis.N)
     edofs = fb.element_dofs  # (nb, nf)
     for a in range(len(fb.basis)):
-        phi = fb.basis[a][0].value  # (nf, nq)
+        phi = np.asarray(fb.basis[a][0])  # (nf, nq)
         for i in range(3):
             np.add.at(f, 3 * edofs[a] + i, -pressure * np.sum(n[i] * phi * fb.dx, axis=1))
     return f

@@ -63,6 +63,8 @@ def table_3_3() -> dict:
             "thesis_omega_eb": t.get("omega_eb"),
             "thesis_omega_fea": t["omega_fea"],
             "thesis_error_pct": t.get("error_pct"),
+            "kappa_fea": float(fea.kappa),
+            "gamma1_fea": float(fea.gamma1),
             "fea_dofs": fea.dofs,
             "fea_mesh_size": fea.mesh_size,
         })
