@@ -91,6 +91,7 @@ def _setup(reed: Reed, mesh_size, symmetric_extra=True):
 
 
 def _solve(K, f, fixed):
+    """Static solution with ``fixed`` DOFs held at zero (one sparse LU)."""
     free = np.setdiff1d(np.arange(K.shape[0]), fixed)
     u = np.zeros(K.shape[0])
     lu = spla.splu(K[free][:, free].tocsc(), permc_spec="MMD_AT_PLUS_A")
@@ -118,15 +119,15 @@ def _stress_summary(reed, basis, u, clamp_exclusion):
     return float(vm[k]), tuple(float(x[i][k]) for i in range(3)), float(vm[away].max())
 
 
-def _beam_root_stress(reed: Reed, pressure: float) -> float:
-    """sigma = M(0) c / I at the clamp of the E-B beam under q = p W(s) [Pa]."""
-    s = np.linspace(0.0, reed.length, 4001)
-    M0 = pressure * np.trapezoid(reed.width(s) * s, s)
-    A, I = reed.section(0.0)
+def beam_bending_stress(reed: Reed, pressure: float, s0: float = 0.0) -> float:
+    """sigma = M(s0) c / I [Pa] of the E-B beam under q = p W(s), at the extreme fibre of section s0."""
+    s = np.linspace(s0, reed.length, 4001)
+    M = pressure * np.trapezoid(reed.width(s) * (s - s0), s)
+    A, I = reed.section(s0)
     # extreme fibre: the neutral axis shifts away from the grooved face
-    W, h = float(reed.width(0.0)), reed.thickness
-    zc = (W * h * h / 2 - sum((y1 - y0) * d * d / 2 for y0, y1, d in reed._pockets(0.0))) / A
-    return float(M0 * max(zc, h - zc) / I)
+    W, h = float(reed.width(s0)), reed.thickness
+    zc = (W * h * h / 2 - sum((y1 - y0) * d * d / 2 for y0, y1, d in reed._pockets(s0))) / A
+    return float(M * max(zc, h - zc) / I)
 
 
 def max_opening_stress(reed: Reed, x_stop: float | None = None, mesh_size=None,
@@ -142,7 +143,7 @@ def max_opening_stress(reed: Reed, x_stop: float | None = None, mesh_size=None,
     u = p * u1
     ce = 2 * reed.thickness if clamp_exclusion is None else clamp_exclusion
     mx, loc, away = _stress_summary(reed, basis, u, ce)
-    return StressCheck("max_opening", p, x_stop, mx, loc, away, _beam_root_stress(reed, p),
+    return StressCheck("max_opening", p, x_stop, mx, loc, away, beam_bending_stress(reed, p),
                        yield_stress, dofs, h)
 
 

@@ -97,7 +97,7 @@ def _static_stiffness(mesh, material, load_facets, fixed_facets, load: float, me
     fixed = (3 * fixed[:, None] + np.arange(3)[None, :]).ravel()
     free = np.setdiff1d(np.arange(3 * basis.N), fixed)
     u = np.zeros(3 * basis.N)
-    u[free] = spla.spsolve(K[free][:, free].tocsc(), f[free])
+    u[free] = spla.splu(K[free][:, free].tocsc(), permc_spec="MMD_AT_PLUS_A").solve(f[free])
     # area-mean axial displacement of the loaded surface
     uz = np.zeros(basis.N)
     uz[:] = u[2::3]

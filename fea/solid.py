@@ -12,6 +12,7 @@ the mid-plane are mesh lines).
 
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass, field
 
@@ -214,7 +215,16 @@ def solve(reed: Reed, mesh_size: float | None = None, layers: int = DEFAULT_LAYE
 
 
 def reed_properties(reed: Reed, mesh_size: float | None = None) -> ReedProperties:
-    """omega_n [rad/s], kappa [Pa/m] and gamma1..3 (Table 3.4, static shape) from 3-D FEA."""
+    """omega_n [rad/s], kappa [Pa/m] and gamma1..3 (Table 3.4, static shape) from 3-D FEA.
+
+    Memoised in memory per (reed, mesh size): the tables and the check ask for the same
+    reeds several times in one run.
+    """
+    return _reed_properties(reed, None if mesh_size is None else float(mesh_size))
+
+
+@functools.lru_cache(maxsize=16)
+def _reed_properties(reed: Reed, mesh_size: float | None) -> ReedProperties:
     r = solve(reed, mesh_size)
     g1, g2, g3 = mode_parameters(r.s, r.psi_static, reed.width(r.s), reed.width_tip)
     return ReedProperties(
