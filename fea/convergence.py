@@ -3,9 +3,11 @@
 With three meshes of sizes h1 > h2 > h3 in a constant ratio r = h1/h2 = h2/h3 and values
 f1, f2, f3, the observed order is p = ln((f1 - f2)/(f2 - f3)) / ln r and the extrapolated
 value f_inf = f3 + (f3 - f2)/(r^p - 1). The estimated discretisation error of mesh k is
-|f_k - f_inf| / |f_inf|. If the sequence is not monotonic, no order can be observed:
-f_inf is then the finest value and the error estimate the largest change between meshes
-(a conservative bound), and ``monotonic`` is False.
+|f_k - f_inf| / |f_inf|. That needs the asymptotic range: changes of one sign that shrink
+(``converging``). Otherwise (not ``monotonic``, or monotonic changes that do not shrink, as
+near stress singularities like re-entrant corners and groove edges) no order is observed:
+f_inf is then the finest value and every mesh's error estimate is at least the largest
+change between meshes.
 """
 
 from __future__ import annotations
@@ -27,7 +29,8 @@ class Richardson:
     order: float | None
     extrapolated: float
     error_pct: tuple[float, ...]   # estimated discretisation error of each mesh [%]
-    monotonic: bool
+    monotonic: bool                # the changes have one sign
+    converging: bool               # ... and shrink: Richardson applies
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -43,8 +46,9 @@ def richardson(sizes, values) -> Richardson:
         raise ValueError("mesh sizes must decrease")
     r = math.sqrt(h[0] / h[2])
     d1, d2 = f[0] - f[1], f[1] - f[2]
-    monotonic = d1 * d2 > 0 and abs(d2) < abs(d1)
-    if monotonic:
+    monotonic = d1 * d2 > 0 or (d1 == 0 and d2 == 0)
+    converging = d1 * d2 > 0 and abs(d2) < abs(d1)
+    if converging:
         p = math.log(d1 / d2) / math.log(r)
         f_inf = f[2] - d2 / (r**p - 1.0)
         err = tuple(float(abs(v - f_inf) / abs(f_inf) * 100) for v in f)
@@ -57,7 +61,7 @@ def richardson(sizes, values) -> Richardson:
         err = tuple(float(max(bound, abs(v - f_inf) / abs(f_inf) * 100)) for v in f)
     return Richardson(
         sizes=tuple(map(float, h)), values=tuple(map(float, f)), ratio=r, order=p,
-        extrapolated=float(f_inf), error_pct=err, monotonic=bool(monotonic),
+        extrapolated=float(f_inf), error_pct=err, monotonic=bool(monotonic), converging=bool(converging),
     )
 
 
@@ -81,7 +85,9 @@ def convergence_study(reed, fidelity: str, sizes=None, quantities=("omega_n", "k
             raise ValueError(f"no mesh for fidelity {fidelity!r}")
         import importlib
 
-        sizes = default_sizes(importlib.import_module(default).DEFAULT_MESH_SIZE)
+        mod = importlib.import_module(default)
+        base = mod.default_mesh_size(reed) if hasattr(mod, "default_mesh_size") else mod.DEFAULT_MESH_SIZE
+        sizes = default_sizes(base)
     props = []
     for k, h in enumerate(sizes):
         if progress:
@@ -109,7 +115,7 @@ def plot_convergence(study: dict, path) -> None:
     for ax, (name, r) in zip(axes[0], qs.items()):
         ax.semilogx(study["dofs"], r["values"], "o-", label="FEA")
         ax.axhline(r["extrapolated"], color="k", ls="--", lw=0.8,
-                   label=f"Richardson (p = {r['order']:.2f})" if r["order"] else "finest (not monotonic)")
+                   label=f"Richardson (p = {r['order']:.2f})" if r["order"] else "finest (not asymptotic)")
         ax.set_xlabel("degrees of freedom")
         ax.set_title(f"{name}: error {r['error_pct'][-1]:.3f} % on the finest mesh", fontsize=9)
         ax.legend(fontsize=8)

@@ -29,6 +29,12 @@ INTORDER = 10
 N_SHAPE = 401
 
 
+
+def default_mesh_size(reed: Reed) -> float:
+    """The converged default element size [m]: DEFAULT_MESH_SIZE, scaled down for reeds shorter than 1 in."""
+    return DEFAULT_MESH_SIZE * min(1.0, reed.length / 25.4e-3)
+
+
 @dataclass
 class PlateResult:
     """Plate FE results (SI): frequencies [rad/s] with their kinds, kappa [Pa/m], shapes."""
@@ -69,7 +75,7 @@ def _load(v, w):
 
 def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> PlateResult:
     """Modes (classified), uniform-load stiffness [Pa/m] and centre-line shapes of the clamped plate."""
-    size = DEFAULT_MESH_SIZE if mesh_size is None else float(mesh_size)
+    size = default_mesh_size(reed) if mesh_size is None else float(mesh_size)
     fm = face_mesh(reed, size, quad=False)
     basis = Basis(fm.mesh, ElementTriArgyris(), intorder=INTORDER)
     hel = (reed.thickness - fm.depth)[:, None] * np.ones((1, basis.X.shape[1]))

@@ -30,7 +30,7 @@ from geometry.reed import Reed
 from geometry.seat_stop import ReedSeat, load_reed_seat
 
 from .mesh import is_symmetric, solid_mesh
-from .solid import DEFAULT_LAYERS, DEFAULT_MESH_SIZE, INTORDER, assemble, fixed_dofs, pressure_load
+from .solid import DEFAULT_LAYERS, INTORDER, assemble, default_mesh_size, fixed_dofs, pressure_load
 
 #: Delrin 2700 NC010 yield stress [Pa] (thesis section 3.1.1)
 YIELD_STRESS_DELRIN = 63.0e6
@@ -81,7 +81,7 @@ def von_mises(grad_u: np.ndarray, lam: float, mu: float) -> np.ndarray:
 
 
 def _setup(reed: Reed, mesh_size, symmetric_extra=True):
-    h = DEFAULT_MESH_SIZE if mesh_size is None else float(mesh_size)
+    h = default_mesh_size(reed) if mesh_size is None else float(mesh_size)
     half = is_symmetric(reed) and symmetric_extra
     sm = solid_mesh(reed, h, layers=DEFAULT_LAYERS, half=half)
     basis = Basis(sm.mesh, ElementHex2(), intorder=INTORDER)

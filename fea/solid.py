@@ -27,8 +27,8 @@ from lumped.mode_function import ReedProperties, effective_thickness, mode_param
 from .mesh import SolidMesh, is_symmetric, solid_mesh, write_vtu
 from .modes import classify_solid_modes, probe_z
 
-#: default element size [m] (away from the clamp), converged to < 0.3 % (see the
-#: convergence study in tests/test_fea_solid.py and the report in docs/errata.md)
+#: default element size [m] (away from the clamp) for a 1 in reed: discretisation error
+#: < 0.3 % in omega_n and kappa (three-mesh study, tests/test_fea_slow.py, docs/errata.md)
 DEFAULT_MESH_SIZE = 1.0e-3
 #: elements through half the thickness
 DEFAULT_LAYERS = 1
@@ -36,6 +36,12 @@ DEFAULT_LAYERS = 1
 INTORDER = 4
 #: points sampled along the centre line for psi(s)
 N_SHAPE = 401
+
+
+
+def default_mesh_size(reed: Reed) -> float:
+    """The converged default element size [m]: DEFAULT_MESH_SIZE, scaled down for reeds shorter than 1 in."""
+    return DEFAULT_MESH_SIZE * min(1.0, reed.length / 25.4e-3)
 
 
 @dataclass
@@ -157,7 +163,7 @@ def solve(reed: Reed, mesh_size: float | None = None, layers: int = DEFAULT_LAYE
     symmetric plane condition, which holds the bending modes and the pressure response;
     ``torsion=True`` then also solves the antisymmetric half for the torsion modes.
     """
-    h = DEFAULT_MESH_SIZE if mesh_size is None else float(mesh_size)
+    h = default_mesh_size(reed) if mesh_size is None else float(mesh_size)
     half = is_symmetric(reed) if symmetry is None else bool(symmetry and is_symmetric(reed))
     tm = {}
     t0 = time.perf_counter()

@@ -114,7 +114,7 @@ def render(r: dict) -> str:
     text = render_check(r)
     for fid, st in r.get("convergence", {}).items():
         for q, c in st["quantities"].items():
-            order = f"p = {c['order']:.2f}" if c["order"] else "not monotonic"
+            order = f"p = {c['order']:.2f}" if c["order"] else ("monotonic, not asymptotic" if c["monotonic"] else "not monotonic")
             text += (f"\nconvergence {fid} {q}: {', '.join(f'{v:.6g}' for v in c['values'])} -> "
                      f"{c['extrapolated']:.6g} ({order}); error at the default mesh {c['error_pct'][1]:.3f} %")
     for f in r.get("files", []):

@@ -12,7 +12,7 @@ def test_recovers_order_and_limit_of_a_power_law(p):
     f_inf, C = 2400.0, 37.0
     h = default_sizes(1.0e-3)
     r = richardson(h, [f_inf + C * (x / 1e-3) ** p for x in h])
-    assert r.monotonic
+    assert r.monotonic and r.converging
     assert r.order == pytest.approx(p, rel=1e-9)
     assert r.extrapolated == pytest.approx(f_inf, rel=1e-12)
     # error of each mesh is exactly its distance to the limit
@@ -22,9 +22,15 @@ def test_recovers_order_and_limit_of_a_power_law(p):
 
 def test_non_monotonic_sequence_is_flagged_with_a_conservative_bound():
     r = richardson((2e-3, 1.4e-3, 1e-3), [10.0, 9.0, 9.5])
-    assert not r.monotonic and r.order is None
+    assert not r.monotonic and not r.converging and r.order is None
     assert r.extrapolated == 9.5
     assert min(r.error_pct) >= abs(9.0 - 10.0) / 9.5 * 100 - 1e-12
+
+
+def test_monotonic_but_not_shrinking_changes_give_no_order():
+    r = richardson((2e-3, 1.4e-3, 1e-3), [10.0, 9.9, 9.7])
+    assert r.monotonic and not r.converging and r.order is None
+    assert r.error_pct[1] == pytest.approx(0.2 / 9.7 * 100)
 
 
 def test_sizes_ratio():
