@@ -26,6 +26,9 @@ COMMANDS: dict[str, str] = {
     "lts": "studies.cmd_lts",
     "pump": "studies.cmd_pump",
     "validate": "studies.cmd_validate",
+    "check": "studies.cmd_check",
+    "seat": "studies.cmd_seat",
+    "modes": "studies.cmd_modes",
 }
 
 

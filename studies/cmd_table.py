@@ -14,9 +14,10 @@ HELP = "regenerate a table of the thesis (computed values beside the thesis's)"
 TABLES: dict[str, str] = {
     "5.2": "studies.tables_lts:table_5_2",
     "B.2": "studies.tables_lts:table_b_2",
+    "3.3": "studies.tables_fea:table_3_3",
     "3.8": "studies.tables_reed:table_3_8",
-    "3.9": "studies.tables_reed:table_3_9",
-    "3.11": "studies.tables_reed:table_3_11",
+    "3.9": "studies.tables_fea:table_3_9",
+    "3.11": "studies.tables_fea:table_3_11",
     "3.12": "studies.tables_reed:table_3_12",
     "3.13": "studies.tables_reed:table_3_13",
     "2.3": "studies.tables_pump:table_2_3",
