@@ -16,7 +16,7 @@ import scipy.sparse.linalg as spla
 from skfem import Basis, BilinearForm, ElementLineHermite, LinearForm, asm, condense, solve as fem_solve
 
 from geometry.reed import Reed
-from lumped.mode_function import ReedProperties, effective_thickness, mode_parameters
+from lumped.mode_function import ReedProperties
 
 from .mesh import line_mesh
 
@@ -104,9 +104,5 @@ def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> BeamR
 def reed_properties(reed: Reed, mesh_size: float | None = None) -> ReedProperties:
     """omega_n [rad/s], kappa [Pa/m] and gamma1..3 (Table 3.4, static shape) of the E-B beam FE model."""
     r = solve(reed, mesh_size)
-    g1, g2, g3 = mode_parameters(reed, r.s, r.psi_static)
-    return ReedProperties(
-        fidelity="beam", omega_n=r.omega_n, kappa=r.kappa, gamma1=g1, gamma2=g2, gamma3=g3,
-        h_eff=effective_thickness(g1, r.kappa, reed.material.density, r.omega_n),
-        s=r.s, psi=r.psi_static, dofs=r.dofs, mesh_size=r.mesh_size,
-    )
+    return ReedProperties.from_shape("beam", reed, r.omega_n, r.kappa, r.s, r.psi_static,
+                                     dofs=r.dofs, mesh_size=r.mesh_size)

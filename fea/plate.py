@@ -18,7 +18,7 @@ from skfem import Basis, BilinearForm, ElementTriArgyris, LinearForm, asm, conde
 from skfem.helpers import dd, ddot, eye, trace
 
 from geometry.reed import Reed
-from lumped.mode_function import ReedProperties, effective_thickness, mode_parameters
+from lumped.mode_function import ReedProperties
 
 from .mesh import face_mesh
 from .modes import classify_by_symmetry, mirror_points
@@ -110,9 +110,5 @@ def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> Plate
 def reed_properties(reed: Reed, mesh_size: float | None = None) -> ReedProperties:
     """omega_n [rad/s], kappa [Pa/m] and gamma1..3 (Table 3.4, static shape) of the Kirchhoff plate."""
     r = solve(reed, mesh_size)
-    g1, g2, g3 = mode_parameters(reed, r.s, r.psi_static)
-    return ReedProperties(
-        fidelity="plate", omega_n=r.omega_n, kappa=r.kappa, gamma1=g1, gamma2=g2, gamma3=g3,
-        h_eff=effective_thickness(g1, r.kappa, reed.material.density, r.omega_n),
-        s=r.s, psi=r.psi_static, dofs=r.dofs, mesh_size=r.mesh_size,
-    )
+    return ReedProperties.from_shape("plate", reed, r.omega_n, r.kappa, r.s, r.psi_static,
+                                     dofs=r.dofs, mesh_size=r.mesh_size)

@@ -22,7 +22,7 @@ import scipy.sparse.linalg as spla
 from skfem import Basis, ElementHex2, FacetBasis
 
 from geometry.reed import Reed
-from lumped.mode_function import ReedProperties, effective_thickness, mode_parameters
+from lumped.mode_function import ReedProperties
 
 from .mesh import SolidMesh, is_symmetric, solid_mesh, write_vtu
 from .modes import classify_solid_modes, probe_z
@@ -232,12 +232,8 @@ def reed_properties(reed: Reed, mesh_size: float | None = None) -> ReedPropertie
 @functools.lru_cache(maxsize=16)
 def _reed_properties(reed: Reed, mesh_size: float | None) -> ReedProperties:
     r = solve(reed, mesh_size)
-    g1, g2, g3 = mode_parameters(reed, r.s, r.psi_static)
-    return ReedProperties(
-        fidelity="solid", omega_n=r.omega_n, kappa=r.kappa, gamma1=g1, gamma2=g2, gamma3=g3,
-        h_eff=effective_thickness(g1, r.kappa, reed.material.density, r.omega_n),
-        s=r.s, psi=r.psi_static, dofs=r.dofs, mesh_size=r.mesh_size,
-    )
+    return ReedProperties.from_shape("solid", reed, r.omega_n, r.kappa, r.s, r.psi_static,
+                                     dofs=r.dofs, mesh_size=r.mesh_size)
 
 
 def write_modes_vtu(result: SolidResult, path) -> None:

@@ -78,6 +78,18 @@ class ReedProperties:
     dofs: int | None = None
     mesh_size: float | None = None
 
+    @classmethod
+    def from_shape(cls, fidelity: str, reed, omega_n: float, kappa: float, s, psi,
+                   dofs: int | None = None, mesh_size: float | None = None) -> "ReedProperties":
+        """Properties of a model that gives omega_n [rad/s], kappa [Pa/m] and the static shape psi(s).
+
+        gamma1..3 by :func:`mode_parameters` (piecewise on ``reed``), h_eff by eq 3.62.
+        """
+        g1, g2, g3 = mode_parameters(reed, s, psi)
+        return cls(fidelity=fidelity, omega_n=float(omega_n), kappa=float(kappa), gamma1=g1, gamma2=g2,
+                   gamma3=g3, h_eff=effective_thickness(g1, kappa, reed.material.density, omega_n),
+                   s=np.asarray(s), psi=np.asarray(psi), dofs=dofs, mesh_size=mesh_size)
+
     def as_contract(self, geometry: str) -> dict:
         """The JSON object of ``valvelab reed --json`` (CONTRACT.md)."""
         return {
