@@ -74,6 +74,11 @@ def step_tag(p):  # pragma: no cover - placeholder
 
 
 @numba.njit(cache=True)
+def update_tolerances(p, atol):  # pragma: no cover - placeholder: fixed tolerances
+    return
+
+
+@numba.njit(cache=True)
 def jacobian(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h):  # pragma: no cover - placeholder
     return -1
 
@@ -255,6 +260,7 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
     y = y0.copy()
     t = t0
     t_end = tstops[-1]
+    update_tolerances(p, atol)
     n_stops = tstops.shape[0]
     y_stops = np.full((n_stops, n), np.nan)
     f0 = np.empty(n)
@@ -471,6 +477,7 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
         if k_ev >= 0:
             jac_age = jac_reuse
             code = apply_event(k_ev, t, y, p)
+            update_tolerances(p, atol)
             if n_ev >= ev_t.shape[0]:
                 ev_t = _grow(ev_t, n_ev)
                 ev_k = _grow(ev_k, n_ev)
@@ -508,18 +515,21 @@ def _rebind(func, scope: dict, tag: str, cache: bool = False):
     return numba.njit(cache=cache)(fn)
 
 
-def specialize(rhs_func, tag: str, events=None, apply=None, tagger=None, jac=None, cache: bool = True):
+def specialize(rhs_func, tag: str, events=None, apply=None, tagger=None, jac=None, tolerances=None,
+               cache: bool = True):
     """A compiled :func:`solve` bound to a model's functions (numba.njit), inlined, no Python.
 
     ``rhs_func(t, y, p, dydt)``; optional ``events(t, y, p, g)``, ``apply(k, t, y, p) -> int``,
     ``tagger(p) -> int`` and ``jac(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h) -> int``
     (fills df/dy and df/dt, returns the rhs calls used, or -1 to fall back to forward
-    differences). ``tag`` names the compiled copy (its on-disk cache entry), e.g.
+    differences) and ``tolerances(p, atol)`` (may rewrite the absolute tolerances in place
+    from the model state; called at the start and after every event). ``tag`` names the compiled copy (its on-disk cache entry), e.g.
     "pump_<hash>"; a tag must stand for one set of functions.
     """
     scope = dict(solve.py_func.__globals__)
     scope["rhs"] = rhs_func
-    for name, f in (("event_values", events), ("apply_event", apply), ("step_tag", tagger), ("jacobian", jac)):
+    for name, f in (("event_values", events), ("apply_event", apply), ("step_tag", tagger), ("jacobian", jac),
+                    ("update_tolerances", tolerances)):
         if f is not None:
             scope[name] = f
     # helpers that call the model's functions get the same bindings

@@ -76,7 +76,7 @@ def _compare(valve, speed, load, air, revolutions=3, params=None):
         assert (fa is None) == (ra is None)
         if fa is not None:
             d = abs(fa - ra) % (2 * math.pi)
-            assert min(d, 2 * math.pi - d) < math.radians(0.25)
+            assert min(d, 2 * math.pi - d) < math.radians(0.5)  # 0.16 deg on the 12 cases; grazing lift-offs move most
     # stop_contacts is not compared here: where a disc leaves its stop grazing (u ~ 0), the
     # count depends on the velocity tolerance (see test_same_switches_at_tight_tolerance)
     return r, f

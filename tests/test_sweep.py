@@ -349,3 +349,14 @@ def test_pump_sweep_on_local_cluster(client, tmp_path):
     assert np.allclose(reed["volumetric_efficiency"], reed["delivery_m3_per_rev"] / swept, rtol=1e-12)
     assert ((reed["volumetric_efficiency"] > 0.6) & (reed["volumetric_efficiency"] < 1.0)).all()
     assert (reed["delivery_peak_opening_m"] > 0).all() and (reed["revolutions_run"] == 2).all()
+
+
+def test_contract_example_sweep_file_is_valid():
+    """The sweep file shown in CONTRACT.md parses and passes the pump model's checks."""
+    text = (ROOT / "CONTRACT.md").read_text()
+    section = text[text.index("## Extensions: sweeps"):]
+    block = section[section.index("```toml") + 7: section.index("```", section.index("```toml") + 7)]
+    spec = spec_of(block)
+    sweep.check_spec(spec, sweep.load_model("pump"))
+    assert {f.name for f in spec.factors} == {"speed_rpm", "valve", "delivery.compliant_seat_stiffness"}
+    assert spec.fixed_dict["effect.piston_leakage"] is True and len(sweep.sample_designs(spec)) == 1024
