@@ -260,6 +260,23 @@ def _source_digest() -> str:
 
 
 DIGEST = _source_digest()
+
+
+def _drop_stale_cache() -> None:
+    """Remove compiled solvers of earlier physics sources from numba's cache (they never load)."""
+    from pathlib import Path
+
+    for folder in {Path(sys.modules[m].__file__).parent / "__pycache__" for m in ("lumped.rodas", *PHYSICS_MODULES)}:
+        for f in folder.glob("*.nb[ic]"):
+            for marker in ("__pump_", "__py_"):
+                if marker in f.name and DIGEST not in f.name:
+                    try:
+                        f.unlink()
+                    except OSError:  # another process's, or a read-only install: harmless
+                        pass
+
+
+_drop_stale_cache()
 _solver = rodas.specialize(_rhs, f"pump_{DIGEST}", events=_events, apply=_apply, tagger=_tag, jac=_jacobian,
                            tolerances=_tolerances)
 
