@@ -29,6 +29,8 @@ COMMANDS: dict[str, str] = {
     "check": "studies.cmd_check",
     "seat": "studies.cmd_seat",
     "modes": "studies.cmd_modes",
+    "sweep": "studies.cmd_sweep",
+    "sweep-plot": "studies.cmd_sweep_plot",
 }
 
 

@@ -1,0 +1,80 @@
+"""CPU seconds per simulated second of pumping: fast path vs reference path, same process.
+
+Run on demand from the repository root: ``python benchmarks/bench_pump.py [--quick]``;
+prints one JSON object. For each valve type it simulates the thesis's validation cases
+(Tables 5.4 and 5.6; ``--quick``: the first of each) for five revolutions, as the thesis
+did (section 5.6: 23 s of CPU per simulated second), with
+``lumped.pump_fast.simulate`` (default tolerances) and ``lumped.pump.simulate`` (its
+defaults), one after the other in this process, and reports CPU seconds per simulated
+second of each, their ratio, and the delivery difference. The fast path's one-off numba
+compilation (or cache load) is reported separately and never counted in its CPU time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import resource
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from lumped import pump as reference  # noqa: E402
+from lumped import pump_fast as fast  # noqa: E402
+from studies.thesis import experiments  # noqa: E402
+
+
+def run(quick: bool = False, revolutions: int = 5) -> dict:
+    t0 = time.perf_counter()
+    compile_s = fast.compile_seconds()
+    out = {
+        "benchmark": "pump", "machine": platform.machine(), "python": platform.python_version(),
+        "revolutions": revolutions, "thesis_cpu_per_simulated_second": 23.0,
+        "fast_compile_or_cache_load_seconds": round(compile_s, 3),
+        "fast_tolerances": {"rtol": fast.RTOL, "atol": fast.ATOL}, "valves": {},
+    }
+    for valve in ("disc", "reed"):
+        cases = [c for c in experiments() if c["valve"] == valve]
+        if quick:
+            cases = cases[:1]
+        rows, f_cpu, r_cpu, sim = [], 0.0, 0.0, 0.0
+        for c in cases:
+            args = (valve, c["speed_rpm"], c["load_pressure"])
+            f = fast.simulate(*args, air_content=c["air_content"], revolutions=revolutions)
+            r = reference.simulate(*args, air_content=c["air_content"], revolutions=revolutions)
+            f_cpu += f.cpu_seconds
+            r_cpu += r.cpu_seconds
+            sim += f.simulated_seconds
+            rows.append({
+                "condition": c["condition"], "measured_valve": c["measured_valve"], "speed_rpm": c["speed_rpm"],
+                "fast_cpu_per_simulated_second": round(f.cpu_per_simulated_second, 5),
+                "reference_cpu_per_simulated_second": round(r.cpu_per_simulated_second, 4),
+                "speedup": round(r.cpu_seconds / f.cpu_seconds, 1),
+                "delivery_relative_difference": (f.delivery_per_rev - r.delivery_per_rev) / r.delivery_per_rev,
+                "fast_rhs_evaluations": f.rhs_evaluations, "reference_rhs_evaluations": r.rhs_evaluations,
+            })
+        out["valves"][valve] = {
+            "fast_cpu_per_simulated_second": round(f_cpu / sim, 5),
+            "reference_cpu_per_simulated_second": round(r_cpu / sim, 4),
+            "speedup": round(r_cpu / f_cpu, 1),
+            "worst_delivery_relative_difference": max(abs(x["delivery_relative_difference"]) for x in rows),
+            "cases": rows,
+        }
+    out["peak_memory_mb"] = round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)
+    out["wall_seconds"] = round(time.perf_counter() - t0, 1)
+    return out
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="one case per valve type")
+    ap.add_argument("--revolutions", type=int, default=5)
+    a = ap.parse_args(argv)
+    print(json.dumps(run(a.quick, a.revolutions), indent=2))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,547 @@
+"""A compiled stiff integrator: Rodas4P, an L-stable, stiffly accurate Rosenbrock method.
+
+Rodas4P (Steinebach 1995; METH = 3 of Hairer & Wanner's code RODAS, *Solving ODEs II*,
+2nd ed., section IV.7) is a 6-stage Rosenbrock method of order 4 with an embedded
+order-3 error estimate and a 3rd-order dense output. Unlike Rodas4 it keeps its order on
+stiff problems driven by a time-dependent forcing (the Prothero-Robinson test, which is
+the shape of a cylinder pressure driven by the crank: Rodas4 needed 5x the steps there). Each step solves six linear systems with one LU factorisation of
+W = I/(h gamma) - J, so no Newton iteration is needed. It suits valve models well: L-stable,
+so the stiff seat and stop contacts and the compressible cylinder do not limit the step
+once their transients have decayed, and stiffly accurate, so a valve resting on its
+seat is an exact equilibrium rather than a ringing one.
+
+The right-hand side is a module-level name ``rhs(t, y, p, dydt)`` (fills ``dydt`` in
+place; ``p`` a flat float64 parameter array). :func:`specialize` returns a copy of
+:func:`solve` with ``rhs`` bound to a given ``numba.njit`` function, compiled once and
+cached on disk under a name of its own, so every model gets a solver with its
+right-hand side inlined and no Python in the loop.
+
+The Jacobian is formed by forward differences over the first ``n_dyn`` states only: the
+remaining states are quadratures (e.g. integrated mass flows) that never feed back.
+"""
+
+from __future__ import annotations
+
+import types
+
+import numba
+import numpy as np
+
+# Rodas4P coefficients (RODAS, METH = 3), in the transformed form
+# W k_i = f(t + c_i h, y + sum a_ij k_j) + sum (C_ij / h) k_j + h d_i f_t.
+GAMMA = 0.25
+C2, C3, C4 = 0.75, 0.21, 0.63
+D1, D2, D3, D4 = 0.25, -0.5, -0.023504, -0.0362
+A21 = 3.0
+A31, A32 = 1.831036793486759, 0.4955183967433795
+A41, A42, A43 = 2.304376582692669, -0.05249275245743001, -1.176798761832782
+A51, A52, A53, A54 = -7.170454962423024, -4.741636671481785, -16.31002631330971, -1.062004044111401
+C21 = -12.0
+C31, C32 = -8.791795173947035, -2.207865586973518
+C41, C42, C43 = 10.81793056857153, 6.780270611428266, 19.53485944642410
+C51, C52, C53, C54 = 34.19095006749676, 15.49671153725963, 54.74760875964130, 14.16005392148534
+C61, C62, C63, C64, C65 = (34.62605830930532, 15.30084976114473, 56.99955578662667,
+                           18.40807009793095, -5.714285714285717)
+H21, H22, H23, H24, H25 = 25.09876703708589, 11.62013104361867, 28.49148307714626, -5.664021568594133, 0.0
+H31, H32, H33, H34, H35 = 1.638054557396973, -0.7373619806678748, 8.477918219238990, 15.99253148779520, -1.882352941176471
+
+SAFE, FAC_MIN, FAC_MAX = 0.9, 0.2, 6.0  # step ratio limits of RODAS
+
+#: solver status codes
+OK, MAX_STEPS, STEP_TOO_SMALL, TOO_MANY_EVENTS = 0, 1, 2, 3
+STATUS_TEXT = {OK: "ok", MAX_STEPS: "too many steps", STEP_TOO_SMALL: "step size underflow",
+               TOO_MANY_EVENTS: "too many events (chatter)"}
+
+
+@numba.njit(cache=True)
+def rhs(t, y, p, dydt):  # pragma: no cover - placeholder, replaced by specialize()
+    dydt[:] = 0.0
+
+
+@numba.njit(cache=True)
+def event_values(t, y, p, g):  # pragma: no cover - placeholder: no events
+    g[:] = 1.0
+
+
+@numba.njit(cache=True)
+def apply_event(k, t, y, p):  # pragma: no cover - placeholder
+    return 0
+
+
+@numba.njit(cache=True)
+def step_tag(p):  # pragma: no cover - placeholder
+    return 0
+
+
+@numba.njit(cache=True)
+def update_tolerances(p, atol):  # pragma: no cover - placeholder: fixed tolerances
+    return
+
+
+@numba.njit(cache=True)
+def jacobian(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h):  # pragma: no cover - placeholder
+    return -1
+
+
+@numba.njit(cache=True)
+def fd_jacobian(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h):
+    """Forward-difference df/dy (first n_dyn columns; the rest are zero) and df/dt into jac, ft.
+
+    f0 = f(t, y); yp, fp are scratch vectors. Increments: sqrt(eps) times max(|y_j|, atol_j/rtol)
+    (the state's own scale), and sqrt(eps) max(|t|, h) in time. Returns the rhs calls made.
+    """
+    n = y.shape[0]
+    sq = 1.4901161193847656e-08
+    for j in range(n):
+        for i in range(n):
+            jac[i, j] = 0.0
+    for j in range(n_dyn):
+        scale = max(abs(y[j]), atol[j] / rtol)
+        yp[:] = y
+        yp[j] = y[j] + sq * scale
+        dy = yp[j] - y[j]
+        rhs(t, yp, p, fp)
+        for i in range(n):
+            jac[i, j] = (fp[i] - f0[i]) / dy
+    dt = sq * max(abs(t), abs(h), 1e-10)
+    rhs(t + dt, y, p, fp)
+    for i in range(n):
+        ft[i] = (fp[i] - f0[i]) / dt
+    return n_dyn + 1
+
+
+@numba.njit(cache=True)
+def lu_factor(a, piv):
+    """In-place LU factorisation with partial pivoting of a small dense matrix; False if singular."""
+    n = a.shape[0]
+    for k in range(n):
+        m = k
+        big = abs(a[k, k])
+        for i in range(k + 1, n):
+            if abs(a[i, k]) > big:
+                big = abs(a[i, k])
+                m = i
+        piv[k] = m
+        if big == 0.0 or not np.isfinite(big):
+            return False
+        if m != k:
+            for j in range(n):
+                tmp = a[k, j]
+                a[k, j] = a[m, j]
+                a[m, j] = tmp
+        inv = 1.0 / a[k, k]
+        for i in range(k + 1, n):
+            a[i, k] *= inv
+            f = a[i, k]
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    a[i, j] -= f * a[k, j]
+    return True
+
+
+@numba.njit(cache=True)
+def lu_solve(a, piv, b):
+    """Solve (LU) x = b in place in b, with the factors and pivots of :func:`lu_factor`."""
+    n = a.shape[0]
+    for k in range(n):
+        m = piv[k]
+        if m != k:
+            tmp = b[k]
+            b[k] = b[m]
+            b[m] = tmp
+    for i in range(1, n):
+        s = b[i]
+        for j in range(i):
+            s -= a[i, j] * b[j]
+        b[i] = s
+    for i in range(n - 1, -1, -1):
+        s = b[i]
+        for j in range(i + 1, n):
+            s -= a[i, j] * b[j]
+        b[i] = s / a[i, i]
+
+
+@numba.njit(cache=True)
+def dense(s, y0, y1, q2, q3):
+    """Rodas4P's 3rd-order interpolant at fraction s of a step from y0 to y1."""
+    return y0 * (1.0 - s) + s * (y1 + (1.0 - s) * (q2 + s * q3))
+
+
+@numba.njit(cache=True)
+def _grow(a, m):
+    b = np.empty((2 * a.shape[0] + 16,) + a.shape[1:], dtype=a.dtype)
+    b[:m] = a[:m]
+    return b
+
+
+@numba.njit(cache=True)
+def _dense_into(s, y0, y1, q2, q3, out):
+    for i in range(y0.shape[0]):
+        out[i] = y0[i] * (1.0 - s) + s * (y1[i] + (1.0 - s) * (q2[i] + s * q3[i]))
+
+
+# Points per step where the event functions are checked: the step end only, as scipy's
+# solve_ivp does. Scanning the interpolant inside the step would also catch a crossing and
+# return within one step, but the interpolant of a stiff transient (a valve settling on
+# its stop) can dip across a surface the solution never crosses: spurious switches.
+N_SCAN = 1
+
+
+@numba.njit(cache=True)
+def _locate_event(t, h, y0, y1, q2, q3, p, g0, g, ybuf, n_events):
+    """(k, s): the event that fires first in this step and the step fraction where it does.
+
+    An event k fires where g_k drops from >= 0 to < 0. The interpolant is checked at
+    N_SCAN points to bracket the first crossing, which bisection on the interpolant then
+    refines to ~1e-13 of the step. k = -1 if no event fires.
+    """
+    lo = 0.0
+    hi = -1.0
+    for j in range(1, N_SCAN + 1):
+        sj = j / N_SCAN
+        _dense_into(sj, y0, y1, q2, q3, ybuf)
+        event_values(t + sj * h, ybuf, p, g)
+        for kk in range(n_events):
+            if g[kk] < 0.0:
+                hi = sj
+        if hi > 0.0:
+            break
+        lo = sj
+    if hi < 0.0:
+        return -1, 2.0
+    # which events are negative at hi (any already negative at the start fire at once)
+    best_k = -1
+    best_s = 2.0
+    for kk in range(n_events):
+        if g0[kk] < 0.0 and g[kk] < 0.0:
+            return kk, 0.0
+    for kk in range(n_events):
+        if g[kk] >= 0.0:
+            continue
+        a = lo
+        b = hi
+        while b - a > 1e-13:
+            mid = 0.5 * (a + b)
+            _dense_into(mid, y0, y1, q2, q3, ybuf)
+            event_values(t + mid * h, ybuf, p, g0)  # g0 as scratch: reset below
+            if g0[kk] < 0.0:
+                b = mid
+            else:
+                a = mid
+        if b < best_s:
+            best_s = b
+            best_k = kk
+    # g0 served as scratch: the caller recomputes it at the start of the next step
+    return best_k, best_s
+
+
+@numba.njit(cache=True)
+def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n_events, max_events,
+          jac_reuse):
+    """Integrate y' = rhs(t, y, p) from t0 through every time in ``tstops`` (ascending).
+
+    Steps land exactly on each stop; ``y_stops[i]`` is the state there. From ``t_record`` on
+    every accepted step is kept with its dense-output coefficients (``rec_t``, ``rec_y``,
+    ``rec_q2``, ``rec_q3``: step i runs from rec_t[i-1] to rec_t[i], its coefficients stored
+    at i) and ``rec_tag[i] = step_tag(p)`` during it. Error control: RMS over components of
+    err_i / (atol_i + rtol max(|y_i|, |y_new_i|)).
+
+    Events (``n_events`` > 0): ``event_values(t, y, p, g)`` gives one value per event; event
+    k fires where g_k drops from >= 0 to < 0. The step is cut at the first crossing (found
+    on the dense output), ``apply_event(k, t, y, p)`` switches the model (it may change
+    ``p`` and ``y``; its return value is logged) and integration restarts there, so the
+    right-hand side is smooth inside every step. Events are logged in ``ev_t``, ``ev_k``,
+    ``ev_code``.
+
+    Returns (status, y_stops, rec_t, rec_y, rec_q2, rec_q3, rec_tag, ev_t, ev_k, ev_code,
+    n_steps, n_rejected, n_rhs, h_next): h_next is the step size to continue with.
+    """
+    n = y0.shape[0]
+    y = y0.copy()
+    t = t0
+    t_end = tstops[-1]
+    update_tolerances(p, atol)
+    n_stops = tstops.shape[0]
+    y_stops = np.full((n_stops, n), np.nan)
+    f0 = np.empty(n)
+    ft = np.empty(n)
+    fp = np.empty(n)
+    jac = np.empty((n, n))
+    w = np.empty((n, n))
+    piv = np.empty(n, dtype=np.int64)
+    k1 = np.empty(n)
+    k2 = np.empty(n)
+    k3 = np.empty(n)
+    k4 = np.empty(n)
+    k5 = np.empty(n)
+    k6 = np.empty(n)
+    u = np.empty(n)
+    yp = np.empty(n)
+    ynew = np.empty(n)
+    q2 = np.empty(n)
+    q3 = np.empty(n)
+    g0 = np.empty(max(n_events, 1))
+    g1 = np.empty(max(n_events, 1))
+    cap = 1024
+    rec_t = np.empty(cap)
+    rec_y = np.empty((cap, n))
+    rec_q2 = np.empty((cap, n))
+    rec_q3 = np.empty((cap, n))
+    rec_tag = np.empty(cap, dtype=np.int64)
+    ecap = 64
+    ev_t = np.empty(ecap)
+    ev_k = np.empty(ecap, dtype=np.int64)
+    ev_code = np.empty(ecap, dtype=np.int64)
+    n_ev = 0
+    m = 0
+    if t_record <= t0:
+        rec_t[0] = t
+        rec_y[0] = y
+        rec_q2[0] = 0.0
+        rec_q3[0] = 0.0
+        rec_tag[0] = step_tag(p)
+        m = 1
+
+    h = min(h0, hmax, t_end - t0)
+    n_steps = 0
+    n_rej = 0
+    n_rhs = 0
+    status = OK
+    i_stop = 0
+    while i_stop < n_stops and tstops[i_stop] <= t:
+        y_stops[i_stop] = y
+        i_stop += 1
+    h_acc = 0.0
+    err_acc = 1.0
+    first = True
+    reject = False
+    f_fresh = False
+    jac_age = jac_reuse  # forces a Jacobian at the first step
+    while i_stop < n_stops:
+        if n_steps >= max_steps:
+            status = MAX_STEPS
+            break
+        t_stop = tstops[i_stop]
+        h_try = min(h, hmax)
+        hit = False
+        if t + h_try >= t_stop - 1e-12 * abs(t_stop):
+            h_try = t_stop - t
+            hit = True
+        if h_try <= 1e-14 * max(abs(t), 1e-300) or h_try <= 0.0:
+            status = STEP_TOO_SMALL
+            break
+        # f(t, y) at the step start; the Jacobian and f_t by forward differences, kept for
+        # up to jac_reuse accepted steps (fresh after an event or a rejection)
+        if not f_fresh:
+            rhs(t, y, p, f0)
+            n_rhs += 1
+            if n_events > 0:
+                event_values(t, y, p, g0)
+            f_fresh = True
+        if jac_age >= jac_reuse or (reject and jac_age > 0):
+            nj = jacobian(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h_try)
+            if nj < 0:
+                nj = fd_jacobian(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h_try)
+            n_rhs += nj
+            jac_age = 0
+        fac = 1.0 / (h_try * GAMMA)
+        for i in range(n):
+            for j in range(n):
+                w[i, j] = -jac[i, j]
+            w[i, i] += fac
+        ok = lu_factor(w, piv)
+        err = 0.0
+        if ok:
+            hc21, hc31, hc32 = C21 / h_try, C31 / h_try, C32 / h_try
+            hc41, hc42, hc43 = C41 / h_try, C42 / h_try, C43 / h_try
+            hc51, hc52, hc53, hc54 = C51 / h_try, C52 / h_try, C53 / h_try, C54 / h_try
+            hc61, hc62, hc63, hc64, hc65 = C61 / h_try, C62 / h_try, C63 / h_try, C64 / h_try, C65 / h_try
+            for i in range(n):
+                k1[i] = f0[i] + h_try * D1 * ft[i]
+            lu_solve(w, piv, k1)
+            for i in range(n):
+                u[i] = y[i] + A21 * k1[i]
+            rhs(t + C2 * h_try, u, p, k2)
+            for i in range(n):
+                k2[i] += h_try * D2 * ft[i] + hc21 * k1[i]
+            lu_solve(w, piv, k2)
+            for i in range(n):
+                u[i] = y[i] + A31 * k1[i] + A32 * k2[i]
+            rhs(t + C3 * h_try, u, p, k3)
+            for i in range(n):
+                k3[i] += h_try * D3 * ft[i] + hc31 * k1[i] + hc32 * k2[i]
+            lu_solve(w, piv, k3)
+            for i in range(n):
+                u[i] = y[i] + A41 * k1[i] + A42 * k2[i] + A43 * k3[i]
+            rhs(t + C4 * h_try, u, p, k4)
+            for i in range(n):
+                k4[i] += h_try * D4 * ft[i] + hc41 * k1[i] + hc42 * k2[i] + hc43 * k3[i]
+            lu_solve(w, piv, k4)
+            for i in range(n):
+                u[i] = y[i] + A51 * k1[i] + A52 * k2[i] + A53 * k3[i] + A54 * k4[i]
+            rhs(t + h_try, u, p, k5)
+            for i in range(n):
+                k5[i] += hc51 * k1[i] + hc52 * k2[i] + hc53 * k3[i] + hc54 * k4[i]
+            lu_solve(w, piv, k5)
+            for i in range(n):
+                u[i] += k5[i]
+            rhs(t + h_try, u, p, k6)
+            for i in range(n):
+                k6[i] += hc61 * k1[i] + hc62 * k2[i] + hc63 * k3[i] + hc64 * k4[i] + hc65 * k5[i]
+            lu_solve(w, piv, k6)
+            n_rhs += 5
+            for i in range(n):
+                ynew[i] = u[i] + k6[i]
+                sk = atol[i] + rtol * max(abs(y[i]), abs(ynew[i]))
+                err += (k6[i] / sk) ** 2
+            err = np.sqrt(err / n)
+            if not np.isfinite(err):
+                ok = False
+        if not ok:
+            # singular W or a non-finite stage (e.g. a state left the model's domain)
+            h = 0.25 * h_try
+            reject = True
+            n_rej += 1
+            continue
+        n_steps += 1
+        fac_h = max(1.0 / FAC_MAX, min(1.0 / FAC_MIN, err**0.25 / SAFE))
+        h_new = h_try / fac_h
+        if err > 1.0:
+            n_rej += 1
+            h = h_new if not first else 0.1 * h_try
+            reject = True
+            continue
+        # ---- accepted
+        if not first:
+            # Gustafsson's predictive controller (as in RODAS)
+            fg = (h_acc / h_try) * (err * err / err_acc) ** 0.25 / SAFE
+            fg = max(1.0 / FAC_MAX, min(1.0 / FAC_MIN, fg))
+            fac_h = max(fac_h, fg)
+            h_new = h_try / fac_h
+        h_acc = h_try
+        err_acc = max(1e-2, err)
+        first = False
+        if reject:
+            h_new = min(h_new, h_try)
+        reject = False
+        for i in range(n):
+            q2[i] = H21 * k1[i] + H22 * k2[i] + H23 * k3[i] + H24 * k4[i] + H25 * k5[i]
+            q3[i] = H31 * k1[i] + H32 * k2[i] + H33 * k3[i] + H34 * k4[i] + H35 * k5[i]
+        t_old = t
+        t = t_stop if hit else t + h_try
+        # ---- events: cut the step at the first crossing
+        k_ev = -1
+        s_ev = 2.0
+        if n_events > 0:
+            k_ev, s_ev = _locate_event(t_old, h_try, y, ynew, q2, q3, p, g0, g1, yp, n_events)
+        tag = step_tag(p)
+        if k_ev >= 0:
+            # the sub-step [t_old, t_old + s h]: its end state and its own dense coefficients
+            y_e = dense(s_ev, y, ynew, q2, q3)
+            for i in range(n):
+                # P(s x) - y0 (1 - x) - x P(s) = x (1 - x) (a + b x): fit a, b at x = 1/3, 2/3
+                r1 = dense(s_ev / 3.0, y, ynew, q2, q3)[i] - y[i] * (2.0 / 3.0) - y_e[i] / 3.0
+                r2 = dense(2.0 * s_ev / 3.0, y, ynew, q2, q3)[i] - y[i] / 3.0 - y_e[i] * (2.0 / 3.0)
+                a1 = r1 / (2.0 / 9.0)
+                a2 = r2 / (2.0 / 9.0)
+                bb = 3.0 * (a2 - a1)
+                q3[i] = bb
+                q2[i] = a1 - bb / 3.0
+            ynew[:] = y_e
+            t = t_old + s_ev * h_try
+            hit = False
+        if t >= t_record and (t > t_old or m == 0):
+            if m == 0 and t > t_record:
+                # the step that crosses t_record: keep its start too
+                rec_t[0] = t_old
+                rec_y[0] = y
+                rec_q2[0] = 0.0
+                rec_q3[0] = 0.0
+                rec_tag[0] = tag
+                m = 1
+            if m >= rec_t.shape[0]:
+                rec_t = _grow(rec_t, m)
+                rec_y = _grow(rec_y, m)
+                rec_q2 = _grow(rec_q2, m)
+                rec_q3 = _grow(rec_q3, m)
+                rec_tag = _grow(rec_tag, m)
+            rec_t[m] = t
+            rec_y[m] = ynew
+            rec_q2[m] = q2
+            rec_q3[m] = q3
+            rec_tag[m] = tag
+            m += 1
+        y[:] = ynew
+        f_fresh = False
+        jac_age += 1
+        if k_ev >= 0:
+            jac_age = jac_reuse
+            code = apply_event(k_ev, t, y, p)
+            update_tolerances(p, atol)
+            if n_ev >= ev_t.shape[0]:
+                ev_t = _grow(ev_t, n_ev)
+                ev_k = _grow(ev_k, n_ev)
+                ev_code = _grow(ev_code, n_ev)
+            ev_t[n_ev] = t
+            ev_k[n_ev] = k_ev
+            ev_code[n_ev] = code
+            n_ev += 1
+            if n_ev >= max_events:
+                status = TOO_MANY_EVENTS
+                break
+            # the dynamics change here: restart the step-size history
+            first = True
+            h = max(min(h_new, h_try), 1e-6 * h_try)
+            continue
+        if hit:
+            while i_stop < n_stops and tstops[i_stop] <= t:
+                y_stops[i_stop] = y
+                i_stop += 1
+            # a step clipped to land on a stop does not shrink the next one
+            h = max(h_new, h)
+        else:
+            h = h_new
+    return (status, y_stops, rec_t[:m], rec_y[:m], rec_q2[:m], rec_q3[:m], rec_tag[:m],
+            ev_t[:n_ev], ev_k[:n_ev], ev_code[:n_ev], n_steps, n_rej, n_rhs, h)
+
+
+def _rebind(func, scope: dict, tag: str, cache: bool = False):
+    """A numba.njit copy of ``func`` (a dispatcher) reading its globals from ``scope``."""
+    base = func.py_func
+    fn = types.FunctionType(base.__code__, scope, base.__name__, base.__defaults__, base.__closure__)
+    fn.__qualname__ = f"{base.__qualname__}__{tag}"
+    fn.__module__ = base.__module__
+    fn.__doc__ = base.__doc__
+    return numba.njit(cache=cache)(fn)
+
+
+def specialize(rhs_func, tag: str, events=None, apply=None, tagger=None, jac=None, tolerances=None,
+               cache: bool = True):
+    """A compiled :func:`solve` bound to a model's functions (numba.njit), inlined, no Python.
+
+    ``rhs_func(t, y, p, dydt)``; optional ``events(t, y, p, g)``, ``apply(k, t, y, p) -> int``,
+    ``tagger(p) -> int`` and ``jac(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h) -> int``
+    (fills df/dy and df/dt, returns the rhs calls used, or -1 to fall back to forward
+    differences) and ``tolerances(p, atol)`` (may rewrite the absolute tolerances in place
+    from the model state; called at the start and after every event). ``tag`` names the compiled copy (its on-disk cache entry), e.g.
+    "pump_<hash>"; a tag must stand for one set of functions.
+    """
+    scope = dict(solve.py_func.__globals__)
+    scope["rhs"] = rhs_func
+    for name, f in (("event_values", events), ("apply_event", apply), ("step_tag", tagger), ("jacobian", jac),
+                    ("update_tolerances", tolerances)):
+        if f is not None:
+            scope[name] = f
+    # helpers that call the model's functions get the same bindings
+    scope["fd_jacobian"] = _rebind(fd_jacobian, scope, tag)
+    scope["_locate_event"] = _rebind(_locate_event, scope, tag)
+    return _rebind(solve, scope, tag, cache=cache)
+
+
+def interpolate(t, rec_t, rec_y, rec_q2, rec_q3):
+    """States at times ``t`` (array, inside the recorded span) from the dense output (numpy)."""
+    t = np.asarray(t, dtype=float)
+    i = np.clip(np.searchsorted(rec_t, t, side="left"), 1, len(rec_t) - 1)
+    h = rec_t[i] - rec_t[i - 1]
+    s = ((t - rec_t[i - 1]) / h)[:, None]
+    return rec_y[i - 1] * (1 - s) + s * (rec_y[i] + (1 - s) * (rec_q2[i] + s * rec_q3[i]))

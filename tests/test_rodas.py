@@ -1,0 +1,159 @@
+"""The compiled Rodas4P integrator against closed forms and scipy's Radau."""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from lumped import rodas
+
+
+@numba.njit(cache=True)
+def _vdp(t, y, p, dy):
+    dy[0] = y[1]
+    dy[1] = ((1.0 - y[0] ** 2) * y[1] - y[0]) / p[0]
+
+
+@numba.njit(cache=True)
+def _forced(t, y, p, dy):
+    # Prothero-Robinson: y' = lam (y - sin t) + cos t, y = sin t + y0 e^(lam t); stiff for lam << 0
+    dy[0] = p[0] * (y[0] - math.sin(t)) + math.cos(t)
+    dy[1] = y[0]  # quadrature of y: never feeds back (n_dyn = 1)
+
+
+@numba.njit(cache=True)
+def _impact(t, y, p, dy):
+    # a mass moving onto a linear spring-dashpot wall at x < 0 (the seat model of eq 2.20)
+    k, c, m = p[0], p[1], p[2]
+    f = 0.0
+    if y[0] < 0.0:
+        f = -k * y[0] - c * y[1]
+    dy[0] = y[1]
+    dy[1] = f / m
+
+
+@numba.njit(cache=True)
+def _ball(t, y, p, dy):
+    # a ball in flight under gravity (y = height, velocity); the floor is an event
+    dy[0] = y[1]
+    dy[1] = -p[0]
+
+
+@numba.njit(cache=True)
+def _ball_events(t, y, p, g):
+    g[0] = y[0] if y[1] < 0.0 else 1.0   # hits the floor on the way down
+
+
+@numba.njit(cache=True)
+def _ball_bounce(k, t, y, p):
+    y[0] = 0.0
+    y[1] = -p[1] * y[1]                    # restitution
+    p[2] += 1.0                            # bounce counter, changes the model state
+    return int(p[2])
+
+
+@numba.njit(cache=True)
+def _ball_tag(p):
+    return int(p[2])
+
+
+vdp = rodas.specialize(_vdp, "test_vdp")
+ball = rodas.specialize(_ball, "test_ball", events=_ball_events, apply=_ball_bounce, tagger=_ball_tag)
+forced = rodas.specialize(_forced, "test_forced")
+impact = rodas.specialize(_impact, "test_impact")
+
+
+def test_stiff_van_der_pol_matches_radau():
+    eps, y0, T = 1e-6, np.array([2.0, -0.66]), 2.0
+    ref = solve_ivp(
+        lambda t, y: [y[1], ((1 - y[0] ** 2) * y[1] - y[0]) / eps], (0, T), y0, method="Radau",
+        rtol=1e-12, atol=1e-12,
+        jac=lambda t, y: [[0, 1], [(-2 * y[0] * y[1] - 1) / eps, (1 - y[0] ** 2) / eps]],
+    )
+    steps = []
+    for rtol, tol in [(1e-6, 2e-6), (1e-9, 5e-9)]:
+        st, ys, *_, ns, nr, nf, h = vdp(0.0, y0, np.array([T]), np.array([eps]), rtol, np.full(2, rtol),
+                                     1e-6, np.inf, 10**6, 2, np.inf, 0, 0, 1)
+        assert st == rodas.OK
+        assert np.allclose(ys[-1], ref.y[:, -1], rtol=0, atol=tol)
+        steps.append(ns)
+    assert steps[0] < 2000  # a stiff solver: the step follows the slow manifold
+
+
+def test_stops_dense_output_and_quadrature_against_closed_form():
+    lam = -1e4
+    stops = np.array([0.5, 1.0, 2.0, 3.0])
+    st, ys, rt, ry, q2, q3, tags, et, ek, ec, ns, nr, nf, h = forced(0.0, np.array([1.0, 0.0]), stops, np.array([lam]), 1e-8,
+                                                 np.array([1e-12, 1e-12]), 1e-8, np.inf, 10**6, 1, 1.0, 0, 0, 1)
+    assert st == rodas.OK
+    exact = np.sin(stops) + np.exp(lam * stops)
+    assert np.allclose(ys[:, 0], exact, rtol=0, atol=1e-9)
+    # the quadrature state: integral of y = 1 - cos t + (e^(lam t) - 1)/lam
+    assert np.allclose(ys[:, 1], 1 - np.cos(stops) + (np.exp(lam * stops) - 1) / lam, rtol=0, atol=1e-8)
+    assert rt[0] == 1.0 and rt[-1] == 3.0  # recording starts on the stop at t_record
+    # the dense output between steps is as accurate as the steps themselves
+    tt = np.linspace(1.0, 3.0, 997)
+    yy = rodas.interpolate(tt, rt, ry, q2, q3)
+    assert np.max(np.abs(yy[:, 0] - np.sin(tt))) < 5e-7
+    assert ns < 600  # no order reduction on this stiff forced problem (Rodas4 took ~2000)
+
+
+@pytest.mark.parametrize("zeta", [0.05, 0.3, 0.7])
+def test_impact_restitution_matches_the_damped_oscillator(zeta):
+    """Linear spring-dashpot impact: rebound speed e v0 with e = exp(-zeta pi / sqrt(1 - zeta^2))."""
+    k, m = 3.02e9, 2.7e-3  # the disc valve's rigid seat and moving mass (Tables 2.1-2.3)
+    c = 2 * zeta * math.sqrt(k * m)
+    v0, x0 = -0.5, 1e-5
+    wd = math.sqrt(k / m) * math.sqrt(1 - zeta**2)
+    t_contact = x0 / -v0 + math.pi / wd
+    T = t_contact + 2e-5
+    st, ys, *_ = impact(0.0, np.array([x0, v0]), np.array([T]), np.array([k, c, m]), 1e-9,
+                        np.array([1e-15, 1e-9]), 1e-7, np.inf, 10**6, 2, np.inf, 0, 0, 1)
+    assert st == rodas.OK
+    e = math.exp(-zeta * math.pi / math.sqrt(1 - zeta**2))
+    assert ys[-1, 1] == pytest.approx(-e * v0, rel=1e-6)
+    assert ys[-1, 0] == pytest.approx(-e * v0 * (T - t_contact), rel=1e-5)
+
+
+def test_step_budget_is_reported():
+    st, *_ = vdp(0.0, np.array([2.0, -0.66]), np.array([2.0]), np.array([1e-6]), 1e-8, np.full(2, 1e-8),
+                 1e-6, np.inf, 50, 2, np.inf, 0, 0, 1)
+    assert st == rodas.MAX_STEPS
+
+
+def test_lu_solves_a_pivoting_system():
+    rng = np.random.default_rng(1)
+    a = rng.normal(size=(6, 6))
+    a[0, 0] = 0.0  # forces a row exchange
+    b = rng.normal(size=6)
+    lu, piv, x = a.copy(), np.empty(6, dtype=np.int64), b.copy()
+    assert rodas.lu_factor(lu, piv)
+    rodas.lu_solve(lu, piv, x)
+    assert np.allclose(a @ x, b, rtol=0, atol=1e-12)
+
+
+def test_events_are_located_on_the_dense_output():
+    """A bouncing ball: bounce times 2 v0/g e^k sums in closed form; the step is cut at each."""
+    g, e, v0 = 9.81, 0.8, 3.0
+    p = np.array([g, e, 0.0])
+    T = 1.5
+    st, ys, rt, ry, q2, q3, tags, ev_t, ev_k, ev_code, ns, nr, nf, h = ball(
+        0.0, np.array([0.0, v0]), np.array([T]), p, 1e-6, np.array([1e-9, 1e-9]), 1e-3, np.inf, 10**5, 2, 0.0,
+        1, 100, 1)
+    assert st == rodas.OK
+    flights = 2 * v0 / g * e ** np.arange(20)
+    exact = np.cumsum(flights)
+    exact = exact[exact < T]
+    assert len(ev_t) == len(exact) and list(ev_code) == list(range(1, len(exact) + 1))
+    assert np.allclose(ev_t, exact, rtol=0, atol=1e-9)
+    # the steps end on the events and carry the model state (tag) that held during them
+    assert set(exact.round(9)) <= set(np.round(rt, 9))
+    assert tags[-1] == len(exact) and p[2] == len(exact)
+    # after the last bounce: free flight from 0 with speed v0 e^n
+    tau = T - exact[-1]
+    vn = v0 * e ** len(exact)
+    assert ys[-1, 0] == pytest.approx(vn * tau - g * tau**2 / 2, abs=1e-9)
