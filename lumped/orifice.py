@@ -70,6 +70,8 @@ def orifice_flow(area: float, dp: float, rho: float, mu: float, perimeter: float
     dw = 1.0
     for _ in range(100):
         w = 2.0 * sigma - math.log(cd) - lg
+        if w == 0.0:                     # exact root: it would fail the strict bracket test below
+            break
         dw = 2.0 - s * discharge_slope(s, cd_inf, a, b, c) / cd
         if w < 0.0:
             lo = sigma
