@@ -62,11 +62,21 @@ def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: 
 
     f(P) = A P^B + C e^(DP) - E with A = R P0^(1/gamma), B = -1/gamma,
     C = (1 - R) e^(P0/beta), D = -1/beta, E = rho0/rho (eqs 4.12-4.14). Both terms are
-    convex and decreasing in P, so Newton's method started left of the root (f > 0)
-    increases monotonically to it without overshoot. Each term alone gives such a
-    start: the pure-liquid root P_l and the pure-air root P_a both lie below the root
-    (the other term is positive there), so max(P_l, P_a) is a safe, close start.
+    convex and decreasing in P, so a Newton step from any P > 0 lands left of the root
+    (f >= 0) and from there Newton's method increases monotonically to it without
+    overshoot: convergence is guaranteed whatever the start, and a close start only saves
+    iterations. The start is the root of a two-term model: on the expansion side
+    (E > 1 - R, below about P0) the air term with the liquid term frozen at its P0 value;
+    on the compression side the liquid root P_l moved up by the air's share, P_l u with
+    (u - 1) u^(1/gamma) = c = R (P0/P_l)^(1/gamma) beta / (E P_l) (the air volume at P_l
+    against the liquid's compression; liquid term linear in P), solved approximately as
+    u = 1 + c (1 + c)^(-1/(1 + gamma)) (exact for c -> 0 and c -> infinity); never below
+    the pure-liquid root P_l, a lower bound.
     With R = 0 the liquid root is exact (and may be negative: no vapour model).
+
+    It stops when the last step, or the error it leaves (quadratic convergence from the
+    left: below f''(P) step^2 / (2 |f'|), f'' decreasing), is below rtol P + 4e-16 beta:
+    the liquid term fixes P only to ~ beta * eps in absolute terms (conditioning).
     """
     e = rho0 / rho
     # pure-liquid root: (1 - R) exp(-(P - P0)/beta) = E
@@ -75,23 +85,14 @@ def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: 
         # air-free (or so little air that the pure-air root underflows): explicit
         return p_liq, 0
     inv_g = 1.0 / gamma
-    # pure-air root: R (P0/P)^(1/gamma) = E; both single-term roots are lower bounds
-    p_air = p0 * (air / e) ** gamma
-    p_lo = p_liq if p_liq > p_air else p_air
-    p = p_lo
     if e > 1.0 - air:
-        # air root with the liquid term frozen at its P0 value: close to the root while
-        # P << beta (a lower bound below P0, an upper bound above it)
-        p2 = p0 * (air / (e - (1.0 - air))) ** gamma
-        if p2 <= 0.0:
-            p2 = p
-        ta = air * (p0 / p2) ** inv_g
-        tl = (1.0 - air) * math.exp(-(p2 - p0) / beta)
-        f = ta + tl - e
-        if f < 0.0:   # right of the root: one Newton step lands left of it (convexity)
-            p2 = p2 - f / (-ta * inv_g / p2 - tl / beta)
-        if p2 > p:
-            p = p2
+        # air root with the liquid term frozen at its P0 value (above the pure-air root)
+        p = p0 * (air / (e - (1.0 - air))) ** gamma
+    else:
+        c = air * (p0 / p_liq) ** inv_g * beta / (e * p_liq)
+        p = p_liq * (1.0 + c * (1.0 + c) ** (-1.0 / (1.0 + gamma)))
+    if p < p_liq:   # the pure-liquid root is a lower bound (it rescues a start lost in underflow)
+        p = p_liq
     for it in range(1, maxiter + 1):
         ta = air * (p0 / p) ** inv_g
         tl = (1.0 - air) * math.exp(-(p - p0) / beta)
@@ -99,11 +100,16 @@ def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: 
         df = -ta * inv_g / p - tl / beta
         step = f / df
         p_new = p - step
-        if p_new <= 0.0:          # round-off right of the root near P -> 0: stay positive
+        if p_new <= 0.0:          # a step from far right of the root: stay positive
             p_new = 0.5 * p
-        # the liquid term fixes P only to ~ beta * eps in absolute terms (conditioning)
-        if abs(p_new - p) <= rtol * p_new + 4.0e-16 * beta:
+        tol = rtol * p_new + 4.0e-16 * beta
+        if abs(p_new - p) <= tol:
             return p_new, it
+        if f > 0.0:
+            # from the left the error left by this step is at most f''(P) step^2 / (2 |f'(P_new)|)
+            d2 = (ta * inv_g * (inv_g + 1.0) / p + tl / (beta * beta) * p) / p
+            if d2 * step * step <= tol * (-df + d2 * step):     # step < 0 here: |f'(P_new)| >= -df + d2 step
+                return p_new, it
         p = p_new
     return p, maxiter
 
