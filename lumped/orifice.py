@@ -11,24 +11,28 @@ Cd ~ alpha s for small s, Q_o -> 2 alpha^2 k A_o^2 dP / rho: the flow is linear 
 in the pressure drop near zero, so the right-hand side stays smooth through dP = 0 with
 no hand-made regularisation.
 
-Plain float functions (``math`` only) so that ``numba.njit`` can compile the same source.
+Plain float functions (``math``, and numpy ufuncs numba knows) so that ``numba.njit`` can
+compile the same source.
 """
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
+
 #: Halley steps below this (in ln s) leave an error ~ step^3 << 1e-13: the solve stops there
 FINAL_STEP = 1.0e-5
 
 
-def discharge_coefficient(s: float, cd_inf: float, a: float, b: float, c: float) -> float:
+def discharge_coefficient(s, cd_inf: float, a: float, b: float, c: float):
     """Cd at s = sqrt(Re) (eqs 2.47/2.48, 3.88/3.89), with Cd(0) = 0 exactly.
 
     The last coefficient is -(Cd_inf + A), written with expm1 so that small s loses no
-    digits to cancellation (Cd ~ alpha s for tiny flows).
+    digits to cancellation (Cd ~ alpha s for tiny flows). ``s`` may be a numpy array (the
+    parameter check of lumped.params evaluates a whole curve at once).
     """
-    return a * math.expm1(-b * s) - (cd_inf + a) * math.expm1(-c * s)
+    return a * np.expm1(-b * s) - (cd_inf + a) * np.expm1(-c * s)
 
 
 def discharge_slope(s: float, cd_inf: float, a: float, b: float, c: float) -> float:
