@@ -65,13 +65,13 @@ def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: 
     convex and decreasing in P, so a Newton step from any P > 0 lands left of the root
     (f >= 0) and from there Newton's method increases monotonically to it without
     overshoot: convergence is guaranteed whatever the start, and a close start only saves
-    iterations. The start is the root of a two-term model: on the expansion side
-    (E > 1 - R, below about P0) the air term with the liquid term frozen at its P0 value;
-    on the compression side the liquid root P_l moved up by the air's share, P_l u with
-    (u - 1) u^(1/gamma) = c = R (P0/P_l)^(1/gamma) beta / (E P_l) (the air volume at P_l
-    against the liquid's compression; liquid term linear in P), solved approximately as
-    u = 1 + c (1 + c)^(-1/(1 + gamma)) (exact for c -> 0 and c -> infinity); never below
-    the pure-liquid root P_l, a lower bound.
+    iterations. The start solves a two-term model, the liquid term linear in P:
+    R (P0/P)^(1/gamma) = k (P - P_lin), k = (1 - R)/beta, whose liquid-only root P_lin is a
+    lower bound of the true root. Where P_lin > 0 it is P_lin u with (u - 1) u^(1/gamma) = c
+    = R P0^(1/gamma) / (k P_lin^(1 + 1/gamma)) (the air volume at P_lin against the liquid's
+    compression), solved as u = 1 + c (1 + c)^(-1/(1 + gamma)), exact for c -> 0 and
+    c -> infinity and within 9 % between; otherwise (expansion) the air takes up the whole
+    density change with the liquid frozen at its P0 volume.
     With R = 0 the liquid root is exact (and may be negative: no vapour model).
 
     It stops when the last step, or the error it leaves (quadratic convergence from the
@@ -79,20 +79,25 @@ def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: 
     the liquid term fixes P only to ~ beta * eps in absolute terms (conditioning).
     """
     e = rho0 / rho
-    # pure-liquid root: (1 - R) exp(-(P - P0)/beta) = E
-    p_liq = p0 - beta * math.log(e / (1.0 - air))
     if air <= 1e-200:
-        # air-free (or so little air that the pure-air root underflows): explicit
-        return p_liq, 0
+        # air-free (or so little air that the pure-air root underflows): the liquid root, explicit
+        return p0 - beta * math.log(e / (1.0 - air)), 0
     inv_g = 1.0 / gamma
-    if e > 1.0 - air:
-        # air root with the liquid term frozen at its P0 value (above the pure-air root)
-        p = p0 * (air / (e - (1.0 - air))) ** gamma
+    # start: the root of the two-term model with the liquid term linear in P,
+    # R (P0/P)^(1/gamma) = k (P - P_lin), k = (1 - R)/beta, P_lin its liquid-only root (a
+    # lower bound of the true root), i.e. P^(1/gamma) (P - P_lin) = A
+    k = (1.0 - air) / beta
+    p_lin = p0 - (e - (1.0 - air)) / k
+    big_a = air * p0 ** inv_g / k
+    if p_lin > 0.0:
+        # P = P_lin u, (u - 1) u^(1/gamma) = c: u = 1 + c (1 + c)^(-1/(1 + gamma))
+        c = big_a / p_lin ** (1.0 + inv_g)
+        p = p_lin * (1.0 + c * (1.0 + c) ** (-1.0 / (1.0 + gamma)))
     else:
-        c = air * (p0 / p_liq) ** inv_g * beta / (e * p_liq)
-        p = p_liq * (1.0 + c * (1.0 + c) ** (-1.0 / (1.0 + gamma)))
-    if p < p_liq:   # the pure-liquid root is a lower bound (it rescues a start lost in underflow)
-        p = p_liq
+        # the air takes up the density change, the liquid frozen at its P0 volume
+        p = p0 * (air / (e - (1.0 - air))) ** gamma
+    if not p > p_lin:       # underflow or rounding: fall back on the lower bound
+        p = p_lin if p_lin > 0.0 else p0 * (air / e) ** gamma
     for it in range(1, maxiter + 1):
         ta = air * (p0 / p) ** inv_g
         tl = (1.0 - air) * math.exp(-(p - p0) / beta)
