@@ -79,15 +79,27 @@ def orifice_flow(area: float, dp: float, rho: float, mu: float, perimeter: float
     cd = 0.0
     w1 = 1.0
     for _ in range(100):
-        mb = math.expm1(-b * s)                               # the only two exponentials
-        mc = math.expm1(-c * s)
-        cd = a * mb - ca * mc                                 # discharge_coefficient
-        eb = 1.0 + mb
-        ec = 1.0 + mc
+        # the only two exponentials; expm1 where Cd would lose digits to cancellation (small s,
+        # Cd ~ alpha s), exp (cheaper) where it loses at most about a factor 100 of 1e-16
+        if s < 1.0:
+            mb = math.expm1(-b * s)
+            mc = math.expm1(-c * s)
+            cd = a * mb - ca * mc                             # discharge_coefficient
+            eb = 1.0 + mb
+            ec = 1.0 + mc
+        else:
+            eb = math.exp(-b * s)
+            ec = math.exp(-c * s)
+            cd = cd_inf + a * eb - ca * ec
         d1 = -a * b * eb + ca * c * ec                        # Cd' (discharge_slope)
         d2 = a * b * b * eb - ca * c * c * ec                 # Cd''
         s_cd = s / cd
-        w = math.log((s / g) * s_cd)                          # 2 sigma - ln Cd - ln G
+        q = (s / g) * s_cd
+        x = q - 1.0
+        if -1e-3 < x < 1e-3:      # near the root: ln(1 + x) by its series (error < x^6/6)
+            w = x * (1.0 - x * (0.5 - x * (1.0 / 3.0 - x * (0.25 - x * 0.2))))
+        else:
+            w = math.log(q)                                   # 2 sigma - ln Cd - ln G
         r1 = s_cd * d1
         w1 = 2.0 - r1                                         # dw/dsigma
         if w == 0.0:                                          # exact root
