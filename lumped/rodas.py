@@ -87,7 +87,7 @@ def event_retry(k, p):  # pragma: no cover - placeholder: every event may need i
 
 
 @numba.njit(cache=True, error_model="numpy")
-def update_tolerances(p, atol, rweight):  # pragma: no cover - placeholder: fixed tolerances
+def update_tolerances(p, atol):  # pragma: no cover - placeholder: fixed tolerances
     return
 
 
@@ -273,8 +273,8 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
     every accepted step is kept with its dense-output coefficients (``rec_t``, ``rec_y``,
     ``rec_q2``, ``rec_q3``: step i runs from rec_t[i-1] to rec_t[i], its coefficients stored
     at i) and ``rec_tag[i] = step_tag(p)`` during it. Error control: RMS over components of
-    err_i / (atol_i + rtol w_i max(|y_i|, |y_new_i|)), the weights w_i (default 1) and atol
-    set by the model's ``update_tolerances(p, atol, w)`` at the start and after every event.
+    err_i / (atol_i + rtol max(|y_i|, |y_new_i|)), atol as the model's
+    ``update_tolerances(p, atol)`` sets it at the start and after every event.
 
     Events (``n_events`` > 0): ``event_values(t, y, p, g)`` gives one value per event; event
     k fires where g_k drops from >= 0 to < 0. The first crossing is found on the dense
@@ -292,8 +292,7 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
     y = y0.copy()
     t = t0
     t_end = tstops[-1]
-    rweight = np.ones(n)
-    update_tolerances(p, atol, rweight)
+    update_tolerances(p, atol)
     n_stops = tstops.shape[0]
     y_stops = np.full((n_stops, n), np.nan)
     f0 = np.empty(n)
@@ -427,7 +426,7 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
             n_rhs += 5
             for i in range(n):
                 ynew[i] = u[i] + k6[i]
-                sk = atol[i] + rtol * rweight[i] * max(abs(y[i]), abs(ynew[i]))
+                sk = atol[i] + rtol * max(abs(y[i]), abs(ynew[i]))
                 err += (k6[i] / sk) ** 2
             err = np.sqrt(err / n)
             if not np.isfinite(err):
@@ -525,7 +524,7 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
             jac_age = jac_reuse
             retries = 0
             code = apply_event(k_ev, t, y, p)
-            update_tolerances(p, atol, rweight)
+            update_tolerances(p, atol)
             if n_ev >= ev_t.shape[0]:
                 ev_t = _grow(ev_t, n_ev)
                 ev_k = _grow(ev_k, n_ev)
@@ -570,9 +569,9 @@ def specialize(rhs_func, tag: str, events=None, apply=None, tagger=None, jac=Non
     ``rhs_func(t, y, p, dydt)``; optional ``events(t, y, p, g)``, ``apply(k, t, y, p) -> int``,
     ``tagger(p) -> int`` and ``jac(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h) -> int``
     (fills df/dy and df/dt, returns the rhs calls used, or -1 to fall back to forward
-    differences; its columns n_dyn.. must stay zero) and ``tolerances(p, atol, rweight)`` (may
-    rewrite the absolute tolerances and the per-component weights of rtol in place from the
-    model state; called at the start and after every event) and ``retry(k, p) -> bool`` (False:
+    differences; its columns n_dyn.. must stay zero) and ``tolerances(p, atol)`` (may rewrite
+    the absolute tolerances in place from the model state; called at the start and after
+    every event) and ``retry(k, p) -> bool`` (False:
     event k is located on the interpolant of the step as it is, no step redone; for crossings
     whose variable the interpolant follows to the tolerance). ``tag`` names the compiled copy
     (its on-disk cache entry), e.g. "pump_<hash>"; a tag must stand for one set of functions.
