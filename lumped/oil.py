@@ -88,19 +88,18 @@ def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: 
     # lower bound of the true root), i.e. P^(1/gamma) (P - P_lin) = A
     k = (1.0 - air) / beta
     p_lin = p0 - (e - (1.0 - air)) / k
-    big_a = air * p0 ** inv_g / k
     if p_lin > 0.0:
         # P = P_lin u, (u - 1) u^(1/gamma) = c: u = 1 + c (1 + c)^(-1/(1 + gamma))
-        c = big_a / p_lin ** (1.0 + inv_g)
+        c = air * (p0 / p_lin) ** inv_g / (k * p_lin)
         p = p_lin * (1.0 + c * (1.0 + c) ** (-1.0 / (1.0 + gamma)))
     else:
         # the air takes up the density change, the liquid frozen at its P0 volume
         p = p0 * (air / (e - (1.0 - air))) ** gamma
     if not p > p_lin:       # underflow or rounding: fall back on the lower bound
         p = p_lin if p_lin > 0.0 else p0 * (air / e) ** gamma
+    ta = air * (p0 / p) ** inv_g
+    tl = (1.0 - air) * math.exp(-(p - p0) / beta)
     for it in range(1, maxiter + 1):
-        ta = air * (p0 / p) ** inv_g
-        tl = (1.0 - air) * math.exp(-(p - p0) / beta)
         f = ta + tl - e
         df = -ta * inv_g / p - tl / beta
         step = f / df
@@ -115,6 +114,18 @@ def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: 
             d2 = (ta * inv_g * (inv_g + 1.0) / p + tl / (beta * beta) * p) / p
             if d2 * step * step <= tol * (-df + d2 * step):     # step < 0 here: |f'(P_new)| >= -df + d2 step
                 return p_new, it
+        # both terms at P_new: a short step updates them by their series (error < 1e-19,
+        # no pow or exp), a long one evaluates them afresh
+        dlt = (p_new - p) / p
+        x = (p_new - p) / beta
+        if -1e-4 < dlt < 1e-4 and -1e-4 < x < 1e-4:
+            n1 = inv_g
+            ta *= 1.0 - n1 * dlt * (1.0 - (n1 + 1.0) / 2.0 * dlt * (1.0 - (n1 + 2.0) / 3.0 * dlt
+                                                                   * (1.0 - (n1 + 3.0) / 4.0 * dlt)))
+            tl *= 1.0 - x * (1.0 - x / 2.0 * (1.0 - x / 3.0 * (1.0 - x / 4.0)))
+        else:
+            ta = air * (p0 / p_new) ** inv_g
+            tl = (1.0 - air) * math.exp(-(p_new - p0) / beta)
         p = p_new
     return p, maxiter
 
