@@ -29,6 +29,7 @@ The compiled solver is cached on disk; the first call in a fresh environment com
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib
 import inspect
@@ -402,8 +403,9 @@ def _ensure_compiled() -> None:
     model = thesis_model("disc")
     p = _extended(pack(model, 600.0, 2.8e6), [SEAT, ORIFICE, SEAT, ORIFICE])
     y = ref._initial_state(model, p, ref.N_SIMPLIFIED)
-    _solver(0.0, y, np.array([1e-9]), p, 1e-6, np.full(ref.N_SIMPLIFIED, 1e-9), 1e-10, np.inf, 100,
-            N_DYN, 0.0, N_EVENTS, 100, 1)
+    out = _solver(0.0, y, np.array([1e-9]), p, 1e-6, np.full(ref.N_SIMPLIFIED, 1e-9), 1e-10, np.inf, 100,
+                  N_DYN, 0.0, N_EVENTS, 100, 1)
+    cached(_peaks)(out[3], out[4], out[5])         # the helpers every run calls, compiled or loaded too
     _COMPILE["seconds"] = _time.perf_counter() - t0
 
 
@@ -444,17 +446,43 @@ def _decode(ev_t, ev_code) -> list[tuple[float, int, int, int]]:
     return [(float(t), int(c) // 100, (int(c) // 10) % 10, int(c) % 10) for t, c in zip(ev_t, ev_code)]
 
 
-def _peaks(rec_y, rec_q2, rec_q3) -> tuple[float, float]:
-    """Largest inlet and delivery openings [m] in the recorded steps, interpolant included."""
-    best = [0.0, 0.0]
-    for j, xi in enumerate((ref.S_XIN, ref.S_XDEL)):
-        y0, y1 = rec_y[:-1, xi], rec_y[1:, xi]
-        q2, q3 = rec_q2[1:, xi], rec_q3[1:, xi]
-        vals = [rec_y[:, xi]]
-        for s in (0.25, 0.5, 0.75):
-            vals.append(y0 * (1 - s) + s * (y1 + (1 - s) * (q2 + s * q3)))
-        best[j] = max(0.0, float(max(v.max() for v in vals)))
-    return best[0], best[1]
+@numba.njit(error_model="numpy")
+def _peaks(rec_y, rec_q2, rec_q3):
+    """Largest inlet and delivery openings [m] in the recorded steps, interpolant included
+    (at the quarters of every step)."""
+    best = np.zeros(2)
+    for j in range(2):
+        xi = 1 + 2 * j
+        for i in range(rec_y.shape[0]):
+            best[j] = max(best[j], rec_y[i, xi])
+            if i > 0:
+                for s in (0.25, 0.5, 0.75):
+                    v = rec_y[i - 1, xi] * (1 - s) + s * (rec_y[i, xi] + (1 - s) * (rec_q2[i, xi] + s * rec_q3[i, xi]))
+                    best[j] = max(best[j], v)
+    return best
+
+
+@functools.lru_cache(maxsize=4)
+def _thesis_model(valve: str) -> PumpModel:
+    """lumped.params.thesis_model, read from its data files once per process (frozen, shareable)."""
+    return thesis_model(valve)
+
+
+_VALIDATED: dict = {}
+
+
+def _validate(model: PumpModel) -> None:
+    """lumped.params.validate_model, once per distinct (frozen, hashable) model in a process."""
+    try:
+        if model in _VALIDATED:
+            return
+    except TypeError:                 # an unhashable field: check every time
+        validate_model(model)
+        return
+    validate_model(model)
+    if len(_VALIDATED) >= 1024:
+        _VALIDATED.clear()
+    _VALIDATED[model] = True
 
 
 # ----------------------------------------------------------------- simulate
@@ -485,12 +513,12 @@ def simulate(valve: str, speed_rpm: float, load_pressure: float, *, air_content:
         raise InputError("method", f"the fast path has one method, 'fast'; got {method!r}")
     _ensure_compiled()
     cpu0 = _time.process_time()
-    model = params if params is not None else thesis_model(valve)
+    model = params if params is not None else _thesis_model(valve)
     if params is not None and params.valve != valve:
         raise InputError("params", f"describes {params.valve} valves, not {valve}")
     if air_content is not None:
         model = replace(model, oil=replace(model.oil, air_content=float(air_content)))
-    validate_model(model)
+    _validate(model)
     speed_rpm = float(speed_rpm)
     load_pressure = float(load_pressure)
 
@@ -535,7 +563,7 @@ def simulate(valve: str, speed_rpm: float, load_pressure: float, *, air_content:
             change = ref._cycle_change(deliveries, tdc_states, p0, model)
             steady = change < steady_tol
         last = dict(events=_decode(ev_t, ev_code), mass_err=mass_err, t0=t0,
-                    peak=_peaks(rec_y, rec_q2, rec_q3), leak=d_leak / rho0)
+                    peak=cached(_peaks)(rec_y, rec_q2, rec_q3), leak=d_leak / rho0)
         if trace:
             keep.append((rec_t, rec_y, rec_q2, rec_q3, rec_tag))
             keep = keep[-trace_revolutions:]
@@ -555,7 +583,7 @@ def simulate(valve: str, speed_rpm: float, load_pressure: float, *, air_content:
         air_content=model.oil.effective_air, delivery_per_rev=deliveries[-1], deliveries=tuple(deliveries),
         revolutions=k, cyclic_steady=bool(steady), cycle_change=float(change), cpu_seconds=cpu,
         simulated_seconds=k * period, mass_balance_error=float(last["mass_err"]),
-        peak_opening=tuple(last["peak"]), opening_angle=opening, closing_angle=closing,
+        peak_opening=(float(last["peak"][0]), float(last["peak"][1])), opening_angle=opening, closing_angle=closing,
         stop_contacts=stops, mean_load_pressure=load_pressure, leakage_per_rev=float(last["leak"]),
         needle_area=None,
         rhs_evaluations=nfev, events=n_events, method="fast", rtol=rtol, atol=atol, trace=tr,
