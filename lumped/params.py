@@ -545,7 +545,7 @@ def _check_discharge(v, where: str) -> None:
     if not laminar_slope(*args) > 0 or not v.cd_inf > 0:
         raise InputError(f"{where}.cd_inf", "Cd(Re) must rise from 0 with a positive slope (eq 2.47)")
     s = np.geomspace(1e-6, 1e4, 2000)
-    cd = np.array([discharge_coefficient(x, *args) for x in s])
+    cd = discharge_coefficient(s, *args)
     if np.any(cd <= 0) or np.any(np.diff(np.log(s**2 / cd)) <= 0):
         raise InputError(f"{where}.cd_a", "Cd(Re) must stay positive with s^2/Cd(s) increasing in s = sqrt(Re)")
 
