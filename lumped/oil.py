@@ -62,48 +62,70 @@ def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: 
 
     f(P) = A P^B + C e^(DP) - E with A = R P0^(1/gamma), B = -1/gamma,
     C = (1 - R) e^(P0/beta), D = -1/beta, E = rho0/rho (eqs 4.12-4.14). Both terms are
-    convex and decreasing in P, so Newton's method started left of the root (f > 0)
-    increases monotonically to it without overshoot. Each term alone gives such a
-    start: the pure-liquid root P_l and the pure-air root P_a both lie below the root
-    (the other term is positive there), so max(P_l, P_a) is a safe, close start.
+    convex and decreasing in P, so a Newton step from any P > 0 lands left of the root
+    (f >= 0) and from there Newton's method increases monotonically to it without
+    overshoot: convergence is guaranteed whatever the start, and a close start only saves
+    iterations. The start solves a two-term model, the liquid term linear in P:
+    R (P0/P)^(1/gamma) = k (P - P_lin), k = (1 - R)/beta, whose liquid-only root P_lin is a
+    lower bound of the true root. Where P_lin > 0 it is P_lin u with (u - 1) u^(1/gamma) = c
+    = R P0^(1/gamma) / (k P_lin^(1 + 1/gamma)) (the air volume at P_lin against the liquid's
+    compression), solved as u = 1 + c (1 + c)^(-1/(1 + gamma)), exact for c -> 0 and
+    c -> infinity and within 9 % between; otherwise (expansion) the air takes up the whole
+    density change with the liquid frozen at its P0 volume.
     With R = 0 the liquid root is exact (and may be negative: no vapour model).
+
+    It stops when the last step, or the error it leaves (quadratic convergence from the
+    left: below f''(P) step^2 / (2 |f'|), f'' decreasing), is below rtol P + 4e-16 beta:
+    the liquid term fixes P only to ~ beta * eps in absolute terms (conditioning).
     """
     e = rho0 / rho
-    # pure-liquid root: (1 - R) exp(-(P - P0)/beta) = E
-    p_liq = p0 - beta * math.log(e / (1.0 - air))
     if air <= 1e-200:
-        # air-free (or so little air that the pure-air root underflows): explicit
-        return p_liq, 0
+        # air-free (or so little air that the pure-air root underflows): the liquid root, explicit
+        return p0 - beta * math.log(e / (1.0 - air)), 0
     inv_g = 1.0 / gamma
-    # pure-air root: R (P0/P)^(1/gamma) = E; both single-term roots are lower bounds
-    p_air = p0 * (air / e) ** gamma
-    p_lo = p_liq if p_liq > p_air else p_air
-    p = p_lo
-    if e > 1.0 - air:
-        # air root with the liquid term frozen at its P0 value: close to the root while
-        # P << beta (a lower bound below P0, an upper bound above it)
-        p2 = p0 * (air / (e - (1.0 - air))) ** gamma
-        if p2 <= 0.0:
-            p2 = p
-        ta = air * (p0 / p2) ** inv_g
-        tl = (1.0 - air) * math.exp(-(p2 - p0) / beta)
-        f = ta + tl - e
-        if f < 0.0:   # right of the root: one Newton step lands left of it (convexity)
-            p2 = p2 - f / (-ta * inv_g / p2 - tl / beta)
-        if p2 > p:
-            p = p2
+    # start: the root of the two-term model with the liquid term linear in P,
+    # R (P0/P)^(1/gamma) = k (P - P_lin), k = (1 - R)/beta, P_lin its liquid-only root (a
+    # lower bound of the true root), i.e. P^(1/gamma) (P - P_lin) = A
+    k = (1.0 - air) / beta
+    p_lin = p0 - (e - (1.0 - air)) / k
+    if p_lin > 0.0:
+        # P = P_lin u, (u - 1) u^(1/gamma) = c: u = 1 + c (1 + c)^(-1/(1 + gamma))
+        c = air * (p0 / p_lin) ** inv_g / (k * p_lin)
+        p = p_lin * (1.0 + c * (1.0 + c) ** (-1.0 / (1.0 + gamma)))
+    else:
+        # the air takes up the density change, the liquid frozen at its P0 volume
+        p = p0 * (air / (e - (1.0 - air))) ** gamma
+    if not p > p_lin:       # underflow or rounding: fall back on the lower bound
+        p = p_lin if p_lin > 0.0 else p0 * (air / e) ** gamma
+    ta = air * (p0 / p) ** inv_g
+    tl = (1.0 - air) * math.exp(-(p - p0) / beta)
     for it in range(1, maxiter + 1):
-        ta = air * (p0 / p) ** inv_g
-        tl = (1.0 - air) * math.exp(-(p - p0) / beta)
         f = ta + tl - e
         df = -ta * inv_g / p - tl / beta
         step = f / df
         p_new = p - step
-        if p_new <= 0.0:          # round-off right of the root near P -> 0: stay positive
+        if p_new <= 0.0:          # a step from far right of the root: stay positive
             p_new = 0.5 * p
-        # the liquid term fixes P only to ~ beta * eps in absolute terms (conditioning)
-        if abs(p_new - p) <= rtol * p_new + 4.0e-16 * beta:
+        tol = rtol * p_new + 4.0e-16 * beta
+        if abs(p_new - p) <= tol:
             return p_new, it
+        if f > 0.0:
+            # from the left the error left by this step is at most f''(P) step^2 / (2 |f'(P_new)|)
+            d2 = (ta * inv_g * (inv_g + 1.0) / p + tl / (beta * beta) * p) / p
+            if d2 * step * step <= tol * (-df + d2 * step):     # step < 0 here: |f'(P_new)| >= -df + d2 step
+                return p_new, it
+        # both terms at P_new: a short step updates them by their series (error < 1e-19,
+        # no pow or exp), a long one evaluates them afresh
+        dlt = (p_new - p) / p
+        x = (p_new - p) / beta
+        if -1e-4 < dlt < 1e-4 and -1e-4 < x < 1e-4:
+            n1 = inv_g
+            ta *= 1.0 - n1 * dlt * (1.0 - (n1 + 1.0) / 2.0 * dlt * (1.0 - (n1 + 2.0) / 3.0 * dlt
+                                                                   * (1.0 - (n1 + 3.0) / 4.0 * dlt)))
+            tl *= 1.0 - x * (1.0 - x / 2.0 * (1.0 - x / 3.0 * (1.0 - x / 4.0)))
+        else:
+            ta = air * (p0 / p_new) ** inv_g
+            tl = (1.0 - air) * math.exp(-(p_new - p0) / beta)
         p = p_new
     return p, maxiter
 

@@ -11,21 +11,28 @@ Cd ~ alpha s for small s, Q_o -> 2 alpha^2 k A_o^2 dP / rho: the flow is linear 
 in the pressure drop near zero, so the right-hand side stays smooth through dP = 0 with
 no hand-made regularisation.
 
-Plain float functions (``math`` only) so that ``numba.njit`` can compile the same source.
+Plain float functions (``math``, and numpy ufuncs numba knows) so that ``numba.njit`` can
+compile the same source.
 """
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
 
-def discharge_coefficient(s: float, cd_inf: float, a: float, b: float, c: float) -> float:
+#: Halley steps below this (in ln s) leave an error ~ step^3 << 1e-13: the solve stops there
+FINAL_STEP = 1.0e-5
+
+
+def discharge_coefficient(s, cd_inf: float, a: float, b: float, c: float):
     """Cd at s = sqrt(Re) (eqs 2.47/2.48, 3.88/3.89), with Cd(0) = 0 exactly.
 
     The last coefficient is -(Cd_inf + A), written with expm1 so that small s loses no
-    digits to cancellation (Cd ~ alpha s for tiny flows).
+    digits to cancellation (Cd ~ alpha s for tiny flows). ``s`` may be a numpy array (the
+    parameter check of lumped.params evaluates a whole curve at once).
     """
-    return a * math.expm1(-b * s) - (cd_inf + a) * math.expm1(-c * s)
+    return a * np.expm1(-b * s) - (cd_inf + a) * np.expm1(-c * s)
 
 
 def discharge_slope(s: float, cd_inf: float, a: float, b: float, c: float) -> float:
@@ -46,14 +53,19 @@ def orifice_flow(area: float, dp: float, rho: float, mu: float, perimeter: float
     p [m] of the Reynolds number Re = 4 rho |Q| / (mu p). Returns
     (Q [m^3/s], Cd, dQ/d(dp) [m^3/s/Pa], dQ/dA_o [m/s]).
 
-    Solves w(sigma) = 2 sigma - ln Cd(e^sigma) - ln G = 0 for sigma = ln s by Newton's
-    method with a bisection safeguard; w is increasing (s^2 / Cd(s) is monotone for the
-    correlations of eqs 2.48 and 3.89, checked where the parameters are loaded).
+    Solves w(sigma) = 2 sigma - ln Cd(e^sigma) - ln G = 0 for sigma = ln s, w increasing
+    (s^2 / Cd(s) is monotone for the correlations of eqs 2.48 and 3.89, checked where the
+    parameters are loaded), by Halley's method (cubic; w'' costs no extra exponential: Cd,
+    Cd' and Cd'' share exp(-B s) and exp(-C s)) inside a shrinking bracket (bisection in
+    sigma when a step leaves it). It stops after a step below FINAL_STEP, whose error is
+    ~ step^3 < 1e-14; Cd and w' at that last point come from the Taylor series of the
+    evaluated ones (error ~ step^3 as well), so the last step costs no exponential.
     """
     if area <= 0.0:
         return 0.0, 0.0, 0.0, 0.0
     k = 4.0 * rho / (mu * perimeter)
-    alpha = laminar_slope(cd_inf, a, b, c)
+    ca = cd_inf + a
+    alpha = -a * b + ca * c                # laminar_slope, inlined (one compiled function)
     adp = abs(dp)
     if adp == 0.0:
         return 0.0, 0.0, 2.0 * alpha * alpha * k * area * area / rho, 0.0
@@ -61,38 +73,69 @@ def orifice_flow(area: float, dp: float, rho: float, mu: float, perimeter: float
     # start from the smaller of the laminar (s = alpha G) and turbulent (s^2 = G Cd_inf) limits
     s_lam = alpha * g
     s_tur = math.sqrt(g * cd_inf)
-    sigma = math.log(s_lam if s_lam < s_tur else s_tur)
-    lg = math.log(g)
-    lo = -1.0e300
-    hi = 1.0e300
-    s = math.exp(sigma)
-    cd = discharge_coefficient(s, cd_inf, a, b, c)
-    dw = 1.0
+    s = s_lam if s_lam < s_tur else s_tur
+    lo = 0.0                                # bracket of the root in s (0, inf: not yet known)
+    hi = math.inf
+    cd = 0.0
+    w1 = 1.0
     for _ in range(100):
-        w = 2.0 * sigma - math.log(cd) - lg
-        dw = 2.0 - s * discharge_slope(s, cd_inf, a, b, c) / cd
-        if w < 0.0:
-            lo = sigma
+        # the only two exponentials; expm1 where Cd would lose digits to cancellation (small s,
+        # Cd ~ alpha s), exp (cheaper) where it loses at most about a factor 100 of 1e-16
+        if s < 1.0:
+            mb = math.expm1(-b * s)
+            mc = math.expm1(-c * s)
+            cd = a * mb - ca * mc                             # discharge_coefficient
+            eb = 1.0 + mb
+            ec = 1.0 + mc
         else:
-            hi = sigma
-        step = -w / dw
+            eb = math.exp(-b * s)
+            ec = math.exp(-c * s)
+            cd = cd_inf + a * eb - ca * ec
+        d1 = -a * b * eb + ca * c * ec                        # Cd' (discharge_slope)
+        d2 = a * b * b * eb - ca * c * c * ec                 # Cd''
+        s_cd = s / cd
+        q = (s / g) * s_cd
+        x = q - 1.0
+        if -1e-3 < x < 1e-3:      # near the root: ln(1 + x) by its series (error < x^6/6)
+            w = x * (1.0 - x * (0.5 - x * (1.0 / 3.0 - x * (0.25 - x * 0.2))))
+        else:
+            w = math.log(q)                                   # 2 sigma - ln Cd - ln G
+        r1 = s_cd * d1
+        w1 = 2.0 - r1                                         # dw/dsigma
+        if w == 0.0:                                          # exact root
+            break
+        if w < 0.0:
+            lo = s
+        else:
+            hi = s
+        w2 = -(r1 + s * s_cd * d2 - r1 * r1)                  # d2w/dsigma2
+        newton = -w / w1
+        den = w1 + 0.5 * w2 * newton
+        step = -w / den if den > 0.5 * w1 else newton         # Halley, Newton if it would blow up
         if step > 2.0:
             step = 2.0
         elif step < -2.0:
             step = -2.0
-        new = sigma + step
-        if not (lo < new < hi):          # Newton left the bracket: bisect instead
-            if lo > -1.0e299 and hi < 1.0e299:
-                new = 0.5 * (lo + hi)
-        done = abs(new - sigma) < 1.0e-13
-        sigma = new
-        s = math.exp(sigma)
-        cd = discharge_coefficient(s, cd_inf, a, b, c)
-        if done:
+        if abs(step) < FINAL_STEP:
+            # last step: Cd, Cd' at s e^step by Taylor (no exponential), error ~ step^3
+            x = step
+            ex = x * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x * (1.0 / 24.0))))   # e^x - 1
+            ds = s * ex
+            d3 = -a * b * b * b * eb + ca * c * c * c * ec    # Cd'''
+            s = s + ds
+            cd = cd + ds * (d1 + ds * (0.5 * d2 + ds * d3 / 6.0))
+            d1 = d1 + ds * (d2 + 0.5 * ds * d3)
+            w1 = 2.0 - s * d1 / cd
             break
-    dw = 2.0 - s * discharge_slope(s, cd_inf, a, b, c) / cd
+        if abs(step) < 0.25:       # an iterate, not the result: a short series for e^step will do
+            new = s * (1.0 + step * (1.0 + step * (0.5 + step * (1.0 / 6.0 + step * (1.0 / 24.0 + step / 120.0)))))
+        else:
+            new = s * math.exp(step)
+        if not (lo < new < hi) and lo > 0.0 and hi < math.inf:
+            new = math.sqrt(lo * hi)                          # bisection in sigma = ln s
+        s = new
     q_abs = s * s / k
     q = q_abs if dp > 0.0 else -q_abs
-    dq_ddp = q_abs / (adp * dw)                 # even in dp: d|Q|/d|dp|
-    dq_darea = 2.0 * q / (area * dw)
+    dq_ddp = q_abs / (adp * w1)                 # even in dp: d|Q|/d|dp|
+    dq_darea = 2.0 * q / (area * w1)
     return q, cd, dq_ddp, dq_darea

@@ -384,7 +384,7 @@ def _check_inputs(valve, speed_rpm, load_pressure, air_content, revolutions, cir
         if not _finite(v) or not 0 < v < 1:
             raise InputError(name, f"must be in (0, 1), got {v}")
     if method not in ("Radau", "BDF", "LSODA"):
-        raise InputError("method", f"expected Radau, BDF or LSODA, got {method!r}")
+        raise InputError("method", f"expected Radau, BDF, LSODA or fast, got {method!r}")
 
 
 def _finite(v) -> bool:
@@ -393,7 +393,7 @@ def _finite(v) -> bool:
 
 def simulate(valve: str, speed_rpm: float, load_pressure: float, *, air_content: float | None = None,
              revolutions: int = 5, circuit: str = "simplified", params: PumpModel | None = None,
-             rtol: float = 1e-6, atol: float = 1e-6, trace: bool = False, progress: bool = False,
+             rtol: float | None = None, atol: float | None = None, trace: bool = False, progress: bool = False,
              max_revolutions: int | None = None, steady_tol: float = 1e-4, trace_revolutions: int = 1,
              trace_points: int = 2000, method: str = "Radau") -> PumpResult:
     """Simulate the pump at speed_rpm [rpm] and load_pressure [Pa, absolute] with disc or reed valves.
@@ -405,11 +405,26 @@ def simulate(valve: str, speed_rpm: float, load_pressure: float, *, air_content:
     and of the state at TDC between successive revolutions below ``steady_tol``) or the
     maximum is reached. ``rtol``/``atol``: tolerances of the implicit integrator
     (``method``), atol in units of each state's scale (stop gap, 1 m/s, mass pumped per
-    revolution); the defaults come from the convergence study in README.md.
+    revolution); the defaults (None: 1e-6 and 1e-6) come from the convergence study in README.md.
     ``trace``: keep the last ``trace_revolutions`` revolutions sampled at
     ``trace_points`` points per revolution. Delivery per revolution is eq 4.17 at
     atmospheric density over the last revolution.
+
+    ``method``: scipy's "Radau" (the reference, default), "BDF" or "LSODA", or "fast": the
+    same physics compiled and integrated by Rodas4P, :func:`lumped.pump_fast.simulate`
+    (with its own default tolerances, lumped.pump_fast.RTOL and ATOL, when rtol/atol are
+    None; the complete circuit runs on Radau there).
     """
+    if method == "fast":
+        from lumped import pump_fast
+
+        tol = {k: v for k, v in (("rtol", rtol), ("atol", atol)) if v is not None}
+        return pump_fast.simulate(valve, speed_rpm, load_pressure, air_content=air_content,
+                                  revolutions=revolutions, circuit=circuit, params=params, trace=trace,
+                                  progress=progress, max_revolutions=max_revolutions, steady_tol=steady_tol,
+                                  trace_revolutions=trace_revolutions, trace_points=trace_points, **tol)
+    rtol = 1e-6 if rtol is None else rtol
+    atol = 1e-6 if atol is None else atol
     _check_inputs(valve, speed_rpm, load_pressure, air_content, revolutions, circuit, rtol, atol,
                   max_revolutions, trace_revolutions, method)
     cpu0 = _time.process_time()

@@ -16,8 +16,14 @@ place; ``p`` a flat float64 parameter array). :func:`specialize` returns a copy 
 cached on disk under a name of its own, so every model gets a solver with its
 right-hand side inlined and no Python in the loop.
 
-The Jacobian is formed by forward differences over the first ``n_dyn`` states only: the
-remaining states are quadratures (e.g. integrated mass flows) that never feed back.
+The Jacobian is formed by forward differences over the first ``n_dyn`` states only (or by
+the model's own ``jacobian``): the remaining states are quadratures (e.g. integrated mass
+flows) that never feed back, so the linear systems of the stages are solved on the
+n_dyn x n_dyn block alone.
+
+Everything is compiled with numba's ``error_model="numpy"``: a float division by zero gives
+inf or nan (a non-finite stage, so a rejected step) instead of raising, and the divisions
+need no zero test (about 30 % of a pump right-hand side call).
 """
 
 from __future__ import annotations
@@ -46,6 +52,8 @@ H21, H22, H23, H24, H25 = 25.09876703708589, 11.62013104361867, 28.4914830771462
 H31, H32, H33, H34, H35 = 1.638054557396973, -0.7373619806678748, 8.477918219238990, 15.99253148779520, -1.882352941176471
 
 SAFE, FAC_MIN, FAC_MAX = 0.9, 0.2, 6.0  # step ratio limits of RODAS
+MAX_EVENT_RETRIES = 3  # times a step is redone to end at a crossing located on its interpolant
+EVENT_RETRY_WINDOW = 1e-3  # ... unless the crossing lies this close (step fraction) to either end
 
 #: solver status codes
 OK, MAX_STEPS, STEP_TOO_SMALL, TOO_MANY_EVENTS = 0, 1, 2, 3
@@ -53,32 +61,42 @@ STATUS_TEXT = {OK: "ok", MAX_STEPS: "too many steps", STEP_TOO_SMALL: "step size
                TOO_MANY_EVENTS: "too many events (chatter)"}
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def rhs(t, y, p, dydt):  # pragma: no cover - placeholder, replaced by specialize()
     dydt[:] = 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def event_values(t, y, p, g):  # pragma: no cover - placeholder: no events
     g[:] = 1.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def apply_event(k, t, y, p):  # pragma: no cover - placeholder
     return 0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def step_tag(p):  # pragma: no cover - placeholder
     return 0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
+def event_retry(k, p):  # pragma: no cover - placeholder: every event may need its step redone
+    return True
+
+
+@numba.njit(cache=True, error_model="numpy")
+def update_tolerances(p, atol):  # pragma: no cover - placeholder: fixed tolerances
+    return
+
+
+@numba.njit(cache=True, error_model="numpy")
 def jacobian(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h):  # pragma: no cover - placeholder
     return -1
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def fd_jacobian(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h):
     """Forward-difference df/dy (first n_dyn columns; the rest are zero) and df/dt into jac, ft.
 
@@ -105,7 +123,7 @@ def fd_jacobian(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h):
     return n_dyn + 1
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def lu_factor(a, piv):
     """In-place LU factorisation with partial pivoting of a small dense matrix; False if singular."""
     n = a.shape[0]
@@ -134,7 +152,23 @@ def lu_factor(a, piv):
     return True
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
+def stage_solve(w, piv, jac, hg, b, n_dyn):
+    """Solve (I/(h gamma) - J) k = b in place in b, for a J whose columns n_dyn.. are zero.
+
+    The quadrature states (the last n - n_dyn) never feed back, so only the n_dyn x n_dyn
+    block, factorised in ``w`` (:func:`lu_factor`), needs a solve; their own rows then give
+    k_q = h gamma (b_q + J_qd k_d) directly. hg = h gamma.
+    """
+    lu_solve(w, piv, b[:n_dyn])
+    for i in range(n_dyn, b.shape[0]):
+        s = b[i]
+        for j in range(n_dyn):
+            s += jac[i, j] * b[j]
+        b[i] = hg * s
+
+
+@numba.njit(cache=True, error_model="numpy")
 def lu_solve(a, piv, b):
     """Solve (LU) x = b in place in b, with the factors and pivots of :func:`lu_factor`."""
     n = a.shape[0]
@@ -156,20 +190,20 @@ def lu_solve(a, piv, b):
         b[i] = s / a[i, i]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def dense(s, y0, y1, q2, q3):
     """Rodas4P's 3rd-order interpolant at fraction s of a step from y0 to y1."""
     return y0 * (1.0 - s) + s * (y1 + (1.0 - s) * (q2 + s * q3))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _grow(a, m):
     b = np.empty((2 * a.shape[0] + 16,) + a.shape[1:], dtype=a.dtype)
     b[:m] = a[:m]
     return b
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _dense_into(s, y0, y1, q2, q3, out):
     for i in range(y0.shape[0]):
         out[i] = y0[i] * (1.0 - s) + s * (y1[i] + (1.0 - s) * (q2[i] + s * q3[i]))
@@ -182,7 +216,7 @@ def _dense_into(s, y0, y1, q2, q3, out):
 N_SCAN = 1
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _locate_event(t, h, y0, y1, q2, q3, p, g0, g, ybuf, n_events):
     """(k, s): the event that fires first in this step and the step fraction where it does.
 
@@ -230,7 +264,7 @@ def _locate_event(t, h, y0, y1, q2, q3, p, g0, g, ybuf, n_events):
     return best_k, best_s
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n_events, max_events,
           jac_reuse):
     """Integrate y' = rhs(t, y, p) from t0 through every time in ``tstops`` (ascending).
@@ -239,11 +273,14 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
     every accepted step is kept with its dense-output coefficients (``rec_t``, ``rec_y``,
     ``rec_q2``, ``rec_q3``: step i runs from rec_t[i-1] to rec_t[i], its coefficients stored
     at i) and ``rec_tag[i] = step_tag(p)`` during it. Error control: RMS over components of
-    err_i / (atol_i + rtol max(|y_i|, |y_new_i|)).
+    err_i / (atol_i + rtol max(|y_i|, |y_new_i|)), atol as the model's
+    ``update_tolerances(p, atol)`` sets it at the start and after every event.
 
     Events (``n_events`` > 0): ``event_values(t, y, p, g)`` gives one value per event; event
-    k fires where g_k drops from >= 0 to < 0. The step is cut at the first crossing (found
-    on the dense output), ``apply_event(k, t, y, p)`` switches the model (it may change
+    k fires where g_k drops from >= 0 to < 0. The first crossing is found on the dense
+    output; the step is redone once to end there (the interpolant of a long step does not
+    follow a stiff component closely), and the crossing located again is where the step is
+    cut. There ``apply_event(k, t, y, p)`` switches the model (it may change
     ``p`` and ``y``; its return value is logged) and integration restarts there, so the
     right-hand side is smooth inside every step. Events are logged in ``ev_t``, ``ev_k``,
     ``ev_code``.
@@ -255,14 +292,15 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
     y = y0.copy()
     t = t0
     t_end = tstops[-1]
+    update_tolerances(p, atol)
     n_stops = tstops.shape[0]
     y_stops = np.full((n_stops, n), np.nan)
     f0 = np.empty(n)
     ft = np.empty(n)
     fp = np.empty(n)
     jac = np.empty((n, n))
-    w = np.empty((n, n))
-    piv = np.empty(n, dtype=np.int64)
+    w = np.empty((n_dyn, n_dyn))
+    piv = np.empty(n_dyn, dtype=np.int64)
     k1 = np.empty(n)
     k2 = np.empty(n)
     k3 = np.empty(n)
@@ -311,6 +349,7 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
     reject = False
     f_fresh = False
     jac_age = jac_reuse  # forces a Jacobian at the first step
+    retries = 0          # steps redone to end at the located crossing of the pending event
     while i_stop < n_stops:
         if n_steps >= max_steps:
             status = MAX_STEPS
@@ -339,8 +378,9 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
             n_rhs += nj
             jac_age = 0
         fac = 1.0 / (h_try * GAMMA)
-        for i in range(n):
-            for j in range(n):
+        hg = h_try * GAMMA
+        for i in range(n_dyn):
+            for j in range(n_dyn):
                 w[i, j] = -jac[i, j]
             w[i, i] += fac
         ok = lu_factor(w, piv)
@@ -352,37 +392,37 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
             hc61, hc62, hc63, hc64, hc65 = C61 / h_try, C62 / h_try, C63 / h_try, C64 / h_try, C65 / h_try
             for i in range(n):
                 k1[i] = f0[i] + h_try * D1 * ft[i]
-            lu_solve(w, piv, k1)
+            stage_solve(w, piv, jac, hg, k1, n_dyn)
             for i in range(n):
                 u[i] = y[i] + A21 * k1[i]
             rhs(t + C2 * h_try, u, p, k2)
             for i in range(n):
                 k2[i] += h_try * D2 * ft[i] + hc21 * k1[i]
-            lu_solve(w, piv, k2)
+            stage_solve(w, piv, jac, hg, k2, n_dyn)
             for i in range(n):
                 u[i] = y[i] + A31 * k1[i] + A32 * k2[i]
             rhs(t + C3 * h_try, u, p, k3)
             for i in range(n):
                 k3[i] += h_try * D3 * ft[i] + hc31 * k1[i] + hc32 * k2[i]
-            lu_solve(w, piv, k3)
+            stage_solve(w, piv, jac, hg, k3, n_dyn)
             for i in range(n):
                 u[i] = y[i] + A41 * k1[i] + A42 * k2[i] + A43 * k3[i]
             rhs(t + C4 * h_try, u, p, k4)
             for i in range(n):
                 k4[i] += h_try * D4 * ft[i] + hc41 * k1[i] + hc42 * k2[i] + hc43 * k3[i]
-            lu_solve(w, piv, k4)
+            stage_solve(w, piv, jac, hg, k4, n_dyn)
             for i in range(n):
                 u[i] = y[i] + A51 * k1[i] + A52 * k2[i] + A53 * k3[i] + A54 * k4[i]
             rhs(t + h_try, u, p, k5)
             for i in range(n):
                 k5[i] += hc51 * k1[i] + hc52 * k2[i] + hc53 * k3[i] + hc54 * k4[i]
-            lu_solve(w, piv, k5)
+            stage_solve(w, piv, jac, hg, k5, n_dyn)
             for i in range(n):
                 u[i] += k5[i]
             rhs(t + h_try, u, p, k6)
             for i in range(n):
                 k6[i] += hc61 * k1[i] + hc62 * k2[i] + hc63 * k3[i] + hc64 * k4[i] + hc65 * k5[i]
-            lu_solve(w, piv, k6)
+            stage_solve(w, piv, jac, hg, k6, n_dyn)
             n_rhs += 5
             for i in range(n):
                 ynew[i] = u[i] + k6[i]
@@ -405,7 +445,27 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
             h = h_new if not first else 0.1 * h_try
             reject = True
             continue
-        # ---- accepted
+        # ---- accepted by the error test
+        for i in range(n):
+            q2[i] = H21 * k1[i] + H22 * k2[i] + H23 * k3[i] + H24 * k4[i] + H25 * k5[i]
+            q3[i] = H31 * k1[i] + H32 * k2[i] + H33 * k3[i] + H34 * k4[i] + H35 * k5[i]
+        # ---- events: the first crossing on the dense output
+        k_ev = -1
+        s_ev = 2.0
+        if n_events > 0:
+            k_ev, s_ev = _locate_event(t, h_try, y, ynew, q2, q3, p, g0, g1, yp, n_events)
+            if (k_ev >= 0 and retries < MAX_EVENT_RETRIES and EVENT_RETRY_WINDOW < s_ev < 1.0 - EVENT_RETRY_WINDOW
+                    and event_retry(k_ev, p)):
+                # The interpolant locates a crossing only as well as it follows the solution,
+                # and over a long step it does not follow a stiff component (a valve resting
+                # on its seat, slaved to the cylinder pressure, lifts off where the pressure
+                # force lets go): redo the step so that it ends at the located crossing and
+                # locate it again on that shorter step, or on the next one. (Near either
+                # end of the step the interpolant is pinned to the computed states.)
+                retries += 1
+                h = s_ev * h_try
+                event_values(t, y, p, g0)      # g0 served as scratch; y, f0 and J still hold
+                continue
         if not first:
             # Gustafsson's predictive controller (as in RODAS)
             fg = (h_acc / h_try) * (err * err / err_acc) ** 0.25 / SAFE
@@ -418,16 +478,8 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
         if reject:
             h_new = min(h_new, h_try)
         reject = False
-        for i in range(n):
-            q2[i] = H21 * k1[i] + H22 * k2[i] + H23 * k3[i] + H24 * k4[i] + H25 * k5[i]
-            q3[i] = H31 * k1[i] + H32 * k2[i] + H33 * k3[i] + H34 * k4[i] + H35 * k5[i]
         t_old = t
         t = t_stop if hit else t + h_try
-        # ---- events: cut the step at the first crossing
-        k_ev = -1
-        s_ev = 2.0
-        if n_events > 0:
-            k_ev, s_ev = _locate_event(t_old, h_try, y, ynew, q2, q3, p, g0, g1, yp, n_events)
         tag = step_tag(p)
         if k_ev >= 0:
             # the sub-step [t_old, t_old + s h]: its end state and its own dense coefficients
@@ -470,7 +522,9 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
         jac_age += 1
         if k_ev >= 0:
             jac_age = jac_reuse
+            retries = 0
             code = apply_event(k_ev, t, y, p)
+            update_tolerances(p, atol)
             if n_ev >= ev_t.shape[0]:
                 ev_t = _grow(ev_t, n_ev)
                 ev_k = _grow(ev_k, n_ev)
@@ -505,21 +559,27 @@ def _rebind(func, scope: dict, tag: str, cache: bool = False):
     fn.__qualname__ = f"{base.__qualname__}__{tag}"
     fn.__module__ = base.__module__
     fn.__doc__ = base.__doc__
-    return numba.njit(cache=cache)(fn)
+    return numba.njit(cache=cache, error_model="numpy")(fn)
 
 
-def specialize(rhs_func, tag: str, events=None, apply=None, tagger=None, jac=None, cache: bool = True):
+def specialize(rhs_func, tag: str, events=None, apply=None, tagger=None, jac=None, tolerances=None,
+               retry=None, cache: bool = True):
     """A compiled :func:`solve` bound to a model's functions (numba.njit), inlined, no Python.
 
     ``rhs_func(t, y, p, dydt)``; optional ``events(t, y, p, g)``, ``apply(k, t, y, p) -> int``,
     ``tagger(p) -> int`` and ``jac(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h) -> int``
     (fills df/dy and df/dt, returns the rhs calls used, or -1 to fall back to forward
-    differences). ``tag`` names the compiled copy (its on-disk cache entry), e.g.
-    "pump_<hash>"; a tag must stand for one set of functions.
+    differences; its columns n_dyn.. must stay zero) and ``tolerances(p, atol)`` (may rewrite
+    the absolute tolerances in place from the model state; called at the start and after
+    every event) and ``retry(k, p) -> bool`` (False:
+    event k is located on the interpolant of the step as it is, no step redone; for crossings
+    whose variable the interpolant follows to the tolerance). ``tag`` names the compiled copy
+    (its on-disk cache entry), e.g. "pump_<hash>"; a tag must stand for one set of functions.
     """
     scope = dict(solve.py_func.__globals__)
     scope["rhs"] = rhs_func
-    for name, f in (("event_values", events), ("apply_event", apply), ("step_tag", tagger), ("jacobian", jac)):
+    for name, f in (("event_values", events), ("apply_event", apply), ("step_tag", tagger), ("jacobian", jac),
+                    ("update_tolerances", tolerances), ("event_retry", retry)):
         if f is not None:
             scope[name] = f
     # helpers that call the model's functions get the same bindings

@@ -23,8 +23,12 @@ from geometry.errors import InputError
 COMMANDS: dict[str, str] = {
     "reed": "studies.cmd_reed",
     "table": "studies.cmd_table",
+    "lts": "studies.cmd_lts",
     "pump": "studies.cmd_pump",
     "validate": "studies.cmd_validate",
+    "check": "studies.cmd_check",
+    "seat": "studies.cmd_seat",
+    "modes": "studies.cmd_modes",
     "sweep": "studies.cmd_sweep",
     "sweep-plot": "studies.cmd_sweep_plot",
     "synth": "studies.cmd_synth",
@@ -52,10 +56,14 @@ def _finite(obj, path="result"):
             _finite(v, f"{path}[{i}]")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(selected: str | None = None) -> argparse.ArgumentParser:
+    """The parser; only the ``selected`` command's module is imported (all of them for --help)."""
     parser = _Parser(prog="valvelab", description="Hydraulic disc and reed check valve models.")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for name, modname in COMMANDS.items():
+        if selected is not None and name != selected:
+            sub.add_parser(name)  # known name, configured only when chosen
+            continue
         mod = importlib.import_module(modname)
         p = sub.add_parser(name, help=mod.HELP, description=mod.HELP)
         p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
@@ -65,7 +73,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    # importing every command module (scipy, matplotlib, skfem...) costs seconds per call
+    selected = next((a for a in argv if not a.startswith("-")), None)
+    parser = build_parser(selected if selected in COMMANDS else None)
     args = parser.parse_args(argv)
     mod = args._module
     try:

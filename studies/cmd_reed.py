@@ -30,14 +30,39 @@ def configure(p):
     p.add_argument("geometry", help="preset (uniform, stepped1, stepped2, prototype) or reed TOML file")
     p.add_argument("--fidelity", default="analytic", help="analytic (default), beam, plate or solid")
     p.add_argument("--mesh-size", type=float, default=None, help="FEA element size [m] (default: converged)")
+    p.add_argument("--plot", default=None, metavar="FILE.png",
+                   help="draw the outline, the uniform-load shape and the free-vibration mode shape")
+    p.add_argument("--force", action="store_true", help="let --plot replace an existing file")
 
 
 def run(args) -> dict:
     reed = load_reed(args.geometry)
     if args.mesh_size is not None and not args.mesh_size > 0:
         raise InputError("--mesh-size", f"must be a positive length in m, got {args.mesh_size}")
-    props = reed_model(args.fidelity)(reed, mesh_size=args.mesh_size)
-    return props.as_contract(args.geometry)
+    plot = getattr(args, "plot", None)
+    if plot is not None:  # refuse a bad or existing file before any computation
+        from studies.outputs import check_new_file
+        from studies.plots import check_plot_suffix
+
+        plot = check_new_file(check_plot_suffix(plot), "--plot", args.force)
+    model = reed_model(args.fidelity)
+    props = model(reed, mesh_size=args.mesh_size)
+    out = props.as_contract(args.geometry)
+    if plot is not None:
+        out["plot"] = str(_plot(plot, reed, args.fidelity, props, args.mesh_size))
+    return out
+
+
+def _plot(path, reed, fidelity, props, mesh_size):
+    """Outline, static shape and (when the fidelity's module offers ``free_mode_shape``) the free mode."""
+    from studies.plots import plot_reed_shapes
+
+    shapes = {"uniform pressure (static)": (props.s, props.psi)}
+    modname = FIDELITIES[fidelity].split(":")[0]
+    free = getattr(importlib.import_module(modname), "free_mode_shape", None)
+    if free is not None:
+        shapes["first free-vibration mode"] = free(reed, mesh_size=mesh_size)
+    return plot_reed_shapes(path, reed, shapes, title=f"reed {reed.name} ({fidelity})")
 
 
 def render(r: dict) -> str:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 from geometry.errors import InputError
@@ -29,11 +30,16 @@ def run(args) -> dict:
     out = Path(args.out) if args.out else Path(f"sweep-{Path(args.spec).stem}")
     if args.scheduler is not None and args.workers is not None:
         raise InputError("--workers", "applies to the local cluster only; the scheduler at --scheduler has its own")
-    summary = sweep.run_sweep(
-        spec, out, fmt=args.format, scheduler=args.scheduler, n_workers=args.workers,
-        batch_size=args.batch_size, force=args.force, retry_failed=args.retry_failed,
-        progress=not args.no_progress,
-    )
+    try:
+        summary = sweep.run_sweep(
+            spec, out, fmt=args.format, scheduler=args.scheduler, n_workers=args.workers,
+            batch_size=args.batch_size, force=args.force, retry_failed=args.retry_failed,
+            progress=not args.no_progress,
+        )
+    except KeyboardInterrupt:
+        sys.stderr.write(f"sweep interrupted: the designs finished so far are in {out}; "
+                         "rerun the same command to resume\n")
+        raise
     if args.plot and summary["complete"]:
         from studies.cmd_sweep_plot import main_effects_report
 

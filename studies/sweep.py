@@ -50,6 +50,7 @@ FORMATS = ("parquet", "csv")
 #: columns every results table has besides the inputs and the model outputs
 META_COLUMNS = {"design_id": "int64", "status": "string", "error": "string", "eval_seconds": "float64"}
 
+CONNECT_TIMEOUT = "10s"  # to reach --scheduler
 SPEC_FILE = "spec.toml"
 DESIGNS_FILE = "designs.parquet"
 PARTS_DIR = "parts"
@@ -654,7 +655,7 @@ def run_sweep(
         if client is None:
             if scheduler:
                 try:
-                    client = Client(scheduler, timeout="20s")
+                    client = Client(scheduler, timeout=CONNECT_TIMEOUT)
                 except OSError as exc:
                     raise InputError("--scheduler", f"cannot connect to {scheduler} ({exc})") from None
             else:

@@ -7,14 +7,15 @@ from lumped import oil as oil_mod
 from lumped.disc_valve import c1_coefficient, c2_coefficient, helical_spring_stiffness
 from lumped.params import _data, critical_damping, load_disc_valve
 from studies.thesis import thesis_values
-from studies.validation import add_inferred_column, cases, run_cases, table_rows
+from studies.validation import add_table_5_1_column, cases, run_cases, table_rows
 
 REED_NOTE = (
-    "modeled_cc uses the printed parameters (Tables 3.13, 5.1; R = 0.008) and comes out ~10 % above the "
-    "thesis's modeled deliveries. modeled_cc_v_tdc_40cc changes one number, the cylinder dead volume "
-    "V_tdc = 4.0e-5 m^3 for the reed manifolds (section 5.5.1 says they differ from the disc pump's), "
-    "and reproduces all six within 0.05 %; docs/errata.md ('Reed pump delivery offset') has the "
-    "sensitivity study."
+    "modeled_cc uses the printed reed parameters (Tables 3.13, 5.1; R = 0.008) with the reed manifolds' "
+    "cylinder dead volume V_tdc = 4.0e-5 m^3, which the text does not print: section 5.5.1 says the reed "
+    "pump's valves and manifolds differ from the disc pump's, and this one number reproduces the level and "
+    "the load-pressure slope of all six modeled values. modeled_cc_table_5_1_v_tdc uses Table 5.1's "
+    "2.17e-5 m^3 and comes out ~10 % above them in every case; docs/errata.md ('Reed pump delivery "
+    "offset') has the sensitivity study."
 )
 
 
@@ -72,7 +73,7 @@ def _pump_table(table: str, notes: list[str]) -> dict:
     sel = cases(table=table)
     results = run_cases(sel, trace=False, progress=True)
     rows = table_rows(sel, results)
-    add_inferred_column(sel, rows, progress=True)
+    add_table_5_1_column(sel, rows, progress=True)
     return {"rows": rows, "notes": notes}
 
 

@@ -14,7 +14,7 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 
-from lumped.params import PumpModel, inferred_reed_dead_volume, thesis_model, with_reed_properties
+from lumped.params import PumpModel, table_5_1_dead_volume, thesis_model, with_reed_properties
 from lumped.pump import PumpResult, simulate
 from studies.thesis import experiments
 
@@ -49,27 +49,31 @@ def case_name(case: dict) -> str:
 
 
 def run_case(case: dict, *, params: PumpModel | None = None, quick: bool = False, trace: bool = True,
-             progress: bool = False) -> PumpResult:
-    """Simulate one validation case to cyclic steady state (thesis configuration unless ``params``)."""
+             progress: bool = False, method: str = "Radau") -> PumpResult:
+    """Simulate one validation case to cyclic steady state (thesis configuration unless ``params``).
+
+    ``method``: the integrator of :func:`lumped.pump.simulate`, "Radau" (the reference) or
+    "fast" (compiled, delivery within 0.1 % of the reference).
+    """
     s = QUICK if quick else FULL
     model = params if params is not None else thesis_model(case["valve"], case["air_content"])
     return simulate(case["valve"], case["speed_rpm"], case["load_pressure"], params=model,
                     revolutions=s["revolutions"], max_revolutions=s["max_revolutions"], trace=trace,
-                    trace_revolutions=s["trace_revolutions"], progress=progress)
+                    trace_revolutions=s["trace_revolutions"], progress=progress, method=method)
 
 
 def _run_one(args):
-    case, params, quick, trace = args
-    return run_case(case, params=params, quick=quick, trace=trace)
+    case, params, quick, trace, method = args
+    return run_case(case, params=params, quick=quick, trace=trace, method=method)
 
 
 def run_cases(selected: list[dict], *, params_for=None, quick: bool = False, trace: bool = True,
-              progress: bool = False, jobs: int = 1) -> list[PumpResult]:
+              progress: bool = False, jobs: int = 1, method: str = "Radau") -> list[PumpResult]:
     """Simulate the cases (in ``jobs`` processes), progress as a count on stderr.
 
     ``params_for(case) -> PumpModel | None`` overrides the thesis configuration per case.
     """
-    work = [(c, params_for(c) if params_for else None, quick, trace) for c in selected]
+    work = [(c, params_for(c) if params_for else None, quick, trace, method) for c in selected]
     bar = None
     if progress:
         from tqdm import tqdm
@@ -115,58 +119,51 @@ def table_rows(selected: list[dict], results: list[PumpResult]) -> list[dict]:
 
 def reed_parameter_chain(fidelities=("analytic", "beam", "plate", "solid"), quick: bool = False,
                          progress: bool = True) -> dict:
-    """Step 1 of ``validate``: the prototype reed's kappa, gammas, h_eff by each fidelity.
+    """Step 1 of ``validate``: the prototype reed's omega_n, kappa, gammas, h_eff by each fidelity.
 
-    Calls ``studies.reed_check.multi_fidelity_check(reed, fidelities=..., progress=...)``
-    (task B), which returns the rows per fidelity and the selected ``ReedProperties``.
-    When that module is not installed, the step reports it and the pump uses Table 3.13.
+    Runs :func:`studies.reed_check.multi_fidelity_check` on the prototype reed (``quick``:
+    a 2 mm FEA mesh instead of each fidelity's converged default) and returns its rows,
+    the selected :class:`ReedProperties` that would feed the pump model, and why.
     """
-    try:
-        from studies.reed_check import multi_fidelity_check
-    except ImportError as exc:
-        return {"status": "unavailable", "reason": f"studies.reed_check not available ({exc})",
-                "rows": [], "selected": None}
     from geometry import load_reed
+    from studies.reed_check import multi_fidelity_check
 
-    reed = load_reed("prototype")
-    kwargs = {"fidelities": tuple(fidelities), "progress": progress}
-    if quick:
-        kwargs["quick"] = True
-    try:
-        out = multi_fidelity_check(reed, **kwargs)
-    except TypeError:                                  # no quick option
-        kwargs.pop("quick", None)
-        out = multi_fidelity_check(reed, **kwargs)
-    if isinstance(out, dict):
-        rows, selected = out.get("rows", []), out.get("selected")
-    else:
-        rows, selected = out
-    return {"status": "ok", "reason": "", "rows": list(rows), "selected": selected}
+    check = multi_fidelity_check(load_reed("prototype"), fidelities=tuple(fidelities),
+                                 mesh_size=QUICK_FEA_MESH if quick else None, progress=progress)
+    sel = check["selected"]
+    return {"status": "ok", "reason": sel["reason"], "rows": check["rows"], "flagged": check["flagged"],
+            "reference": check["reference"], "selected": sel["properties"]}
 
 
-#: extra column of Table 5.6: the reed cases with the inferred reed-manifold dead volume
-INFERRED_COLUMN = "modeled_cc_v_tdc_40cc"
+#: FEA element size [m] of ``validate --quick`` (coarse: for tests, not for numbers)
+QUICK_FEA_MESH = 2.0e-3
+
+#: extra column of Table 5.6: the reed cases with Table 5.1's dead volume instead of the inferred one
+TABLE_5_1_COLUMN = "modeled_cc_table_5_1_v_tdc"
 
 
-def inferred_dead_volume_model(case: dict) -> PumpModel:
-    """Thesis reed configuration with V_tdc = 4.0e-5 m^3 (docs/errata.md, 'Reed pump delivery offset')."""
+def table_5_1_dead_volume_model(case: dict) -> PumpModel:
+    """Thesis configuration with Table 5.1's V_tdc = 2.17e-5 m^3 (docs/errata.md, 'Reed pump delivery offset')."""
     m = thesis_model(case["valve"], case["air_content"])
-    return replace(m, pump=replace(m.pump, dead_volume=inferred_reed_dead_volume()))
+    return replace(m, pump=replace(m.pump, dead_volume=table_5_1_dead_volume()))
 
 
-def add_inferred_column(selected: list[dict], rows: list[dict], quick: bool = False, progress: bool = False,
-                        jobs: int = 1) -> None:
-    """Run the reed cases with the inferred dead volume and add INFERRED_COLUMN to their rows."""
+def add_table_5_1_column(selected: list[dict], rows: list[dict], quick: bool = False, progress: bool = False,
+                        jobs: int = 1, method: str = "fast") -> None:
+    """Run the reed cases with Table 5.1's dead volume and add TABLE_5_1_COLUMN to their rows.
+
+    An auxiliary column: by default on the fast path (delivery within 0.1 % of the reference).
+    """
     pairs = [(c, r) for c, r in zip(selected, rows) if c["valve"] == "reed"]
     if not pairs:
         return
-    res = run_cases([c for c, _ in pairs], params_for=inferred_dead_volume_model, quick=quick, trace=False,
-                    progress=progress, jobs=jobs)
+    res = run_cases([c for c, _ in pairs], params_for=table_5_1_dead_volume_model, quick=quick, trace=False,
+                    progress=progress, jobs=jobs, method=method)
     for (c, row), r in zip(pairs, res):
         d = r.delivery_per_rev * 1e6
-        row[INFERRED_COLUMN] = round(d, 5)
-        row["inferred_vs_thesis_model_pct"] = round((d - row["thesis_modeled_cc"]) / row["thesis_modeled_cc"] * 100, 3)
-        row["inferred_error_pct"] = round((d - row["measured_cc"]) / row["measured_cc"] * 100, 3)
+        row[TABLE_5_1_COLUMN] = round(d, 5)
+        row["table_5_1_vs_thesis_model_pct"] = round((d - row["thesis_modeled_cc"]) / row["thesis_modeled_cc"] * 100, 3)
+        row["table_5_1_error_pct"] = round((d - row["measured_cc"]) / row["measured_cc"] * 100, 3)
 
 
 def reed_model_from(props) -> PumpModel:

@@ -11,7 +11,7 @@ import pytest
 from lumped import pump as ref
 from lumped import pump_fast as fast
 from lumped import rodas
-from lumped.params import pack, thesis_model
+from lumped.params import OFF_DEL, V_XSTOP, pack, thesis_model
 from studies.thesis import experiments
 
 DELIVERY_RTOL = 1e-3  # the acceptance: delivery within 0.1 % of the reference path
@@ -42,24 +42,34 @@ def test_compiled_physics_is_the_reference_physics(valve):
 
 
 @pytest.mark.parametrize("valve", ["disc", "reed"])
-def test_structured_jacobian_equals_plain_differences(valve):
-    """The 3-call Jacobian and the chain-rule df/dt agree with 6-call forward differences."""
+def test_analytic_jacobian_equals_plain_differences(valve):
+    """The chain-rule Jacobian and df/dt (no rhs call) agree with 6-call forward differences."""
     scope = dict(rodas.solve.py_func.__globals__, rhs=fast._rhs)
     plain = rodas._rebind(rodas.fd_jacobian, scope, f"test_plain_pump_{fast.DIGEST}", cache=True)
-    structured, rhs = fast.cached(fast._jacobian), fast.cached(fast._rhs)
+    analytic, rhs = fast.cached(fast._jacobian), fast.cached(fast._rhs)
     rng = np.random.default_rng(6)
     n = ref.N_SIMPLIFIED
-    for model, p0, y, mode, t in _random_states(valve, rng):
-        p = fast._extended(p0, mode)
-        atol = ref._atol_vector(n, 1e-4, p0, model)
-        f0 = np.empty(n)
-        rhs(t, y, p, f0)
-        ja, fa, jb, fb = np.empty((n, n)), np.empty(n), np.empty((n, n)), np.empty(n)
-        assert structured(t, y, p, f0, ja, fa, np.empty(n), np.empty(n), atol, 1e-4, 5, 1e-6) == 3
-        assert plain(t, y, p, f0, jb, fb, np.empty(n), np.empty(n), atol, 1e-4, 5, 1e-6) == 6
-        scale = np.abs(jb).max(axis=0) + 1e-300
-        assert np.all(np.abs(ja - jb) <= 1e-5 * scale + 1e-9 * np.abs(jb).max())
-        assert np.allclose(fa, fb, rtol=2e-4, atol=2e-4 * np.abs(fb).max())
+    seen = set()
+    for i, (model, p0, y, mode, t) in enumerate(_random_states(valve, rng, k=12)):
+        if i % 3 == 1:      # inlet seated (pressed in by nanometres), delivery on its stop
+            y[ref.S_XIN] = -rng.uniform(1e-10, 1e-8)
+            y[ref.S_XDEL] = p0[OFF_DEL + V_XSTOP] * (1 + rng.uniform(1e-6, 1e-4))
+            mode = ref.auto_mode(y, p0)
+        seen.add((mode[0], mode[2]))
+        for stale in (False, True):
+            p = fast._extended(p0, mode)
+            atol = ref._atol_vector(n, 1e-4, p0, model)
+            f0 = np.empty(n)
+            rhs(t, y, p, f0)
+            if stale:                 # P_cyl left by another call: the Jacobian must not use it
+                p[fast.STASH + 1] *= 1.001
+            ja, fa, jb, fb = np.empty((n, n)), np.empty(n), np.empty((n, n)), np.empty(n)
+            assert analytic(t, y, p, f0, ja, fa, np.empty(n), np.empty(n), atol, 1e-4, 5, 1e-6) == 0
+            assert plain(t, y, p, f0, jb, fb, np.empty(n), np.empty(n), atol, 1e-4, 5, 1e-6) == 6
+            scale = np.abs(jb).max(axis=0) + 1e-300
+            assert np.all(np.abs(ja - jb) <= 1e-5 * scale + 1e-9 * np.abs(jb).max())
+            assert np.allclose(fa, fb, rtol=2e-4, atol=2e-4 * np.abs(fb).max())
+    assert (ref.SEAT, ref.STOP) in seen and (ref.FREE, ref.FREE) in seen
 
 
 def _compare(valve, speed, load, air, revolutions=3, params=None):
@@ -76,7 +86,7 @@ def _compare(valve, speed, load, air, revolutions=3, params=None):
         assert (fa is None) == (ra is None)
         if fa is not None:
             d = abs(fa - ra) % (2 * math.pi)
-            assert min(d, 2 * math.pi - d) < math.radians(0.25)
+            assert min(d, 2 * math.pi - d) < math.radians(0.5)  # 0.16 deg on the 12 cases; grazing lift-offs move most
     # stop_contacts is not compared here: where a disc leaves its stop grazing (u ~ 0), the
     # count depends on the velocity tolerance (see test_same_switches_at_tight_tolerance)
     return r, f

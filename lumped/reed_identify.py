@@ -1,0 +1,210 @@
+"""Free-vibration identification of a plucked reed (thesis section 3.8.2, Table 3.10).
+
+A reed plucked in air rings down as eq 3.67,
+    v(t) = C4 exp(-sigma t) sin(omega_d t + phi) (+ offset),  sigma = gamma1 c_c / (2 rho_c h_eff);
+fitting it by nonlinear least squares gives sigma and omega_d, hence the internal
+damping c_c (eq 3.67), the undamped frequency omega_n (eq 3.70) and the reed stiffness
+kappa (eq 3.73) once gamma1, rho_c and h_eff are known. Several runs are summarised
+as Table 3.10 does (mean, sample standard deviation, uncertainty). SI units.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.signal import find_peaks
+
+from geometry.errors import InputError
+
+# -- the relations of section 3.8.2 -----------------------------------------------------
+
+
+def decay_rate(c_c: float, gamma1: float, rho_c: float, h_eff: float) -> float:
+    """sigma = gamma1 c_c / (2 rho_c h_eff) [1/s], the envelope decay rate of eq 3.67."""
+    return gamma1 * c_c / (2.0 * rho_c * h_eff)
+
+
+def internal_damping(sigma: float, gamma1: float, rho_c: float, h_eff: float) -> float:
+    """c_c = 2 rho_c h_eff sigma / gamma1 [Pa s/m], from a fitted decay rate sigma [1/s] (eq 3.67)."""
+    return 2.0 * rho_c * h_eff * sigma / gamma1
+
+
+def undamped_frequency(omega_d: float, c_c: float, gamma1: float, rho_c: float, h_eff: float) -> float:
+    """omega_n = sqrt(omega_d^2 + (gamma1 c_c / (2 rho_c h_eff))^2) [rad/s] (eq 3.70)."""
+    return float(np.hypot(omega_d, decay_rate(c_c, gamma1, rho_c, h_eff)))
+
+
+def stiffness_from_frequency(omega_n: float, gamma1: float, rho_c: float, h_eff: float) -> float:
+    """kappa = rho_c h_eff omega_n^2 / gamma1 [Pa/m] (eq 3.73)."""
+    return rho_c * h_eff * omega_n**2 / gamma1
+
+
+def implied_effective_thickness(kappa: float, omega_d: float, c_c: float, gamma1: float,
+                                rho_c: float) -> float:
+    """h_eff [m] for which eqs 3.70 and 3.73 turn (c_c, omega_d) into kappa (inverse of the two).
+
+    kappa = rho_c h omega_d^2 / gamma1 + gamma1 c_c^2 / (4 rho_c h): the larger root in h.
+    """
+    a = rho_c * omega_d**2 / gamma1
+    c = gamma1 * c_c**2 / (4.0 * rho_c)
+    return (kappa + np.sqrt(kappa**2 - 4.0 * a * c)) / (2.0 * a)
+
+
+def ringdown(t, amplitude: float, sigma: float, omega_d: float, phase: float, offset: float = 0.0):
+    """Eq 3.67: amplitude exp(-sigma t) sin(omega_d t + phase) + offset (units of amplitude)."""
+    t = np.asarray(t, dtype=float)
+    return amplitude * np.exp(-sigma * t) * np.sin(omega_d * t + phase) + offset
+
+
+# -- fitting --------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class RingdownFit:
+    """Eq 3.67 fitted to one trace: amplitude (trace units), sigma [1/s], omega_d [rad/s], phase [rad],
+    offset (trace units), rms residual (trace units), and the derived c_c [Pa s/m], omega_n [rad/s],
+    kappa [Pa/m]."""
+
+    amplitude: float
+    sigma: float
+    omega_d: float
+    phase: float
+    offset: float
+    rms_residual: float
+    c_c: float
+    omega_n: float
+    kappa: float
+
+
+def _check_trace(t, v, where: str):
+    t = np.asarray(t, dtype=float)
+    v = np.asarray(v, dtype=float)
+    if t.ndim != 1 or v.shape != t.shape:
+        raise InputError(where, f"time and signal must be 1-D arrays of equal length, got {t.shape} and {v.shape}")
+    if t.size < 20:
+        raise InputError(where, f"needs at least 20 samples, got {t.size}")
+    if not np.all(np.isfinite(t)):
+        raise InputError(f"{where}.t", "contains NaN or infinite times")
+    if not np.all(np.isfinite(v)):
+        raise InputError(f"{where}.v", "contains NaN or infinite values")
+    if np.any(np.diff(t) <= 0):
+        raise InputError(f"{where}.t", "times must increase strictly")
+    if np.ptp(v) == 0.0:
+        raise InputError(f"{where}.v", "the signal is constant: nothing to fit")
+    return t, v
+
+
+def initial_guess(t, v) -> tuple[float, float, float, float, float]:
+    """(amplitude, sigma, omega_d, phase, offset) from the FFT peak and the logarithmic decrement.
+
+    omega_d: Hann-windowed, zero-padded FFT peak refined by parabolic interpolation;
+    sigma: slope of log(peak height) over successive peaks (log decrement / period);
+    amplitude and phase: linear least squares with sigma and omega_d fixed.
+    """
+    t = np.asarray(t, float)
+    v = np.asarray(v, float)
+    t0 = t - t[0]
+    offset = float(np.median(v[-max(len(v) // 5, 5):]))
+    y = v - offset
+    dt = float(np.median(np.diff(t0)))
+    nfft = 1 << int(np.ceil(np.log2(len(y) * 8)))
+    spec = np.abs(np.fft.rfft(y * np.hanning(len(y)), nfft))
+    spec[0] = 0.0
+    k = int(np.argmax(spec))
+    if 0 < k < len(spec) - 1:
+        a, b, c = np.log(spec[k - 1 : k + 2] + 1e-300)
+        k = k + 0.5 * (a - c) / (a - 2 * b + c) if (a - 2 * b + c) != 0 else k
+    omega = 2 * np.pi * k / (nfft * dt)
+    # log decrement from the positive peaks
+    period = 2 * np.pi / omega
+    peaks, _ = find_peaks(y, distance=max(int(0.6 * period / dt), 1))
+    peaks = peaks[y[peaks] > 0]
+    sigma = 0.0
+    if len(peaks) >= 3:
+        keep = y[peaks] > 0.1 * y[peaks].max()  # above the noise floor
+        if keep.sum() >= 3:
+            slope = np.polyfit(t0[peaks][keep], np.log(y[peaks][keep]), 1)[0]
+            sigma = max(-slope, 0.0)
+    env = np.exp(-sigma * t0)
+    A = np.column_stack([env * np.sin(omega * t0), env * np.cos(omega * t0)])
+    (p, q), *_ = np.linalg.lstsq(A, y, rcond=None)
+    return float(np.hypot(p, q)), float(sigma), float(omega), float(np.arctan2(q, p)), offset
+
+
+def fit_ringdown(t, v, *, with_offset: bool = True, where: str = "trace") -> tuple[np.ndarray, float]:
+    """Fit eq 3.67 to one trace by nonlinear least squares (scipy.optimize.least_squares).
+
+    Returns ([amplitude, sigma, omega_d, phase, offset], rms residual); time is measured
+    from the first sample. ``with_offset=False`` fixes the offset at 0 (eq 3.67 as printed).
+    """
+    t, v = _check_trace(t, v, where)
+    t0 = t - t[0]
+    A0, s0, w0, p0, o0 = initial_guess(t, v)
+    if not with_offset:
+        o0 = 0.0
+    scale = max(np.ptp(v), 1e-300)
+
+    def resid(x):
+        off = x[4] if with_offset else 0.0
+        return (ringdown(t0, x[0], x[1], x[2], x[3], off) - v) / scale
+
+    x0 = np.array([A0, s0, w0, p0, o0])
+    lo = [-np.inf, 0.0, 0.5 * w0, -np.inf, -np.inf]
+    hi = [np.inf, np.inf, 1.5 * w0, np.inf, np.inf]
+    sol = least_squares(resid, x0, bounds=(lo, hi), x_scale="jac", xtol=1e-14, ftol=1e-14, gtol=1e-14)
+    x = sol.x.copy()
+    if not with_offset:
+        x[4] = 0.0
+    if x[0] < 0:  # same curve with a positive amplitude
+        x[0], x[3] = -x[0], x[3] + np.pi
+    x[3] = (x[3] + np.pi) % (2 * np.pi) - np.pi
+    rms = float(np.sqrt(np.mean((sol.fun * scale) ** 2)))
+    return x, rms
+
+
+def identify_run(t, v, gamma1: float, rho_c: float, h_eff: float, *, with_offset: bool = True,
+                 where: str = "trace") -> RingdownFit:
+    """One plucked-reed run: eq 3.67 fit, then c_c (eq 3.67), omega_n (eq 3.70), kappa (eq 3.73)."""
+    for name, val in (("gamma1", gamma1), ("rho_c", rho_c), ("h_eff", h_eff)):
+        if not (np.isfinite(val) and val > 0):
+            raise InputError(name, f"must be a positive number, got {val}")
+    x, rms = fit_ringdown(t, v, with_offset=with_offset, where=where)
+    amp, sigma, omega_d, phase, off = (float(a) for a in x)
+    c_c = internal_damping(sigma, gamma1, rho_c, h_eff)
+    omega_n = undamped_frequency(omega_d, c_c, gamma1, rho_c, h_eff)
+    return RingdownFit(amp, sigma, omega_d, phase, off, rms, c_c, omega_n,
+                       stiffness_from_frequency(omega_n, gamma1, rho_c, h_eff))
+
+
+def summarise(values) -> dict:
+    """mean, sample standard deviation and uncertainty [+- %] of repeated runs, as in Table 3.10.
+
+    Table 3.10's uncertainty is 100 std / (2 sqrt(n) |mean|) (it reproduces the printed
+    0.3953 % for c_c and 0.04083 % for omega; its kappa entry 0.8174 is 10x the same
+    formula's 0.08174, docs/errata.md).
+    """
+    a = np.asarray(values, dtype=float)
+    n = a.size
+    mean = float(a.mean())
+    std = float(a.std(ddof=1)) if n > 1 else 0.0
+    unc = 100.0 * std / (2.0 * np.sqrt(n) * abs(mean)) if n > 1 and mean != 0 else 0.0
+    return {"mean": mean, "std": std, "uncertainty_pct": float(unc), "n": n}
+
+
+def identify(traces, gamma1: float, rho_c: float, h_eff: float, *, with_offset: bool = True) -> dict:
+    """Identify c_c, omega_d, omega_n and kappa from plucked-reed traces, summarised like Table 3.10.
+
+    ``traces``: an iterable of (t [s], v) pairs (v in any unit: volts or metres).
+    Returns {"runs": [RingdownFit, ...], "c_c": summary, "omega_d": ..., "omega_n": ...,
+    "kappa": ...} with each summary from :func:`summarise`.
+    """
+    runs = [identify_run(t, v, gamma1, rho_c, h_eff, with_offset=with_offset, where=f"trace[{i}]")
+            for i, (t, v) in enumerate(traces)]
+    if not runs:
+        raise InputError("traces", "no trace given")
+    out = {"runs": runs}
+    for key in ("c_c", "omega_d", "omega_n", "kappa"):
+        out[key] = summarise([getattr(r, key) for r in runs])
+    return out

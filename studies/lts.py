@@ -1,0 +1,333 @@
+"""Laser triangulation through air, a PMMA window and oil (Knutson 2016, section 5.3, Appendix B).
+
+Geometry of Figure 5.2, as eqs 5.5-5.8 define it. The laser beam leaves the sensor
+normal to the window, so it crosses every interface undeflected and the spot moves
+along the beam by the actual displacement ``x_act``. The receiving lens sits a
+distance C_1 behind the sensor face and C_2 across from the beam; the ray from the
+spot back to the lens refracts at the oil-PMMA and PMMA-air interfaces (Snell,
+eqs 5.1-5.4). With the lens at depth 0, the layers are air ``C_1 + t_a``, window
+``t_p`` and oil ``t_o`` (+ ``x_act``), and the ray's lateral travel through them adds up
+to C_2 (eqs 5.6, 5.7). At ``x_act = 0`` the target sits at the sensor's zero-voltage
+reference, the point at the standoff L_s in air (eq 5.5): that fixes the oil gap
+``t_o`` (eq 5.6). The sensor reads the apparent displacement as if all were air
+(eq 5.8), and the voltage is ``x_app / C_app`` (eq 5.9). The actual scale factor
+``C_act`` is the least-squares slope of ``x_act`` against that voltage (eq 5.10).
+
+SI units throughout (m, m/V, rad). Uncertainties follow eq 5.11 (the sum of the
+absolute one-at-a-time changes), reported in the unit of the result and in percent.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, fields, replace
+from functools import cache
+from importlib import resources
+from typing import Callable, Mapping
+
+import numpy as np
+
+from geometry.errors import InputError
+
+# scipy is imported where it is used: every `valvelab` command imports this module to
+# build its parser, and scipy.optimize alone costs about a second to import.
+
+#: thesis manifolds with their inputs in ``studies/data/lts.toml`` (Table 5.2; the reed one assumed)
+MANIFOLDS = ("disc_inlet", "disc_delivery", "reed")
+#: samples of the refractive-index experiment (Tables B.1, B.2)
+SAMPLES = ("water", "isopropanol_70", "hydraulic_oil", "acrylic")
+
+
+@dataclass(frozen=True)
+class LtsSetup:
+    """One LTS measurement through air, a window and a fluid (inputs of Table 5.2), SI units."""
+
+    apparent_scale: float    # C_app [m/V], manufacturer's scale in air
+    c1: float                # C_1 [m], receiving lens behind the sensor face
+    c2: float                # C_2 [m], receiving lens across from the laser beam
+    standoff: float          # L_s [m], sensor face to the zero-voltage reference in air
+    n_air: float             # n_a
+    n_window: float          # n_p (PMMA)
+    n_fluid: float           # n_o (oil)
+    air_gap: float           # t_a [m], sensor face to window
+    window_thickness: float  # t_p [m]
+
+
+@dataclass(frozen=True)
+class IndexExperiment:
+    """One refractive-index measurement of Appendix B (Figure B.1, Table B.1), SI units."""
+
+    c1: float         # C_1 [m]
+    c2: float         # C_2 [m]
+    standoff: float   # L_s [m]
+    n_air: float      # n_a
+    air_gap: float    # t_a [m], sensor face to the sample's surface
+    thickness: float  # t_m [m], sample thickness above the target
+
+
+@dataclass(frozen=True)
+class ScaleFit:
+    """Least-squares line x_act = C_act dV + b over the sweep (eq 5.10), SI units."""
+
+    scale: float               # C_act [m/V]
+    intercept: float           # b [m]
+    x_act: np.ndarray          # [m]
+    voltage: np.ndarray        # dV [V]
+    max_residual: float        # largest |x_act - (C_act dV + b)| [m]
+    r_squared: float
+
+
+# ---------------------------------------------------------------- validation
+
+_POSITIVE = {"apparent_scale", "c2", "standoff"}
+_NONNEGATIVE = {"air_gap", "window_thickness", "thickness"}
+_INDICES = {"n_air", "n_window", "n_fluid"}
+
+
+def validate(obj, prefix: str = ""):
+    """``obj`` (LtsSetup or IndexExperiment) unchanged, or InputError naming the bad field."""
+    for f in fields(obj):
+        v = getattr(obj, f.name)
+        name = prefix + f.name
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise InputError(name, f"expected a finite number, got {v!r}")
+        if f.name in _POSITIVE and v <= 0:
+            raise InputError(name, f"must be positive, got {v:g}")
+        if f.name in _NONNEGATIVE and v < 0:
+            raise InputError(name, f"a thickness must be >= 0 m, got {v:g}")
+        if f.name in _INDICES and v < 1.0:
+            raise InputError(name, f"a refractive index must be >= 1, got {v:g}")
+    if obj.c1 + obj.standoff <= 0:
+        raise InputError(prefix + "c1", "c1 + standoff must be positive")
+    return obj
+
+
+# ------------------------------------------------------------ scale factor
+
+def laser_angle(c1: float, c2: float, standoff: float) -> float:
+    """Return-ray angle in air at the zero-voltage reference [rad] (eq 5.5 = eq B.1)."""
+    return math.atan2(c2, c1 + standoff)
+
+
+def _refracted(s: float | np.ndarray, n: float):
+    """Angle [rad] in a medium of index n for the Snell invariant s = n_a sin(theta_a) (eqs 5.1-5.4)."""
+    return np.arcsin(s / n)
+
+
+def oil_gap(setup: LtsSetup) -> float:
+    """Oil gap t_o [m] that puts the target at the sensor's reference (eq 5.6 with eqs 5.1, 5.2, 5.5)."""
+    th_a = laser_angle(setup.c1, setup.c2, setup.standoff)
+    s = setup.n_air * math.sin(th_a)
+    if s >= min(setup.n_window, setup.n_fluid):
+        raise InputError("n_air", "the return ray is totally reflected: n_air sin(theta_a) >= n_window or n_fluid")
+    rest = setup.c2 - (setup.c1 + setup.air_gap) * math.tan(th_a) - setup.window_thickness * math.tan(
+        _refracted(s, setup.n_window))
+    t_o = rest / math.tan(_refracted(s, setup.n_fluid))
+    if t_o < 0:
+        raise InputError(
+            "air_gap",
+            f"air gap + window ({(setup.air_gap + setup.window_thickness) * 1e3:.3f} mm) reach past the sensor's "
+            f"reference point; the oil gap from eq 5.6 would be {t_o * 1e3:.3f} mm",
+        )
+    return t_o
+
+
+def _lateral(setup: LtsSetup, theta_a, depth_fluid):
+    """Lateral travel [m] of the return ray leaving the lens at theta_a (left side of eqs 5.6/5.7)."""
+    s = setup.n_air * np.sin(theta_a)
+    return ((setup.c1 + setup.air_gap) * np.tan(theta_a)
+            + setup.window_thickness * np.tan(_refracted(s, setup.n_window))
+            + depth_fluid * np.tan(_refracted(s, setup.n_fluid)))
+
+
+def apparent_displacement(setup: LtsSetup, x_act) -> np.ndarray:
+    """Apparent displacement x_app [m] the sensor reports for actual displacements x_act [m] (eqs 5.1-5.8)."""
+    from scipy.optimize import brentq
+
+    x = np.atleast_1d(np.asarray(x_act, dtype=float))
+    th1 = laser_angle(setup.c1, setup.c2, setup.standoff)
+    t_o = oil_gap(setup)
+    if np.any(t_o + x < 0):
+        raise InputError("x_act", f"moves the target through the window (oil gap is {t_o * 1e3:.3f} mm)")
+    # the ray angle that ends on the lens: eq 5.7 in theta_a2 alone (Snell gives the others);
+    # the lateral travel grows monotonically with the angle, so one bracketed root
+    hi = math.asin(min(1.0, min(setup.n_window, setup.n_fluid) / setup.n_air)) * (1 - 1e-12)
+    th2 = np.array([
+        brentq(lambda th: _lateral(setup, th, t_o + xi) - setup.c2, 0.0, min(hi, math.pi / 2 * (1 - 1e-12)),
+               xtol=1e-15, rtol=4 * np.finfo(float).eps)
+        for xi in x
+    ])
+    return setup.c2 * (1 / np.tan(th2) - 1 / math.tan(th1))
+
+
+def actual_displacement(setup: LtsSetup, x_app) -> np.ndarray:
+    """Actual displacement x_act [m] for apparent displacements x_app [m]: eqs 5.8 then 5.7 solved explicitly."""
+    xa = np.atleast_1d(np.asarray(x_app, dtype=float))
+    th1 = laser_angle(setup.c1, setup.c2, setup.standoff)
+    depth_air = setup.c2 / math.tan(th1) + xa          # eq 5.8: C_2 / tan(theta_a2)
+    if np.any(depth_air <= 0):
+        raise InputError("voltage", "apparent position in front of the receiving lens")
+    th2 = np.arctan(setup.c2 / depth_air)
+    s = setup.n_air * np.sin(th2)
+    rest = setup.c2 - (setup.c1 + setup.air_gap) * np.tan(th2) - setup.window_thickness * np.tan(
+        _refracted(s, setup.n_window))
+    return rest / np.tan(_refracted(s, setup.n_fluid)) - oil_gap(setup)
+
+
+def sweep(setup: LtsSetup, x_max: float, points: int) -> tuple[np.ndarray, np.ndarray]:
+    """(x_act [m], dV [V]) at ``points`` actual displacements 0..x_max (eqs 5.1-5.9)."""
+    if not (math.isfinite(x_max) and x_max > 0):
+        raise InputError("x_max", f"must be a positive length, got {x_max!r}")
+    if points < 3:
+        raise InputError("points", f"need at least 3 points for a line and its residual, got {points}")
+    x = np.linspace(0.0, x_max, int(points))
+    return x, apparent_displacement(setup, x) / setup.apparent_scale
+
+
+def scale_factor(setup: LtsSetup, x_max: float | None = None, points: int | None = None) -> ScaleFit:
+    """Actual scale factor C_act [m/V]: least-squares slope of x_act on dV (eqs 5.9, 5.10).
+
+    The sweep defaults to the thesis's 11 points from 0 to 1.2 mm (``studies/data/lts.toml``).
+    """
+    dx, dp = sweep_settings()
+    x, v = sweep(setup, dx if x_max is None else x_max, dp if points is None else points)
+    slope, intercept = np.polynomial.polynomial.polyfit(v, x, 1)[::-1]
+    resid = x - (slope * v + intercept)
+    r2 = 1.0 - np.sum(resid**2) / np.sum((x - x.mean()) ** 2)
+    return ScaleFit(float(slope), float(intercept), x, v, float(np.max(np.abs(resid))), float(r2))
+
+
+def position_from_voltage(setup: LtsSetup, voltage, *, exact: bool = False, scale: float | None = None):
+    """Actual position change x_act [m] from sensor voltages dV [V]: eq 5.10, or eqs 5.7-5.9 inverted if exact."""
+    v = np.asarray(voltage, dtype=float)
+    if exact:
+        return actual_displacement(setup, v * setup.apparent_scale).reshape(v.shape)
+    return (scale if scale is not None else scale_factor(setup).scale) * v
+
+
+# ------------------------------------------------------------- uncertainty
+
+def uncertainty(f: Callable[[object], float], params, deltas: Mapping[str, float]) -> tuple[float, dict]:
+    """Eq 5.11: sum over inputs of |f(x_i + dx_i) - f(x)|; returns (total, {input: contribution}) in f's unit."""
+    f0 = f(params)
+    parts = {}
+    for name, d in deltas.items():
+        if not d:
+            parts[name] = 0.0
+            continue
+        parts[name] = abs(f(replace(params, **{name: getattr(params, name) + d})) - f0)
+    return float(sum(parts.values())), parts
+
+
+# --------------------------------------------------------- refractive index
+
+def refractive_index(exp: IndexExperiment) -> float:
+    """Refractive index n_m of a sample from the LTS experiment of Figure B.1 (eqs B.1, B.2)."""
+    th = laser_angle(exp.c1, exp.c2, exp.standoff)
+    lateral_left = exp.c2 - (exp.c1 + exp.air_gap) * math.tan(th)
+    if lateral_left <= 0:
+        raise InputError("air_gap", "the sample surface is at or past the sensor's reference point; "
+                                    "eq B.2 needs C2 - (C1 + t_a) tan(theta_a) > 0")
+    return exp.n_air * math.sin(th) * math.sqrt((exp.thickness / lateral_left) ** 2 + 1.0)
+
+
+# ------------------------------------------------------------------- data
+
+@cache
+def lts_data() -> dict:
+    """The thesis inputs of ``studies/data/lts.toml`` (Tables 5.2, B.1, B.2)."""
+    return tomllib.loads(resources.files("studies").joinpath("data/lts.toml").read_text())
+
+
+def _vu(entry) -> tuple[float, float]:
+    """(value, absolute uncertainty) of a data-file entry {value, unc} or {value, unc_pct}."""
+    if "unc_pct" in entry:
+        return entry["value"], entry["value"] * entry["unc_pct"] / 100.0
+    return entry["value"], entry["unc"]
+
+
+#: where a thesis setup takes its refractive indices from
+INDEX_SOURCES = ("table_b_2", "appendix_b")
+
+
+def appendix_b_index(sample: str) -> tuple[float, float]:
+    """(n, eq 5.11 uncertainty) of a Table B.1 sample recomputed by eqs B.1, B.2 (unrounded)."""
+    exp, deltas = thesis_index_experiment(sample)
+    n = refractive_index(exp)
+    return n, uncertainty(refractive_index, exp, deltas)[0]
+
+
+def thesis_setup(manifold: str, *, indices: str = "table_b_2",
+                 table_5_2_index_unc: bool = False) -> tuple[LtsSetup, dict]:
+    """(setup, eq 5.11 deltas) of a thesis manifold (``disc_inlet``, ``disc_delivery``, ``reed``).
+
+    ``indices``: ``table_b_2`` takes n_o, n_p and their uncertainties as printed in Table
+    B.2 (1.476 +/- 1.062 %, 1.509 +/- 1.668 %); ``appendix_b`` recomputes them from the raw
+    measurements of Table B.1 (eqs B.1, B.2, 5.11). ``table_5_2_index_unc`` uses Table 5.2's
+    rounded +/-0.016, +/-0.025 instead (only to document the erratum).
+    """
+    if manifold not in MANIFOLDS:
+        raise InputError("manifold", f"expected one of {', '.join(MANIFOLDS)}, got {manifold!r}")
+    if indices not in INDEX_SOURCES:
+        raise InputError("indices", f"expected one of {', '.join(INDEX_SOURCES)}, got {indices!r}")
+    d = lts_data()
+    sen, mat, man = d["sensor"], d["materials"], d["manifold"][manifold]
+    vals: dict[str, tuple[float, float]] = {
+        "apparent_scale": _vu(sen["apparent_scale"]), "c1": _vu(sen["c1"]), "c2": _vu(sen["c2"]),
+        "standoff": _vu(sen["standoff"]), "n_air": _vu(d["air"]["refractive_index"]),
+        "n_window": _vu(mat["acrylic"]), "n_fluid": _vu(mat["hydraulic_oil"]),
+        "air_gap": _vu(man["air_gap"]), "window_thickness": _vu(man["window_thickness"]),
+    }
+    if indices == "appendix_b":
+        vals["n_window"] = appendix_b_index("acrylic")
+        vals["n_fluid"] = appendix_b_index("hydraulic_oil")
+    if table_5_2_index_unc:
+        vals["n_window"] = (vals["n_window"][0], mat["acrylic_unc_table_5_2"])
+        vals["n_fluid"] = (vals["n_fluid"][0], mat["hydraulic_oil_unc_table_5_2"])
+    setup = LtsSetup(**{k: v for k, (v, _) in vals.items()})
+    return setup, {k: u for k, (_, u) in vals.items()}
+
+
+def thesis_index_experiment(sample: str) -> tuple[IndexExperiment, dict]:
+    """(experiment, eq 5.11 deltas) of a sample of Table B.1 (water, isopropanol_70, hydraulic_oil, acrylic)."""
+    if sample not in SAMPLES:
+        raise InputError("sample", f"expected one of {', '.join(SAMPLES)}, got {sample!r}")
+    d = lts_data()
+    ie, smp = d["index_experiment"], d["index_experiment"]["sample"][sample]
+    vals = {"c1": _vu(ie["c1"]), "c2": _vu(ie["c2"]), "standoff": _vu(ie["standoff"]),
+            "n_air": _vu(d["air"]["refractive_index"]),
+            "air_gap": _vu(smp["air_gap"]), "thickness": _vu(smp["thickness"])}
+    return IndexExperiment(**{k: v for k, (v, _) in vals.items()}), {k: u for k, (_, u) in vals.items()}
+
+
+def sweep_settings() -> tuple[float, int]:
+    """(x_max [m], points) of the thesis's least-squares sweep (section 5.3.1)."""
+    s = lts_data()["sweep"]
+    return s["x_max"], s["points"]
+
+
+def analyse(setup: LtsSetup, deltas: Mapping[str, float], x_max: float | None = None,
+            points: int | None = None) -> dict:
+    """Scale factor, its eq 5.11 uncertainty and the fit quality of one setup, as a JSON-ready dict (SI)."""
+    validate(setup)
+    dx, dp = sweep_settings()
+    x_max = dx if x_max is None else x_max
+    points = dp if points is None else points
+    fit = scale_factor(setup, x_max, points)
+    unc, parts = uncertainty(lambda s: scale_factor(s, x_max, points).scale, setup, deltas)
+    return {
+        "scale_factor_m_per_v": fit.scale,
+        "uncertainty_m_per_v": unc,
+        "uncertainty_pct": 100.0 * unc / fit.scale,
+        "contributions_pct": {k: 100.0 * v / fit.scale for k, v in parts.items()},
+        "intercept_m": fit.intercept,
+        "max_residual_m": fit.max_residual,
+        "r_squared": fit.r_squared,
+        "oil_gap_m": oil_gap(setup),
+        "laser_angle_rad": laser_angle(setup.c1, setup.c2, setup.standoff),
+        "x_max_m": x_max,
+        "points": int(points),
+        "inputs": {f.name: getattr(setup, f.name) for f in fields(setup)},
+        "input_uncertainties": dict(deltas),
+    }

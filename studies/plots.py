@@ -1,0 +1,104 @@
+"""Plots people would rather look at than numbers: reed shapes, Figure 3.12, ring-down fits.
+
+Every function takes arrays (so any model, analytic or FEA, can be drawn), writes one
+file with matplotlib's object API (no pyplot, no display needed) and returns its path.
+Callers check the path first with :func:`studies.outputs.check_new_file`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from geometry.errors import InputError
+
+#: file types matplotlib writes that we accept for --plot
+PLOT_SUFFIXES = (".png", ".pdf", ".svg")
+
+
+def check_plot_suffix(path, field: str = "--plot") -> Path:
+    """``path`` as a Path if its suffix is a supported image type, else InputError naming ``field``."""
+    p = Path(path)
+    if p.suffix.lower() not in PLOT_SUFFIXES:
+        raise InputError(field, f"{p.name}: expected a file ending in {', '.join(PLOT_SUFFIXES)}")
+    return p
+
+
+def plot_reed_shapes(path, reed, shapes: dict, title: str | None = None) -> Path:
+    """Reed outline (top view, mm) above the given shapes psi(s) (normalised at the tip).
+
+    ``shapes``: label -> (s [m], psi) arrays, e.g. the static uniform-load shape and the
+    first free-vibration mode of any fidelity.
+    """
+    fig = Figure(figsize=(7.0, 6.5), layout="constrained")
+    ax0, ax1 = fig.subplots(2, 1, sharex=True, height_ratios=(1, 1.6))
+    out = reed.outline()
+    ax0.fill(out[:, 0] * 1e3, out[:, 1] * 1e3, color="0.85", ec="k", lw=1)
+    if reed.grooves:  # pockets shaded by depth
+        ss, yy = np.meshgrid(np.linspace(0, reed.length, 400), np.linspace(-reed.width_tip / 2, reed.width_tip / 2, 200))
+        inside = np.abs(yy) <= reed.width(ss) / 2
+        depth = np.where(inside, reed.groove_depth(ss, yy), np.nan)
+        depth = np.where(depth > 0, depth, np.nan)
+        ax0.contourf(ss * 1e3, yy * 1e3, depth * 1e3, levels=3, cmap="Blues", alpha=0.7)
+    ax0.set_aspect("equal")
+    ax0.set_ylabel("y [mm]")
+    ax0.set_title(title or f"reed {reed.name}")
+    for label, (s, psi) in shapes.items():
+        ax1.plot(np.asarray(s) * 1e3, psi, label=label)
+    ax1.axhline(0.0, color="0.6", lw=0.5)
+    ax1.set_xlabel("s [mm] (clamp at 0)")
+    ax1.set_ylabel(r"$\psi(s) = v(s) / v(L)$")
+    ax1.legend()
+    ax1.grid(alpha=0.3)
+    fig.savefig(path, dpi=120)
+    return Path(path)
+
+
+def figure_3_12(path) -> Path:
+    """Mode functions of the uniform and stepped reeds in free vibration and under uniform load (Figure 3.12)."""
+    from geometry import load_reed
+    from lumped import reed_beam as rb
+
+    fig = Figure(figsize=(7.0, 4.5), layout="constrained")
+    ax = fig.subplots()
+    styles = {"free": "-", "load": "--", "three_section": ":"}
+    names = {"free": "free vibration", "load": "uniform load", "three_section": "uniform load, rigid tip"}
+    for reed_name, kinds in (("uniform", ("free", "load")), ("stepped1", ("free", "load")),
+                             ("stepped2", ("free", "load", "three_section"))):
+        reed = load_reed(reed_name)
+        s = np.linspace(0.0, reed.length, 301)
+        color = None
+        for kind in kinds:
+            _, psi = rb.shape(reed, kind, s)
+            (line,) = ax.plot(s / reed.length, psi, styles[kind], color=color,
+                              label=f"{reed_name}, {names[kind]}")
+            color = line.get_color()
+    ax.set_xlabel("s / L")
+    ax.set_ylabel(r"$\psi$")
+    ax.set_title("Mode functions (cf. thesis Figure 3.12; exact Euler-Bernoulli)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.savefig(path, dpi=120)
+    return Path(path)
+
+
+def plot_ringdown(path, traces, fits, title: str = "plucked reed: eq 3.67 fits") -> Path:
+    """Measured ring-down traces (t, v) with their eq 3.67 fits (:class:`lumped.reed_identify.RingdownFit`)."""
+    from lumped.reed_identify import ringdown
+
+    fig = Figure(figsize=(7.0, 4.0), layout="constrained")
+    ax = fig.subplots()
+    for i, ((t, v), f) in enumerate(zip(traces, fits)):
+        t = np.asarray(t, float)
+        off = 1.5 * i * max(f.amplitude, 1e-300)
+        ax.plot((t - t[0]) * 1e3, np.asarray(v) + off, ".", ms=1.5, color="k")
+        ax.plot((t - t[0]) * 1e3, ringdown(t - t[0], f.amplitude, f.sigma, f.omega_d, f.phase, f.offset) + off,
+                lw=0.8, label=f"run {i + 1}: omega_d {f.omega_d:.0f} rad/s, c_c {f.c_c:.1f} Pa s/m")
+    ax.set_xlabel("t [ms]")
+    ax.set_ylabel("signal (runs offset)")
+    ax.set_title(title)
+    ax.legend(fontsize=7)
+    fig.savefig(path, dpi=120)
+    return Path(path)
