@@ -48,6 +48,16 @@ def test_cyclic_steady_after_the_revolutions_simulated():
         assert np.max(np.abs(getattr(a.trace, v) - getattr(b.trace, v))) < 2e-6   # 2 um << 10 um noise
 
 
+def test_baseline_uses_each_valve_types_thesis_pump():
+    # synth and the fits share model_for: the reed pump's manifolds hold the inferred
+    # V_tdc = 4.0e-5 m^3 (docs/errata.md, "Reed pump delivery offset"), the disc pump Table 5.1's
+    reed = model_for(RunCondition("r", "reed", 600.0, 2.8e6, 0.008), ())
+    disc = model_for(RunCondition("d", "disc", 593.0, 2.79e6, 0.013), ())
+    assert reed.pump.dead_volume == pytest.approx(4.0e-5)
+    assert disc.pump.dead_volume == pytest.approx(2.17e-5)
+    assert reed.oil.air_content == pytest.approx(0.008) and disc.oil.air_content == pytest.approx(0.013)
+
+
 def test_compliant_seat_sinks_by_the_pressure_force_over_k():
     # closed delivery valve during suction: the pressure difference over the Poiseuille-weighted
     # disc (C1 A_disc dP, eq 2.13) plus the spring preload, over k_seat (eq 2.20)
