@@ -488,7 +488,7 @@ class Workflow:
                 grid = np.linspace(0.0, 1.0, self.settings.n_grid)
             else:
                 u0 = p.to_unit(start[p.name])
-                grid = np.clip(np.array([u0 - narrow, u0, u0 + narrow]), 0.0, 1.0)
+                grid = np.unique(np.clip(np.array([u0 - narrow, u0, u0 + narrow]), 0.0, 1.0))
             # grids are simulated in one batch each (parallel), then evaluated from the cache;
             # a finer grid around the best coarse point guards against the ripples an oscillating
             # valve puts into the cost (a phase that slips by a cycle), Brent's method polishes
@@ -498,6 +498,9 @@ class Workflow:
                     i = int(np.argmin(costs))
                     a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
                     stage = np.linspace(a, b, self.settings.n_fine + 2)[1:-1]
+                    # an odd n_fine puts a fine point on the best coarse one: a duplicate would make
+                    # Brent's bracket below collapse to one side of the best point
+                    stage = stage[np.min(np.abs(stage[:, None] - grid[None, :]), axis=1) > 1e-9]
                     grid = np.sort(np.concatenate([grid, stage]))
                 self.sims.many([(self.conds[r.name], model_of([u])) for u in stage for r in self.fit_runs])
                 costs = [self.fit_objective(model_of([u]))[0] for u in grid]
@@ -579,7 +582,10 @@ class Workflow:
                 break
             self._log(f"round {rnd}: adding {winner.key} {winner.reported} "
                       f"(held-out gap -{100 * (winner.held_improvement or winner.fit_improvement):.0f} %)")
-            current = winner.model
+            # refit the added effects once more without a new candidate, so the next round's
+            # candidates are compared with the best the current effects can do: a candidate must
+            # not take the credit for a better fit of the effects already added
+            current = self.refine(winner.model)
             cur = self.evaluate(current)
         after = cur
         sc = st.scales

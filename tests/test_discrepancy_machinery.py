@@ -42,6 +42,14 @@ def test_hidden_seat_compliance_found_and_recovered(seed):
     assert any("delivery valve sits" in s and "below" in s for s in out["disagreements"])
 
 
+def test_one_parameter_fit_brackets_both_sides_of_the_best_grid_point():
+    # k_seat = 1.2e6 lies just above the coarse grid point 1e6 (bounds 1e5-1e10, six points):
+    # the fine grid's middle point falls on 1e6 again, and Brent must still search above it
+    out = find((Applied.of("seat_compliance", "delivery", {"k_seat": 1.2e6}),), seed=0)
+    assert out["effects_added"] == ["seat_compliance"]
+    assert out["parameters"]["seat_compliance"]["k_seat"] == pytest.approx(1.2e6, rel=0.08)
+
+
 def test_nothing_hidden_nothing_added():
     out = find((), seed=3)
     assert out["effects_added"] == []
