@@ -28,12 +28,22 @@ class DiscValveGeometry:
     @property
     def disc_area(self) -> float:
         """A_disc = pi R_o^2 [m^2] (Table 2.3: 177 mm^2)."""
-        return math.pi * self.outer_radius**2
+        return disc_area(self.outer_radius)
 
     @property
     def port_area(self) -> float:
         """A_port = pi d_port^2 / 4 [m^2] (Table 2.3: A_1 = 86.3 mm^2)."""
-        return math.pi * self.port_diameter**2 / 4
+        return port_area(self.port_diameter)
+
+
+def disc_area(outer_radius: float) -> float:
+    """Face area of the disc A_disc = pi R_o^2 [m^2] (Table 2.3)."""
+    return math.pi * outer_radius**2
+
+
+def port_area(port_diameter: float) -> float:
+    """Area of the seat's port A_port = A_1 = pi d_port^2 / 4 [m^2] (eq 2.42, Table 2.3)."""
+    return math.pi * port_diameter**2 / 4
 
 
 def load_disc_geometry() -> DiscValveGeometry:

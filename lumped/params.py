@@ -36,7 +36,7 @@ from importlib import resources
 
 import numpy as np
 
-from geometry.disc import load_disc_geometry
+from geometry.disc import disc_area, load_disc_geometry, port_area
 from geometry.errors import InputError
 from lumped import oil as oil_mod
 from lumped.orifice import discharge_coefficient, laminar_slope
@@ -119,8 +119,22 @@ class Pump:
         return math.pi * self.piston_diameter * self.leakage_clearance**3 / (12 * viscosity * self.leakage_length)
 
 
+class _SeatSwitch:
+    """The seat_compliance switch of a valve: which seat stiffness and damping are active."""
+
+    @property
+    def seat_stiffness(self) -> float:
+        """Active k_seat (N/m for the disc, Pa/m for the reed): compliant if switched on, else rigid."""
+        return self.compliant_seat_stiffness if self.seat_compliance else self.rigid_seat_stiffness
+
+    @property
+    def seat_damping(self) -> float:
+        """Active c_seat (N s/m for the disc, Pa s/m for the reed)."""
+        return self.compliant_seat_damping if self.seat_compliance else self.rigid_seat_damping
+
+
 @dataclass(frozen=True)
-class DiscValve:
+class DiscValve(_SeatSwitch):
     """Disc check valve of chapter 2 (Table 2.3); one per position (inlet, delivery)."""
 
     position: str
@@ -163,12 +177,12 @@ class DiscValve:
     @property
     def disc_area(self) -> float:
         """A_disc = pi R_o^2 [m^2]."""
-        return math.pi * self.outer_radius**2
+        return disc_area(self.outer_radius)
 
     @property
     def port_area(self) -> float:
         """A_port = pi d_port^2 / 4 [m^2] (= A_1 of eq 2.42)."""
-        return math.pi * self.port_diameter**2 / 4
+        return port_area(self.port_diameter)
 
     @property
     def c1(self) -> float:
@@ -187,16 +201,6 @@ class DiscValve:
         return self.transition * (self.outer_radius - self.inner_radius) / math.sin(self.bevel_angle) ** 2
 
     @property
-    def seat_stiffness(self) -> float:
-        """Active k_seat [N/m]: compliant if the seat_compliance switch is on, else rigid."""
-        return self.compliant_seat_stiffness if self.seat_compliance else self.rigid_seat_stiffness
-
-    @property
-    def seat_damping(self) -> float:
-        """Active c_seat [N s/m]."""
-        return self.compliant_seat_damping if self.seat_compliance else self.rigid_seat_damping
-
-    @property
     def perimeter(self) -> float:
         """Orifice perimeter p of the Reynolds number (eq 2.46) [m]."""
         return self.perimeter_factor * math.pi * self.port_diameter
@@ -210,7 +214,7 @@ class DiscValve:
 
 
 @dataclass(frozen=True)
-class ReedValve:
+class ReedValve(_SeatSwitch):
     """Prototype reed valve of chapter 3 (Table 3.13, sections 3.8, 5.5.3); one per position."""
 
     position: str
@@ -260,14 +264,6 @@ class ReedValve:
     def damping(self) -> float:
         """c [Pa s/m]: c_c + c_f with fluid damping on (eq 3.81), else c_c."""
         return self.internal_damping + (self.fluid_damping_coefficient if self.fluid_damping else 0.0)
-
-    @property
-    def seat_stiffness(self) -> float:
-        return self.compliant_seat_stiffness if self.seat_compliance else self.rigid_seat_stiffness
-
-    @property
-    def seat_damping(self) -> float:
-        return self.compliant_seat_damping if self.seat_compliance else self.rigid_seat_damping
 
     @property
     def multiplier_zero(self) -> float:

@@ -494,9 +494,9 @@ def simulate(valve: str, speed_rpm: float, load_pressure: float, *, air_content:
     """:func:`lumped.pump.simulate` on the compiled Rodas4P path (same arguments, same result).
 
     Tolerances have the reference's meaning (atol in units of each state's scale; a valve's
-    velocity in free flight gets FREE_VELOCITY_ATOL times atol); the defaults (rtol 1e-4,
-    atol 1e-5) keep the delivery within 0.003 % and the valve timing within 0.5 deg of
-    the reference at its defaults (tests/test_pump_fast.py). ``method`` is "fast"; the circuit
+    velocity in free flight gets FREE_VELOCITY_ATOL times atol); the defaults (RTOL 1e-3,
+    ATOL 1e-5, from the tolerance study in README.md) keep the delivery within 0.02 % and
+    the valve timing within 0.5 deg of the reference at its defaults (tests/test_pump_fast.py). ``method`` is "fast"; the circuit
     "complete" runs the reference integrator (Radau) instead.
     """
     if circuit == "complete":     # None: the reference's own default tolerances

@@ -65,7 +65,8 @@ def build_parser(selected: str | None = None) -> argparse.ArgumentParser:
             sub.add_parser(name)  # known name, configured only when chosen
             continue
         mod = importlib.import_module(modname)
-        p = sub.add_parser(name, help=mod.HELP, description=mod.HELP)
+        text = mod.HELP.replace("%", "%%")  # argparse formats help strings with %
+        p = sub.add_parser(name, help=text, description=text)
         p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
         mod.configure(p)
         p.set_defaults(_module=mod)

@@ -109,7 +109,7 @@ def run(args) -> dict:
     for valve in ("disc", "reed"):
         rs = [r for c, r in zip(selected, results) if c["valve"] == valve]
         if rs:
-            cpu[valve] = round(sum(r.cpu_seconds for r in rs) / sum(r.simulated_seconds for r in rs), 2)
+            cpu[valve] = round(float(sum(r.cpu_seconds for r in rs) / sum(r.simulated_seconds for r in rs)), 2)
     summary["steps"]["pump_cases"] = {
         "cases": len(selected), "all_cyclic_steady": all(r.cyclic_steady for r in results),
         "max_mass_balance_error": max(r.mass_balance_error for r in results),
@@ -189,7 +189,7 @@ def render(s: dict) -> str:
     out = [f"validation written to {s['out']}/"]
     pc = s["steps"]["pump_cases"]
     out.append(f"  {pc['cases']} pump cases, all cyclic steady: {pc['all_cyclic_steady']}, "
-               f"CPU s per simulated s: {pc['cpu_seconds_per_simulated_second']}")
+               "CPU s per simulated s: " + ", ".join(f"{k} {v:.2f}" for k, v in pc["cpu_seconds_per_simulated_second"].items()))
     for t, e in s["tables"].items():
         out.append(f"  Table {t}: mean |error| {e['mean_abs_error_pct']} % (thesis {e['thesis_mean_abs_error_pct']} %), "
                    f"max diff from the thesis's model {e['max_abs_diff_from_thesis_model_pct']} %")

@@ -22,3 +22,19 @@ def test_bad_geometry_field_named(cli, tmp_path):
     )
     rc, out, err, obj = cli("reed", f, "--json")
     assert rc == 2 and "reed.thickness" in err and "Traceback" not in err
+
+
+def test_help_of_every_command_prints(capsys):
+    """`valvelab --help` and `valvelab CMD --help` list and describe every command (no crash)."""
+    import pytest
+
+    from studies.cli import COMMANDS, main
+
+    for argv in [["--help"]] + [[name, "--help"] for name in COMMANDS]:
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        assert exc.value.code == 0, argv
+        out = capsys.readouterr().out
+        assert "usage: valvelab" in out
+        if argv == ["--help"]:
+            assert all(name in out for name in COMMANDS)

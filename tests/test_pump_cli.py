@@ -91,7 +91,7 @@ def _fake_props(reed=None, mesh_size=None):
 
 
 def test_pump_takes_reed_parameters_from_a_reed_model(monkeypatch, capsys):
-    """--reed-geometry/--reed-fidelity go through studies.cmd_reed.reed_model (stubbed until task A lands)."""
+    """--reed-geometry/--reed-fidelity go through studies.cmd_reed.reed_model."""
     import studies.cmd_reed as cr
     from studies.cli import main
 

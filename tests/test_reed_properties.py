@@ -88,7 +88,8 @@ def test_uniform_limit_is_eq_3_4_and_closed_form_kappa(L, W, h, Rl, E, rho):
     p = rb.reed_properties(reed)
     assert p.omega_n == pytest.approx(rb.uniform_natural_frequency(E, rho, h, L), rel=1e-10)
     assert p.kappa == pytest.approx(2 * E * h**3 / (3 * L**4), rel=1e-10)
-    assert rb.stiffness_eq_3_40(E, h, W, W, Rl * L, (1 - Rl) * L) == pytest.approx(p.kappa, rel=1e-12)
+    # round-off only: a step a picometre from the clamp leaves a degenerate piece (rel. 4e-12 seen)
+    assert rb.stiffness_eq_3_40(E, h, W, W, Rl * L, (1 - Rl) * L) == pytest.approx(p.kappa, rel=1e-10)
 
 
 @SETTINGS
