@@ -42,7 +42,8 @@ def run(quick: bool = False, revolutions: int = 5, repeat: int = 3) -> dict:
         "thesis_cpu_per_simulated_second": 23.0,
         "fast_compile_or_cache_load_seconds": round(compile_s, 3),
         "fast_tolerances": {"rtol": fast.RTOL, "atol": fast.ATOL, "free_velocity_atol": fast.FREE_VELOCITY_ATOL,
-                            "contact_position_atol": fast.CONTACT_POSITION_ATOL},
+                            "contact_position_atol": fast.CONTACT_POSITION_ATOL,
+                            "contact_velocity_atol": fast.CONTACT_ATOL},
         "load_average_before": [round(x, 2) for x in load_before], "valves": {},
     }
     for valve in ("disc", "reed"):
