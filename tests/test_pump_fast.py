@@ -181,3 +181,17 @@ def test_leakage_and_velocities_follow_the_reference():
     assert f.leakage_per_rev == pytest.approx(r.leakage_per_rev, rel=1e-3)
     assert f.delivery_per_rev == pytest.approx(r.delivery_per_rev, rel=DELIVERY_RTOL)
     assert np.median(np.abs(f.trace.inlet_velocity - r.trace.inlet_velocity)) < 1e-3
+
+
+def test_cyclic_steady_state_is_judged_at_the_fast_paths_accuracy():
+    """A design the reference finds cyclic (change 5e-8 after five revolutions) is cyclic on
+    the fast path too, although its revolution-to-revolution noise at rtol 1e-3 is ~6e-4
+    (before this was allowed for, 10 % of random designs were wrongly flagged not cyclic)."""
+    args = ("disc", 854.421904517335, 1958595.0694370186)   # a random draw, change 5.9e-4 at rtol 1e-3
+    air = 0.021386707876997053
+    r = ref.simulate(*args, air_content=air, revolutions=5)
+    f = fast.simulate(*args, air_content=air, revolutions=5)
+    assert r.cyclic_steady and f.cyclic_steady
+    assert f.delivery_per_rev == pytest.approx(r.delivery_per_rev, rel=DELIVERY_RTOL)
+    # a design that has not settled is still reported as such: two revolutions from rest
+    assert not fast.simulate(*args, air_content=air, revolutions=2).cyclic_steady
