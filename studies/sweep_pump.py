@@ -15,7 +15,8 @@ Inputs, each a factor or a fixed value (SI units; names in CONTRACT.md, "Sweeps"
 Outputs: delivery per revolution (eq 4.17), volumetric efficiency (delivery / swept volume
 2 A_p r), peak openings, opening and closing crank angles (rad from TDC), stop contacts,
 cyclic steady state, mass balance error, CPU seconds. ``status`` is "ok", or
-"not_cyclic" when the last two revolutions still differ by more than the steady tolerance.
+"not_cyclic" when the last two revolutions still differ by more than the steady tolerance
+(on the fast path max(steady_tol, rtol): below that the change is integration noise).
 """
 
 from __future__ import annotations
