@@ -48,6 +48,7 @@ CASES = {
     "reed": {
         "seat_compliance@delivery": [("seat_compliance", "delivery", {"k_seat": (5.0e9, 2.0e10)})],
         "fluid_damping": [("fluid_damping", "both", {"c_f": (4000.0, 10000.0)})],
+        "fluid_damping (strong)": [("fluid_damping", "both", {"c_f": (12000.0, 16000.0)})],
         "piston_leakage": [("piston_leakage", "pump", {"clearance": (3.5e-5, 4.5e-5)})],
         "entrained_air": [("entrained_air", "pump", {"R": (0.005, 0.015)})],
         "added_mass": [("added_mass", "both", {"Gamma_f": (2.0, 5.0)})],

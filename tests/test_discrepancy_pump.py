@@ -82,7 +82,8 @@ def test_thesis_oring_story():
     assert r["gap_after"]["delivery_error_pct"] < r["gap_before"]["delivery_error_pct"]
 
 
-@pytest.mark.parametrize("valve,case", [("disc", "none"), ("disc", "cd-3%"), ("reed", "piston_leakage")])
+@pytest.mark.parametrize("valve,case", [("disc", "none"), ("disc", "cd-3%"), ("reed", "piston_leakage"),
+                                       ("reed", "fluid_damping (strong)")])
 def test_representative_cases(valve, case):
     check_found(run_case(case, CASES[valve][case], valve, 1, simulate, LIBRARY, SETTINGS))
 
