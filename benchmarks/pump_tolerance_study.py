@@ -5,7 +5,7 @@ Run on demand from the repository root: ``python benchmarks/pump_tolerance_study
 (``lumped.pump.simulate`` at its defaults, Radau rtol = atol = 1e-6) is run once per case:
 the 12 validation cases of Tables 5.4 and 5.6 (five revolutions) and N random designs
 (three revolutions; operating point, air, seat stiffness, spring, reed kappa and f1/f2
-drawn as in tests/test_pump_fast.py). Then the fast path runs every case under each
+drawn by studies.random_designs, as in tests/test_pump_fast.py). Then the fast path runs every case under each
 setting below, and the study reports per setting and valve type: Rosenbrock step
 attempts per revolution (the machine-independent measure of work), CPU ms per
 simulated second (median of two runs), the worst delivery deviation and the worst
@@ -22,7 +22,6 @@ import json
 import math
 import statistics
 import sys
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from lumped import pump as reference  # noqa: E402
 from lumped import pump_fast as fast  # noqa: E402
-from lumped.params import thesis_model  # noqa: E402
+from studies.random_designs import random_design  # noqa: E402
 from studies.thesis import experiments  # noqa: E402
 
 # (name, attributes of lumped.pump_fast to set, simulate keyword arguments)
@@ -46,22 +45,9 @@ SETTINGS = [
 ]
 
 
-def random_design(rng, valve):
-    """Operating point, air, seat stiffness / spring or reed kappa and f1, f2 (as the tests)."""
-    model = thesis_model(valve)
-    speed, load, air = rng.uniform(450, 950), rng.uniform(1.5e6, 4.5e6), rng.uniform(0.0, 0.03)
-    inlet, delivery = model.inlet, model.delivery
-    if valve == "disc":
-        k = 10 ** rng.uniform(5.5, 7.0)
-        delivery = replace(delivery, compliant_seat_stiffness=k, compliant_seat_damping=2 * math.sqrt(k * 3.9e-3),
-                           f1=rng.uniform(0.6, 1.0), f2=rng.uniform(0.6, 1.0))
-        inlet = replace(inlet, spring_stiffness=rng.uniform(150, 300))
-    else:
-        kappa = rng.uniform(5e6, 1e7)
-        inlet = replace(inlet, stiffness=kappa, f1=rng.uniform(0.1, 0.4), f2=rng.uniform(0.2, 0.5))
-        delivery = replace(delivery, stiffness=kappa, f1=inlet.f1, f2=inlet.f2)
-    return dict(valve=valve, speed_rpm=speed, load_pressure=load, air_content=air, params=replace(
-        model, inlet=inlet, delivery=delivery), revolutions=3)
+def _random_case(rng, valve):
+    speed, load, air, model = random_design(rng, valve)
+    return dict(valve=valve, speed_rpm=speed, load_pressure=load, air_content=air, params=model, revolutions=3)
 
 
 def _angle_error(a, b):
@@ -86,7 +72,7 @@ def main() -> None:
     if args.quick:
         cases = [cases[0], cases[6]]
     rng = np.random.default_rng(2026)
-    cases += [random_design(rng, ("disc", "reed")[i % 2]) for i in range(n_random)]
+    cases += [_random_case(rng, ("disc", "reed")[i % 2]) for i in range(n_random)]
 
     steps = []
     orig = fast._solver

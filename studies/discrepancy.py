@@ -385,32 +385,15 @@ class Workflow:
         return fit_nuisance(fit, self.folded, sims, scale_bounds=self.settings.scale_bounds,
                             offset_bounds_s=self.settings.offset_bounds_s)
 
-    def fit_objective(self, model: tuple) -> tuple[float, Nuisance]:
-        """Cost on the fitting runs, nuisances profiled out (inf if a simulation failed)."""
+    def _fit_residuals(self, model: tuple) -> tuple[np.ndarray | None, Nuisance]:
+        """Scaled residuals on the fitting runs, nuisances profiled out (None if a simulation
+        failed): each position trace divided by the position tolerance and sqrt(samples), so
+        it weighs as its mean square; each delivery by the delivery tolerance."""
         sims = self.simulate(model, self.fit_runs)
         bad = [s for s in sims.values() if isinstance(s, SimulationFailure)]
         if bad:
             self.last_failure = bad[0].reason
-            return math.inf, Nuisance()
-        nuis = self._nuisance(sims)
-        sc = self.settings.scales
-        c = 0.0
-        for r in self.fit_runs:
-            s = sims[r.name]
-            if r.name in self.folded:
-                f = self.folded[r.name]
-                for valve, th in f.crank_deg.items():
-                    res = f.position[valve] - predict(s, valve, th, r.speed_rpm, nuis)
-                    c += float(np.mean(res**2)) / sc.position_m**2
-            if r.delivery_m3_per_rev is not None:
-                c += ((s.delivery_m3_per_rev - r.delivery_m3_per_rev) / r.delivery_m3_per_rev / sc.delivery_frac) ** 2
-        return c, nuis
-
-    def residual_vector(self, model: tuple) -> np.ndarray:
-        """Residuals whose sum of squares is :meth:`fit_objective` (for least_squares)."""
-        sims = self.simulate(model, self.fit_runs)
-        if any(isinstance(s, SimulationFailure) for s in sims.values()):
-            return None
+            return None, Nuisance()
         nuis = self._nuisance(sims)
         sc = self.settings.scales
         parts = []
@@ -424,7 +407,16 @@ class Workflow:
             if r.delivery_m3_per_rev is not None:
                 parts.append(np.array([(s.delivery_m3_per_rev - r.delivery_m3_per_rev)
                                        / r.delivery_m3_per_rev / sc.delivery_frac]))
-        return np.concatenate(parts)
+        return np.concatenate(parts), nuis
+
+    def fit_objective(self, model: tuple) -> tuple[float, Nuisance]:
+        """Cost on the fitting runs, nuisances profiled out (inf if a simulation failed)."""
+        res, nuis = self._fit_residuals(model)
+        return (math.inf, nuis) if res is None else (float(res @ res), nuis)
+
+    def residual_vector(self, model: tuple) -> np.ndarray | None:
+        """Residuals whose sum of squares is :meth:`fit_objective` (for least_squares)."""
+        return self._fit_residuals(model)[0]
 
     def evaluate(self, model: tuple) -> Evaluation:
         """Gaps of every run under ``model`` (nuisances fitted on the fitting runs)."""

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -12,6 +11,7 @@ from lumped import pump as ref
 from lumped import pump_fast as fast
 from lumped import rodas
 from lumped.params import OFF_DEL, V_XSTOP, pack, thesis_model
+from studies.random_designs import random_design
 from studies.thesis import experiments
 
 DELIVERY_RTOL = 1e-3  # the acceptance: delivery within 0.1 % of the reference path
@@ -115,29 +115,10 @@ def test_fast_matches_reference_on_all_validation_cases(index):
     assert f.cyclic_steady == r.cyclic_steady
 
 
-def _random_design(rng, valve):
-    """A random design: operating point, air, seat stiffness, reed kappa, displacement f1/f2."""
-    model = thesis_model(valve)
-    speed = rng.uniform(450, 950)
-    load = rng.uniform(1.5e6, 4.5e6)
-    air = rng.uniform(0.0, 0.03)
-    inlet, delivery = model.inlet, model.delivery
-    if valve == "disc":
-        k = 10 ** rng.uniform(5.5, 7.0)
-        delivery = replace(delivery, compliant_seat_stiffness=k, compliant_seat_damping=2 * math.sqrt(k * 3.9e-3),
-                           f1=rng.uniform(0.6, 1.0), f2=rng.uniform(0.6, 1.0))
-        inlet = replace(inlet, spring_stiffness=rng.uniform(150, 300))
-    else:
-        kappa = rng.uniform(5e6, 1e7)
-        inlet = replace(inlet, stiffness=kappa, f1=rng.uniform(0.1, 0.4), f2=rng.uniform(0.2, 0.5))
-        delivery = replace(delivery, stiffness=kappa, f1=inlet.f1, f2=inlet.f2)
-    return speed, load, air, replace(model, inlet=inlet, delivery=delivery)
-
-
 @pytest.mark.parametrize("seed, valve", [(1, "disc"), (2, "reed")])
 def test_fast_matches_reference_on_random_designs(seed, valve):
     rng = np.random.default_rng(seed)
-    speed, load, air, model = _random_design(rng, valve)
+    speed, load, air, model = random_design(rng, valve)
     _compare(valve, speed, load, air, params=model)
 
 
@@ -146,7 +127,7 @@ def test_fast_matches_reference_on_random_designs(seed, valve):
 def test_fast_matches_reference_on_many_random_designs(seed):
     rng = np.random.default_rng(seed)
     valve = ("disc", "reed")[seed % 2]
-    speed, load, air, model = _random_design(rng, valve)
+    speed, load, air, model = random_design(rng, valve)
     _compare(valve, speed, load, air, params=model)
 
 
