@@ -67,8 +67,8 @@ MAX_STEPS_PER_REV = 2_000_000
 MAX_EVENTS_PER_REV = 20_000
 JAC_REUSE = 1      # accepted steps per Jacobian (Rosenbrock methods want a fresh one)
 # Default tolerances, chosen by the study of benchmarks/pump_tolerance_study.py (fast path
-# against the reference at its defaults on the 12 validation cases, 5 revolutions, and 22
-# random designs, 3 revolutions). Meaning as in lumped.pump.simulate: atol in units of each
+# against the reference at its defaults on the 12 validation cases, 5 revolutions, and 10
+# random designs of studies.random_designs, 3 revolutions). Meaning as in lumped.pump.simulate: atol in units of each
 # state's scale (stop gap, 1 m/s, mass per revolution), refined per valve and contact state
 # by _tolerance_table:
 #   - free flight: opening atol x stop gap; velocity FREE_VELOCITY_ATOL x atol x 1 m/s (the
@@ -80,8 +80,8 @@ JAC_REUSE = 1      # accepted steps per Jacobian (Rosenbrock methods want a fres
 #     CONTACT_POSITION_ATOL x atol x the contact deflection P_load A / k: when a valve
 #     resting on its seat or stop lets go (u ~ 0) is decided by nanometres (atol 3e-5
 #     moves such lift-offs by up to 3 deg);
-# rtol 1e-3, atol 1e-5: delivery within 0.022 % of the reference (worst of 34 runs), valve
-# opening and closing angles within 0.06 deg; rtol 3e-3 saves 9 % of the work for 0.041 %.
+# rtol 1e-3, atol 1e-5: delivery within 0.021 % of the reference (worst of 22 cases), valve
+# opening and closing angles within 0.25 deg; rtol 3e-3 saves 5-9 % of the steps for 0.035 %.
 RTOL, ATOL = 1e-3, 1e-5
 FREE_VELOCITY_ATOL = 100.0
 FREE_POSITION_ATOL = 1.0     # multiplier of atol for the opening in free flight
