@@ -29,6 +29,19 @@ def test_pump_json_and_trace(cli, tmp_path):
     assert rc == 2 and obj is None and "--trace" in err and "Traceback" not in err
 
 
+def test_pump_fast_method_agrees_with_the_reference(cli):
+    """--method fast: the compiled path, same contract keys, delivery within 0.1 % of --method reference."""
+    args = ("pump", "--valve", "reed", "--speed-rpm", "595", "--load-pressure-mpa", "2.76", "--revolutions", "3",
+            "--json")
+    rc, out, err, fast = cli(*args, "--method", "fast")
+    assert rc == 0, err
+    rc, out, err, ref = cli(*args)
+    assert rc == 0, err
+    assert CONTRACT_KEYS <= set(fast) and fast["method"] == "fast" and ref["method"] == "reference"
+    assert fast["delivery_cc_per_rev"] == pytest.approx(ref["delivery_cc_per_rev"], rel=1e-3)
+    assert fast["cpu_seconds_per_simulated_second"] < ref["cpu_seconds_per_simulated_second"]
+
+
 @pytest.mark.parametrize("args, flag", [
     (["--speed-rpm", "-600"], "--speed-rpm"),
     (["--speed-rpm", "nan"], "--speed-rpm"),
