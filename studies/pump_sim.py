@@ -54,13 +54,17 @@ def _engine():
 #: try before falling back to the reference.
 RETRIES = ({}, {"rtol": 1e-7, "atol": 1e-7}, {"method": "BDF"}, {"rtol": 1e-5, "atol": 1e-5})
 FAST_RETRY = {"rtol": 1e-5, "atol": 1e-6}
+#: the fast path as the fit needs it: a disc's velocity on its seat or stop at atol (its
+#: default x30 moves lift-offs by micrometres of trace, which spoiled the weak added-mass
+#: fits: 38 % off or not named, against within 10 % at x1)
+FAST_FIT = {"contact_atol": 1.0}
 
 
 def _attempts():
     engine = _engine()
     if engine is reference_simulate:
         return [(engine, kw) for kw in RETRIES]
-    return [(engine, {}), (engine, FAST_RETRY)] + [(reference_simulate, kw) for kw in RETRIES]
+    return [(engine, FAST_FIT), (engine, FAST_RETRY)] + [(reference_simulate, kw) for kw in RETRIES]
 
 
 def simulate(cond, effects: tuple) -> CycleTrace:
