@@ -150,6 +150,9 @@ def test_bad_input_is_refused_like_the_reference():
     with pytest.raises(InputError) as exc:
         fast.simulate("disc", 600.0, 2.8e6, params=thesis_model("reed"))
     assert exc.value.field == "params"
+    with pytest.raises(InputError) as exc:
+        fast.simulate("disc", 600.0, 2.8e6, contact_atol=-1.0)
+    assert exc.value.field == "contact_atol"
 
 
 def test_leakage_and_velocities_follow_the_reference():
