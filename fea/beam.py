@@ -9,8 +9,6 @@ the uniform pressure gives q(s) = p W(s) (eq 3.30 with X = 1). Only bending exis
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import scipy.sparse.linalg as spla
 from skfem import Basis, BilinearForm, ElementLineHermite, LinearForm, asm, condense, solve as fem_solve
@@ -19,6 +17,7 @@ from geometry.reed import Reed
 from lumped.mode_function import ReedProperties
 
 from .mesh import line_mesh
+from .modes import ModalResult
 
 #: default element length [m]; Hermite cubics converge as h^4: L/200 is exact to ~1e-9
 DEFAULT_MESH_SIZE = 25.4e-3 / 200
@@ -27,24 +26,7 @@ INTORDER = 10
 N_SHAPE = 801
 
 
-@dataclass
-class BeamResult:
-    """Beam FE results (SI): frequencies [rad/s], kappa [Pa/m], centre-line shapes."""
-
-    omega: np.ndarray
-    kinds: list[str]
-    kappa: float
-    s: np.ndarray
-    psi_static: np.ndarray
-    psi_mode: np.ndarray
-    dofs: int
-    mesh_size: float
-
-    @property
-    def omega_n(self) -> float:
-        return float(self.omega[0])
-
-    bending_index = 0
+BeamResult = ModalResult   # every beam mode is a bending mode: bending_index = 0
 
 
 @BilinearForm
@@ -96,7 +78,7 @@ def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> BeamR
     tip = basis.get_dofs(lambda x: np.abs(x[0] - reed.length) < 1e-12).nodal["u"][0]
     kappa = 1.0 / u[tip]
     return BeamResult(
-        omega=np.sqrt(vals), kinds=["bending"] * n_modes, kappa=kappa, s=s,
+        omega=np.sqrt(vals), kinds=["bending"] * n_modes, bending_index=0, kappa=kappa, s=s,
         psi_static=w / w[-1], psi_mode=phi / phi[-1], dofs=len(I), mesh_size=h,
     )
 

@@ -56,6 +56,27 @@ def _gmsh_session():
             gmsh.finalize()
 
 
+def scaled_mesh_size(reed: Reed, size_for_one_inch: float) -> float:
+    """Element size [m] for ``reed``: a size converged on a 1 in reed, scaled down for shorter reeds."""
+    return size_for_one_inch * min(1.0, reed.length / 25.4e-3)
+
+
+def gmsh_cells(node_tags, coords, etypes, enodes, element_type: int, nodes_per_cell: int):
+    """(points (n, 3) [m], cells) of a gmsh mesh made of one element type only: node tags
+    mapped to 0-based rows, unused nodes dropped (RuntimeError if other types are present)."""
+    index = np.zeros(int(node_tags.max()) + 1, dtype=np.int64)
+    index[node_tags.astype(np.int64)] = np.arange(len(node_tags))
+    blocks = [index[en.astype(np.int64)].reshape(-1, nodes_per_cell)
+              for et, en in zip(etypes, enodes) if et == element_type]
+    if not blocks or sum(len(e) for e in enodes) != sum(b.size for b in blocks):
+        raise RuntimeError("gmsh did not produce a pure mesh of the requested element type")
+    t = np.vstack(blocks)
+    used = np.unique(t)
+    remap = np.full(len(node_tags), -1)
+    remap[used] = np.arange(len(used))
+    return coords.reshape(-1, 3)[used], remap[t]
+
+
 def _check_size(reed: Reed, mesh_size: float) -> None:
     if not (mesh_size > 0.0 and np.isfinite(mesh_size)):
         raise InputError("mesh_size", f"must be a positive length in m, got {mesh_size}")
@@ -242,20 +263,9 @@ def face_mesh(reed: Reed, mesh_size: float, quad: bool = False, order: int = 1,
             gmsh.model.mesh.setOrder(2)
         node_tags, coords, _ = gmsh.model.mesh.getNodes()
         etypes, _, enodes = gmsh.model.mesh.getElements(2)
-    xyz = coords.reshape(-1, 3)
-    index = np.zeros(int(node_tags.max()) + 1, dtype=np.int64)
-    index[node_tags.astype(np.int64)] = np.arange(len(node_tags))
     want = {(False, 1): 2, (True, 1): 3, (False, 2): 9}[(quad, order)]
-    nper = {2: 3, 3: 4, 9: 6}[want]
-    cells = [index[en.astype(np.int64)].reshape(-1, nper) for et, en in zip(etypes, enodes) if et == want]
-    if len(cells) != 1 or sum(len(e) for e in enodes) != cells[0].size:
-        raise RuntimeError("gmsh did not produce a pure mesh of the requested element type")
-    t = cells[0]
-    used = np.unique(t)
-    remap = np.full(len(xyz), -1)
-    remap[used] = np.arange(len(used))
-    t = remap[t]
-    pts = xyz[used, :2]
+    xyz, t = gmsh_cells(node_tags, coords, etypes, enodes, want, {2: 3, 3: 4, 9: 6}[want])
+    pts = xyz[:, :2]
     # counter-clockwise in (s, y) (the solid sweep relies on it for right-handed hexahedra)
     x, y = pts[t, 0], pts[t, 1]
     nv = 4 if want == 3 else 3

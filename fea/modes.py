@@ -8,9 +8,31 @@ sampled on the mid-surface of the reed outline, so the mesh need not be symmetri
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from geometry.reed import Reed
+
+
+@dataclass
+class ModalResult:
+    """What every FE reed model computes (SI): frequencies [rad/s] with their kinds, kappa
+    (uniform pressure / tip deflection) [Pa/m], centre-line shapes normalised to 1 at the tip."""
+
+    omega: np.ndarray            # natural frequencies of the first modes [rad/s]
+    kinds: list[str]             # their classification (bending, torsion, in-plane, ...)
+    bending_index: int           # index of the first bending mode
+    kappa: float                 # uniform pressure / tip deflection [Pa/m]
+    s: np.ndarray                # centre-line stations [m]
+    psi_static: np.ndarray       # static uniform-load shape, psi(L) = 1
+    psi_mode: np.ndarray         # first bending mode shape, psi(L) = 1
+    dofs: int
+    mesh_size: float
+
+    @property
+    def omega_n(self) -> float:
+        return float(self.omega[self.bending_index])
 
 
 def probe_z(reed: Reed) -> float:

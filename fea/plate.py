@@ -10,8 +10,6 @@ C1-conforming quintics, so frequencies converge from above.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import scipy.sparse.linalg as spla
 from skfem import Basis, BilinearForm, ElementTriArgyris, LinearForm, asm, condense, solve as fem_solve
@@ -20,8 +18,8 @@ from skfem.helpers import dd, ddot, eye, trace
 from geometry.reed import Reed
 from lumped.mode_function import ReedProperties
 
-from .mesh import face_mesh
-from .modes import classify_by_symmetry, mirror_points
+from .mesh import face_mesh, scaled_mesh_size
+from .modes import ModalResult, classify_by_symmetry, mirror_points
 
 #: default element size [m] away from the clamp (about 0.2 % from converged on the stepped reeds, whose step corners converge slowest)
 DEFAULT_MESH_SIZE = 2.0e-3
@@ -32,26 +30,10 @@ N_SHAPE = 401
 
 def default_mesh_size(reed: Reed) -> float:
     """The converged default element size [m]: DEFAULT_MESH_SIZE, scaled down for reeds shorter than 1 in."""
-    return DEFAULT_MESH_SIZE * min(1.0, reed.length / 25.4e-3)
+    return scaled_mesh_size(reed, DEFAULT_MESH_SIZE)
 
 
-@dataclass
-class PlateResult:
-    """Plate FE results (SI): frequencies [rad/s] with their kinds, kappa [Pa/m], shapes."""
-
-    omega: np.ndarray
-    kinds: list[str]
-    bending_index: int
-    kappa: float
-    s: np.ndarray
-    psi_static: np.ndarray
-    psi_mode: np.ndarray
-    dofs: int
-    mesh_size: float
-
-    @property
-    def omega_n(self) -> float:
-        return float(self.omega[self.bending_index])
+PlateResult = ModalResult
 
 
 @BilinearForm

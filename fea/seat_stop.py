@@ -23,7 +23,7 @@ from skfem.io.meshio import from_meshio
 
 from geometry.seat_stop import HousingStop, SeatRing, load_housing_stop, load_seat_ring
 
-from .mesh import _gmsh_session
+from .mesh import _gmsh_session, gmsh_cells
 from .solid import assemble
 
 #: default tetrahedron size [m]
@@ -66,14 +66,8 @@ def _revolved_mesh(profile: list[tuple[float, float]], mesh_size: float, cut=Non
         gmsh.model.mesh.generate(3)
         tags, coords, _ = gmsh.model.mesh.getNodes()
         etypes, _, enodes = gmsh.model.mesh.getElements(3)
-    xyz = coords.reshape(-1, 3)
-    index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
-    index[tags.astype(np.int64)] = np.arange(len(tags))
-    t = np.vstack([index[en.astype(np.int64)].reshape(-1, 4) for et, en in zip(etypes, enodes) if et == 4])
-    used = np.unique(t)
-    remap = np.full(len(xyz), -1)
-    remap[used] = np.arange(len(used))
-    return from_meshio(meshio.Mesh(xyz[used], [("tetra", remap[t])]))
+    xyz, t = gmsh_cells(tags, coords, etypes, enodes, 4, 4)   # gmsh type 4: linear tetrahedron
+    return from_meshio(meshio.Mesh(xyz, [("tetra", t)]))
 
 
 def _facet_geometry(mesh, facets):

@@ -24,8 +24,8 @@ from skfem import Basis, ElementHex2, FacetBasis
 from geometry.reed import Reed
 from lumped.mode_function import ReedProperties
 
-from .mesh import SolidMesh, is_symmetric, solid_mesh, write_vtu
-from .modes import classify_solid_modes, probe_z
+from .mesh import SolidMesh, is_symmetric, scaled_mesh_size, solid_mesh, write_vtu
+from .modes import ModalResult, classify_solid_modes, probe_z
 
 #: default element size [m] (away from the clamp) for a 1 in reed: discretisation error
 #: < 0.3 % in omega_n and kappa (three-mesh study, tests/test_fea_slow.py, docs/errata.md)
@@ -41,31 +41,19 @@ N_SHAPE = 401
 
 def default_mesh_size(reed: Reed) -> float:
     """The converged default element size [m]: DEFAULT_MESH_SIZE, scaled down for reeds shorter than 1 in."""
-    return DEFAULT_MESH_SIZE * min(1.0, reed.length / 25.4e-3)
+    return scaled_mesh_size(reed, DEFAULT_MESH_SIZE)
 
 
 @dataclass
-class SolidResult:
-    """Everything the solid model computes for one reed and mesh (SI units)."""
+class SolidResult(ModalResult):
+    """Everything the solid model computes for one reed and mesh (SI units): the modal
+    result plus the mesh, full displacement fields and timings."""
 
-    omega: np.ndarray            # natural frequencies of the first modes [rad/s]
-    kinds: list[str]             # their classification (bending, torsion, in-plane, ...)
-    bending_index: int           # index of the first bending mode
-    kappa: float                 # uniform pressure / tip deflection [Pa/m]
-    s: np.ndarray                # centre-line stations [m]
-    psi_static: np.ndarray       # static uniform-load shape, psi(L) = 1
-    psi_mode: np.ndarray         # first bending mode shape, psi(L) = 1
-    dofs: int
-    mesh_size: float
     mesh: SolidMesh
     u_static: np.ndarray         # displacement per unit pressure (full vector) [m/Pa]
     modes: np.ndarray            # mode vectors (full), columns
     basis: Basis
     timings: dict = field(default_factory=dict)
-
-    @property
-    def omega_n(self) -> float:
-        return float(self.omega[self.bending_index])
 
 
 def _scalar_basis(mesh, intorder=INTORDER) -> Basis:

@@ -12,14 +12,7 @@ import tomllib
 from dataclasses import dataclass
 from importlib import resources
 
-
-@dataclass(frozen=True)
-class Elastic:
-    """Isotropic linear elastic material [Pa, -, kg/m^3]."""
-
-    youngs_modulus: float
-    poisson_ratio: float
-    density: float
+from geometry.reed import Material
 
 
 @dataclass(frozen=True)
@@ -32,7 +25,7 @@ class SeatRing:
     cone_outer_radius: float
     bevel_angle: float      # rad, cone half-angle
     load: float             # N
-    material: Elastic
+    material: Material
 
     @property
     def cone_height(self) -> float:
@@ -60,7 +53,7 @@ class HousingStop:
     contact_inner_radius: float
     contact_outer_radius: float
     load: float
-    material: Elastic
+    material: Material
 
 
 @dataclass(frozen=True)
@@ -92,8 +85,8 @@ def _data() -> dict:
     return tomllib.loads(resources.files("geometry").joinpath("data/seat_stop.toml").read_text())
 
 
-def _material(d: dict) -> Elastic:
-    return Elastic(d["youngs_modulus"], d["poisson_ratio"], d["density"])
+def _material(d: dict) -> Material:
+    return Material(youngs_modulus=d["youngs_modulus"], density=d["density"], poisson_ratio=d["poisson_ratio"])
 
 
 def load_seat_ring() -> SeatRing:

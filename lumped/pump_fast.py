@@ -502,8 +502,8 @@ def simulate(valve: str, speed_rpm: float, load_pressure: float, *, air_content:
     velocity in free flight gets FREE_VELOCITY_ATOL times atol); the defaults (RTOL 1e-3,
     ATOL 1e-5, from the tolerance study in README.md) keep the delivery within 0.02 % and
     the valve timing within 0.5 deg of the reference at its defaults (tests/test_pump_fast.py).
-    Cyclic steady state is declared when the change between revolutions is below
-    max(steady_tol, rtol), the level of the integrator's own noise. ``method`` is "fast";
+    Cyclic steady state is judged at the integrator's own accuracy
+    (:func:`lumped.pump.steady_threshold`). ``method`` is "fast";
     the circuit "complete" runs the reference integrator (Radau) instead.
 
     ``contact_atol`` (fast path only) overrides CONTACT_ATOL, the velocity tolerance of a
@@ -575,10 +575,7 @@ def simulate(valve: str, speed_rpm: float, load_pressure: float, *, air_content:
         tdc_states.append(y.copy())
         if k >= 1:
             change = ref._cycle_change(deliveries, tdc_states, p0, model)
-            # judged at the integrator's own accuracy: at rtol 1e-3 the revolution-to-revolution
-            # change of a converged cycle is integration noise of 1e-4..6e-4 (the reference,
-            # at 1e-6, sees 1e-8 on the same designs)
-            steady = change < max(steady_tol, rtol)
+            steady = change < ref.steady_threshold(steady_tol, rtol)
         last = dict(events=_decode(ev_t, ev_code), mass_err=mass_err, t0=t0,
                     peak=cached(_peaks)(rec_y, rec_q2, rec_q3), leak=d_leak / rho0)
         if trace:

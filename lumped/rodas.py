@@ -62,37 +62,37 @@ STATUS_TEXT = {OK: "ok", MAX_STEPS: "too many steps", STEP_TOO_SMALL: "step size
 
 
 @numba.njit(cache=True, error_model="numpy")
-def rhs(t, y, p, dydt):  # pragma: no cover - placeholder, replaced by specialize()
+def rhs(t, y, p, dydt):  # never used: specialize() always binds the model's rhs
     dydt[:] = 0.0
 
 
 @numba.njit(cache=True, error_model="numpy")
-def event_values(t, y, p, g):  # pragma: no cover - placeholder: no events
+def event_values(t, y, p, g):  # default hook of specialize(): no events
     g[:] = 1.0
 
 
 @numba.njit(cache=True, error_model="numpy")
-def apply_event(k, t, y, p):  # pragma: no cover - placeholder
+def apply_event(k, t, y, p):  # default hook of specialize(): nothing to switch
     return 0
 
 
 @numba.njit(cache=True, error_model="numpy")
-def step_tag(p):  # pragma: no cover - placeholder
+def step_tag(p):  # default hook of specialize(): one tag for every step
     return 0
 
 
 @numba.njit(cache=True, error_model="numpy")
-def event_retry(k, p):  # pragma: no cover - placeholder: every event may need its step redone
+def event_retry(k, p):  # default hook of specialize(): every event may need its step redone
     return True
 
 
 @numba.njit(cache=True, error_model="numpy")
-def update_tolerances(p, atol):  # pragma: no cover - placeholder: fixed tolerances
+def update_tolerances(p, atol):  # default hook of specialize(): fixed tolerances
     return
 
 
 @numba.njit(cache=True, error_model="numpy")
-def jacobian(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h):  # pragma: no cover - placeholder
+def jacobian(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h):  # default hook: -1, forward differences
     return -1
 
 

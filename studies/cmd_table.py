@@ -5,6 +5,7 @@ from __future__ import annotations
 import importlib
 
 from geometry.errors import InputError
+from studies.outputs import format_cell
 
 HELP = "regenerate a table of the thesis (computed values beside the thesis's)"
 
@@ -62,20 +63,12 @@ def run(args) -> dict:
     return out
 
 
-def _fmt(v) -> str:
-    if v is None:
-        return "-"
-    if isinstance(v, float):
-        return f"{v:.6g}"
-    return str(v)
-
-
 def render(r: dict) -> str:
     rows = r["rows"]
     cols: list[str] = []
     for row in rows:
         cols += [k for k in row if k not in cols]
-    cells = [[_fmt(row.get(c)) for c in cols] for row in rows]
+    cells = [[format_cell(row.get(c)) for c in cols] for row in rows]
     widths = [max(len(c), *(len(x[i]) for x in cells)) for i, c in enumerate(cols)]
     out = [f"Table {r['id']}", "  ".join(c.ljust(w) for c, w in zip(cols, widths))]
     out.append("  ".join("-" * w for w in widths))

@@ -36,3 +36,12 @@ def prepare_output_dir(path: str | Path, field: str, force: bool = False) -> Pat
     p.mkdir(parents=True, exist_ok=True)
     (p / MARKER).write_text("written by valvelab; files here may be replaced by the next run\n")
     return p
+
+
+def format_cell(v, missing: str = "-") -> str:
+    """One table cell: floats to 6 significant figures, None as ``missing``."""
+    if v is None:
+        return missing
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    return str(v)

@@ -16,7 +16,7 @@ Outputs: delivery per revolution (eq 4.17), volumetric efficiency (delivery / sw
 2 A_p r), peak openings, opening and closing crank angles (rad from TDC), stop contacts,
 cyclic steady state, mass balance error, CPU seconds. ``status`` is "ok", or
 "not_cyclic" when the last two revolutions still differ by more than the steady tolerance
-(on the fast path max(steady_tol, rtol): below that the change is integration noise).
+(or than rtol, if larger: lumped.pump.steady_threshold; below that it is integration noise).
 """
 
 from __future__ import annotations

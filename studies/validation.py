@@ -16,6 +16,7 @@ from pathlib import Path
 
 from lumped.params import PumpModel, table_5_1_dead_volume, thesis_model, with_reed_properties
 from lumped.pump import PumpResult, simulate
+from studies.outputs import format_cell
 from studies.thesis import experiments
 
 #: (valve, measured valve, condition) -> thesis figure of that valve's position trace
@@ -194,11 +195,7 @@ def write_table(rows: list[dict], stem: Path, title: str, notes: list[str] = ())
 
 
 def _cell(v) -> str:
-    if v is None:
-        return ""
-    if isinstance(v, float):
-        return f"{v:.6g}"
-    return str(v)
+    return format_cell(v, missing="")   # an empty CSV/Markdown cell, not "-"
 
 
 def plot_case(case: dict, result: PumpResult, path: Path) -> Path:

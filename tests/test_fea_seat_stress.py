@@ -9,7 +9,8 @@ import pytest
 from fea import reed_stress
 from fea.seat_stop import _revolved_mesh, _facet_geometry, _static_stiffness, seat_stiffness, stop_stiffness
 from geometry import load_reed
-from geometry.seat_stop import Elastic, load_housing_stop, load_seat_ring
+from geometry.reed import Material
+from geometry.seat_stop import load_housing_stop, load_seat_ring
 from studies.thesis import thesis_values
 
 
@@ -21,7 +22,7 @@ def test_ring_in_compression_is_EA_over_H():
     mid, n = _facet_geometry(mesh, bf)
     top = bf[(np.abs(mid[2] - H) < 1e-9) & (np.abs(n[2]) > 0.99)]
     bottom = bf[(np.abs(mid[2]) < 1e-9) & (np.abs(n[2]) > 0.99)]
-    mat = Elastic(200e9, 0.0, 8000.0)
+    mat = Material(youngs_modulus=200e9, density=8000.0, poisson_ratio=0.0)
     k = _static_stiffness(mesh, mat, top, bottom, 100.0, 1.5e-3, "ring", 1e-3)
     area = math.pi * (ro**2 - ri**2)
     # the revolved mesh is polygonal: its area is a little below pi (ro^2 - ri^2)
