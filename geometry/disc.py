@@ -1,4 +1,25 @@
-"""Disc check valve geometry (thesis chapter 2): disc, port, stop gap and spring."""
+"""Disc check valve geometry (thesis chapter 2): disc, seat, port, stop gaps and spring.
+
+One description of the part, used by the lumped model (``lumped.disc_valve``), the
+seat/stop FEA and the thesis tables. The thesis valve is the preset ``thesis``
+(``geometry/data/disc_valve.toml``); a user's valve is a TOML file of the same schema::
+
+    [disc]
+    inner_radius = 5.24e-3      # m, R_i: seat contact starts here
+    outer_radius = 7.50e-3      # m, R_o = d_disc / 2
+    bevel_angle_deg = 54.0      # deg, seat bevel theta
+    port_diameter = 10.48e-3    # m
+    port_length = 5.2e-3        # m, control-volume length of eq 2.31
+    [stop]                      # maximum opening x_stop of each position
+    inlet = 1.19e-3
+    delivery = 1.01e-3
+    [spring]
+    wire_diameter = 0.61e-3     # m (optional: for eq 2.43 only)
+    coil_diameter = 9.9e-3      # m (optional)
+    shear_modulus = 80.0e9      # Pa (optional)
+    active_coils = 6.5          # (optional)
+    preload = 6.2e-3            # m, compression when seated
+"""
 
 from __future__ import annotations
 
@@ -6,24 +27,40 @@ import math
 import tomllib
 from dataclasses import dataclass
 from importlib import resources
+from pathlib import Path
+
+from .declare import param, read_table
+from .errors import InputError
+
+#: disc geometry presets shipped in geometry/data
+PRESETS = {"thesis": "disc_valve.toml"}
 
 
 @dataclass(frozen=True)
 class DiscValveGeometry:
     """Disc valve dimensions, SI units (Tables 2.2, 2.3)."""
 
-    inner_radius: float          # R_i [m]
-    outer_radius: float          # R_o [m]
-    bevel_angle: float           # theta [rad]
-    port_diameter: float         # d_port [m]
-    port_length: float           # L [m]
-    stop_inlet: float            # x_stop of the inlet valve [m]
-    stop_delivery: float         # x_stop of the delivery valve [m]
-    wire_diameter: float         # spring d [m]
-    coil_diameter: float         # spring D [m]
-    shear_modulus: float         # spring G [Pa]
-    active_coils: float          # spring N_a
-    spring_preload: float        # x_pre [m]
+    inner_radius: float = param("disc.inner_radius", "m", "R_i (section 2.4.2)", bounds=(1e-5, 1.0), positive=True)
+    outer_radius: float = param("disc.outer_radius", "m", "R_o (Table 2.3)", bounds=(1e-5, 1.0), positive=True)
+    bevel_angle_deg: float = param("disc.bevel_angle_deg", "deg", "theta (Table 2.3)", bounds=(0.5, 90.0))
+    port_diameter: float = param("disc.port_diameter", "m", "d_port (Table 2.3)", bounds=(1e-5, 1.0), positive=True)
+    port_length: float = param("disc.port_length", "m", "L of eq 2.31 (Table 2.3)", bounds=(0.0, 1.0))
+    stop_inlet: float = param("stop.inlet", "m", "x_stop, inlet valve (Table 2.3)", bounds=(1e-7, 0.1), positive=True)
+    stop_delivery: float = param("stop.delivery", "m", "x_stop, delivery valve (Table 2.3)", bounds=(1e-7, 0.1),
+                                 positive=True)
+    spring_preload: float = param("spring.preload", "m", "x_pre (Table 2.3)", bounds=(-0.1, 1.0))
+    wire_diameter: float = param("spring.wire_diameter", "m", "spring d (Table 2.2)", bounds=(1e-6, 0.1),
+                                 positive=True, optional=True)
+    coil_diameter: float = param("spring.coil_diameter", "m", "spring D (Table 2.2)", bounds=(1e-5, 1.0),
+                                 positive=True, optional=True)
+    shear_modulus: float = param("spring.shear_modulus", "Pa", "spring G (Table 2.2)", bounds=(1e8, 1e12),
+                                 positive=True, optional=True)
+    active_coils: float = param("spring.active_coils", "-", "N_a (Table 2.2)", bounds=(0.5, 1000.0), optional=True)
+
+    @property
+    def bevel_angle(self) -> float:
+        """theta [rad]."""
+        return math.radians(self.bevel_angle_deg)
 
     @property
     def disc_area(self) -> float:
@@ -46,21 +83,25 @@ def port_area(port_diameter: float) -> float:
     return math.pi * port_diameter**2 / 4
 
 
-def load_disc_geometry() -> DiscValveGeometry:
-    """The thesis disc valve from ``geometry/data/disc_valve.toml``."""
-    d = tomllib.loads(resources.files("geometry").joinpath("data/disc_valve.toml").read_text())
-    disc, stop, spring = d["disc"], d["stop"], d["spring"]
-    return DiscValveGeometry(
-        inner_radius=disc["inner_radius"],
-        outer_radius=disc["outer_radius"],
-        bevel_angle=math.radians(disc["bevel_angle_deg"]),
-        port_diameter=disc["port_diameter"],
-        port_length=disc["port_length"],
-        stop_inlet=stop["inlet"],
-        stop_delivery=stop["delivery"],
-        wire_diameter=spring["wire_diameter"],
-        coil_diameter=spring["coil_diameter"],
-        shear_modulus=spring["shear_modulus"],
-        active_coils=spring["active_coils"],
-        spring_preload=spring["preload"],
-    )
+def load_disc_geometry(spec: str | Path = "thesis", field: str = "geometry") -> DiscValveGeometry:
+    """A disc valve geometry from a preset name (``thesis``) or a TOML file; InputError names ``field``."""
+    name = str(spec)
+    if name in PRESETS:
+        text = resources.files("geometry").joinpath(f"data/{PRESETS[name]}").read_text()
+        where = name
+    else:
+        path = Path(name)
+        if not path.is_file():
+            raise InputError(field, f"{name!r}: no such file; expected a disc geometry preset "
+                                    f"({', '.join(PRESETS)}) or a TOML file")
+        try:
+            text = path.read_text()
+        except (OSError, UnicodeDecodeError) as exc:
+            raise InputError(field, f"{name!r} cannot be read ({exc})") from None
+        where = path.name
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(field, f"{where} is not valid TOML ({exc})") from None
+    values = read_table(DiscValveGeometry, data, where, require=True)
+    return DiscValveGeometry(**values)

@@ -15,7 +15,7 @@ The entries for the pump model of the thesis are in :mod:`lumped.effect_library`
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Callable
 
 #: where an effect acts: one candidate per valve, or one for the whole pump
@@ -41,8 +41,13 @@ class Parameter:
     plausible: tuple[float, float]
     source: str
     log: bool = True
+    field: str | None = None              # the declared component field this parameter sets
+    prior_from: Callable | None = None    # prior computed for a model: f(model, target) -> value
+    relative: bool = False                # bounds and plausible range are multiples of the prior
 
     def __post_init__(self):
+        if self.relative:
+            return                        # checked once resolved for a model (for_model)
         lo, hi = self.bounds
         if not lo < hi:
             raise ValueError(f"{self.name}: bounds must be increasing")
@@ -50,6 +55,16 @@ class Parameter:
             raise ValueError(f"{self.name}: log-space bounds must be positive")
         if not lo <= self.prior <= hi:
             raise ValueError(f"{self.name}: prior {self.prior} outside bounds {self.bounds}")
+
+    def for_model(self, model, target: str) -> "Parameter":
+        """This parameter with its prior (and relative ranges) evaluated for ``model`` and ``target``."""
+        prior = self.prior if self.prior_from is None else float(self.prior_from(model, target))
+        if not self.relative:
+            return replace(self, prior=prior, prior_from=None)
+        lo, hi = self.bounds
+        plo, phi = self.plausible
+        return Parameter(self.name, self.unit, prior, (prior * lo, prior * hi), (prior * plo, prior * phi),
+                         self.source, self.log, self.field)
 
     def to_unit(self, value: float) -> float:
         """Position of ``value`` within the bounds, 0..1 (log or linear)."""
@@ -87,7 +102,7 @@ class Effect:
     ``targets`` ("inlet"/"delivery" for an effect of one valve, "both", "pump").
     ``parameters`` may be empty (a pure switch). ``variants`` overrides them for a
     valve type whose model states the effect differently (the reed's seat stiffness is
-    a pressure per metre, the disc's a force per metre). ``derived(values, valve_type)``
+    a pressure per metre, the disc's a force per metre). ``derived(values, context[, target])``
     gives reported quantities that follow from the fitted ones (e.g. the critical seat
     damping from the seat stiffness). ``candidate=False`` marks a model error the
     synthetic-data generator can inject but the workflow never searches (e.g. a
@@ -107,32 +122,63 @@ class Effect:
     applicable: Callable[[list], str | None] | None = None
     variants: dict = field(default_factory=dict)
 
-    def parameters_for(self, valve_type: str | None = None) -> tuple[Parameter, ...]:
-        """The parameters of the effect for a valve type."""
-        return self.variants.get(valve_type, self.parameters)
+    def parameters_for(self, context=None, target: str | None = None) -> tuple[Parameter, ...]:
+        """The parameters of the effect for a context: a valve type (kind name) or a model.
 
-    def prior_values(self, valve_type: str | None = None) -> dict:
-        return {p.name: p.prior for p in self.parameters_for(valve_type)}
+        A model (anything with ``kind_at(target)``) picks the variant of the target valve's
+        kind; model-dependent priors and relative ranges are evaluated for it
+        (:meth:`Parameter.for_model`; with a kind name the prior function gets None).
+        """
+        target = target or self.targets[0]
+        if context is None or isinstance(context, str):
+            model, kind = None, context
+        else:
+            model, kind = context, self._kind(context, target)
+        return tuple(p.for_model(model, target) if (p.prior_from is not None or p.relative) else p
+                     for p in self.variants.get(kind, self.parameters))
 
-    def parameter(self, name: str, valve_type: str | None = None) -> Parameter:
-        for p in self.parameters_for(valve_type):
+    def _kind(self, model, target: str) -> str:
+        """The valve kind an effect at ``target`` of a model acts on: the target's, or for "both"/"pump"
+        the first valve's kind the effect has (a mixed pump: the valves of that kind)."""
+        if target in PER_VALVE:
+            return model.kind_at(target)
+        kinds = [model.kind_at(pos) for pos in PER_VALVE]
+        return next((k for k in kinds if k in self.valve_types), kinds[0])
+
+    def applies_to(self, context, target: str) -> bool:
+        """Whether the effect has a meaning for the target valve(s) of a context (kind name or model)."""
+        if context is None:
+            return True
+        if isinstance(context, str):
+            return context in self.valve_types
+        return self._kind(context, target) in self.valve_types
+
+    def prior_values(self, context=None, target: str | None = None) -> dict:
+        return {p.name: p.prior for p in self.parameters_for(context, target)}
+
+    def parameter(self, name: str, context=None, target: str | None = None) -> Parameter:
+        for p in self.parameters_for(context, target):
             if p.name == name:
                 return p
         raise KeyError(name)
 
-    def plausibility(self, values: dict, valve_type: str | None = None) -> str | None:
+    def plausibility(self, values: dict, context=None, target: str | None = None) -> str | None:
         """None if every fitted value is plausible, else the first reason."""
-        for p in self.parameters_for(valve_type):
+        for p in self.parameters_for(context, target):
             why = p.plausibility(values[p.name])
             if why:
                 return why
         return None
 
-    def report(self, values: dict, valve_type: str | None = None) -> dict:
+    def report(self, values: dict, context=None, target: str | None = None) -> dict:
         """Fitted and derived values as reported in JSON."""
-        out = {p.name: float(values[p.name]) for p in self.parameters_for(valve_type)}
+        out = {p.name: float(values[p.name]) for p in self.parameters_for(context, target)}
         if self.derived is not None:
-            out.update({k: float(v) for k, v in self.derived(values, valve_type).items()})
+            import inspect
+
+            args = (values, context, target or self.targets[0])
+            n = len(inspect.signature(self.derived).parameters)
+            out.update({k: float(v) for k, v in self.derived(*args[:n]).items()})
         return out
 
 
@@ -181,20 +227,25 @@ class Library:
     def names(self, candidates_only: bool = False) -> list[str]:
         return [n for n, e in self.effects.items() if e.candidate or not candidates_only]
 
-    def candidates(self, valve_type: str, runs: list | None = None) -> tuple[list, dict]:
-        """(effect, target) pairs the workflow searches for a dataset, and the excluded ones with reasons."""
+    def candidates(self, context, runs: list | None = None) -> tuple[list, dict]:
+        """(effect, target) pairs the workflow searches for a dataset, and the excluded ones with reasons.
+
+        ``context``: the valve type (kind name) or the base model (anything with ``kind_at``).
+        """
         out, excluded = [], {}
         for e in self.effects.values():
             if not e.candidate:
                 continue
-            if valve_type not in e.valve_types:
-                excluded[e.name] = f"does not apply to the {valve_type} valve"
+            targets = [t for t in e.targets if e.applies_to(context, t)]
+            if not targets:
+                what = context if isinstance(context, str) else "model's"
+                excluded[e.name] = f"does not apply to the {what} valves"
                 continue
             why = e.applicable(runs or []) if e.applicable else None
             if why:
                 excluded[e.name] = why
                 continue
-            out += [(e, t) for t in e.targets]
+            out += [(e, t) for t in targets]
         return out, excluded
 
     def apply(self, params, model: tuple[Applied, ...]):

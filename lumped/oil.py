@@ -15,6 +15,9 @@ eq 4.9 is written per unit *mixture* volume; the exponent sign follows eqs 4.9 a
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+
+from geometry.declare import param
 
 
 def viscosity_parameters(nu1: float, t1: float, nu2: float, t2: float, density: float) -> tuple[float, float]:
@@ -31,6 +34,23 @@ def viscosity_parameters(nu1: float, t1: float, nu2: float, t2: float, density: 
 def viscosity(temperature: float, mu0: float, b: float) -> float:
     """Dynamic viscosity mu(T) = mu_0 exp(-b T) [Pa s], T in K (eq A.3)."""
     return mu0 * math.exp(-b * temperature)
+
+
+def thesis_oil_viscosity(temperature: float | None = None) -> tuple[float, float]:
+    """(density [kg/m^3], dynamic viscosity [Pa s]) of Mobil DTE 25 at ``temperature`` [K] (eqs A.1-A.3).
+
+    From the two Table A.1 points (lumped/data/oil.toml); default temperature: the room
+    temperature of Appendix A (22 C), where mu = 0.0683 Pa s (Table 5.1). The one place
+    the viscosity law is evaluated for the thesis oil.
+    """
+    import tomllib
+    from importlib import resources
+
+    v = tomllib.loads(resources.files("lumped").joinpath("data/oil.toml").read_text())["viscosity"]
+    mu0, b = viscosity_parameters(v["kinematic_low"], v["temperature_low"], v["kinematic_high"],
+                                  v["temperature_high"], v["density"])
+    t = v["room_temperature"] if temperature is None else temperature
+    return float(v["density"]), viscosity(t, mu0, b)
 
 
 def density(p: float, rho0: float, p0: float, beta: float, gamma: float, air: float) -> float:
@@ -133,3 +153,42 @@ def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: 
 def pressure(rho: float, rho0: float, p0: float, beta: float, gamma: float, air: float) -> float:
     """Absolute pressure [Pa] of oil with entrained air at density rho (inverse of eq 4.11)."""
     return pressure_iterations(rho, rho0, p0, beta, gamma, air)[0]
+
+
+@dataclass(frozen=True)
+class Oil:
+    """The working fluid: density, compressibility with entrained air (eq 4.11), viscosity.
+
+    Values of the thesis's Mobil DTE 25 are in the shipped model files (Table 5.1,
+    Appendix A); ``air_content`` is the parameter of the ``entrained_air`` effect (the
+    discrepancy workflow's baseline sets it to 0 unless a run states it).
+    """
+
+    density: float = param("density", "kg/m^3", "rho_0 at P_0 (Table 5.1)", bounds=(100.0, 3000.0), positive=True, packed=True)
+    bulk_modulus: float = param("bulk_modulus", "Pa", "beta of air-free oil at P_0 (Table 5.1)",
+                                bounds=(1e6, 1e11), positive=True, packed=True)
+    polytropic_exponent: float = param("polytropic_exponent", "-", "gamma of the air in eq 4.9 (Table 5.1: 1.4)",
+                                       bounds=(1.0, 1.7), packed=True)
+    atmospheric_pressure: float = param("atmospheric_pressure", "Pa", "P_0, where R and rho_0 are given (Table 5.1)",
+                                        bounds=(1e4, 2e5), positive=True, packed=True)
+    viscosity: float = param("viscosity", "Pa s", "mu at the working temperature (eq A.3)", bounds=(1e-6, 100.0),
+                             positive=True, packed=True)
+    vapour_pressure: float = param("vapour_pressure", "Pa", "absolute pressure where the oil cavitates (cylinder "
+                                   "floor, film limit of eq 2.16)", bounds=(0.0, 1e5), packed=True)
+    air_content: float = param("air_content", "-", "R, volume fraction of air at P_0 (eq 4.11)", bounds=(0.0, 0.49),
+                               effect="entrained_air", packed=True)
+
+    def density_at(self, p: float) -> float:
+        """Mixture density at absolute pressure p [kg/m^3] (eq 4.11)."""
+        return density(p, self.density, self.atmospheric_pressure, self.bulk_modulus, self.polytropic_exponent,
+                       self.air_content)
+
+    def pressure_at(self, rho: float) -> float:
+        """Absolute pressure [Pa] at mixture density rho (eqs 4.12-4.16)."""
+        return pressure(rho, self.density, self.atmospheric_pressure, self.bulk_modulus, self.polytropic_exponent,
+                        self.air_content)
+
+    def bulk_modulus_at(self, p: float) -> float:
+        """Effective bulk modulus of the mixture rho / (d rho/dp) [Pa] at absolute pressure p."""
+        return self.density_at(p) / density_slope(p, self.density, self.atmospheric_pressure, self.bulk_modulus,
+                                                  self.polytropic_exponent, self.air_content)

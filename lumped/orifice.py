@@ -46,7 +46,7 @@ def laminar_slope(cd_inf: float, a: float, b: float, c: float) -> float:
 
 
 def orifice_flow(area: float, dp: float, rho: float, mu: float, perimeter: float,
-                 cd_inf: float, a: float, b: float, c: float) -> tuple[float, float, float, float]:
+                 cd_inf: float, a: float, b: float, c: float, s_start: float = 0.0) -> tuple[float, float, float, float]:
     """Orifice volume flow with Cd(Re) solved consistently (eqs 2.38 + 2.46-2.48; 3.22 + 3.87-3.89).
 
     area A_o [m^2] (>= 0), dp = P_up - P_down [Pa], rho [kg/m^3], mu [Pa s], perimeter
@@ -60,6 +60,9 @@ def orifice_flow(area: float, dp: float, rho: float, mu: float, perimeter: float
     sigma when a step leaves it). It stops after a step below FINAL_STEP, whose error is
     ~ step^3 < 1e-14; Cd and w' at that last point come from the Taylor series of the
     evaluated ones (error ~ step^3 as well), so the last step costs no exponential.
+    ``s_start`` > 0: start the iteration there (the root of a nearby call: the pump's
+    integrator evaluates the same valve at neighbouring states; the result does not depend
+    on the start beyond round-off).
     """
     if area <= 0.0:
         return 0.0, 0.0, 0.0, 0.0
@@ -74,6 +77,8 @@ def orifice_flow(area: float, dp: float, rho: float, mu: float, perimeter: float
     s_lam = alpha * g
     s_tur = math.sqrt(g * cd_inf)
     s = s_lam if s_lam < s_tur else s_tur
+    if s_start > 0.0 and 0.5 * s < s_start < 2.0 * s_tur:
+        s = s_start
     lo = 0.0                                # bracket of the root in s (0, inf: not yet known)
     hi = math.inf
     cd = 0.0

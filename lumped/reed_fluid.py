@@ -5,7 +5,7 @@ Reynolds number and c_f, eqs 3.79-3.80), the Poiseuille-regime pressure fraction
 pressure load multiplier (eqs 3.50-3.60, Table 3.12) and the orifice-regime
 correlation X(x) (eq 3.83). SI units throughout. Inputs that are not in Table 3.13
 (the damping reading of Naik et al., the sealing layout) are in
-``lumped/data/reed_fluid.toml``; oil properties in ``lumped/data/oil.toml``.
+``lumped/data/reed_fluid.toml``; the oil's viscosity law is :mod:`lumped.oil`'s.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ from importlib import resources
 import numpy as np
 
 from geometry.reed import Reed
+from lumped.oil import thesis_oil_viscosity
 
 # -- data files ---------------------------------------------------------------------
 
@@ -32,23 +33,10 @@ def fluid_data() -> dict:
     return _data("reed_fluid")
 
 
-def reed_valve_data() -> dict:
-    """The parsed ``lumped/data/reed_valve.toml`` (prototype reed valve, Table 3.13)."""
-    return _data("reed_valve")
-
-
 def oil_properties(temperature: float | None = None) -> tuple[float, float]:
-    """Oil density [kg/m^3] and dynamic viscosity [Pa s] at ``temperature`` [K] (eqs A.1-A.3).
-
-    mu = rho nu_1 exp(b (T - T_1)) with b = ln(nu_2 / nu_1) / (T_2 - T_1) from the two
-    Table A.1 points; default temperature: the room temperature of Appendix A (22 C),
-    where mu = 0.0683 Pa s.
-    """
-    v = _data("oil")["viscosity"]
-    T = v["room_temperature"] if temperature is None else temperature
-    b = np.log(v["kinematic_high"] / v["kinematic_low"]) / (v["temperature_high"] - v["temperature_low"])
-    nu = v["kinematic_low"] * np.exp(b * (T - v["temperature_low"]))
-    return float(v["density"]), float(v["density"] * nu)
+    """Oil density [kg/m^3] and dynamic viscosity [Pa s] at ``temperature`` [K] (eqs A.1-A.3):
+    :func:`lumped.oil.thesis_oil_viscosity` (the one viscosity law)."""
+    return thesis_oil_viscosity(temperature)
 
 
 # -- added mass (section 3.3) -------------------------------------------------------
@@ -285,9 +273,12 @@ class PressureMultiplierFit:
 
     @classmethod
     def thesis(cls) -> "PressureMultiplierFit":
-        """The prototype's fit (lumped/data/reed_valve.toml, [pressure_multiplier])."""
-        d = _data("reed_valve")["pressure_multiplier"]
-        return cls(**{k: float(d[k]) for k in ("poiseuille", "n1", "n0", "d2", "d1", "d0")})
+        """The prototype's fit (the reed valves of lumped/data/models/thesis-reed.toml)."""
+        from lumped.model_file import load_model
+
+        v = load_model("thesis-reed").inlet
+        return cls(v.multiplier_poiseuille, v.multiplier_n1, v.multiplier_n0, v.multiplier_d2, v.multiplier_d1,
+                   v.multiplier_d0)
 
     def rational(self, x):
         x = np.asarray(x, dtype=float)

@@ -29,6 +29,7 @@ need no zero test (about 30 % of a pump right-hand side call).
 from __future__ import annotations
 
 import types
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -264,31 +265,166 @@ def _locate_event(t, h, y0, y1, q2, q3, p, g0, g, ybuf, n_events):
     return best_k, best_s
 
 
+class Options(NamedTuple):
+    """Settings of :func:`solve` (SI time units).
+
+    ``rtol``; ``atol``: array, one per state (the model's ``update_tolerances`` may rewrite
+    it); ``h0``: first step; ``hmax``: largest step; ``max_steps``; ``n_dyn``: the first
+    n_dyn states feed back, the rest are quadratures; ``t_record``: keep every accepted
+    step from this time on; ``n_events``: switching functions of the model;
+    ``max_events``: events before giving up (chatter); ``jac_reuse``: accepted steps per
+    Jacobian.
+    """
+
+    rtol: float
+    atol: np.ndarray
+    h0: float
+    hmax: float
+    max_steps: int
+    n_dyn: int
+    t_record: float
+    n_events: int
+    max_events: int
+    jac_reuse: int
+
+
+class Result(NamedTuple):
+    """What :func:`solve` returns.
+
+    ``status`` (:data:`STATUS_TEXT`); ``y_stops[i]``: the state at ``tstops[i]``; the recorded
+    steps: step i runs from rec_t[i-1] to rec_t[i], its dense-output coefficients at
+    i (``rec_q2``, ``rec_q3``) and ``rec_tag[i] = step_tag(p)`` during it; the events: time,
+    index, the model's code, and the state just before the switch (``ev_y``); counts;
+    ``h_next``, the step to continue with.
+    """
+
+    status: int
+    y_stops: np.ndarray
+    rec_t: np.ndarray
+    rec_y: np.ndarray
+    rec_q2: np.ndarray
+    rec_q3: np.ndarray
+    rec_tag: np.ndarray
+    ev_t: np.ndarray
+    ev_k: np.ndarray
+    ev_code: np.ndarray
+    ev_y: np.ndarray
+    n_steps: int
+    n_rejected: int
+    n_rhs: int
+    h_next: float
+
+
 @numba.njit(cache=True, error_model="numpy")
-def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n_events, max_events,
-          jac_reuse):
-    """Integrate y' = rhs(t, y, p) from t0 through every time in ``tstops`` (ascending).
+def rosenbrock_step(t, h, y, p, f0, ft, jac, w, piv, k, u, ynew, n_dyn, rtol, atol):
+    """One Rodas4P step of size h from (t, y): stages in ``k`` (6 x n), the result in ``ynew``.
 
-    Steps land exactly on each stop; ``y_stops[i]`` is the state there. From ``t_record`` on
-    every accepted step is kept with its dense-output coefficients (``rec_t``, ``rec_y``,
-    ``rec_q2``, ``rec_q3``: step i runs from rec_t[i-1] to rec_t[i], its coefficients stored
-    at i) and ``rec_tag[i] = step_tag(p)`` during it. Error control: RMS over components of
-    err_i / (atol_i + rtol max(|y_i|, |y_new_i|)), atol as the model's
-    ``update_tolerances(p, atol)`` sets it at the start and after every event.
+    Factorises W = I/(h gamma) - J (first n_dyn block) in ``w``; returns (ok, err), err the
+    RMS of the embedded error estimate over err_i / (atol_i + rtol max(|y_i|, |ynew_i|));
+    ok False for a singular W or a non-finite stage (e.g. a state left the model's domain).
+    """
+    n = y.shape[0]
+    fac = 1.0 / (h * GAMMA)
+    hg = h * GAMMA
+    for i in range(n_dyn):
+        for j in range(n_dyn):
+            w[i, j] = -jac[i, j]
+        w[i, i] += fac
+    if not lu_factor(w, piv):
+        return False, 0.0
+    k1, k2, k3, k4, k5, k6 = k[0], k[1], k[2], k[3], k[4], k[5]
+    hc21, hc31, hc32 = C21 / h, C31 / h, C32 / h
+    hc41, hc42, hc43 = C41 / h, C42 / h, C43 / h
+    hc51, hc52, hc53, hc54 = C51 / h, C52 / h, C53 / h, C54 / h
+    hc61, hc62, hc63, hc64, hc65 = C61 / h, C62 / h, C63 / h, C64 / h, C65 / h
+    for i in range(n):
+        k1[i] = f0[i] + h * D1 * ft[i]
+    stage_solve(w, piv, jac, hg, k1, n_dyn)
+    for i in range(n):
+        u[i] = y[i] + A21 * k1[i]
+    rhs(t + C2 * h, u, p, k2)
+    for i in range(n):
+        k2[i] += h * D2 * ft[i] + hc21 * k1[i]
+    stage_solve(w, piv, jac, hg, k2, n_dyn)
+    for i in range(n):
+        u[i] = y[i] + A31 * k1[i] + A32 * k2[i]
+    rhs(t + C3 * h, u, p, k3)
+    for i in range(n):
+        k3[i] += h * D3 * ft[i] + hc31 * k1[i] + hc32 * k2[i]
+    stage_solve(w, piv, jac, hg, k3, n_dyn)
+    for i in range(n):
+        u[i] = y[i] + A41 * k1[i] + A42 * k2[i] + A43 * k3[i]
+    rhs(t + C4 * h, u, p, k4)
+    for i in range(n):
+        k4[i] += h * D4 * ft[i] + hc41 * k1[i] + hc42 * k2[i] + hc43 * k3[i]
+    stage_solve(w, piv, jac, hg, k4, n_dyn)
+    for i in range(n):
+        u[i] = y[i] + A51 * k1[i] + A52 * k2[i] + A53 * k3[i] + A54 * k4[i]
+    rhs(t + h, u, p, k5)
+    for i in range(n):
+        k5[i] += hc51 * k1[i] + hc52 * k2[i] + hc53 * k3[i] + hc54 * k4[i]
+    stage_solve(w, piv, jac, hg, k5, n_dyn)
+    for i in range(n):
+        u[i] += k5[i]
+    rhs(t + h, u, p, k6)
+    for i in range(n):
+        k6[i] += hc61 * k1[i] + hc62 * k2[i] + hc63 * k3[i] + hc64 * k4[i] + hc65 * k5[i]
+    stage_solve(w, piv, jac, hg, k6, n_dyn)
+    err = 0.0
+    for i in range(n):
+        ynew[i] = u[i] + k6[i]
+        sk = atol[i] + rtol * max(abs(y[i]), abs(ynew[i]))
+        err += (k6[i] / sk) ** 2
+    err = np.sqrt(err / n)
+    return np.isfinite(err), err
 
-    Events (``n_events`` > 0): ``event_values(t, y, p, g)`` gives one value per event; event
-    k fires where g_k drops from >= 0 to < 0. The first crossing is found on the dense
-    output; the step is redone once to end there (the interpolant of a long step does not
-    follow a stiff component closely), and the crossing located again is where the step is
-    cut. There ``apply_event(k, t, y, p)`` switches the model (it may change
-    ``p`` and ``y``; its return value is logged) and integration restarts there, so the
-    right-hand side is smooth inside every step. Events are logged in ``ev_t``, ``ev_k``,
-    ``ev_code``.
 
-    Returns (status, y_stops, rec_t, rec_y, rec_q2, rec_q3, rec_tag, ev_t, ev_k, ev_code,
-    n_steps, n_rejected, n_rhs, h_next): h_next is the step size to continue with.
+@numba.njit(cache=True, error_model="numpy")
+def dense_coefficients(k, q2, q3):
+    """q2, q3 of Rodas4P's 3rd-order interpolant (:func:`dense`) from the stages of a step."""
+    for i in range(q2.shape[0]):
+        q2[i] = H21 * k[0, i] + H22 * k[1, i] + H23 * k[2, i] + H24 * k[3, i] + H25 * k[4, i]
+        q3[i] = H31 * k[0, i] + H32 * k[1, i] + H33 * k[2, i] + H34 * k[3, i] + H35 * k[4, i]
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _cut_interpolant(s_ev, y, ynew, q2, q3):
+    """Cut a step's interpolant at fraction s_ev: ynew, q2, q3 become the sub-step's own."""
+    y_e = dense(s_ev, y, ynew, q2, q3)
+    for i in range(y.shape[0]):
+        # P(s x) - y0 (1 - x) - x P(s) = x (1 - x) (a + b x): fit a, b at x = 1/3, 2/3
+        r1 = dense(s_ev / 3.0, y, ynew, q2, q3)[i] - y[i] * (2.0 / 3.0) - y_e[i] / 3.0
+        r2 = dense(2.0 * s_ev / 3.0, y, ynew, q2, q3)[i] - y[i] / 3.0 - y_e[i] * (2.0 / 3.0)
+        a1 = r1 / (2.0 / 9.0)
+        a2 = r2 / (2.0 / 9.0)
+        bb = 3.0 * (a2 - a1)
+        q3[i] = bb
+        q2[i] = a1 - bb / 3.0
+    ynew[:] = y_e
+
+
+@numba.njit(cache=True, error_model="numpy")
+def solve(t0, y0, tstops, p, opts):
+    """Integrate y' = rhs(t, y, p) from t0 through every time in ``tstops`` (ascending); a :class:`Result`.
+
+    Steps land exactly on each stop. Error control: RMS over components of err_i /
+    (atol_i + rtol max(|y_i|, |y_new_i|)), atol as the model's ``update_tolerances(p,
+    atol)`` sets it at the start and after every event; Gustafsson's predictive step
+    controller, as in RODAS.
+
+    Events (``opts.n_events`` > 0): ``event_values(t, y, p, g)`` gives one value per
+    event; event k fires where g_k drops from >= 0 to < 0. The first crossing is found on
+    the dense output; the step is redone (up to MAX_EVENT_RETRIES times, where
+    ``event_retry(k, p)``) to end there, since the interpolant of a long step does not
+    follow a stiff component, and the crossing located again is where the step is cut.
+    There ``apply_event(k, t, y, p)`` switches the model (it may change ``p`` and ``y``;
+    its return value is logged) and integration restarts, so the right-hand side is
+    smooth inside every step.
     """
     n = y0.shape[0]
+    n_dyn = opts.n_dyn
+    rtol = opts.rtol
+    atol = opts.atol
     y = y0.copy()
     t = t0
     t_end = tstops[-1]
@@ -301,17 +437,13 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
     jac = np.empty((n, n))
     w = np.empty((n_dyn, n_dyn))
     piv = np.empty(n_dyn, dtype=np.int64)
-    k1 = np.empty(n)
-    k2 = np.empty(n)
-    k3 = np.empty(n)
-    k4 = np.empty(n)
-    k5 = np.empty(n)
-    k6 = np.empty(n)
+    k = np.empty((6, n))
     u = np.empty(n)
     yp = np.empty(n)
     ynew = np.empty(n)
     q2 = np.empty(n)
     q3 = np.empty(n)
+    n_events = opts.n_events
     g0 = np.empty(max(n_events, 1))
     g1 = np.empty(max(n_events, 1))
     cap = 1024
@@ -324,9 +456,10 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
     ev_t = np.empty(ecap)
     ev_k = np.empty(ecap, dtype=np.int64)
     ev_code = np.empty(ecap, dtype=np.int64)
+    ev_y = np.empty((ecap, n))
     n_ev = 0
     m = 0
-    if t_record <= t0:
+    if opts.t_record <= t0:
         rec_t[0] = t
         rec_y[0] = y
         rec_q2[0] = 0.0
@@ -334,7 +467,7 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
         rec_tag[0] = step_tag(p)
         m = 1
 
-    h = min(h0, hmax, t_end - t0)
+    h = min(opts.h0, opts.hmax, t_end - t0)
     n_steps = 0
     n_rej = 0
     n_rhs = 0
@@ -348,14 +481,14 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
     first = True
     reject = False
     f_fresh = False
-    jac_age = jac_reuse  # forces a Jacobian at the first step
-    retries = 0          # steps redone to end at the located crossing of the pending event
+    jac_age = opts.jac_reuse  # forces a Jacobian at the first step
+    retries = 0               # steps redone to end at the located crossing of the pending event
     while i_stop < n_stops:
-        if n_steps >= max_steps:
+        if n_steps >= opts.max_steps:
             status = MAX_STEPS
             break
         t_stop = tstops[i_stop]
-        h_try = min(h, hmax)
+        h_try = min(h, opts.hmax)
         hit = False
         if t + h_try >= t_stop - 1e-12 * abs(t_stop):
             h_try = t_stop - t
@@ -363,76 +496,23 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
         if h_try <= 1e-14 * max(abs(t), 1e-300) or h_try <= 0.0:
             status = STEP_TOO_SMALL
             break
-        # f(t, y) at the step start; the Jacobian and f_t by forward differences, kept for
-        # up to jac_reuse accepted steps (fresh after an event or a rejection)
+        # f(t, y) at the step start; the Jacobian and f_t, kept for up to jac_reuse accepted
+        # steps (fresh after an event or a rejection)
         if not f_fresh:
             rhs(t, y, p, f0)
             n_rhs += 1
             if n_events > 0:
                 event_values(t, y, p, g0)
             f_fresh = True
-        if jac_age >= jac_reuse or (reject and jac_age > 0):
+        if jac_age >= opts.jac_reuse or (reject and jac_age > 0):
             nj = jacobian(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h_try)
             if nj < 0:
                 nj = fd_jacobian(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h_try)
             n_rhs += nj
             jac_age = 0
-        fac = 1.0 / (h_try * GAMMA)
-        hg = h_try * GAMMA
-        for i in range(n_dyn):
-            for j in range(n_dyn):
-                w[i, j] = -jac[i, j]
-            w[i, i] += fac
-        ok = lu_factor(w, piv)
-        err = 0.0
-        if ok:
-            hc21, hc31, hc32 = C21 / h_try, C31 / h_try, C32 / h_try
-            hc41, hc42, hc43 = C41 / h_try, C42 / h_try, C43 / h_try
-            hc51, hc52, hc53, hc54 = C51 / h_try, C52 / h_try, C53 / h_try, C54 / h_try
-            hc61, hc62, hc63, hc64, hc65 = C61 / h_try, C62 / h_try, C63 / h_try, C64 / h_try, C65 / h_try
-            for i in range(n):
-                k1[i] = f0[i] + h_try * D1 * ft[i]
-            stage_solve(w, piv, jac, hg, k1, n_dyn)
-            for i in range(n):
-                u[i] = y[i] + A21 * k1[i]
-            rhs(t + C2 * h_try, u, p, k2)
-            for i in range(n):
-                k2[i] += h_try * D2 * ft[i] + hc21 * k1[i]
-            stage_solve(w, piv, jac, hg, k2, n_dyn)
-            for i in range(n):
-                u[i] = y[i] + A31 * k1[i] + A32 * k2[i]
-            rhs(t + C3 * h_try, u, p, k3)
-            for i in range(n):
-                k3[i] += h_try * D3 * ft[i] + hc31 * k1[i] + hc32 * k2[i]
-            stage_solve(w, piv, jac, hg, k3, n_dyn)
-            for i in range(n):
-                u[i] = y[i] + A41 * k1[i] + A42 * k2[i] + A43 * k3[i]
-            rhs(t + C4 * h_try, u, p, k4)
-            for i in range(n):
-                k4[i] += h_try * D4 * ft[i] + hc41 * k1[i] + hc42 * k2[i] + hc43 * k3[i]
-            stage_solve(w, piv, jac, hg, k4, n_dyn)
-            for i in range(n):
-                u[i] = y[i] + A51 * k1[i] + A52 * k2[i] + A53 * k3[i] + A54 * k4[i]
-            rhs(t + h_try, u, p, k5)
-            for i in range(n):
-                k5[i] += hc51 * k1[i] + hc52 * k2[i] + hc53 * k3[i] + hc54 * k4[i]
-            stage_solve(w, piv, jac, hg, k5, n_dyn)
-            for i in range(n):
-                u[i] += k5[i]
-            rhs(t + h_try, u, p, k6)
-            for i in range(n):
-                k6[i] += hc61 * k1[i] + hc62 * k2[i] + hc63 * k3[i] + hc64 * k4[i] + hc65 * k5[i]
-            stage_solve(w, piv, jac, hg, k6, n_dyn)
-            n_rhs += 5
-            for i in range(n):
-                ynew[i] = u[i] + k6[i]
-                sk = atol[i] + rtol * max(abs(y[i]), abs(ynew[i]))
-                err += (k6[i] / sk) ** 2
-            err = np.sqrt(err / n)
-            if not np.isfinite(err):
-                ok = False
+        ok, err = rosenbrock_step(t, h_try, y, p, f0, ft, jac, w, piv, k, u, ynew, n_dyn, rtol, atol)
+        n_rhs += 5
         if not ok:
-            # singular W or a non-finite stage (e.g. a state left the model's domain)
             h = 0.25 * h_try
             reject = True
             n_rej += 1
@@ -446,9 +526,7 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
             reject = True
             continue
         # ---- accepted by the error test
-        for i in range(n):
-            q2[i] = H21 * k1[i] + H22 * k2[i] + H23 * k3[i] + H24 * k4[i] + H25 * k5[i]
-            q3[i] = H31 * k1[i] + H32 * k2[i] + H33 * k3[i] + H34 * k4[i] + H35 * k5[i]
+        dense_coefficients(k, q2, q3)
         # ---- events: the first crossing on the dense output
         k_ev = -1
         s_ev = 2.0
@@ -456,18 +534,14 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
             k_ev, s_ev = _locate_event(t, h_try, y, ynew, q2, q3, p, g0, g1, yp, n_events)
             if (k_ev >= 0 and retries < MAX_EVENT_RETRIES and EVENT_RETRY_WINDOW < s_ev < 1.0 - EVENT_RETRY_WINDOW
                     and event_retry(k_ev, p)):
-                # The interpolant locates a crossing only as well as it follows the solution,
-                # and over a long step it does not follow a stiff component (a valve resting
-                # on its seat, slaved to the cylinder pressure, lifts off where the pressure
-                # force lets go): redo the step so that it ends at the located crossing and
-                # locate it again on that shorter step, or on the next one. (Near either
-                # end of the step the interpolant is pinned to the computed states.)
+                # the interpolant locates a crossing only as well as it follows the solution:
+                # redo the step so that it ends at the located crossing, and locate it again
+                # on that shorter step (near either end the interpolant is pinned to the states)
                 retries += 1
                 h = s_ev * h_try
                 event_values(t, y, p, g0)      # g0 served as scratch; y, f0 and J still hold
                 continue
         if not first:
-            # Gustafsson's predictive controller (as in RODAS)
             fg = (h_acc / h_try) * (err * err / err_acc) ** 0.25 / SAFE
             fg = max(1.0 / FAC_MAX, min(1.0 / FAC_MIN, fg))
             fac_h = max(fac_h, fg)
@@ -482,22 +556,11 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
         t = t_stop if hit else t + h_try
         tag = step_tag(p)
         if k_ev >= 0:
-            # the sub-step [t_old, t_old + s h]: its end state and its own dense coefficients
-            y_e = dense(s_ev, y, ynew, q2, q3)
-            for i in range(n):
-                # P(s x) - y0 (1 - x) - x P(s) = x (1 - x) (a + b x): fit a, b at x = 1/3, 2/3
-                r1 = dense(s_ev / 3.0, y, ynew, q2, q3)[i] - y[i] * (2.0 / 3.0) - y_e[i] / 3.0
-                r2 = dense(2.0 * s_ev / 3.0, y, ynew, q2, q3)[i] - y[i] / 3.0 - y_e[i] * (2.0 / 3.0)
-                a1 = r1 / (2.0 / 9.0)
-                a2 = r2 / (2.0 / 9.0)
-                bb = 3.0 * (a2 - a1)
-                q3[i] = bb
-                q2[i] = a1 - bb / 3.0
-            ynew[:] = y_e
+            _cut_interpolant(s_ev, y, ynew, q2, q3)
             t = t_old + s_ev * h_try
             hit = False
-        if t >= t_record and (t > t_old or m == 0):
-            if m == 0 and t > t_record:
+        if t >= opts.t_record and (t > t_old or m == 0):
+            if m == 0 and t > opts.t_record:
                 # the step that crosses t_record: keep its start too
                 rec_t[0] = t_old
                 rec_y[0] = y
@@ -521,19 +584,21 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
         f_fresh = False
         jac_age += 1
         if k_ev >= 0:
-            jac_age = jac_reuse
+            jac_age = opts.jac_reuse
             retries = 0
-            code = apply_event(k_ev, t, y, p)
-            update_tolerances(p, atol)
             if n_ev >= ev_t.shape[0]:
                 ev_t = _grow(ev_t, n_ev)
                 ev_k = _grow(ev_k, n_ev)
                 ev_code = _grow(ev_code, n_ev)
+                ev_y = _grow(ev_y, n_ev)
+            ev_y[n_ev] = y
+            code = apply_event(k_ev, t, y, p)
+            update_tolerances(p, atol)
             ev_t[n_ev] = t
             ev_k[n_ev] = k_ev
             ev_code[n_ev] = code
             n_ev += 1
-            if n_ev >= max_events:
+            if n_ev >= opts.max_events:
                 status = TOO_MANY_EVENTS
                 break
             # the dynamics change here: restart the step-size history
@@ -548,8 +613,8 @@ def solve(t0, y0, tstops, p, rtol, atol, h0, hmax, max_steps, n_dyn, t_record, n
             h = max(h_new, h)
         else:
             h = h_new
-    return (status, y_stops, rec_t[:m], rec_y[:m], rec_q2[:m], rec_q3[:m], rec_tag[:m],
-            ev_t[:n_ev], ev_k[:n_ev], ev_code[:n_ev], n_steps, n_rej, n_rhs, h)
+    return Result(status, y_stops, rec_t[:m], rec_y[:m], rec_q2[:m], rec_q3[:m], rec_tag[:m],
+                  ev_t[:n_ev], ev_k[:n_ev], ev_code[:n_ev], ev_y[:n_ev], n_steps, n_rej, n_rhs, h)
 
 
 def _rebind(func, scope: dict, tag: str, cache: bool = False):
@@ -585,6 +650,7 @@ def specialize(rhs_func, tag: str, events=None, apply=None, tagger=None, jac=Non
     # helpers that call the model's functions get the same bindings
     scope["fd_jacobian"] = _rebind(fd_jacobian, scope, tag)
     scope["_locate_event"] = _rebind(_locate_event, scope, tag)
+    scope["rosenbrock_step"] = _rebind(rosenbrock_step, scope, tag)
     return _rebind(solve, scope, tag, cache=cache)
 
 

@@ -25,6 +25,7 @@ COMMANDS: dict[str, str] = {
     "table": "studies.cmd_table",
     "lts": "studies.cmd_lts",
     "pump": "studies.cmd_pump",
+    "model": "studies.cmd_model",
     "validate": "studies.cmd_validate",
     "check": "studies.cmd_check",
     "seat": "studies.cmd_seat",

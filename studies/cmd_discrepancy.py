@@ -12,7 +12,7 @@ from .discrepancy import ModelFailure, Settings, Workflow
 from .discrepancy_report import write_report
 from .gap import GapScales
 from .measured import read_dataset
-from .model_choice import load_model
+from .model_choice import choose
 
 HELP = "name the effects the baseline model misses in a measured dataset, fit them, report the gap"
 
@@ -41,26 +41,26 @@ def configure(p):
                         "what a 3 %% discharge-coefficient error lets a wrong effect gain)")
     p.add_argument("--max-rounds", type=int, default=3, help="most effects added (default 3)")
     p.add_argument("--workers", type=int, default=2, help="parallel simulations (default 2)")
-    p.add_argument("--model", default=None, help="model module (default studies.pump_sim)")
+    p.add_argument("--model", default=None, metavar="NAME|FILE",
+                   help="pump model (a shipped one or a model file; default: run.toml's model, else the thesis "
+                        "model of the runs' valve type); the baseline is it with every candidate effect off")
+    p.add_argument("--simulator", default=None, metavar="MODULE",
+                   help="another model altogether: a module with simulate(condition, effects) and LIBRARY")
 
 
-def demo_dataset(folder, seed: int, workers: int, model: str | None, force: bool):
+def demo_dataset(folder, seed: int, workers: int, force: bool):
     """Write the thesis's O-ring story as a dataset: the six disc runs of Tables 5.3/5.4 with the
-    delivery valve's compliant seat (lumped/data/disc_valve.toml, section 2.4.3.2) and the thesis's
-    air content stated; the baseline will assume a rigid seat."""
-    from lumped.effects import Applied
-    from lumped.params import _data, thesis_air_content
-
+    delivery valve's compliant seat (the thesis-disc model's own effect: the O-ring's 1.5e6 N/m,
+    section 2.4.3.2) and the thesis's air content stated; the baseline will assume a rigid seat."""
     from .cmd_synth import thesis_conditions
     from .synth import Noise, synthesize, write_synthetic
 
-    simulate, _ = load_model(model)
-    k = _data("disc_valve")["seat"]["compliant_stiffness"]
-    truth = (Applied.of("seat_compliance", "delivery", {"k_seat": k}),)
-    conds = thesis_conditions("disc", thesis_air_content("disc"))
+    sim = choose(model="thesis-disc")
+    truth = sim.context.effects                    # the O-ring: seat_compliance on the delivery valve
+    conds = thesis_conditions("disc", sim.context.oil.air_content)
     sys.stderr.write(f"discrepancy: writing the O-ring demonstration dataset to {folder}\n")
     try:
-        runs, truth_doc = synthesize(simulate, "disc", conds, truth, Noise(), seed=seed, workers=workers)
+        runs, truth_doc = synthesize(sim.simulate, "disc", conds, truth, Noise(), seed=seed, workers=workers)
     except ModelFailure as exc:
         sys.stderr.write(f"valvelab discrepancy: error: {exc}\n")
         raise SystemExit(1) from None
@@ -86,7 +86,7 @@ def run(args) -> dict:
         raise InputError("--workers", "must be 1 or more")
     if args.demo:
         args.dataset = args.dataset or "thesis_oring_demo"
-        demo_dataset(args.dataset, args.seed, args.workers, args.model, args.force)
+        demo_dataset(args.dataset, args.seed, args.workers, args.force)
     elif args.dataset is None:
         raise InputError("DATASET", "missing; give a dataset folder (or --demo)")
     runs = read_dataset(args.dataset)
@@ -98,17 +98,18 @@ def run(args) -> dict:
                 and not args.force:
             raise InputError("--report", f"{report} is a non-empty folder valvelab did not create; "
                              "choose another (or pass --force)")
-    simulate, library = load_model(args.model)
+    sim = choose(args.model, args.simulator, runs)
     settings = Settings(scales=scales, min_rel_improvement=rel, min_abs_improvement=gain,
                         max_rounds=args.max_rounds, holdout=tuple(args.holdout) if args.holdout else None,
                         workers=args.workers)
     try:
-        outcome = Workflow(runs, simulate, library, settings, progress=True).run()
+        outcome = Workflow(runs, sim.simulate, sim.library, settings, progress=True, context=sim.context).run()
     except ModelFailure as exc:   # not a user mistake: exit 1 with one line, no traceback
         sys.stderr.write(f"valvelab discrepancy: error: {exc}\n")
         raise SystemExit(1) from None
     result = outcome.as_contract()
     result["dataset"] = str(args.dataset)
+    result["model"] = sim.name
     result["report"] = None
     if report is not None:
         result["report"] = str(report)

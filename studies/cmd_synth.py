@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import math
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 from geometry.errors import InputError
 from lumped.effects import Applied
 
-from .measured import MEASURED_VALVES, VALVE_TYPES
-from .model_choice import load_model
+from .measured import MEASURED_VALVES
+from .model_choice import choose
 from .discrepancy import ModelFailure
 from .synth import Condition, Noise, synthesize, write_synthetic
 from .thesis import experiments
@@ -20,7 +21,8 @@ HELP = "write a synthetic measured dataset from the model with chosen effects hi
 
 def configure(p):
     p.add_argument("out", help="dataset folder to write (refused if it holds files valvelab did not write)")
-    p.add_argument("--valve", default="disc", help="disc (default) or reed")
+    p.add_argument("--valve", default=None, help="disc (default) or reed: the thesis model of that valve type "
+                                                  "when no --model")
     p.add_argument("--effect", action="append", default=[], metavar="NAME[@TARGET][:PARAM=VALUE,...]",
                    help="effect to hide, e.g. seat_compliance@delivery:k_seat=1.5e6 (repeatable; parameters "
                         "default to the effect's prior; TARGET inlet/delivery for one-valve effects)")
@@ -41,7 +43,12 @@ def configure(p):
     p.add_argument("--revolutions", type=int, default=1, help="revolutions written per run (default 1)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--workers", type=int, default=1, help="parallel simulations (default 1)")
-    p.add_argument("--model", default=None, help="model module (default studies.pump_sim)")
+    p.add_argument("--model", default=None, metavar="NAME|FILE",
+                   help="pump model to synthesise from (a shipped one or a model file; default thesis-<--valve>); "
+                        "the data come from its baseline (every candidate effect off, as the workflow starts "
+                        "from) with the --effect list hidden in it")
+    p.add_argument("--simulator", default=None, metavar="MODULE",
+                   help="another model altogether: a module with simulate(condition, effects) and LIBRARY")
     p.add_argument("--force", action="store_true", help="write into a folder valvelab did not create")
 
 
@@ -55,28 +62,29 @@ def _number(text: str, field: str) -> float:
     return v
 
 
-def parse_effect(spec: str, library, valve_type: str) -> Applied:
+def parse_effect(spec: str, library, valve_type) -> Applied:
     """``NAME[@TARGET][:PARAM=VALUE,...]`` -> an applied effect (unset parameters at their prior)."""
     head, _, tail = spec.partition(":")
     name, _, target = head.partition("@")
     if name not in library:
         raise InputError("--effect", f"unknown effect {name!r}; expected one of {', '.join(library.names())}")
     eff = library[name]
-    if valve_type not in eff.valve_types:
-        raise InputError("--effect", f"{name} does not apply to the {valve_type} valve")
     target = target or eff.targets[-1]
     if target not in eff.targets:
         raise InputError("--effect", f"{name}: target {target!r}; expected one of {', '.join(eff.targets)}")
-    values = eff.prior_values(valve_type)
+    if not eff.applies_to(valve_type, target):
+        what = valve_type if isinstance(valve_type, str) else valve_type.kind_at(target)
+        raise InputError("--effect", f"{name} does not apply to the {what} valve")
+    values = eff.prior_values(valve_type, target)
     for item in filter(None, tail.split(",")):
         k, eq, v = item.partition("=")
         if not eq:
             raise InputError("--effect", f"{name}: expected PARAM=VALUE, got {item!r}")
         if k not in values:
             raise InputError("--effect", f"{name}: unknown parameter {k!r}; expected "
-                             + (", ".join(p.name for p in eff.parameters_for(valve_type)) or "none (a switch)"))
+                             + (", ".join(p.name for p in eff.parameters_for(valve_type, target)) or "none (a switch)"))
         x = _number(v, f"--effect {name}:{k}")
-        par = eff.parameter(k, valve_type)
+        par = eff.parameter(k, valve_type, target)
         if par.log and x <= 0:
             raise InputError(f"--effect {name}:{k}", f"must be positive ({par.unit}), got {x:g}")
         values[k] = x
@@ -106,8 +114,8 @@ def thesis_conditions(valve_type: str, air: float | None) -> list[Condition]:
 
 
 def run(args) -> dict:
-    if args.valve not in VALVE_TYPES:
-        raise InputError("--valve", f"expected one of {', '.join(VALVE_TYPES)}, got {args.valve!r}")
+    if args.valve is not None and args.valve not in ("disc", "reed"):
+        raise InputError("--valve", f"expected disc or reed, got {args.valve!r}")
     if args.air_content is not None and not 0 <= args.air_content < 0.5:
         raise InputError("--air-content", f"a volume fraction 0 <= R < 0.5, got {args.air_content:g}")
     for flag, v in (("--noise-um", args.noise_um), ("--pressure-noise-kpa", args.pressure_noise_kpa),
@@ -120,13 +128,19 @@ def run(args) -> dict:
         raise InputError("--time-offset-ms", f"a few tenths of a ms at most, got {args.time_offset_ms:g}")
     if args.sample_rate_hz < 1000 or args.revolutions < 1:
         raise InputError("--sample-rate-hz", "at least 1000 Hz and one revolution")
-    simulate, library = load_model(args.model)
-    truth = tuple(parse_effect(s, library, args.valve) for s in args.effect)
+    if args.model is not None and args.valve is not None:
+        raise InputError("--valve", "the valves come from --model; give one or the other")
+    sim = choose(args.model, args.simulator, valve_type=args.valve or "disc")
+    valve_type = sim.context.label if sim.context is not None else (args.valve or "disc")
+    ctx = sim.context if sim.context is not None else valve_type
+    truth = tuple(parse_effect(s, sim.library, ctx) for s in args.effect)
     names = [a.name for a in truth]
     if len(set(names)) != len(names):
         raise InputError("--effect", "each effect at most once")
+    if not args.condition and valve_type not in ("disc", "reed"):
+        raise InputError("--condition", f"the thesis ran no {valve_type} pump: give the operating conditions")
     conds = ([parse_condition(c, args.air_content) for c in args.condition] if args.condition
-             else thesis_conditions(args.valve, args.air_content))
+             else thesis_conditions(valve_type, args.air_content))
     noise = Noise(
         position_m=args.noise_um * 1e-6, pressure_pa=args.pressure_noise_kpa * 1e3,
         delivery_frac=args.delivery_noise_pct / 100.0,
@@ -135,11 +149,24 @@ def run(args) -> dict:
         sample_rate_hz=args.sample_rate_hz, revolutions=args.revolutions,
     )
     try:
-        runs, truth_doc = synthesize(simulate, args.valve, conds, truth, noise, seed=args.seed, workers=args.workers)
+        runs, truth_doc = synthesize(sim.simulate, valve_type, conds, truth, noise, seed=args.seed,
+                                     workers=args.workers)
     except ModelFailure as exc:   # not a user mistake: exit 1 with one line, no traceback
         sys.stderr.write(f"valvelab synth: error: {exc}\n")
         raise SystemExit(1) from None
+    model_file = None
+    if sim.context is not None and args.model is not None:
+        from lumped.model_file import SHIPPED, to_toml
+
+        if args.model in SHIPPED:
+            runs = [replace(r, model=args.model) for r in runs]
+        else:   # the dataset carries its model, resolved (the workflow reads it from run.toml)
+            model_file = to_toml(sim.context)
+            runs = [replace(r, model="../model.toml") for r in runs]
+        truth_doc["model"] = sim.name
     folder = write_synthetic(Path(args.out), runs, truth_doc, force=args.force)
+    if model_file is not None:
+        (folder / "model.toml").write_text(model_file)
     return {"dataset": str(folder), "runs": [r.name for r in runs], "truth": truth_doc}
 
 

@@ -179,7 +179,7 @@ class Outcome:
     seconds: float                  # wall-clock (simulations may run in worker processes)
     excluded: dict
     notes: list
-    valve_type: str = "disc"
+    valve_type: object = "disc"          # the context effects were fitted in (valve type or pump model)
 
     def as_contract(self) -> dict:
         """The contract's JSON keys plus the details behind them."""
@@ -187,7 +187,7 @@ class Outcome:
         for a in self.model:
             eff = self.library[a.name]
             names.append(a.name)
-            params[a.name] = eff.report(a.value_dict, self.valve_type)
+            params[a.name] = eff.report(a.value_dict, self.valve_type, a.target)
             targets[a.name] = a.target
 
         def gap_of(ev: Evaluation, runs) -> dict:
@@ -350,7 +350,7 @@ class Workflow:
     """The discrepancy search over one dataset (see the module docstring)."""
 
     def __init__(self, runs: list[Run], simulator: Simulator, library: Library, settings: Settings = Settings(),
-                 progress: bool = True):
+                 progress: bool = True, context=None):
         if not runs:
             raise InputError("DATASET", "no runs")
         usable = [r for r in runs if r.trace is not None or r.delivery_cc_per_rev is not None]
@@ -358,6 +358,8 @@ class Workflow:
             raise InputError("DATASET", "no run has a trace.csv or a measured delivery_cc_per_rev to compare with")
         self.runs = usable
         self.valve_type = usable[0].valve_type
+        # what effect priors are computed for: the pump model (its geometry, oil), or the valve type
+        self.context = context if context is not None else self.valve_type
         self.library = library
         self.settings = settings
         self.progress = progress
@@ -466,7 +468,7 @@ class Workflow:
             narrow: float | None = None) -> tuple[dict, float, Nuisance, int]:
         """Fit ``effect`` at ``target`` on top of ``base``: (values, fit cost, nuisance, simulations used)."""
         n0 = self.sims.count
-        params = effect.parameters_for(self.valve_type)
+        params = effect.parameters_for(self.context, target)
 
         def model_of(units) -> tuple:
             vals = {p.name: p.from_unit(u) for p, u in zip(params, units)}
@@ -508,7 +510,7 @@ class Workflow:
                     best_u, best_c = float(res.x), float(res.fun)
             units = [best_u]
         else:
-            x0 = np.array([p.to_unit((start or effect.prior_values(self.valve_type))[p.name]) for p in params])
+            x0 = np.array([p.to_unit((start or effect.prior_values(self.context, target))[p.name]) for p in params])
 
             def fun(u):
                 r = self.residual_vector(model_of(u))
@@ -529,7 +531,7 @@ class Workflow:
         for i, a in enumerate(model):
             others = tuple(model[:i] + model[i + 1:])
             eff = self.library[a.name]
-            if not eff.parameters_for(self.valve_type):
+            if not eff.parameters_for(self.context, a.target):
                 continue
             vals, *_ = self.fit(others, eff, a.target, start=a.value_dict, narrow=0.1)
             model[i] = Applied.of(a.name, a.target, vals)
@@ -540,7 +542,7 @@ class Workflow:
     def run(self) -> Outcome:
         t0 = time.perf_counter()
         st = self.settings
-        cands, excluded = self.library.candidates(self.valve_type, self.runs)
+        cands, excluded = self.library.candidates(self.context, self.runs)
         if not self.held_runs:
             self.notes.append("one operating condition only: nothing held out; significance from the fit runs "
                               "and the information criterion alone")
@@ -592,19 +594,19 @@ class Workflow:
         self.sims.__exit__()
         return Outcome(current, self.library, before, after, self.fit_runs, self.held_runs, ranking,
                        describe(fb, n_runs), describe(fa, n_runs), fb, self.sims.count,
-                       time.perf_counter() - t0, excluded, self.notes, self.valve_type)
+                       time.perf_counter() - t0, excluded, self.notes, self.context)
 
     def _candidate(self, current: tuple, cur: Evaluation, eff: Effect, target: str, n_eff: float) -> CandidateFit:
         n0 = self.sims.count
-        vt = self.valve_type
+        vt = self.context
         try:
-            vals, cost, nuis, _ = self.fit(current, eff, target, start=eff.prior_values(vt))
+            vals, cost, nuis, _ = self.fit(current, eff, target, start=eff.prior_values(vt, target))
         except (ArithmeticError, ValueError, RuntimeError) as exc:
-            return CandidateFit(eff.name, target, eff.prior_values(vt), {}, math.inf, None, math.inf,
+            return CandidateFit(eff.name, target, eff.prior_values(vt, target), {}, math.inf, None, math.inf,
                                 "fit failed", self.sims.count - n0, cur.fit_cost, cur.held_cost,
                                 failed=f"{type(exc).__name__}: {exc}")
         if not math.isfinite(cost):
-            return CandidateFit(eff.name, target, vals, eff.report(vals, vt), math.inf, None, math.inf,
+            return CandidateFit(eff.name, target, vals, eff.report(vals, vt, target), math.inf, None, math.inf,
                                 "fit failed", self.sims.count - n0, cur.fit_cost, cur.held_cost,
                                 failed=f"the model failed for every value tried ({self.last_failure})")
         model = current + (Applied.of(eff.name, target, vals),)
@@ -619,17 +621,17 @@ class Workflow:
             try:
                 held = self.evaluate(model).held_cost
             except ModelFailure as exc:
-                return CandidateFit(eff.name, target, vals, eff.report(vals, vt), cost, None, math.inf,
+                return CandidateFit(eff.name, target, vals, eff.report(vals, vt, target), cost, None, math.inf,
                                     "held-out simulation failed", self.sims.count - n0, cur.fit_cost,
                                     cur.held_cost, failed=str(exc))
         base_fit = self.fit_objective(current)[0]
-        k = max(1, len(eff.parameters_for(vt)))   # a pure switch still costs one degree of freedom
+        k = max(1, len(eff.parameters_for(vt, target)))   # a pure switch still costs one degree of freedom
         dbic = (n_eff * math.log(max(cost, 1e-12) / max(base_fit, 1e-12)) + k * math.log(n_eff)
                 if math.isfinite(cost) else math.inf)
-        why = eff.plausibility(vals, vt)
+        why = eff.plausibility(vals, vt, target)
         for a in model[:-1]:   # the refitted earlier effects must stay plausible too
-            why = why or self.library[a.name].plausibility(a.value_dict, vt)
-        return CandidateFit(eff.name, target, vals, eff.report(vals, vt), cost, held, dbic, why,
+            why = why or self.library[a.name].plausibility(a.value_dict, vt, a.target)
+        return CandidateFit(eff.name, target, vals, eff.report(vals, vt, target), cost, held, dbic, why,
                             self.sims.count - n0, base_fit, cur.held_cost, nuisance=nuis, model=model)
 
     def _significant(self, f: CandidateFit) -> bool:

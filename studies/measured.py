@@ -28,13 +28,13 @@ from geometry.errors import InputError
 
 from .outputs import check_new_file, prepare_output_dir
 
-VALVE_TYPES = ("disc", "reed")
+VALVE_TYPES = ("disc", "reed")   # plus mixed kinds "<inlet kind>/<delivery kind>" (a model's label)
 MEASURED_VALVES = ("inlet", "delivery", "both")
 POSITION_COLUMNS = {"inlet": "inlet_position_m", "delivery": "delivery_position_m"}
 REQUIRED_RUN_KEYS = ("valve_type", "speed_rpm", "load_pressure_pa")
 KNOWN_RUN_KEYS = {
     "valve_type", "measured_valve", "speed_rpm", "load_pressure_pa",
-    "delivery_cc_per_rev", "air_content",
+    "delivery_cc_per_rev", "air_content", "model",
 }
 
 # Plausibility limits that catch unit mistakes (a position in mm written as m, a
@@ -74,6 +74,7 @@ class Run:
     trace: Trace | None = None
     path: Path | None = None
     extra: dict = field(default_factory=dict)  # other run.toml keys, kept when rewriting
+    model: str | None = None                    # run.toml's model file (relative to the run folder)
 
     @property
     def period_s(self) -> float:
@@ -93,9 +94,18 @@ class Run:
 
 @cache
 def swept_volume_m3() -> float:
-    """Piston swept volume 2 A_p r [m^3] of the thesis pump (lumped/data/pump.toml, Table 5.1)."""
-    p = tomllib.loads(resources.files("lumped").joinpath("data/pump.toml").read_text())["pump"]
-    return 2.0 * math.pi / 4.0 * p["piston_diameter"] ** 2 * p["crank_radius"]
+    """Piston swept volume 2 A_p r [m^3] of the thesis pump (thesis-disc, Table 5.1)."""
+    from lumped.model_file import load_model
+
+    return load_model("thesis-disc").pump.displacement
+
+
+def valve_types() -> tuple[str, ...]:
+    """Accepted run.toml valve types: every registered kind, and mixed "<inlet>/<delivery>" labels."""
+    from lumped.valve import KINDS
+
+    kinds = tuple(KINDS)
+    return kinds + tuple(f"{a}/{b}" for a in kinds for b in kinds if a != b)
 
 
 # --------------------------------------------------------------------------- reading
@@ -118,9 +128,12 @@ def _num(table: dict, key: str, where: str, required: bool) -> float | None:
 def parse_run_toml(data: dict, where: str) -> dict:
     """Validated run.toml fields (SI); ``where`` names the file in messages."""
     out: dict = {}
+    for k in data:
+        if k not in KNOWN_RUN_KEYS:
+            raise InputError(f"{where}: {k}", "unknown key; expected some of " + ", ".join(sorted(KNOWN_RUN_KEYS)))
     vt = data.get("valve_type")
-    if vt not in VALVE_TYPES:
-        raise InputError(f"{where}: valve_type", f"expected one of {', '.join(VALVE_TYPES)}, got {vt!r}")
+    if vt not in valve_types():
+        raise InputError(f"{where}: valve_type", f"expected one of {', '.join(valve_types())}, got {vt!r}")
     out["valve_type"] = vt
     mv = data.get("measured_valve")
     if mv is not None and mv not in MEASURED_VALVES:
@@ -146,14 +159,15 @@ def parse_run_toml(data: dict, where: str) -> dict:
     out["load_pressure_pa"] = p
 
     d = _num(data, "delivery_cc_per_rev", where, False)
+    model = data.get("model")
+    if model is not None and not isinstance(model, str):
+        raise InputError(f"{where}: model", f"expected a model file path (relative to the run folder), got {model!r}")
+    out["model"] = model
     if d is not None:
-        vmax = 1.1 * swept_volume_m3() * 1e6
-        if not 0.01 * vmax < d <= vmax:
-            hint = " (is it in m^3 or L?)" if 0 < d < 1e-3 else ""
-            raise InputError(
-                f"{where}: delivery_cc_per_rev",
-                f"{d:g} cc/rev is not a delivery of this pump (swept volume {vmax / 1.1:.3g} cc/rev){hint}",
-            )
+        if model is None:                     # the thesis pump; a named model is checked when it is loaded
+            check_delivery(d, swept_volume_m3(), f"{where}: delivery_cc_per_rev")
+        elif not d > 0:
+            raise InputError(f"{where}: delivery_cc_per_rev", f"must be positive, got {d:g}")
     out["delivery_cc_per_rev"] = d
 
     r = _num(data, "air_content", where, False)
@@ -161,8 +175,17 @@ def parse_run_toml(data: dict, where: str) -> dict:
         hint = " (is it in percent?)" if r >= 0.5 else ""
         raise InputError(f"{where}: air_content", f"{r:g} is not a volume fraction of air; expected 0 <= R < 0.5{hint}")
     out["air_content"] = r
-    out["extra"] = {k: v for k, v in data.items() if k not in KNOWN_RUN_KEYS}
+    out["extra"] = {}
     return out
+
+
+def check_delivery(d_cc: float, swept_m3: float, field: str) -> None:
+    """A measured delivery [cc/rev] must be 1-110 % of the pump's swept volume (catches unit slips)."""
+    vmax = 1.1 * swept_m3 * 1e6
+    if not 0.01 * vmax < d_cc <= vmax:
+        hint = " (is it in m^3 or L?)" if 0 < d_cc < 1e-3 else ""
+        raise InputError(field, f"{d_cc:g} cc/rev is not a delivery of this pump (swept volume "
+                                f"{vmax / 1.1:.3g} cc/rev){hint}")
 
 
 def _csv_line(row_index: int) -> int:
@@ -346,6 +369,7 @@ def run_toml_dict(run: Run) -> dict:
         "load_pressure_pa": float(run.load_pressure_pa),
         "delivery_cc_per_rev": None if run.delivery_cc_per_rev is None else float(run.delivery_cc_per_rev),
         "air_content": None if run.air_content is None else float(run.air_content),
+        "model": run.model,
     }
     d = {k: v for k, v in d.items() if v is not None}
     d.update(run.extra)

@@ -6,6 +6,7 @@ anything else that already exists is refused unless the user passes ``--force``.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from geometry.errors import InputError
@@ -13,18 +14,26 @@ from geometry.errors import InputError
 MARKER = ".valvelab-output"
 
 
-def check_new_file(path: str | Path, field: str, force: bool = False) -> Path:
-    """``path`` as a Path, after checking it may be written (its folder exists, no user file there)."""
+def check_new_file(path: str | Path, field: str, force: bool = False, writable: bool = True) -> Path:
+    """``path`` as a Path, after checking it may be written: its folder exists and is writable, it is
+    not a folder, and no user file is there (unless ``force``). Call it before any computation."""
     p = Path(path)
+    if p.is_dir():
+        raise InputError(field, f"{p} is a folder; expected a file name")
     if p.exists() and not force:
         raise InputError(field, f"{p} already exists; refusing to overwrite it (pass --force to replace it)")
-    if not p.parent.exists():
-        raise InputError(field, f"folder {p.parent} does not exist")
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.exists():
+        raise InputError(field, f"folder {parent} does not exist")
+    if not parent.is_dir():
+        raise InputError(field, f"{parent} is not a folder")
+    if writable and (not os.access(parent, os.W_OK) or (p.exists() and not os.access(p, os.W_OK))):
+        raise InputError(field, f"{p} cannot be written (no write permission)")
     return p
 
 
-def prepare_output_dir(path: str | Path, field: str, force: bool = False) -> Path:
-    """Create (or reuse) a valvelab output folder; refuse a non-empty folder valvelab did not make."""
+def check_output_dir(path: str | Path, field: str, force: bool = False) -> Path:
+    """``path`` as a Path after checking a valvelab output folder may go there (nothing created yet)."""
     p = Path(path)
     if p.exists():
         if not p.is_dir():
@@ -33,7 +42,24 @@ def prepare_output_dir(path: str | Path, field: str, force: bool = False) -> Pat
             raise InputError(
                 field, f"{p} is a non-empty folder valvelab did not create; choose another (or pass --force)"
             )
-    p.mkdir(parents=True, exist_ok=True)
+        if not os.access(p, os.W_OK):
+            raise InputError(field, f"{p} cannot be written (no write permission)")
+        return p
+    anc = p.parent
+    while not anc.exists() and anc != anc.parent:
+        anc = anc.parent
+    if not anc.is_dir() or not os.access(anc, os.W_OK):
+        raise InputError(field, f"{p} cannot be created: {anc} is not a writable folder")
+    return p
+
+
+def prepare_output_dir(path: str | Path, field: str, force: bool = False) -> Path:
+    """Create (or reuse) a valvelab output folder; refuse a non-empty folder valvelab did not make."""
+    p = check_output_dir(path, field, force)
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(field, f"{p} cannot be created ({exc.strerror})") from None
     (p / MARKER).write_text("written by valvelab; files here may be replaced by the next run\n")
     return p
 

@@ -211,8 +211,29 @@ def _flatten_factors(d: dict, prefix: str = "") -> dict:
     return out
 
 
-def parse_spec(doc: dict, text: str = "") -> SweepSpec:
-    """A :class:`SweepSpec` from a parsed sweep TOML (schema: CONTRACT.md, "Sweep file")."""
+def _pump_model_name(model: str, base_dir: Path | None) -> str | None:
+    """The pump model a ``[sweep] model`` names (a shipped name, or a model file made absolute), or None."""
+    from lumped.model_file import SHIPPED
+
+    if model in SHIPPED:
+        return model
+    if model.endswith(".toml") or "/" in model:
+        p = Path(model)
+        if base_dir is not None and not p.is_absolute():
+            p = base_dir / p
+        if not p.is_file():
+            raise InputError("sweep.model", f"{model!r}: no such model file")
+        return str(p.resolve())
+    return None
+
+
+def parse_spec(doc: dict, text: str = "", base_dir: Path | None = None) -> SweepSpec:
+    """A :class:`SweepSpec` from a parsed sweep TOML (schema: CONTRACT.md, "Sweep file").
+
+    ``[sweep] model`` is ``pump`` (the base model then comes from a ``model`` or ``valve``
+    input), a pump model (a shipped name or a model file, relative to ``base_dir``: the pump
+    sweep with that base model), or an importable sweep-model module.
+    """
     if not isinstance(doc, dict):
         raise InputError("sweep file", "must be a TOML table")
     extra = set(doc) - {"sweep", "factors", "fixed"}
@@ -253,6 +274,13 @@ def parse_spec(doc: dict, text: str = "") -> SweepSpec:
         raise InputError("fixed", "must be a table of name = value")
     fixed_doc = _flatten(fixed_doc)
     fixed = tuple((k, _scalar(v, f"fixed.{k}")) for k, v in fixed_doc.items())
+    pump_model = _pump_model_name(model, base_dir)
+    if pump_model is not None:
+        if "model" in fixed_doc or any(f.name == "model" for f in factors):
+            raise InputError("sweep.model", "names the pump model; the factors and [fixed] then must not")
+        fixed = fixed + (("model", pump_model),)
+        fixed_doc["model"] = pump_model
+        model = "pump"
     both = {f.name for f in factors} & set(fixed_doc)
     if both:
         raise InputError(f"fixed.{sorted(both)[0]}", "is also a factor; keep it in one place")
@@ -272,7 +300,7 @@ def load_spec(path: str | Path) -> SweepSpec:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(str(path), f"not valid TOML ({exc})") from None
-    return parse_spec(doc, text)
+    return parse_spec(doc, text, base_dir=p.parent)
 
 
 def load_model(name: str):
@@ -301,14 +329,22 @@ def check_spec(spec: SweepSpec, model) -> None:
     for name in getattr(model, "REQUIRED", ()):
         if name not in given:
             raise InputError("fixed", f"model {spec.model} needs {name!r}: give it as a factor or in [fixed]")
-    if check is None:
-        return
-    for f in spec.factors:
-        vals = f.values if not f.is_range else (f.low, f.high)
-        for v in vals:
-            _relabel(check, f.name, v, f"factors.{f.name}")
-    for k, v in spec.fixed:
-        _relabel(check, k, v, f"fixed.{k}")
+    if check is not None:
+        for f in spec.factors:
+            vals = f.values if not f.is_range else (f.low, f.high)
+            for v in vals:
+                _relabel(check, f.name, v, f"factors.{f.name}")
+        for k, v in spec.fixed:
+            _relabel(check, k, v, f"fixed.{k}")
+    check_inputs = getattr(model, "check_inputs", None)
+    if check_inputs is not None:
+        ranges = {f.name: (list(f.values) if not f.is_range else [f.low, f.high]) for f in spec.factors}
+        try:
+            check_inputs(spec.fixed_dict, ranges)
+        except InputError as exc:
+            where = "factors" if exc.field in ranges else "fixed"
+            raise InputError(f"{where}.{exc.field}" if "." not in exc.field or exc.field in ranges
+                             or exc.field in spec.fixed_dict else exc.field, exc.message) from None
 
 
 def _relabel(check, name, value, where):

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 from geometry import load_disc_geometry
 from lumped import oil as oil_mod
-from lumped.disc_valve import c1_coefficient, c2_coefficient, helical_spring_stiffness
-from lumped.params import _data, critical_damping, load_disc_valve
+from lumped.disc_valve import c1_coefficient, c2_coefficient, critical_damping, helical_spring_stiffness
+from lumped.effect_library import resolve
+from lumped.model_file import load_model
 from studies.thesis import thesis_values
 from studies.validation import add_table_5_1_column, cases, run_cases, table_rows
 
@@ -22,15 +23,12 @@ REED_NOTE = (
 def table_2_3() -> dict:
     """Disc valve quantities computed from their inputs (eqs 2.14, 2.15, 2.23, 2.43) vs Table 2.3."""
     g = load_disc_geometry()
-    d = _data("disc_valve")
-    v = load_disc_valve("inlet")
+    model = resolve(load_model("thesis-disc"))
+    v, v_del = model.inlet, model.delivery
     th = thesis_values()["table_2_3"]
-    visc = _data("oil")["viscosity"]
-    mu0, b = oil_mod.viscosity_parameters(visc["kinematic_low"], visc["temperature_low"],
-                                          visc["kinematic_high"], visc["temperature_high"], visc["density"])
-    t_table = d["oil"]["temperature"]
-    mu_table = oil_mod.viscosity(t_table, mu0, b)
-    m_ref = d["mass"]["contact_reference"]
+    t_table = th["temperature_K"]          # Table 2.3's oil temperature, 21 C
+    mu_table = oil_mod.thesis_oil_viscosity(t_table)[1]
+    m_ref = v.contact_mass
     k_spr = helical_spring_stiffness(g.wire_diameter, g.coil_diameter, g.shear_modulus, g.active_coils)
 
     def row(name, symbol, units, value, thesis, source):
@@ -49,9 +47,10 @@ def table_2_3() -> dict:
         row("Valve spring stiffness (formula)", "k", "N/m", k_spr, th["k_spring_formula"],
             "eq 2.43, Table 2.2 (printed rounded to 220)"),
         row("Valve seat damping coefficient - inlet", "c_seat", "N s/m",
-            critical_damping(v.rigid_seat_stiffness, m_ref), th["c_seat_rigid"], "eq 2.23, m = 3.9 g"),
+            critical_damping(v.seat_stiffness, m_ref), th["c_seat_rigid"], "eq 2.23, m = 3.9 g"),
         row("Valve seat damping coefficient - delivery", "c_seat", "N s/m",
-            critical_damping(v.compliant_seat_stiffness, m_ref), th["c_seat_compliant"], "eq 2.23, m = 3.9 g"),
+            critical_damping(v_del.seat_stiffness, m_ref), th["c_seat_compliant"],
+            "eq 2.23, m = 3.9 g (the seat_compliance effect's k_seat)"),
         row("Valve stop damping coefficient", "c_stop", "N s/m", critical_damping(v.stop_stiffness, m_ref),
             th["c_stop"], "eq 2.23, m = 3.9 g"),
         row("Theoretical minimum value of A_Q (port area)", "A_1", "m^2", g.port_area, th["A1"],

@@ -24,9 +24,11 @@ def _reed(name: str):
     return load_reed(name)
 
 
-def _valve() -> dict:
-    """The prototype reed valve's parameters (lumped/data/reed_valve.toml)."""
-    return rf.reed_valve_data()
+def _valve():
+    """The prototype reed valve (the inlet of lumped/data/models/thesis-reed.toml, Table 3.13)."""
+    from lumped.model_file import load_model
+
+    return load_model("thesis-reed").inlet
 
 
 # -- Table 3.8 ----------------------------------------------------------------------------
@@ -97,7 +99,7 @@ def table_3_9() -> dict:
 def table_3_11() -> dict:
     """Natural frequency parameter alpha (eq 3.75) of the four reeds: exact E-B, and from the thesis's FEA omegas."""
     tv = thesis_values()["table_3_11"]
-    h_eff_valve = _valve()["structure"]["effective_thickness"]
+    h_eff_valve = _valve().effective_thickness
     rows = []
     for name in REEDS:
         reed = _reed(name)
@@ -167,7 +169,6 @@ def table_3_13() -> dict:
     tv = thesis_values()["table_3_13"]
     tv11 = thesis_values()["table_3_11"]
     valve = _valve()
-    st, damp = valve["structure"], valve["damping"]
     rho_oil, mu = rf.oil_properties()
     s2, proto, s1 = _reed("stepped2"), _reed("prototype"), _reed("stepped1")
     E, rho_c = proto.material.youngs_modulus, proto.material.density
@@ -197,7 +198,7 @@ def table_3_13() -> dict:
 
     # added mass
     A = proto.face_area
-    alpha_fea = rb.frequency_parameter_from_omega(tv11["prototype"]["omega_fea"], st["effective_thickness"],
+    alpha_fea = rb.frequency_parameter_from_omega(tv11["prototype"]["omega_fea"], valve.effective_thickness,
                                                   proto.length, E, rho_c)
     kn_fea = rf.normalised_mode_number_area(alpha_fea, A, proto.length)
     rows.append(_row("kappa_n", kn_fea, tv["kappa_n"], "1",
@@ -216,7 +217,7 @@ def table_3_13() -> dict:
                      tv["air_mass_ratio"], "1", f"eq 3.76, rho_air = {rho_air} kg/m^3 (not in the thesis)"))
 
     # damping: omega_n of the prototype from the valve parameters (eq 3.72)
-    omega = (st["gamma1"] * st["stiffness"] / (st["density"] * st["effective_thickness"])) ** 0.5
+    omega = (valve.gamma1 * valve.stiffness / (valve.density * valve.effective_thickness)) ** 0.5
     Rk = rf.kinetic_reynolds(rho_oil, omega, proto.width_tip, mu)
     rows.append(_row("R_k", Rk, tv["R_k"], "1",
                      f"eq 3.79, W2, omega_n = {omega:.0f} rad/s by eq 3.72 (thesis: measured 2786 rad/s)"))
@@ -224,7 +225,7 @@ def table_3_13() -> dict:
     rows.append(_row("R_f", Rf, tv["R_f"], "Pa s", f"(c_v/mu) mu, c_v/mu = 500 (Naik et al. 2003), mu = {mu:.4g} Pa s"))
     c_f = rf.fluid_damping(bm.quad.s, psi, bm.W, mu, weights=bm.quad.weights)
     rows.append(_row("c_f", c_f, tv["c_f"], "Pa s/m", "eq 3.80 on stepped #2's load shape (Table 3.13 swaps c, c_f)"))
-    rows.append(_row("c", damp["internal"] + c_f, tv["c"], "Pa s/m", "eq 3.81, c_c = 77.50 Pa s/m (Table 3.10)"))
+    rows.append(_row("c", valve.internal_damping + c_f, tv["c"], "Pa s/m", "eq 3.81, c_c = 77.50 Pa s/m (Table 3.10)"))
 
     # flow and pressure
     A2 = rf.fluid_displacement_area(bm.quad.s, psi, bm.W, weights=bm.quad.weights)
@@ -234,7 +235,7 @@ def table_3_13() -> dict:
     lay = rf.SealingLayout.thesis()
     F4 = rf.fluid_data()["sealing"]["base_fraction"]
     X = rf.poiseuille_multiplier(s2, lambda s: rb.three_section_shape(s2, s), F4, lay)
-    rows.append(_row("X (Poiseuille)", X, valve["pressure_multiplier"]["poiseuille"], "1",
+    rows.append(_row("X (Poiseuille)", X, valve.multiplier_poiseuille, "1",
                      "eq 3.60, F4 = 0.5, reconstructed sections (Table 3.12)"))
     rows.append(_row("F3", rf.annulus_pressure_fraction(proto.tip_radius - lay.land_width, proto.tip_radius),
                      thesis_values()["table_3_12"]["F3"], "1", "eq 3.59, R_i = 6.35 mm, R_o = 7.94 mm"))

@@ -1,8 +1,9 @@
 """The pump validation of chapter 5: the 12 cases of Tables 5.3-5.6, their errors, tables and plots.
 
-Each case (``studies/data/experiments.toml``) is simulated with the thesis configuration
-of its valve type (:func:`lumped.params.thesis_model`) until cyclic steady state; the
-modeled delivery is compared with the measured one and with the thesis's modeled value.
+Each case (``studies/data/experiments.toml``) is simulated with the shipped thesis model
+of its valve type (``thesis-disc``, ``thesis-reed``: lumped/data/models) on the reference
+integrator until cyclic steady state; the modeled delivery is compared with the measured
+one and with the thesis's modeled value.
 """
 
 from __future__ import annotations
@@ -14,8 +15,9 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 
-from lumped.params import PumpModel, table_5_1_dead_volume, thesis_model, with_reed_properties
-from lumped.pump import PumpResult, simulate
+from lumped.cycle import PumpResult, simulate
+from lumped.model import PumpModel
+from lumped.model_file import load_model
 from studies.outputs import format_cell
 from studies.thesis import experiments
 
@@ -49,16 +51,21 @@ def case_name(case: dict) -> str:
     return f"{case['valve']}_{case['measured_valve']}_{case['condition']}"
 
 
-def run_case(case: dict, *, params: PumpModel | None = None, quick: bool = False, trace: bool = True,
-             progress: bool = False, method: str = "Radau") -> PumpResult:
-    """Simulate one validation case to cyclic steady state (thesis configuration unless ``params``).
+def thesis_model_of(case: dict) -> PumpModel:
+    """The shipped thesis model of the case's valve type."""
+    return load_model(f"thesis-{case['valve']}")
 
-    ``method``: the integrator of :func:`lumped.pump.simulate`, "Radau" (the reference) or
-    "fast" (compiled, delivery within 0.1 % of the reference).
+
+def run_case(case: dict, *, params: PumpModel | None = None, quick: bool = False, trace: bool = True,
+             progress: bool = False, method: str = "reference") -> PumpResult:
+    """Simulate one validation case to cyclic steady state (the thesis model unless ``params``).
+
+    ``method``: the stepper of :func:`lumped.cycle.simulate`, "reference" (scipy Radau, the
+    validation's default) or "fast" (compiled, delivery within 0.1 % of the reference).
     """
     s = QUICK if quick else FULL
-    model = params if params is not None else thesis_model(case["valve"], case["air_content"])
-    return simulate(case["valve"], case["speed_rpm"], case["load_pressure"], params=model,
+    model = params if params is not None else thesis_model_of(case)
+    return simulate(model, case["speed_rpm"], case["load_pressure"], air_content=case["air_content"],
                     revolutions=s["revolutions"], max_revolutions=s["max_revolutions"], trace=trace,
                     trace_revolutions=s["trace_revolutions"], progress=progress, method=method)
 
@@ -69,7 +76,7 @@ def _run_one(args):
 
 
 def run_cases(selected: list[dict], *, params_for=None, quick: bool = False, trace: bool = True,
-              progress: bool = False, jobs: int = 1, method: str = "Radau") -> list[PumpResult]:
+              progress: bool = False, jobs: int = 1, method: str = "reference") -> list[PumpResult]:
     """Simulate the cases (in ``jobs`` processes), progress as a count on stderr.
 
     ``params_for(case) -> PumpModel | None`` overrides the thesis configuration per case.
@@ -144,9 +151,10 @@ TABLE_5_1_COLUMN = "modeled_cc_table_5_1_v_tdc"
 
 
 def table_5_1_dead_volume_model(case: dict) -> PumpModel:
-    """Thesis configuration with Table 5.1's V_tdc = 2.17e-5 m^3 (docs/errata.md, 'Reed pump delivery offset')."""
-    m = thesis_model(case["valve"], case["air_content"])
-    return replace(m, pump=replace(m.pump, dead_volume=table_5_1_dead_volume()))
+    """The thesis model with Table 5.1's V_tdc (thesis-disc's 2.17e-5 m^3; docs/errata.md, 'Reed pump
+    delivery offset')."""
+    m = thesis_model_of(case)
+    return replace(m, pump=replace(m.pump, dead_volume=load_model("thesis-disc").pump.dead_volume))
 
 
 def add_table_5_1_column(selected: list[dict], rows: list[dict], quick: bool = False, progress: bool = False,
@@ -169,9 +177,8 @@ def add_table_5_1_column(selected: list[dict], rows: list[dict], quick: bool = F
 
 def reed_model_from(props) -> PumpModel:
     """Thesis reed pump with kappa, gammas and h_eff of a reed model (Table 3.13 empirical rest)."""
-    m = thesis_model("reed")
-    return replace(m, inlet=with_reed_properties(m.inlet, props),
-                   delivery=with_reed_properties(m.delivery, props))
+    m = load_model("thesis-reed")
+    return replace(m, inlet=m.inlet.with_properties(props), delivery=m.delivery.with_properties(props))
 
 
 # ----------------------------------------------------------------- output files

@@ -9,24 +9,27 @@ from scipy.integrate import quad, solve_ivp
 
 from geometry import load_disc_geometry
 from lumped import disc_valve as dv
+from lumped import valve as common
+from lumped.disc_valve import DISC, critical_damping
+from lumped.layout import pack
+from lumped.model_file import load_model
+from lumped.oil import thesis_oil_viscosity
 from lumped.orifice import discharge_coefficient, laminar_slope, orifice_flow
-from lumped.params import (
-    OFF_IN, V_ADISC, V_MASS, _data, critical_damping, load_disc_valve, load_oil, pack, thesis_model,
-)
+from lumped.pump import OFF_IN
 from studies.tables_pump import table_2_3
 from studies.thesis import thesis_values
 
 TH = thesis_values()["table_2_3"]
 G = load_disc_geometry()
-MU22 = load_oil().viscosity
+MU22 = load_model("thesis-disc").oil.viscosity
+
+
+def thesis_model(_valve="disc"):
+    return load_model("thesis-disc")
 
 
 def mu_at(t_kelvin):
-    from lumped import oil
-    v = _data("oil")["viscosity"]
-    mu0, b = oil.viscosity_parameters(v["kinematic_low"], v["temperature_low"], v["kinematic_high"],
-                                      v["temperature_high"], v["density"])
-    return oil.viscosity(t_kelvin, mu0, b)
+    return thesis_oil_viscosity(t_kelvin)[1]
 
 
 # ----------------------------------------------------------------- section 2.4 numbers
@@ -68,7 +71,7 @@ def test_helical_spring_formula():
 
 
 def test_critical_dampings_of_table_2_3():
-    m = _data("disc_valve")["mass"]["contact_reference"]          # 3.9 g, as the thesis used
+    m = load_model("thesis-disc").inlet.contact_mass             # 3.9 g, as the thesis used
     assert critical_damping(TH["k_seat_rigid"], m) == pytest.approx(TH["c_seat_rigid"], rel=2e-3)
     assert critical_damping(TH["k_seat_compliant"], m) == pytest.approx(TH["c_seat_compliant"], rel=2e-3)
     assert critical_damping(TH["k_stop"], m) == pytest.approx(TH["c_stop"], rel=3e-3)
@@ -150,8 +153,8 @@ def _p(model=None):
 def test_orifice_and_poiseuille_pressure_forces():
     p = _p()
     o = OFF_IN
-    dp, a = 1e5, p[o + V_ADISC]
-    v = load_disc_valve("inlet")
+    dp, a = 1e5, p[o + DISC.disc_area]
+    v = thesis_model().inlet
     # orifice regime: full differential on the face (section 2.2.2.2)
     assert dv.pressure_force(0.8e-3, 0.0, dp, 0.0, 0.0, p, o, 1) == pytest.approx(dp * a)
     # Poiseuille regime: C1 dP A_disc (eq 2.13, no stiction)
@@ -164,7 +167,7 @@ def test_orifice_and_poiseuille_pressure_forces():
 
 def test_stiction_force_limited_by_cavitation():
     m = thesis_model("disc")
-    m = replace(m, inlet=replace(m.inlet, squeeze_film=True))
+    m = replace(m, inlet=replace(m.inlet, squeeze_c2=m.inlet.c2(m.oil.viscosity)))
     p = _p(m)
     o = OFF_IN
     v = m.inlet
@@ -182,9 +185,9 @@ def test_stiction_force_limited_by_cavitation():
 
 def test_contact_force_branches_eq_2_20():
     k, c, ks, cs, xs = 3e9, 6860.0, 1.9e6, 173.0, 1.19e-3
-    assert dv.contact_force(-1e-7, -0.1, k, c, ks, cs, xs, -1) == pytest.approx(3e9 * 1e-7 + 686.0)
-    assert dv.contact_force(0.5e-3, 0.3, k, c, ks, cs, xs, -1) == 0.0
-    assert dv.contact_force(xs + 1e-5, 0.2, k, c, ks, cs, xs, -1) == pytest.approx(-1.9e6 * 1e-5 - 173 * 0.2)
+    assert common.contact_force(-1e-7, -0.1, k, c, ks, cs, xs, -1) == pytest.approx(3e9 * 1e-7 + 686.0)
+    assert common.contact_force(0.5e-3, 0.3, k, c, ks, cs, xs, -1) == 0.0
+    assert common.contact_force(xs + 1e-5, 0.2, k, c, ks, cs, xs, -1) == pytest.approx(-1.9e6 * 1e-5 - 173 * 0.2)
 
 
 def test_disc_oscillates_on_its_spring_with_the_right_frequency():
@@ -194,7 +197,7 @@ def test_disc_oscillates_on_its_spring_with_the_right_frequency():
     m = replace(m, inlet=v)
     p = _p(m)
     o = OFF_IN
-    mass = p[o + V_MASS]
+    mass = p[o + DISC.moving_mass]
     assert mass == pytest.approx(v.disc_mass + v.spring_mass / 3)
     omega = math.sqrt(v.spring_stiffness / mass)
 
@@ -220,16 +223,16 @@ def test_drag_opposes_motion():
 def test_seated_valve_passes_no_orifice_flow():
     p = _p()
     for x in (-1e-6, 0.0):
-        q, cd, aq, dq, dqx = dv.valve_flow(x, 0.0, 3e6, 876.0, 0.0683, p, OFF_IN, -1)
+        q, cd, aq, dq, dqx = common.valve_flow(x, 0.0, 3e6, 876.0, 0.0683, p, OFF_IN, -1)
         assert q == 0.0 and dq == 0.0
-    q = dv.valve_flow(1e-6, 0.0, 3e6, 876.0, 0.0683, p, OFF_IN, -1)[0]
+    q = common.valve_flow(1e-6, 0.0, 3e6, 876.0, 0.0683, p, OFF_IN, -1)[0]
     assert q > 0
 
 
 def test_flow_force_switch_changes_force_only_when_on():
     m = thesis_model("disc")
     p_off = _p(m)
-    p_on = _p(replace(m, inlet=replace(m.inlet, flow_force=True)))
+    p_on = _p(replace(m, inlet=replace(m.inlet, flow_force_steady=1.0, flow_force_transient=1.0)))
     args = (0.6e-3, 0.2, 4e4, 6e4, 0.0, 870.0, 0.0683, 1e-4, 0.7, 1.77e-4, 2e-9, 0.1, 1e7)
     a_off = dv.disc_acceleration(*args, p_off, OFF_IN, 1, 1)
     a_on = dv.disc_acceleration(*args, p_on, OFF_IN, 1, 1)
@@ -241,5 +244,5 @@ def test_flow_force_switch_changes_force_only_when_on():
     with_f = dv.disc_acceleration(x, 0.0, dp, 6e4, 0.0, rho, 0.0683, qo, cd, 1.77e-4, 0, 0, 0, p_on, OFF_IN, 1, 1)
     a_o = math.pi * v.port_diameter * math.sin(v.bevel_angle) * x
     fs = rho * qo**2 / v.port_area - 2 * cd**2 * a_o * dp * math.cos(v.bevel_angle)
-    mass = v.moving_mass(876.0) + rho * v.port_length * 0 + rho * (v.port_length + x) * 1.77e-4
-    assert with_f * mass - base * v.moving_mass(876.0) == pytest.approx(fs, rel=1e-9)
+    mass = v.moving_mass + rho * (v.port_length + x) * 1.77e-4
+    assert with_f * mass - base * v.moving_mass == pytest.approx(fs, rel=1e-9)

@@ -8,16 +8,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from lumped import oil
-from lumped.params import _data, load_oil, room_viscosity
+from lumped.model_file import load_model
 from studies.thesis import thesis_values
 
 RHO0, P0, BETA = 876.0, 101325.0, 1.84e9
 
 
 def test_viscosity_parameters_reproduce_appendix_a():
-    v = _data("oil")["viscosity"]
-    mu0, b = oil.viscosity_parameters(v["kinematic_low"], v["temperature_low"], v["kinematic_high"],
-                                      v["temperature_high"], v["density"])
+    # Table A.1: 44.2 and 6.65 cSt at 40 and 100 C, 876 kg/m^3 (typed in here, independently of the data file)
+    mu0, b = oil.viscosity_parameters(44.2e-6, 313.15, 6.65e-6, 373.15, 876.0)
     th = thesis_values()["oil"]
     # eq A.2 in the thesis's sign convention prints b = -0.03157 1/K for the decay rate 0.03157
     assert -b == pytest.approx(th["b"], rel=2e-4)
@@ -26,7 +25,10 @@ def test_viscosity_parameters_reproduce_appendix_a():
     # the model goes through both data points of Table A.1
     assert oil.viscosity(313.15, mu0, b) == pytest.approx(876.0 * 44.2e-6, rel=1e-12)
     assert oil.viscosity(373.15, mu0, b) == pytest.approx(876.0 * 6.65e-6, rel=1e-12)
-    assert room_viscosity() == pytest.approx(0.0683, rel=2e-3)
+    assert oil.thesis_oil_viscosity()[1] == pytest.approx(0.0683, rel=2e-3)
+    # the shipped thesis models carry eq A.3 at 22 C to round-off (their viscosity key is that number)
+    for name in ("thesis-disc", "thesis-reed"):
+        assert load_model(name).oil.viscosity == pytest.approx(oil.viscosity(295.15, mu0, b), rel=1e-12)
 
 
 def test_density_limits():
@@ -109,14 +111,15 @@ def test_air_free_pressure_is_explicit_and_may_be_tension():
     assert it == 0 and q == pytest.approx(-1e5, abs=1e-6 * BETA * 1e-6 + 1e-3)
 
 
-def test_oil_dataclass_switch():
-    o = load_oil(0.013)
-    # both mixtures weigh rho_0 at P0; the one with air compresses more
-    assert o.density(2.76e6) > load_oil(0.0).density(2.76e6)
+def test_oil_dataclass_air_content():
     from dataclasses import replace
-    off = replace(o, entrained_air=False)
-    assert off.effective_air == 0.0
-    assert off.pressure(off.density(2.76e6)) == pytest.approx(2.76e6, rel=1e-12)
+    o = load_model("thesis-disc").oil
+    assert o.air_content == 0.013
+    off = replace(o, air_content=0.0)
+    # both mixtures weigh rho_0 at P0; the one with air compresses more
+    assert o.density_at(2.76e6) > off.density_at(2.76e6)
+    assert o.density_at(P0) == pytest.approx(off.density_at(P0), rel=1e-12)
+    assert off.pressure_at(off.density_at(2.76e6)) == pytest.approx(2.76e6, rel=1e-12)
 
 
 @pytest.mark.parametrize("air", [0.008, 0.013, 0.03])

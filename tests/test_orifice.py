@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from lumped import orifice
-from lumped.params import thesis_model
+from lumped.model_file import load_model
 
 #: (Cd_inf, A, B, C) of eqs 2.48 (disc, last coefficient corrected) and 3.89 (reed)
-CORRELATIONS = {v: tuple(getattr(thesis_model(v).inlet, f) for f in ("cd_inf", "cd_a", "cd_b", "cd_c"))
+CORRELATIONS = {v: tuple(getattr(load_model(v).inlet, f) for f in ("cd_inf", "cd_a", "cd_b", "cd_c"))
                 for v in ("disc", "reed")}
 RHO, MU, PERIMETER = 876.0, 0.0683, 0.0658
 K = 4 * RHO / (MU * PERIMETER)

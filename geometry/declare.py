@@ -1,0 +1,261 @@
+"""Parameter declarations: each model parameter is declared once, as a dataclass field.
+
+A field made with :func:`param` carries everything the rest of valvelab needs to know
+about that parameter: its key in an input file (``"spring.stiffness"``), its SI unit,
+where its value comes from, the physically plausible range, and whether the numerical
+model reads it from the flat parameter array. From these declarations the input-file
+reader (:func:`read_table`), the validation (:func:`check_value`), the flat array
+layout (``lumped.layout``), the model printout (``valvelab model show``) and the sweep
+variables (key paths) are all derived, so adding a parameter is one declaration plus
+its value in a data file.
+
+This module lives in the bottom layer (``geometry``) because every layer declares
+parameters and reports bad ones with :class:`~geometry.errors.InputError`.
+
+Example
+-------
+>>> from dataclasses import dataclass
+>>> @dataclass(frozen=True)
+... class Spring:
+...     stiffness: float = param("stiffness", "N/m", "measured", bounds=(1e-3, 1e9), positive=True)
+>>> Spring(**read_table(Spring, {"stiffness": 213}, "spring"))
+Spring(stiffness=213.0)
+>>> read_table(Spring, {"stiffnes": 213}, "spring")
+Traceback (most recent call last):
+...
+geometry.errors.InputError: spring.stiffnes: unknown key; expected one of stiffness
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import MISSING, dataclass
+from typing import Any
+
+from .errors import InputError
+
+#: metadata key under which a field's :class:`Spec` is stored
+META = "valvelab"
+
+
+@dataclass(frozen=True)
+class Spec:
+    """What a declared parameter is: file key, unit, source, plausible range, role.
+
+    ``key``: dotted path inside its component's table of an input file (None: not read
+    from files, e.g. a quantity an effect sets); ``unit``: SI unit ("-" for none);
+    ``source``: where the value comes from (thesis table or equation, datasheet, a
+    documented assumption); ``bounds``: inclusive plausible range (None: any finite
+    number); ``positive``: strictly greater than zero; ``packed``: the numerical model
+    reads it from the flat parameter array; ``choices``: allowed strings; ``effect``:
+    the candidate effect that sets it (None for a baseline parameter); ``doc``: one line.
+    """
+
+    key: str | None
+    unit: str
+    source: str
+    bounds: tuple[float, float] | None = None
+    positive: bool = False
+    packed: bool = False
+    choices: tuple[str, ...] | None = None
+    effect: str | None = None
+    doc: str = ""
+    optional: bool = False
+
+
+def param(key: str | None, unit: str, source: str, *, default: Any = MISSING, bounds=None,
+          positive: bool = False, packed: bool = False, choices=None, effect: str | None = None,
+          doc: str = "", optional: bool = False):
+    """A dataclass field declaring one model parameter (see :class:`Spec`).
+
+    ``optional``: the key may be left out of a file; the component then derives the
+    value (e.g. a critical damping from a stiffness) and the field holds None.
+    """
+    spec = Spec(key=key, unit=unit, source=source, bounds=None if bounds is None else (float(bounds[0]), float(bounds[1])),
+                positive=positive, packed=packed, choices=None if choices is None else tuple(choices),
+                effect=effect, doc=doc, optional=optional)
+    if optional and default is MISSING:
+        default = None
+    return dataclasses.field(default=default, metadata={META: spec})
+
+
+def specs(cls_or_obj) -> list[tuple[str, Spec]]:
+    """(field name, Spec) of every declared field of a dataclass, in declaration order."""
+    out = []
+    for f in dataclasses.fields(cls_or_obj):
+        s = f.metadata.get(META)
+        if s is not None:
+            out.append((f.name, s))
+    return out
+
+
+def spec_of(cls_or_obj, name: str) -> Spec:
+    """The Spec of field ``name``."""
+    for f in dataclasses.fields(cls_or_obj):
+        if f.name == name and META in f.metadata:
+            return f.metadata[META]
+    raise KeyError(name)
+
+
+def field_for_key(cls_or_obj, key: str) -> str | None:
+    """The field name declared with file key ``key`` (None if there is none)."""
+    for name, s in specs(cls_or_obj):
+        if s.key == key:
+            return name
+    return None
+
+
+def file_keys(cls_or_obj) -> list[str]:
+    """Every file key a component declares, in declaration order."""
+    return [s.key for _, s in specs(cls_or_obj) if s.key is not None]
+
+
+# --------------------------------------------------------------------------- values
+def _kind_of(cls, name: str) -> str:
+    """'bool', 'str', 'int' or 'float' from the field's annotation."""
+    ann = {f.name: f.type for f in dataclasses.fields(cls)}[name]
+    ann = ann if isinstance(ann, str) else getattr(ann, "__name__", str(ann))
+    for k in ("bool", "str", "int"):
+        if ann.replace(" ", "").split("|")[0] == k:
+            return k
+    return "float"
+
+
+#: unit -> (factor, the unit the value would have been typed in): 2.76 in a Pa field looks like MPa
+UNIT_SLIPS = {
+    "Pa": ((1e6, "MPa"), (1e5, "bar"), (1e3, "kPa"), (1e9, "GPa")),
+    "MPa": ((1e-6, "Pa"), (1e-3, "kPa"), (0.1, "bar")),
+    "m": ((1e-3, "mm"), (1e-6, "um")),
+    "m^2": ((1e-6, "mm^2"),),
+    "m^3": ((1e-6, "cm^3"), (1e-3, "L"), (1e-9, "mm^3")),
+    "kg": ((1e-3, "g"),),
+    "kg/m^3": ((1e3, "g/cm^3"),),
+    "rad": ((3.141592653589793 / 180.0, "deg"),),
+    "Pa s": ((1e-3, "mPa s (cP)"),),
+}
+
+
+def _unit_hint(value: float, spec: Spec) -> str:
+    """' (did you mean ...?)' when the value is in range read in a unit commonly typed instead."""
+    if spec.bounds is None:
+        return ""
+    lo, hi = spec.bounds
+    for factor, other in UNIT_SLIPS.get(spec.unit, ()):
+        v = value * factor
+        if lo <= v <= hi and (v > 0 or not spec.positive):
+            return f" (did you mean {v:g} {spec.unit}? {value:g} looks like a value in {other})"
+    return ""
+
+
+def describe_range(spec: Spec) -> str:
+    """'a number in N/m between 1 and 1e+08' style text for messages."""
+    unit = "" if spec.unit in ("-", "") else f" in {spec.unit}"
+    if spec.bounds is None:
+        return f"a {'positive ' if spec.positive else ''}finite number{unit}"
+    lo, hi = spec.bounds
+    low = f"above {lo:g}" if spec.positive and lo == 0 else f"from {lo:g}"
+    return f"a number{unit} {low} to {hi:g}"
+
+
+def check_value(value, spec: Spec, where: str, kind: str = "float"):
+    """``value`` converted to its declared type, or InputError naming ``where``."""
+    if kind == "bool":
+        if not isinstance(value, bool):
+            raise InputError(where, f"expected true or false, got {value!r}")
+        return value
+    if kind == "str":
+        if not isinstance(value, str):
+            raise InputError(where, f"expected a string, got {value!r}")
+        if spec.choices is not None and value not in spec.choices:
+            raise InputError(where, f"expected one of {', '.join(spec.choices)}, got {value!r}")
+        return value
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(where, f"expected {describe_range(spec)}, got {value!r}")
+    if kind == "int":
+        if int(value) != value:
+            raise InputError(where, f"expected an integer, got {value!r}")
+        value = int(value)
+    else:
+        value = float(value)
+    if not math.isfinite(value):
+        raise InputError(where, f"expected {describe_range(spec)}, got {value}")
+    if spec.positive and not value > 0:
+        raise InputError(where, f"expected {describe_range(spec)}, got {value:g}{_unit_hint(value, spec)}")
+    if spec.bounds is not None and not spec.bounds[0] <= value <= spec.bounds[1]:
+        raise InputError(where, f"expected {describe_range(spec)}, got {value:g}{_unit_hint(value, spec)}")
+    return value
+
+
+def check_field(obj_or_cls, name: str, value, where: str):
+    """``value`` checked against field ``name``'s declaration (InputError naming ``where``)."""
+    cls = obj_or_cls if isinstance(obj_or_cls, type) else type(obj_or_cls)
+    spec = spec_of(cls, name)
+    if value is None and spec.optional:
+        return None
+    return check_value(value, spec, where, _kind_of(cls, name))
+
+
+# --------------------------------------------------------------------------- tables
+def flatten(table: dict, prefix: str = "") -> dict:
+    """Nested TOML tables to dotted keys: {"spring": {"stiffness": 1}} -> {"spring.stiffness": 1}."""
+    out = {}
+    for k, v in table.items():
+        if isinstance(v, dict):
+            out.update(flatten(v, f"{prefix}{k}."))
+        else:
+            out[f"{prefix}{k}"] = v
+    return out
+
+
+def nest(flat: dict) -> dict:
+    """Inverse of :func:`flatten`."""
+    out: dict = {}
+    for k, v in flat.items():
+        parts = k.split(".")
+        d = out
+        for p in parts[:-1]:
+            d = d.setdefault(p, {})
+        d[parts[-1]] = v
+    return out
+
+
+def read_table(cls, table: dict, where: str, *, extra_keys=(), require=False) -> dict:
+    """Field values of dataclass ``cls`` from a (nested) input table, each checked.
+
+    Returns {field name: value} for the declared keys present in ``table`` (all of
+    them with ``require``, except optional ones). A key that is not declared (and not
+    in ``extra_keys``) is an error naming it: a misspelt key is never ignored.
+    """
+    if not isinstance(table, dict):
+        raise InputError(where, "expected a table")
+    flat = flatten(table)
+    keys = {s.key: n for n, s in specs(cls) if s.key is not None}
+    extra = set(extra_keys)
+    out = {}
+    for k, v in flat.items():
+        top = k.split(".")[0]
+        if k in keys:
+            out[keys[k]] = check_field(cls, keys[k], v, f"{where}.{k}")
+        elif k in extra or top in extra:
+            continue
+        else:
+            close = sorted(keys) + sorted(extra)
+            raise InputError(f"{where}.{k}", "unknown key; expected one of " + ", ".join(close))
+    if require:
+        for k, n in keys.items():
+            if n not in out and not spec_of(cls, n).optional:
+                raise InputError(f"{where}.{k}", f"missing; expected {describe_range(spec_of(cls, n))}")
+    return out
+
+
+def to_table(obj) -> dict:
+    """{file key: value} of every declared key of a component (None values left out)."""
+    out = {}
+    for name, s in specs(obj):
+        if s.key is None:
+            continue
+        v = getattr(obj, name)
+        if v is not None:
+            out[s.key] = v
+    return out

@@ -1,0 +1,56 @@
+"""Reed fidelities: the models that give a reed valve its kappa, gamma1..3 and h_eff.
+
+A fidelity is a function ``f(reed, mesh_size=None) -> ReedProperties``
+(:class:`lumped.mode_function.ReedProperties`). ``analytic`` (exact Euler-Bernoulli,
+:func:`lumped.reed_beam.reed_properties`) is registered here; the FEA fidelities
+``beam``, ``plate`` and ``solid`` belong to the ``fea`` package, which registers them
+as entry points (group ``valvelab.reed_fidelities`` in pyproject.toml, loaded on first
+use by :mod:`lumped.plugins`), so this layer never imports the one above it.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+from geometry.errors import InputError
+from lumped import plugins
+from lumped.reed_beam import reed_properties as _analytic
+
+GROUP = "valvelab.reed_fidelities"
+#: fidelity name -> reed_properties function; the FEA ones are added from the entry points
+FIDELITIES: dict[str, Callable] = {"analytic": _analytic}
+#: the order the fidelities are listed in (cheapest first)
+ORDER = ("analytic", "beam", "plate", "solid")
+_loaded = {"entry_points": False}
+
+
+def register(name: str, func: Callable) -> None:
+    """Add (or replace) a fidelity."""
+    FIDELITIES[name] = func
+
+
+def _load_plugins() -> None:
+    if not _loaded["entry_points"]:
+        _loaded["entry_points"] = True
+        for name, func in plugins.entry_points(GROUP).items():
+            FIDELITIES.setdefault(name, func)
+
+
+def names() -> list[str]:
+    """Every available fidelity, cheapest first."""
+    _load_plugins()
+    known = [n for n in ORDER if n in FIDELITIES]
+    return known + sorted(n for n in FIDELITIES if n not in ORDER)
+
+
+def reed_model(fidelity: str, field: str = "--fidelity") -> Callable:
+    """The ``reed_properties`` function of a fidelity; InputError naming ``field`` if unknown."""
+    _load_plugins()
+    if fidelity not in FIDELITIES:
+        raise InputError(field, f"expected one of {', '.join(names())}, got {fidelity!r}")
+    return FIDELITIES[fidelity]
+
+
+def reed_properties(reed, fidelity: str = "analytic", mesh_size=None, field: str = "--fidelity"):
+    """kappa, gamma1..3, h_eff, omega_n of ``reed`` by ``fidelity`` (a ReedProperties)."""
+    return reed_model(fidelity, field)(reed, mesh_size=mesh_size)

@@ -1,0 +1,403 @@
+"""Two steppers behind one small interface: the reference (scipy Radau) and the fast (compiled Rodas4P).
+
+The pump driver (:mod:`lumped.cycle`) owns everything around the integration; a stepper
+only advances the state over a span of time (a revolution), switching the mode at the
+located crossings of the switching functions (:mod:`lumped.switching`, defined once),
+and returns a :class:`Span`: the end state and mode, the events, and a dense output from
+which the driver samples traces. In the style of scipy's ``OdeSolver``: construct it
+for a problem (packed parameters, tolerances), then call :meth:`Stepper.advance`.
+
+- :class:`RadauStepper`: scipy's ``solve_ivp`` (Radau, or BDF/LSODA) on the *Python*
+  physics, each mode change a terminal event built from ``switch_values`` (the
+  reference; independent of numba);
+- :class:`RodasStepper`: the compiled Rodas4P of :mod:`lumped.rodas` on the compiled
+  copies of the same functions (:mod:`lumped.compiled`), events located on its dense
+  output, the analytic Jacobian of :mod:`lumped.jacobian`, per-state tolerances.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+import sys
+import time as _time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from lumped import switching as sw
+from lumped.pump import (
+    G, N_MODE, N_STATES, NP, OFF_DEL, OFF_IN, QUADRATURES, S_MLOAD, S_UDEL, S_UIN, S_XDEL, S_XIN, evaluate,
+    rates_to_derivative,
+)
+from lumped.valve import FREE, SEAT, STOP, VALVE, KINDS
+
+#: events per revolution before a run is called chatter
+MAX_EVENTS_PER_REV = 20_000
+
+
+@dataclass
+class Span:
+    """What a stepper returns for [t0, t1]: end state and mode, events, dense output.
+
+    ``events``: (t, slot, old, new) per mode change (slot as in lumped.pump's mode); ``event_states``:
+    the state just before each; ``sample(ts)`` -> (states, modes) at sorted times in the span.
+    """
+
+    t0: float
+    t1: float
+    y_end: np.ndarray
+    mode_end: np.ndarray
+    events: list
+    event_states: list
+    peaks: tuple
+    n_rhs: int
+    n_steps: int
+    sampler: object = field(repr=False, default=None)
+
+    def sample(self, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self.sampler(np.asarray(ts, dtype=float))
+
+
+class Stepper:
+    """Interface: ``advance(t0, t1, y, mode) -> Span``; ``p`` the packed parameters (may be changed between spans)."""
+
+    name = "abstract"
+    p: np.ndarray
+
+    def advance(self, t0: float, t1: float, y: np.ndarray, mode: np.ndarray) -> Span:  # pragma: no cover
+        raise NotImplementedError
+
+
+def state_scales(p: np.ndarray, m_rev: float) -> np.ndarray:
+    """Characteristic scale of each state: stop gap, 1 m/s, mass pumped per revolution."""
+    sc = np.ones(N_STATES)
+    sc[0] = m_rev
+    sc[S_XIN] = p[OFF_IN + VALVE.stop_gap]
+    sc[S_XDEL] = p[OFF_DEL + VALVE.stop_gap]
+    sc[S_UIN] = sc[S_UDEL] = 1.0
+    sc[S_MLOAD] = m_rev
+    for q in QUADRATURES:
+        sc[q] = m_rev
+    return sc
+
+
+# --------------------------------------------------------------------------- reference: scipy
+class _Segment:
+    __slots__ = ("t0", "t1", "sol", "mode")
+
+    def __init__(self, t0, t1, sol, mode):
+        self.t0, self.t1, self.sol, self.mode = t0, t1, sol, mode
+
+
+class RadauStepper(Stepper):
+    """scipy ``solve_ivp`` with a forward-difference Jacobian over the dynamic states; every mode
+    change a terminal event from :func:`lumped.switching.switch_values` (Python physics)."""
+
+    name = "reference"
+
+    def __init__(self, p: np.ndarray, rtol: float, atol: np.ndarray, n_dyn: int, scales: np.ndarray,
+                 method: str = "Radau", dense: bool = True):
+        self.p = p
+        self.rtol = rtol
+        self.atol = atol
+        self.n_dyn = n_dyn
+        self.method = method
+        self.dense = dense
+        self.scale = scales
+
+    def _rhs(self, t, y, mode):
+        out = np.empty(N_STATES)
+        rates_to_derivative(evaluate(t, y.tolist(), self.plist, mode), out)
+        return out
+
+    def _jac(self, t, y, mode):
+        f0 = self._rhs(t, y, mode)
+        jm = np.zeros((N_STATES, N_STATES))
+        eps = math.sqrt(np.finfo(float).eps)
+        for j in range(self.n_dyn):
+            h = eps * max(abs(y[j]), self.scale[j])
+            yy = y.copy()
+            yy[j] += h
+            h = yy[j] - y[j]
+            jm[:, j] = (self._rhs(t, yy, mode) - f0) / h
+        return jm
+
+    def _events(self, mode):
+        """One terminal event per switching function that can fire in this mode."""
+        g = np.empty(sw.N_SWITCHES)
+        cache = {}
+        plist = self.plist
+
+        def values(t, y):
+            key = (t, y.tobytes())
+            if cache.get("key") != key:
+                sw.switch_values(t, y, plist, mode, g)
+                cache["key"] = key
+            return g
+
+        evs = []
+        for k in range(sw.N_SWITCHES):
+            def ev(t, y, *_, k=k):
+                return values(t, y)[k]
+            ev.terminal = True
+            ev.direction = -1
+            evs.append((k, ev))
+        return evs
+
+    def advance(self, t0, t1, y, mode):
+        from scipy.integrate import solve_ivp
+
+        self.plist = self.p.tolist()          # list indexing is the fast path for CPython floats
+        t = t0
+        y = np.array(y, dtype=float)
+        mode = np.array(mode, dtype=float)
+        segs, events, states = [], [], []
+        peaks = [max(y[S_XIN], 0.0), max(y[S_XDEL], 0.0)]
+        nfev = 0
+        zero_len = 0
+        while t < t1:
+            m_now = mode.copy()
+            evs = self._events(m_now)
+            sol = solve_ivp(self._rhs, (t, t1), y, method=self.method, rtol=self.rtol, atol=self.atol,
+                            events=[e for _, e in evs], dense_output=self.dense, args=(m_now,),
+                            jac=self._jac if self.method != "LSODA" else None)
+            nfev += sol.nfev
+            if sol.status < 0:
+                raise RuntimeError(f"integrator failed at t = {t:.6g} s: {sol.message}")
+            peaks[0] = max(peaks[0], float(sol.y[S_XIN].max()))
+            peaks[1] = max(peaks[1], float(sol.y[S_XDEL].max()))
+            t_end = float(sol.t[-1])
+            segs.append(_Segment(t, t_end, sol.sol, m_now))
+            y = sol.y[:, -1].copy()
+            if sol.status == 1:
+                for (k, _), te in zip(evs, sol.t_events):
+                    if len(te) and te[-1] == t_end:
+                        before = y.copy()
+                        code = sw.apply_switch(k, y, self.plist, mode)
+                        slot, old, new = sw.decode(code)
+                        events.append((t_end, slot, old, new))
+                        states.append(before)
+                zero_len = zero_len + 1 if t_end - t <= 1e-12 * (t1 - t0) else 0
+                if zero_len > 50 or len(events) > MAX_EVENTS_PER_REV:
+                    raise RuntimeError(f"valve chatter: {len(events)} switches near t = {t_end:.6g} s; "
+                                       "loosen the contact model or the tolerances")
+            t = t_end
+        def sampler(ts):
+            starts = [s.t0 for s in segs]
+            ys = np.empty((len(ts), N_STATES))
+            modes = np.empty((len(ts), N_MODE))
+            for i, tt in enumerate(ts):
+                seg = segs[max(0, bisect.bisect_right(starts, tt) - 1)]
+                ys[i] = seg.sol(tt) if seg.sol is not None else y
+                modes[i] = seg.mode
+            return ys, modes
+
+        return Span(t0, t1, y, mode, events, states, tuple(peaks), nfev, len(segs), sampler)
+
+
+# --------------------------------------------------------------------------- fast: compiled Rodas4P
+def _build_rodas():
+    """The compiled solver bound to the pump's compiled physics (cached on disk by source digest)."""
+    import numba
+
+    from lumped import compiled, rodas
+
+    evaluate_c = compiled.function("lumped.pump", "evaluate")
+    to_deriv = compiled.function("lumped.pump", "rates_to_derivative")
+    switch_values = compiled.function("lumped.switching", "switch_values")
+    apply_switch = compiled.function("lumped.switching", "apply_switch")
+    redo = compiled.function("lumped.switching", "redo_at_crossing")
+    jac_c = compiled.function("lumped.jacobian", "pump_jacobian")
+    MODE, TOL, STASH = NP_EXT_MODE, NP_EXT_TOL, NP_EXT_STASH
+
+    @numba.njit(error_model="numpy")
+    def _rhs(t, y, p, dydt):
+        """dy/dt of the pump (lumped.pump.evaluate) in the mode stored in p; keeps (t, m_cyl, P_cyl)."""
+        r = evaluate_c(t, y, p, p[MODE:MODE + N_MODE])
+        p[STASH] = t
+        p[STASH + 1] = y[0]
+        p[STASH + 2] = r.p_cyl
+        to_deriv(r, dydt)
+
+    @numba.njit(error_model="numpy")
+    def _events(t, y, p, g):
+        switch_values(t, y, p, p[MODE:MODE + N_MODE], g)
+
+    @numba.njit(error_model="numpy")
+    def _apply(k, t, y, p):
+        return apply_switch(k, y, p, p[MODE:MODE + N_MODE])
+
+    @numba.njit(error_model="numpy")
+    def _retry(k, p):
+        return redo(k, p[MODE:MODE + N_MODE])
+
+    @numba.njit(error_model="numpy")
+    def _jac(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h):
+        pc = p[STASH + 2] if (p[STASH] == t and p[STASH + 1] == y[0]) else np.nan
+        return jac_c(t, y, p, p[MODE:MODE + N_MODE], pc, jac, ft, yp, fp, atol, rtol, n_dyn)
+
+    @numba.njit(error_model="numpy")
+    def _tolerances(p, atol):
+        for v in range(2):
+            c = int(p[MODE + 2 * v])
+            atol[1 + 2 * v] = p[TOL + 2 * (3 * v + c)]
+            atol[2 + 2 * v] = p[TOL + 2 * (3 * v + c) + 1]
+
+    @numba.njit(error_model="numpy")
+    def _tag(p):
+        t = 0
+        for i in range(N_MODE):
+            t = t * 3 + int(p[MODE + N_MODE - 1 - i])
+        return t
+
+    digest = compiled.source_digest(__name__)
+    _drop_stale_cache(digest)
+    solver = rodas.specialize(_rhs, f"pump_{digest}", events=_events, apply=_apply, tagger=_tag, jac=_jac,
+                              tolerances=_tolerances, retry=_retry)
+    return solver, digest
+
+
+def _drop_stale_cache(digest: str) -> None:
+    """Remove compiled solvers of earlier physics sources from numba's cache (they never load)."""
+    from pathlib import Path
+
+    from lumped import compiled
+
+    folders = {Path(sys.modules[m].__file__).parent / "__pycache__" for m in ("lumped.rodas", *compiled.physics_modules())}
+    for folder in folders:
+        for f in folder.glob("*.nb[ic]"):
+            if "__pump_" in f.name and digest not in f.name:
+                try:
+                    f.unlink()
+                except OSError:  # another process's, or a read-only install: harmless
+                    pass
+
+
+# extended parameter array of the compiled stepper: the packed parameters, then the mode, the
+# valve tolerance table (atol of (x, u) of each valve on its seat, free, on its stop) and a stash
+# of (t, m_cyl, P_cyl) of the last rhs call, so the Jacobian right after needs no pressure inversion
+NP_EXT_MODE = NP
+NP_EXT_TOL = NP + N_MODE
+NP_EXT_STASH = NP_EXT_TOL + 12
+NP_EXT = NP_EXT_STASH + 3
+_SOLVER: dict = {}
+
+
+def compiled_solver():
+    """(solver, digest), compiled (or loaded from numba's cache) on first use; the compile time is
+    recorded in :data:`COMPILE_SECONDS`."""
+    if "solver" not in _SOLVER:
+        t0 = _time.perf_counter()
+        _SOLVER["solver"], _SOLVER["digest"] = _build_rodas()
+        _SOLVER["warm"] = False
+        _SOLVER["seconds"] = _time.perf_counter() - t0
+    return _SOLVER["solver"]
+
+
+#: free-flight opening tolerance: atol x stop gap (the reference's); free-flight velocity: this x atol x 1 m/s
+#: (the velocity of a free valve hardly matters to the delivery; x10 looser cost 1.2x the reed's steps)
+FREE_VELOCITY_ATOL = 100.0
+#: accepted steps per Jacobian (a Rosenbrock method wants a fresh one)
+JAC_REUSE = 1
+#: free-flight opening tolerance, in units of atol x the stop gap
+FREE_POSITION_ATOL = 1.0
+#: opening in contact: this x atol x the contact deflection P_load A / k (when a valve resting on
+#: its seat or stop lets go is decided by nanometres)
+CONTACT_POSITION_ATOL = 30.0
+
+
+class RodasStepper(Stepper):
+    """The compiled Rodas4P over a span; per-valve tolerances by contact state (see :func:`tolerance_table`)."""
+
+    name = "fast"
+
+    def __init__(self, p: np.ndarray, rtol: float, atol: np.ndarray, n_dyn: int, atol_scalar: float,
+                 contact_atol: float | None = None, record: bool = True):
+        self.solver = compiled_solver()
+        self.p = p
+        self.rtol = rtol
+        self.atol = atol
+        self.n_dyn = n_dyn
+        self.record = record
+        self.q = np.zeros(NP_EXT)
+        self.q[:NP] = p
+        self.q[NP_EXT_TOL:NP_EXT_TOL + 12] = tolerance_table(atol_scalar, atol, p, contact_atol)
+        self.h = None
+        self.period = None
+
+    def advance(self, t0, t1, y, mode):
+        from lumped import rodas
+
+        q = self.q
+        q[:NP] = self.p                       # the driver may have changed p (needle valve tuning)
+        q[NP_EXT_MODE:NP_EXT_MODE + N_MODE] = mode
+        if self.h is None:
+            self.h = 1e-4 * (t1 - t0)
+        opts = rodas.Options(self.rtol, self.atol.copy(), self.h, t1 - t0, 2_000_000, self.n_dyn,
+                             t0 if self.record else np.inf, sw.N_SWITCHES, MAX_EVENTS_PER_REV, JAC_REUSE)
+        r = self.solver(t0, np.asarray(y, dtype=float), np.array([t1]), q, opts)
+        if r.status != rodas.OK:
+            raise RuntimeError(f"fast integrator failed ({rodas.STATUS_TEXT[int(r.status)]}, "
+                               f"t = {r.rec_t[-1] if len(r.rec_t) else t0:.6g} s)")
+        self.h = r.h_next
+        events = [(float(t),) + sw.decode(int(c)) for t, c in zip(r.ev_t, r.ev_code)]
+        peaks = _peaks(r.rec_y, r.rec_q2, r.rec_q3)
+        rec = (r.rec_t, r.rec_y, r.rec_q2, r.rec_q3, r.rec_tag)
+
+        def sampler(ts):
+            rec_t, rec_y, rec_q2, rec_q3, rec_tag = rec
+            ys = rodas.interpolate(ts, rec_t, rec_y, rec_q2, rec_q3)
+            i = np.clip(np.searchsorted(rec_t, ts, side="left"), 1, len(rec_t) - 1)
+            tags = rec_tag[i]
+            modes = np.empty((len(ts), N_MODE))
+            for j in range(N_MODE):
+                modes[:, j] = (tags // 3**j) % 3
+            return ys, modes
+
+        y_end = r.y_stops[-1].copy()
+        mode_end = q[NP_EXT_MODE:NP_EXT_MODE + N_MODE].copy()
+        return Span(t0, t1, y_end, mode_end, events, list(r.ev_y), peaks, int(r.n_rhs), int(r.n_steps), sampler)
+
+
+def _peaks(rec_y, rec_q2, rec_q3) -> tuple[float, float]:
+    """Largest inlet and delivery openings [m] in the recorded steps, interpolant included (quarters)."""
+    if len(rec_y) == 0:
+        return 0.0, 0.0
+    best = []
+    for xi in (S_XIN, S_XDEL):
+        b = float(rec_y[:, xi].max())
+        y0, y1, q2, q3 = rec_y[:-1, xi], rec_y[1:, xi], rec_q2[1:, xi], rec_q3[1:, xi]
+        for s in (0.25, 0.5, 0.75):
+            v = y0 * (1 - s) + s * (y1 + (1 - s) * (q2 + s * q3))
+            if len(v):
+                b = max(b, float(v.max()))
+        best.append(max(b, 0.0))
+    return best[0], best[1]
+
+
+def tolerance_table(atol: float, atol_v: np.ndarray, p: np.ndarray, contact_atol: float | None = None) -> np.ndarray:
+    """atol of (x, u) of each valve on its seat, free, on its stop (the order of the stepper's table).
+
+    Free flight: the reference's scales (atol times the stop gap; FREE_VELOCITY_ATOL times
+    atol times 1 m/s). In contact the valve sits a deflection F/k into its seat or stop,
+    nanometres for a rigid seat, and crosses back out of it when the pressure force lets
+    go: the opening or closing time is the time x needs to cover that deflection. So x in
+    contact is measured against its own scale, atol times the deflection a load-pressure
+    force would cause (P_load A / k; A = the kind's contact area), and u against atol
+    times 1 m/s times the kind's contact velocity tolerance (``ValveKind.contact_velocity_atol``)
+    or ``contact_atol``.
+    """
+    by_id = {float(k.id): k for k in KINDS.values()}
+    table = np.empty(12)
+    for v, (o, xi) in enumerate(((OFF_IN, S_XIN), (OFF_DEL, S_XDEL))):
+        area = p[o + VALVE.contact_area]
+        kind = by_id[p[o + VALVE.kind_id]]
+        for c, k in ((SEAT, p[o + VALVE.seat_k]), (FREE, 0.0), (STOP, p[o + VALVE.stop_k])):
+            x_free = atol_v[xi] * FREE_POSITION_ATOL
+            x_tol = x_free if k <= 0.0 else min(x_free, CONTACT_POSITION_ATOL * atol * p[G.load_pressure] * area / k)
+            in_contact = kind.contact_velocity_atol if contact_atol is None else contact_atol
+            u_tol = atol_v[xi + 1] * (FREE_VELOCITY_ATOL if c == FREE else in_contact)
+            table[2 * (3 * v + c)] = x_tol
+            table[2 * (3 * v + c) + 1] = u_tol
+    return table

@@ -1,0 +1,132 @@
+"""The switching surfaces of the pump model, defined once for both steppers.
+
+Inside a step the right-hand side must be smooth, so each valve's contact state (seat,
+free, stop), its pressure regime (Poiseuille, orifice: eq 2.18) and the cylinder's state
+(liquid, cavitating) are fixed there (the *mode*, ``lumped.pump.N_MODE`` entries) and
+change only where a switching function crosses zero. :func:`switch_values` gives those
+functions for the current mode (each >= 0 while the mode holds; the crossing to < 0 is
+the switch, direction "falling" in scipy's terms) and :func:`apply_switch` makes the
+change at a located crossing, putting a valve exactly onto its surface. The compiled
+stepper (``lumped.steppers.RodasStepper``) calls the compiled copies of these very
+functions inside its loop; the scipy stepper (``RadauStepper``) builds its terminal
+events from them. Plain floats and arrays, so numba compiles the same source.
+"""
+
+from __future__ import annotations
+
+from lumped.pump import (
+    CAVITATING, G, LIQUID, M_CAV, OFF_DEL, OFF_IN, S_MCYL, S_XDEL, S_XIN, cylinder_volume_at,
+)
+from lumped.valve import FREE, ORIFICE, POISEUILLE, SEAT, STOP, VALVE
+
+#: number of switching functions: per valve seat, stop, regime; then the cylinder
+N_SWITCHES = 7
+#: hysteresis of the reverse crossings [m]: a mode entered exactly on its switching surface
+#: must not switch back at its first step (a zero-length segment); 0.1 nm is far below
+#: any opening the model resolves
+HYSTERESIS = 1e-10
+#: the same for the cavitation surface, relative to the density there
+DENSITY_HYSTERESIS = 1e-12
+
+
+def switch_values(t: float, y, p, mode, g) -> None:
+    """Fill g[0:N_SWITCHES] with the switching functions of the current mode (fire below 0).
+
+    Valve v (0 inlet, 1 delivery), entries 3 v .. 3 v + 2: on its seat, -x (lifts off at
+    x > 0); free, x + h (lands at x < -h) and x_stop - x (reaches the stop); on its stop,
+    x - (x_stop - h) (leaves it); the regime, x_t - x in the Poiseuille regime and
+    x - (x_t - h) in the orifice one. Entry 6, the cylinder: liquid, rho - rho(P_vap)
+    (cavitates when the density falls below the liquid's at the vapour pressure);
+    cavitating, rho(P_vap) (1 + e) - rho (refilled). An entry with no surface is 1.
+    """
+    hy = HYSTERESIS
+    for v in range(2):
+        o = OFF_IN if v == 0 else OFF_DEL
+        x = y[S_XIN] if v == 0 else y[S_XDEL]
+        c = int(mode[2 * v])
+        r = int(mode[2 * v + 1])
+        xstop = p[o + VALVE.stop_gap]
+        if c == SEAT:
+            g[3 * v] = -x
+            g[3 * v + 1] = 1.0
+        elif c == FREE:
+            g[3 * v] = x + hy
+            g[3 * v + 1] = xstop - x
+        else:
+            g[3 * v] = 1.0
+            g[3 * v + 1] = x - (xstop - hy)
+        g[3 * v + 2] = 1.0
+        xt = p[o + VALVE.regime_opening]
+        if xt > 0.0:
+            g[3 * v + 2] = xt - x if r == POISEUILLE else x - (xt - hy)
+    g[6] = 1.0
+    rho_v = p[G.rho_vapour]
+    if rho_v > 0.0:
+        rho = y[S_MCYL] / cylinder_volume_at(t, p)[0]
+        if int(mode[M_CAV]) == LIQUID:
+            g[6] = (rho - rho_v) / rho_v
+        else:
+            g[6] = (rho_v * (1.0 + DENSITY_HYSTERESIS) - rho) / rho_v
+
+
+def apply_switch(k: int, y, p, mode) -> int:
+    """Make the mode change of switching function k at its crossing; returns slot*100 + old*10 + new.
+
+    A valve is put exactly onto its surface (x = 0, -h, x_stop, x_stop - h, x_t, x_t - h),
+    so the new mode starts on the right side of it; the cylinder switch moves no state
+    (the mass is the state: it stays exactly conserved).
+    """
+    if k == 6:
+        old = int(mode[M_CAV])
+        new = CAVITATING if old == LIQUID else LIQUID
+        mode[M_CAV] = new
+        return M_CAV * 100 + old * 10 + new
+    v = k // 3
+    kind = k % 3
+    o = OFF_IN if v == 0 else OFF_DEL
+    xi = S_XIN if v == 0 else S_XDEL
+    c = int(mode[2 * v])
+    r = int(mode[2 * v + 1])
+    hy = HYSTERESIS
+    if kind == 0:
+        slot, old, new, level = 2 * v, c, (FREE if c == SEAT else SEAT), (0.0 if c == SEAT else -hy)
+    elif kind == 1:
+        slot, old, new = 2 * v, c, (STOP if c == FREE else FREE)
+        level = p[o + VALVE.stop_gap] - (0.0 if c == FREE else hy)
+    else:
+        slot, old, new = 2 * v + 1, r, (ORIFICE if r == POISEUILLE else POISEUILLE)
+        level = p[o + VALVE.regime_opening] - (0.0 if r == POISEUILLE else hy)
+    mode[slot] = new
+    y[xi] = level
+    return slot * 100 + old * 10 + new
+
+
+def redo_at_crossing(k: int, mode) -> bool:
+    """Whether a step should be redone to end at crossing k: only when a valve leaves its seat
+    or stop. In contact the opening is a stiff component slaved to the pressure, which the
+    interpolant of a long step does not follow; in free flight (and the cylinder density)
+    it does, to the tolerance."""
+    if k >= 6:
+        return False
+    c = int(mode[2 * (k // 3)])
+    kind = k % 3
+    return (kind == 0 and c == SEAT) or (kind == 1 and c == STOP)
+
+
+def initial_mode(t: float, y, p, mode) -> None:
+    """Contact state, regime and cylinder state decided from the state (at the start of a run)."""
+    for v in range(2):
+        o = OFF_IN if v == 0 else OFF_DEL
+        x = y[S_XIN] if v == 0 else y[S_XDEL]
+        mode[2 * v] = SEAT if x <= 0.0 else (STOP if x > p[o + VALVE.stop_gap] else FREE)
+        xt = p[o + VALVE.regime_opening]
+        mode[2 * v + 1] = POISEUILLE if (xt > 0.0 and x < xt) else ORIFICE
+    mode[M_CAV] = LIQUID
+    rho_v = p[G.rho_vapour]
+    if rho_v > 0.0 and y[S_MCYL] / cylinder_volume_at(t, p)[0] < rho_v:
+        mode[M_CAV] = CAVITATING
+
+
+def decode(code: int) -> tuple[int, int, int]:
+    """(mode slot, old, new) of an :func:`apply_switch` code."""
+    return code // 100, (code // 10) % 10, code % 10

@@ -1,0 +1,93 @@
+"""One trace type for every time series of the pump: simulated, measured, folded onto crank angle.
+
+A :class:`Trace` holds a time vector (t = 0 at top dead centre), the crank speed and named
+signals in SI units; the pump driver writes one (``PumpResult.trace``), the measured-data
+reader reads one, and the discrepancy workflow folds both onto one revolution of crank
+angle (:meth:`Trace.fold`). Signal names: ``inlet_position``, ``delivery_position`` [m],
+``cylinder_pressure``, ``load_pressure`` [Pa], ``inlet_mass_flow``,
+``delivery_mass_flow`` [kg/s], ``inlet_velocity``, ``delivery_velocity`` [m/s],
+``vapour_volume`` [m^3].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+UNITS = {"position": "m", "pressure": "Pa", "mass_flow": "kg/s", "velocity": "m/s", "volume": "m^3"}
+
+
+def unit_of(name: str) -> str:
+    """SI unit of a signal name (by its suffix)."""
+    for suffix, unit in UNITS.items():
+        if name.endswith(suffix):
+            return unit
+    return "-"
+
+
+@dataclass(frozen=True)
+class Trace:
+    """Time series of pump signals (SI units); ``time`` increasing, 0 at TDC."""
+
+    time: np.ndarray
+    speed_rpm: float
+    signals: dict = field(default_factory=dict)
+
+    def __getattr__(self, name):
+        # signals read as attributes: trace.cylinder_pressure
+        sig = self.__dict__.get("signals", {})
+        if name in sig:
+            return sig[name]
+        raise AttributeError(name)
+
+    @property
+    def crank_angle(self) -> np.ndarray:
+        """Crank angle [rad] from TDC (not wrapped)."""
+        return np.asarray(self.time) * self.speed_rpm * 2.0 * np.pi / 60.0
+
+    @property
+    def crank_deg(self) -> np.ndarray:
+        """Crank angle [deg] within [0, 360)."""
+        return np.mod(np.degrees(self.crank_angle), 360.0)
+
+    @property
+    def positions(self) -> dict:
+        """{"inlet"/"delivery": position [m]} for the valves the trace holds."""
+        return {v: self.signals[f"{v}_position"] for v in ("inlet", "delivery") if f"{v}_position" in self.signals}
+
+    def fold(self) -> "Trace":
+        """The samples sorted by crank angle within one revolution: ``time`` becomes the time
+        after TDC within the revolution (stable order, so repeated revolutions interleave)."""
+        period = 60.0 / self.speed_rpm
+        t = np.mod(np.asarray(self.time, dtype=float), period)
+        order = np.argsort(t, kind="stable")
+        return Trace(t[order], self.speed_rpm, {k: np.asarray(v)[order] for k, v in self.signals.items()})
+
+    def to_frame(self):
+        """pandas DataFrame: ``time_s``, ``crank_deg`` and each signal with its SI unit in the column name."""
+        import pandas as pd
+
+        cols = {"time_s": np.asarray(self.time), "crank_deg": self.crank_deg}
+        for k, v in self.signals.items():
+            cols[f"{k}_{unit_of(k).replace('/', '_per_').replace('^3', '3')}"] = np.asarray(v)
+        return pd.DataFrame(cols)
+
+    def plot(self, ax=None, signals=("inlet_position", "delivery_position")):
+        """Signals against crank angle [deg] (positions in mm, pressures in MPa); returns the axes."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(7, 3.5))
+        deg = np.degrees(self.crank_angle)
+        for name in signals:
+            if name not in self.signals:
+                continue
+            v = np.asarray(self.signals[name])
+            unit = unit_of(name)
+            scale, shown = (1e3, "mm") if unit == "m" else ((1e-6, "MPa") if unit == "Pa" else (1.0, unit))
+            ax.plot(deg, v * scale, label=f"{name.replace('_', ' ')} [{shown}]")
+        ax.set_xlabel("crank angle from TDC [deg]")
+        ax.set_ylabel(" / ".join(sorted({f"[{('mm' if unit_of(n) == 'm' else 'MPa' if unit_of(n) == 'Pa' else unit_of(n))}]" for n in signals if n in self.signals})))
+        ax.legend(fontsize=8)
+        return ax
