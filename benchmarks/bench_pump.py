@@ -4,9 +4,11 @@ Run on demand from the repository root: ``python benchmarks/bench_pump.py [--qui
 [--repeat R]``; prints one JSON object. For each valve type it simulates the thesis's
 validation cases (Tables 5.4 and 5.6; ``--quick``: the first of each) for five
 revolutions, as the thesis did (section 5.6: 23 s of CPU per simulated second), with
-``lumped.pump_fast.simulate`` (default tolerances) and ``lumped.pump.simulate`` (its
-defaults), one after the other in this process, and reports CPU seconds per simulated
-second of each, their ratio, and the delivery difference. Each fast run is repeated R
+``lumped.cycle.simulate`` on the fast stepper (compiled Rodas4P, default tolerances) and
+on the reference stepper (scipy Radau, its defaults), one after the other in this
+process, and reports CPU seconds per simulated second of each (per case, the median over
+the cases of each valve kind, and the total), their ratio, steps per revolution and CPU
+time per step of the fast path, and the delivery and angle differences. Each fast run is repeated R
 times (default 3) and its median CPU time counted (the machine may be shared; the
 reference, ~100x longer, runs once). The fast path's one-off numba compilation (or cache
 load) is reported separately and never counted in its CPU time. The load average before
@@ -27,23 +29,26 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from lumped import pump as reference  # noqa: E402
-from lumped import pump_fast as fast  # noqa: E402
+from lumped import steppers  # noqa: E402
+from lumped.cycle import DEFAULT_TOLERANCES, ensure_compiled, simulate  # noqa: E402
+from lumped.valve import KINDS  # noqa: E402
 from studies.thesis import experiments  # noqa: E402
 
 
 def run(quick: bool = False, revolutions: int = 5, repeat: int = 3) -> dict:
     t0 = time.perf_counter()
     load_before = os.getloadavg()
-    compile_s = fast.compile_seconds()
+    compile_s = ensure_compiled()
+    rtol, atol = DEFAULT_TOLERANCES["fast"]
     out = {
         "benchmark": "pump", "machine": platform.machine(), "cpus": os.cpu_count(),
         "python": platform.python_version(), "revolutions": revolutions, "fast_repeats": repeat,
         "thesis_cpu_per_simulated_second": 23.0,
         "fast_compile_or_cache_load_seconds": round(compile_s, 3),
-        "fast_tolerances": {"rtol": fast.RTOL, "atol": fast.ATOL, "free_velocity_atol": fast.FREE_VELOCITY_ATOL,
-                            "contact_position_atol": fast.CONTACT_POSITION_ATOL,
-                            "contact_velocity_atol": fast.CONTACT_ATOL},
+        "fast_tolerances": {"rtol": rtol, "atol": atol, "free_velocity_atol": steppers.FREE_VELOCITY_ATOL,
+                            "free_position_atol": steppers.FREE_POSITION_ATOL,
+                            "contact_position_atol": steppers.CONTACT_POSITION_ATOL,
+                            "contact_velocity_atol": {k.name: k.contact_velocity_atol for k in KINDS.values()}},
         "load_average_before": [round(x, 2) for x in load_before], "valves": {},
     }
     for valve in ("disc", "reed"):
@@ -52,13 +57,14 @@ def run(quick: bool = False, revolutions: int = 5, repeat: int = 3) -> dict:
             cases = cases[:1]
         rows, f_cpu, r_cpu, sim = [], 0.0, 0.0, 0.0
         for c in cases:
-            args = (valve, c["speed_rpm"], c["load_pressure"])
-            fs = [fast.simulate(*args, air_content=c["air_content"], revolutions=revolutions) for _ in range(repeat)]
+            args = (f"thesis-{valve}", c["speed_rpm"], c["load_pressure"])
+            kw = dict(air_content=c["air_content"], revolutions=revolutions)
+            fs = [simulate(*args, method="fast", **kw) for _ in range(repeat)]
             f = fs[0]
             f_case = statistics.median(x.cpu_seconds for x in fs)
             print(f"{valve} {c['condition']}: fast {f_case / f.simulated_seconds * 1e3:.1f} ms per simulated s",
                   file=sys.stderr, flush=True)
-            r = reference.simulate(*args, air_content=c["air_content"], revolutions=revolutions)
+            r = simulate(*args, method="reference", **kw)
             f_cpu += f_case
             r_cpu += r.cpu_seconds
             sim += f.simulated_seconds
@@ -71,8 +77,18 @@ def run(quick: bool = False, revolutions: int = 5, repeat: int = 3) -> dict:
                 "delivery_relative_difference": (f.delivery_per_rev - r.delivery_per_rev) / r.delivery_per_rev,
                 "opening_closing_angle_difference_deg": _angle_diff(f, r),
                 "fast_rhs_evaluations": f.rhs_evaluations, "reference_rhs_evaluations": r.rhs_evaluations,
+                "fast_steps_per_revolution": round(f.steps / f.revolutions, 1),
+                "fast_microseconds_per_step": round(f_case / f.steps * 1e6, 3),
+                "stop_contacts_fast": [v.stop_contacts for v in f.valves.values()],
+                "stop_contacts_reference": [v.stop_contacts for v in r.valves.values()],
             })
         out["valves"][valve] = {
+            "fast_cpu_per_simulated_second_median": round(statistics.median(
+                x["fast_cpu_per_simulated_second"] for x in rows), 5),
+            "fast_steps_per_revolution_median": statistics.median(x["fast_steps_per_revolution"] for x in rows),
+            "fast_microseconds_per_step_median": statistics.median(x["fast_microseconds_per_step"] for x in rows),
+            "speedup_median": statistics.median(x["speedup"] for x in rows),
+            "stop_contacts_equal": all(x["stop_contacts_fast"] == x["stop_contacts_reference"] for x in rows),
             "fast_cpu_per_simulated_second": round(f_cpu / sim, 5),
             "reference_cpu_per_simulated_second": round(r_cpu / sim, 4),
             "speedup": round(r_cpu / f_cpu, 1),
@@ -91,7 +107,9 @@ def _angle_diff(f, r) -> float:
     import math
 
     worst = 0.0
-    for a, b in zip(f.opening_angle + f.closing_angle, r.opening_angle + r.closing_angle):
+    fa = [f.inlet.opening_angle, f.delivery.opening_angle, f.inlet.closing_angle, f.delivery.closing_angle]
+    ra = [r.inlet.opening_angle, r.delivery.opening_angle, r.inlet.closing_angle, r.delivery.closing_angle]
+    for a, b in zip(fa, ra):
         if (a is None) != (b is None):
             return 360.0
         if a is not None:

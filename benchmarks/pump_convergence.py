@@ -16,7 +16,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from lumped.pump import simulate  # noqa: E402
+from lumped.cycle import simulate  # noqa: E402
 
 CASES = {"disc": (593.0, 2.76e6), "reed": (595.0, 2.76e6)}
 
@@ -26,11 +26,12 @@ def study(quick: bool = False) -> dict:
     methods = ["Radau"] if quick else ["Radau", "BDF"]
     out = {}
     for valve, (rpm, pl) in CASES.items():
-        ref = simulate(valve, rpm, pl, revolutions=3, rtol=1e-10, atol=1e-10)
+        ref = simulate(f"thesis-{valve}", rpm, pl, revolutions=3, rtol=1e-10, atol=1e-10, method="reference")
         rows = []
         for method in methods:
             for tol in ladder:
-                r = simulate(valve, rpm, pl, revolutions=3, rtol=tol, atol=tol, method=method)
+                r = simulate(f"thesis-{valve}", rpm, pl, revolutions=3, rtol=tol, atol=tol,
+                             method="reference" if method == "Radau" else method)
                 rows.append({
                     "method": method, "rtol": tol, "delivery_cc": r.delivery_per_rev * 1e6,
                     "rel_diff_vs_reference": (r.delivery_per_rev - ref.delivery_per_rev) / ref.delivery_per_rev,

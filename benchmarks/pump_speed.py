@@ -2,7 +2,7 @@
 
 Run on demand: ``python benchmarks/pump_speed.py``; prints one JSON object. Each valve
 type runs its three thesis conditions (inlet-measured cases of Tables 5.4 and 5.6) for
-five revolutions with the default tolerances of ``lumped.pump.simulate``.
+five revolutions on the reference stepper (scipy Radau) at its default tolerances.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from lumped.pump import simulate  # noqa: E402
+from lumped.cycle import simulate  # noqa: E402
 from studies.validation import cases  # noqa: E402
 
 
@@ -27,7 +27,8 @@ def main() -> dict:
         for c in cases(valve=valve):
             if c["measured_valve"] != "inlet":
                 continue
-            r = simulate(valve, c["speed_rpm"], c["load_pressure"], air_content=c["air_content"], revolutions=5)
+            r = simulate(f"thesis-{valve}", c["speed_rpm"], c["load_pressure"], air_content=c["air_content"],
+                         revolutions=5, method="reference")
             cpu += r.cpu_seconds
             sim += r.simulated_seconds
             runs.append({"condition": c["condition"], "cpu_seconds": r.cpu_seconds,

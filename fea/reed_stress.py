@@ -3,7 +3,7 @@
 Two static load cases on the 3-D solid reed (:mod:`fea.solid`, quadratic hexahedra):
 
 1. **maximum opening**: the uniform pressure that bends the tip to the stop, p = kappa x_stop
-   (eq 3.30; x_stop = 1.9 mm, ``lumped/data/reed_valve.toml``). The thesis reports a maximum
+   (eq 3.30; x_stop = 1.9 mm, thesis-reed's stop.gap). The thesis reports a maximum
    von Mises stress of 26.2 MPa for the prototype against 63 MPa yield for Delrin.
 2. **reverse pressure on the seat**: the closed reed pressed onto its slotted seat by the
    reverse pressure difference on its downstream face; the seat carries the upstream
@@ -18,9 +18,7 @@ and the beam-theory root stress M / Z as a cross-check.
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass
-from importlib import resources
 
 import numpy as np
 import scipy.sparse.linalg as spla
@@ -37,9 +35,10 @@ YIELD_STRESS_DELRIN = 63.0e6
 
 
 def reed_stop_opening() -> float:
-    """x_stop [m] of the prototype reed valve (``lumped/data/reed_valve.toml`` [seat] stop)."""
-    d = tomllib.loads(resources.files("lumped").joinpath("data/reed_valve.toml").read_text())
-    return float(d["seat"]["stop"])
+    """x_stop [m] of the prototype reed valve (thesis-reed's valves, stop.gap)."""
+    from lumped.model_file import load_model
+
+    return float(load_model("thesis-reed").delivery.stop_gap)
 
 
 @dataclass(frozen=True)

@@ -103,12 +103,10 @@ def _static_stiffness(mesh, material, load_facets, fixed_facets, load: float, me
 
 
 def _contact_mass() -> float:
-    """The mass the thesis used in eq 2.23 (lumped/data/disc_valve.toml, mass.contact_reference) [kg]."""
-    import tomllib
-    from importlib import resources
+    """The mass the thesis used in eq 2.23 (thesis-disc's mass.contact_reference) [kg]."""
+    from lumped.model_file import load_model
 
-    d = tomllib.loads(resources.files("lumped").joinpath("data/disc_valve.toml").read_text())
-    return float(d["mass"]["contact_reference"])
+    return float(load_model("thesis-disc").inlet.contact_mass)
 
 
 def seat_stiffness(seat: SeatRing | None = None, mesh_size: float | None = None) -> ContactStiffness:

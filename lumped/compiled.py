@@ -68,8 +68,28 @@ PHYSICS = _jit_physics()
 
 
 def function(module: str, name: str):
-    """The compiled copy of ``module.name`` (a numba dispatcher)."""
+    """The compiled copy of ``module.name`` (a numba dispatcher, compiled in this process on first call)."""
     return getattr(PHYSICS[module], name)
+
+
+_CACHED: dict = {}
+
+
+def cached(module: str, name: str):
+    """The compiled copy of ``module.name`` for calls from Python, cached on disk.
+
+    (Inside the fast stepper the physics is compiled into the solver's own cache entry;
+    called from Python each mirror would otherwise compile again in every new process,
+    about 20 s for the driver's helpers.) The copy is named by the digest of the physics
+    sources, so a change to any of them gets a fresh cache entry.
+    """
+    key = (module, name)
+    if key not in _CACHED:
+        from lumped.rodas import _rebind
+
+        disp = function(module, name)
+        _CACHED[key] = _rebind(disp, disp.py_func.__globals__, f"py_{source_digest('lumped.steppers')}", cache=True)
+    return _CACHED[key]
 
 
 def source_digest(*extra: str) -> str:

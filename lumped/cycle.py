@@ -220,7 +220,7 @@ def simulate(model="thesis-disc", speed_rpm: float | None = None, load_pressure:
              circuit: str | None = None, rtol: float | None = None, atol: float | None = None,
              trace: bool = False, progress: bool = False, steady_tol: float = 1e-4, trace_revolutions: int = 1,
              trace_points: int = 2000, contact_atol: float | None = None, air_content: float | None = None,
-             needle_area: float | None = None, check: bool = True) -> PumpResult:
+             needle_area: float | None = None, check: bool = True, max_steps: int | None = None) -> PumpResult:
     """Simulate the pump of ``model`` at ``speed_rpm`` [rpm] and ``load_pressure`` [Pa, absolute].
 
     Parameters
@@ -250,6 +250,9 @@ def simulate(model="thesis-disc", speed_rpm: float | None = None, load_pressure:
     check : bool
         Raise :class:`InvariantError` if the result breaks its invariants (mass balance worse
         than 1e-6, delivery outside (-0.01, 1.01) swept volumes, NaN).
+    max_steps : int
+        Integrator steps allowed per revolution before giving up (RuntimeError); None: the
+        stepper's default (fast 2,000,000, reference 500,000).
 
     Returns
     -------
@@ -299,10 +302,14 @@ def simulate(model="thesis-disc", speed_rpm: float | None = None, load_pressure:
     m_rev = rho0 * resolved.pump.displacement
     scales = state_scales(p, m_rev)
     atol_v = atol * scales
+    if max_steps is not None:
+        _int("max_steps", max_steps, 10, 100_000_000)
     if stepper_kind == "fast":
-        stepper = RodasStepper(p, rtol, atol_v, n_dyn, atol, contact_atol, record=True)
+        stepper = RodasStepper(p, rtol, atol_v, n_dyn, atol, contact_atol, record=True,
+                               max_steps=max_steps or 2_000_000)
     else:
-        stepper = RadauStepper(p, rtol, atol_v, n_dyn, scales, "Radau" if method == "reference" else method)
+        stepper = RadauStepper(p, rtol, atol_v, n_dyn, scales, "Radau" if method == "reference" else method,
+                               max_steps=max_steps or 500_000)
     physics = _physics(stepper_kind)
 
     y = _initial_state(resolved, p, complete, physics)
@@ -425,10 +432,10 @@ class _Physics:
     def __init__(self, kind: str):
         if kind == "fast":
             from lumped import compiled
-            self.rates_table = compiled.function("lumped.pump", "rates_table")
-            self.load_pressure = compiled.function("lumped.pump", "load_pressure")
-            self.load_mass = compiled.function("lumped.pump", "load_mass")
-            self.oil_density = compiled.function("lumped.pump", "oil_density")
+            self.rates_table = compiled.cached("lumped.pump", "rates_table")
+            self.load_pressure = compiled.cached("lumped.pump", "load_pressure")
+            self.load_mass = compiled.cached("lumped.pump", "load_mass")
+            self.oil_density = compiled.cached("lumped.pump", "oil_density")
         else:
             from lumped import pump
             self.rates_table = pump.rates_table

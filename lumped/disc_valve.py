@@ -289,7 +289,7 @@ def disc_acceleration(x: float, u: float, dp: float, p_down: float, p_vap: float
 
 
 KIND = register(ValveKind(
-    name="disc", params=DiscValve, acceleration=disc_acceleration, block=DISC,
+    name="disc", default_model="thesis-disc", params=DiscValve, acceleration=disc_acceleration, block=DISC,
     # x1: a disc leaving its stop grazing (u ~ 0) is decided by um/s; the looser x30 saved 20 % of
     # the steps but moved such departures by a degree and counted a spurious second stop contact
     # (benchmarks/pump_tolerance_study.py)

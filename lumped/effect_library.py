@@ -22,7 +22,6 @@ from dataclasses import replace
 from functools import cache
 from importlib import resources
 
-from lumped.disc_valve import critical_damping
 from lumped.effects import BOTH_VALVES, PER_VALVE, PUMP, Effect, Library, Parameter
 from lumped.model import POSITIONS, PumpModel
 

@@ -41,10 +41,17 @@ from lumped.oil import Oil
 from lumped.pump import Circuit, Pump
 from lumped.valve import KINDS, kind_of
 
-#: shipped model name -> file in lumped/data/models
-SHIPPED = {"thesis-disc": "thesis-disc.toml", "thesis-reed": "thesis-reed.toml"}
-#: valve kind -> shipped model whose valves give that kind's defaults
-KIND_DEFAULTS = {"disc": "thesis-disc", "reed": "thesis-reed"}
+#: shipped model name -> file in lumped/data/models (every TOML file there)
+SHIPPED = {p.name[:-5]: p.name for p in resources.files("lumped").joinpath("data/models").iterdir()
+           if p.name.endswith(".toml")}
+#: valve kind -> shipped model whose valves give that kind's defaults, where it is not the kind's
+#: own ``default_model`` (lumped.valve.ValveKind)
+KIND_DEFAULTS: dict = {}
+
+
+def kind_default_model(kind: str) -> str:
+    """The shipped model whose valves give a kind's defaults."""
+    return KIND_DEFAULTS.get(kind) or KINDS[kind].default_model
 #: the model whose pump, oil and circuit are the defaults of every model file
 DEFAULT_BASE = "thesis-disc"
 TOP_KEYS = ("name", "base", "description", "pump", "oil", "circuit", "operating", "valves", "effects")
@@ -187,7 +194,7 @@ def _load_valve(user: dict, pos: str, base: PumpModel | None, defaults: dict, ba
     elif base_kind == kind_name:
         start = defaults["valves"][pos]
     else:
-        start = model_table(_shipped(KIND_DEFAULTS[kind_name]))["valves"][pos]
+        start = model_table(_shipped(kind_default_model(kind_name)))["valves"][pos]
     if "geometry" in user:
         start = _drop(start, kind.params.FROM_GEOMETRY)
         start.pop("geometry", None)
@@ -547,7 +554,7 @@ def describe(model: PumpModel) -> dict:
 
 
 # the effect library asks for the thesis model of a kind when a prior is wanted for a bare valve type
-effect_library.REFERENCE["model"] = lambda kind: _shipped(KIND_DEFAULTS[kind])
+effect_library.REFERENCE["model"] = lambda kind: _shipped(kind_default_model(kind))
 
 
 def check_key(model: PumpModel, path: str, value) -> None:

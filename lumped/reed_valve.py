@@ -293,7 +293,7 @@ def reed_acceleration(x: float, u: float, dp: float, p_down: float, p_vap: float
 
 
 KIND = register(ValveKind(
-    name="reed", params=ReedValve, acceleration=reed_acceleration, block=REED,
+    name="reed", default_model="thesis-reed", params=ReedValve, acceleration=reed_acceleration, block=REED,
     # a reed lifting off its seat at near-zero speed is the most sensitive timing: the lift-off
     # angle drifts by 1 deg at x100, so it keeps x1 (benchmarks/pump_tolerance_study.py)
     contact_velocity_atol=1.0,

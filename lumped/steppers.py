@@ -83,21 +83,15 @@ def state_scales(p: np.ndarray, m_rev: float) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- reference: scipy
-class _Segment:
-    __slots__ = ("t0", "t1", "sol", "mode")
-
-    def __init__(self, t0, t1, sol, mode):
-        self.t0, self.t1, self.sol, self.mode = t0, t1, sol, mode
-
-
 class RadauStepper(Stepper):
-    """scipy ``solve_ivp`` with a forward-difference Jacobian over the dynamic states; every mode
-    change a terminal event from :func:`lumped.switching.switch_values` (Python physics)."""
+    """scipy's implicit ``OdeSolver`` (Radau, or BDF/LSODA) stepped here, on the Python physics; after each
+    step the switching functions of :mod:`lumped.switching` are checked and a crossing is located on the
+    step's dense output (Brent's method), where the mode changes and the solver restarts."""
 
     name = "reference"
 
     def __init__(self, p: np.ndarray, rtol: float, atol: np.ndarray, n_dyn: int, scales: np.ndarray,
-                 method: str = "Radau", dense: bool = True):
+                 method: str = "Radau", dense: bool = True, max_steps: int = 500_000):
         self.p = p
         self.rtol = rtol
         self.atol = atol
@@ -105,6 +99,7 @@ class RadauStepper(Stepper):
         self.method = method
         self.dense = dense
         self.scale = scales
+        self.max_steps = max_steps
 
     def _rhs(self, t, y, mode):
         out = np.empty(N_STATES)
@@ -112,6 +107,8 @@ class RadauStepper(Stepper):
         return out
 
     def _jac(self, t, y, mode):
+        """Forward differences over the dynamic states; the running totals (quadratures) feed back into
+        nothing, so their columns are zero and cost no evaluations."""
         f0 = self._rhs(t, y, mode)
         jm = np.zeros((N_STATES, N_STATES))
         eps = math.sqrt(np.finfo(float).eps)
@@ -123,77 +120,88 @@ class RadauStepper(Stepper):
             jm[:, j] = (self._rhs(t, yy, mode) - f0) / h
         return jm
 
-    def _events(self, mode):
-        """One terminal event per switching function that can fire in this mode."""
+    def _g(self, t, y, mode) -> np.ndarray:
         g = np.empty(sw.N_SWITCHES)
-        cache = {}
-        plist = self.plist
-
-        def values(t, y):
-            key = (t, y.tobytes())
-            if cache.get("key") != key:
-                sw.switch_values(t, y, plist, mode, g)
-                cache["key"] = key
-            return g
-
-        evs = []
-        for k in range(sw.N_SWITCHES):
-            def ev(t, y, *_, k=k):
-                return values(t, y)[k]
-            ev.terminal = True
-            ev.direction = -1
-            evs.append((k, ev))
-        return evs
+        sw.switch_values(t, y, self.plist, mode, g)
+        return g
 
     def advance(self, t0, t1, y, mode):
-        from scipy.integrate import solve_ivp
+        from scipy.integrate import BDF, LSODA, Radau
+        from scipy.optimize import brentq
 
+        solver_class = {"Radau": Radau, "BDF": BDF, "LSODA": LSODA}[self.method]
         self.plist = self.p.tolist()          # list indexing is the fast path for CPython floats
         t = t0
         y = np.array(y, dtype=float)
         mode = np.array(mode, dtype=float)
-        segs, events, states = [], [], []
+        pieces, events, states = [], [], []   # pieces: (t_start, t_end, interpolant, mode)
         peaks = [max(y[S_XIN], 0.0), max(y[S_XDEL], 0.0)]
-        nfev = 0
-        zero_len = 0
+        nfev = steps = 0
+        h = None
         while t < t1:
             m_now = mode.copy()
-            evs = self._events(m_now)
-            sol = solve_ivp(self._rhs, (t, t1), y, method=self.method, rtol=self.rtol, atol=self.atol,
-                            events=[e for _, e in evs], dense_output=self.dense, args=(m_now,),
-                            jac=self._jac if self.method != "LSODA" else None)
-            nfev += sol.nfev
-            if sol.status < 0:
-                raise RuntimeError(f"integrator failed at t = {t:.6g} s: {sol.message}")
-            peaks[0] = max(peaks[0], float(sol.y[S_XIN].max()))
-            peaks[1] = max(peaks[1], float(sol.y[S_XDEL].max()))
-            t_end = float(sol.t[-1])
-            segs.append(_Segment(t, t_end, sol.sol, m_now))
-            y = sol.y[:, -1].copy()
-            if sol.status == 1:
-                for (k, _), te in zip(evs, sol.t_events):
-                    if len(te) and te[-1] == t_end:
-                        before = y.copy()
-                        code = sw.apply_switch(k, y, self.plist, mode)
-                        slot, old, new = sw.decode(code)
-                        events.append((t_end, slot, old, new))
-                        states.append(before)
-                zero_len = zero_len + 1 if t_end - t <= 1e-12 * (t1 - t0) else 0
-                if zero_len > 50 or len(events) > MAX_EVENTS_PER_REV:
-                    raise RuntimeError(f"valve chatter: {len(events)} switches near t = {t_end:.6g} s; "
+            kw = {} if self.method == "LSODA" else {"jac": lambda tt, yy: self._jac(tt, yy, m_now)}
+            solver = solver_class(lambda tt, yy: self._rhs(tt, yy, m_now), t, y, t1, rtol=self.rtol,
+                                  atol=self.atol, first_step=h, **kw)
+            g_old = self._g(t, y, m_now)
+            while True:
+                msg = solver.step()
+                steps += 1
+                if solver.status == "failed":
+                    raise RuntimeError(f"integrator failed at t = {solver.t:.6g} s: {msg}")
+                if steps > self.max_steps:
+                    raise RuntimeError(f"integrator needed more than {self.max_steps} steps "
+                                       f"(t = {solver.t:.6g} s)")
+                t_prev, t_new = solver.t_old, solver.t
+                sol = solver.dense_output()
+                g_new = self._g(t_new, solver.y, m_now)
+                crossing = [k for k in range(sw.N_SWITCHES) if g_old[k] >= 0.0 > g_new[k]]
+                if not crossing:
+                    pieces.append((t_prev, t_new, sol, m_now))
+                    peaks[0] = max(peaks[0], float(solver.y[S_XIN]))
+                    peaks[1] = max(peaks[1], float(solver.y[S_XDEL]))
+                    g_old = g_new
+                    if solver.status == "finished":
+                        t, y = t1, solver.y.copy()
+                        break
+                    continue
+                # the first crossing in the step, located on its dense output
+                roots = []
+                for k in crossing:
+                    def gk(tt, k=k):
+                        return self._g(tt, sol(tt), m_now)[k]
+                    roots.append((brentq(gk, t_prev, t_new, xtol=4 * np.finfo(float).eps * abs(t_new)), k))
+                te = min(r for r, _ in roots)
+                y = sol(te)
+                pieces.append((t_prev, te, sol, m_now))
+                peaks[0] = max(peaks[0], float(y[S_XIN]))
+                peaks[1] = max(peaks[1], float(y[S_XDEL]))
+                for r, k in sorted(roots):
+                    if r > te + 4 * np.finfo(float).eps * abs(te):
+                        continue
+                    before = y.copy()
+                    code = sw.apply_switch(k, y, self.plist, mode)
+                    events.append((te,) + sw.decode(code))
+                    states.append(before)
+                if len(events) > MAX_EVENTS_PER_REV:
+                    raise RuntimeError(f"valve chatter: {len(events)} switches near t = {te:.6g} s; "
                                        "loosen the contact model or the tolerances")
-            t = t_end
+                h = max(te - t_prev, 1e-12 * (t1 - t0))
+                t = te
+                break
+            nfev += solver.nfev
+
         def sampler(ts):
-            starts = [s.t0 for s in segs]
+            starts = [pc[0] for pc in pieces]
             ys = np.empty((len(ts), N_STATES))
             modes = np.empty((len(ts), N_MODE))
             for i, tt in enumerate(ts):
-                seg = segs[max(0, bisect.bisect_right(starts, tt) - 1)]
-                ys[i] = seg.sol(tt) if seg.sol is not None else y
-                modes[i] = seg.mode
+                pc = pieces[max(0, bisect.bisect_right(starts, tt) - 1)]
+                ys[i] = pc[2](min(max(tt, pc[0]), pc[1]))
+                modes[i] = pc[3]
             return ys, modes
 
-        return Span(t0, t1, y, mode, events, states, tuple(peaks), nfev, len(segs), sampler)
+        return Span(t0, t1, y, mode, events, states, tuple(peaks), nfev, steps, sampler)
 
 
 # --------------------------------------------------------------------------- fast: compiled Rodas4P
@@ -267,7 +275,7 @@ def _drop_stale_cache(digest: str) -> None:
     folders = {Path(sys.modules[m].__file__).parent / "__pycache__" for m in ("lumped.rodas", *compiled.physics_modules())}
     for folder in folders:
         for f in folder.glob("*.nb[ic]"):
-            if "__pump_" in f.name and digest not in f.name:
+            if ("__pump_" in f.name or "__py_" in f.name) and digest not in f.name:
                 try:
                     f.unlink()
                 except OSError:  # another process's, or a read-only install: harmless
@@ -313,7 +321,7 @@ class RodasStepper(Stepper):
     name = "fast"
 
     def __init__(self, p: np.ndarray, rtol: float, atol: np.ndarray, n_dyn: int, atol_scalar: float,
-                 contact_atol: float | None = None, record: bool = True):
+                 contact_atol: float | None = None, record: bool = True, max_steps: int = 2_000_000):
         self.solver = compiled_solver()
         self.p = p
         self.rtol = rtol
@@ -324,7 +332,7 @@ class RodasStepper(Stepper):
         self.q[:NP] = p
         self.q[NP_EXT_TOL:NP_EXT_TOL + 12] = tolerance_table(atol_scalar, atol, p, contact_atol)
         self.h = None
-        self.period = None
+        self.max_steps = max_steps
 
     def advance(self, t0, t1, y, mode):
         from lumped import rodas
@@ -334,7 +342,7 @@ class RodasStepper(Stepper):
         q[NP_EXT_MODE:NP_EXT_MODE + N_MODE] = mode
         if self.h is None:
             self.h = 1e-4 * (t1 - t0)
-        opts = rodas.Options(self.rtol, self.atol.copy(), self.h, t1 - t0, 2_000_000, self.n_dyn,
+        opts = rodas.Options(self.rtol, self.atol.copy(), self.h, t1 - t0, self.max_steps, self.n_dyn,
                              t0 if self.record else np.inf, sw.N_SWITCHES, MAX_EVENTS_PER_REV, JAC_REUSE)
         r = self.solver(t0, np.asarray(y, dtype=float), np.array([t1]), q, opts)
         if r.status != rodas.OK:

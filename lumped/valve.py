@@ -69,7 +69,8 @@ class ValveKind:
     ``load(table, where, position)`` classmethod and a ``derived(oil)`` method giving the
     packed quantities that are not plain fields); ``acceleration``: du/dt with the
     signature of :func:`lumped.disc_valve.disc_acceleration` (numba-compilable);
-    ``block``: the offsets of its packed quantities (:func:`kind_block`);
+    ``block``: the offsets of its packed quantities (:func:`kind_block`); ``default_model``:
+    the shipped model whose valves give the keys a model file leaves out for this kind;
     ``contact_velocity_atol``: the fast path's velocity tolerance in contact, in units of
     atol x 1 m/s (how still the valve sits on its seat decides when it lets go);
     ``flow_area_unit``: "N" if the contact force is a force (disc) or "Pa" (per unit area).
@@ -79,6 +80,7 @@ class ValveKind:
     params: type
     acceleration: Callable
     block: tuple
+    default_model: str = ""
     contact_velocity_atol: float = 1.0
     summary: str = ""
     id: int = -1
@@ -119,7 +121,10 @@ def register(kind: ValveKind) -> ValveKind:
 def kind_of(valve) -> ValveKind:
     """The registered kind of a valve parameter object."""
     for k in KINDS.values():
-        if type(valve) is k.params or isinstance(valve, k.params):
+        if type(valve) is k.params:
+            return k
+    for k in KINDS.values():
+        if isinstance(valve, k.params):
             return k
     raise KeyError(f"{type(valve).__name__} is not a registered valve kind")
 

@@ -11,7 +11,7 @@ def configure(p):
     p.add_argument("--reed", default="prototype",
                    help="reed for the stress check: preset or reed TOML (default: prototype)")
     p.add_argument("--x-stop-mm", type=float, default=None,
-                   help="reed tip opening at the stop [mm] (default: 1.9 mm, lumped/data/reed_valve.toml)")
+                   help="reed tip opening at the stop [mm] (default: 1.9 mm, thesis-reed's stop.gap)")
     p.add_argument("--reverse-pressure-mpa", type=float, default=None,
                    help="reverse pressure difference on the closed reed [MPa] (default: geometry/data/seat_stop.toml)")
     p.add_argument("--mesh-size", type=float, default=None, help="element size [m] of the reed solid")

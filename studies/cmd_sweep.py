@@ -23,10 +23,14 @@ def configure(p):
     p.add_argument("--plot", action="store_true", help="also write main_effects.png into the sweep folder")
     p.add_argument("--force", action="store_true", help="start over in a folder that holds another sweep")
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    p.add_argument("--model", default=None, metavar="NAME|FILE",
+                   help="pump sweeps: the base pump model (a shipped one or a model file), overriding the spec's")
 
 
 def run(args) -> dict:
     spec = sweep.load_spec(args.spec)
+    if args.model is not None:
+        spec = sweep.with_base_model(spec, args.model)
     out = Path(args.out) if args.out else Path(f"sweep-{Path(args.spec).stem}")
     if args.scheduler is not None and args.workers is not None:
         raise InputError("--workers", "applies to the local cluster only; the scheduler at --scheduler has its own")
@@ -51,7 +55,7 @@ def render(r: dict) -> str:
     lines = [
         f"sweep of {r['designs']} designs ({r['model']}, {r['sampler']}) in {r['out']}",
         f"  computed {r['computed']}, already done {r['skipped']}, failed {r['failed']}",
-        f"  status: " + ", ".join(f"{k} {v}" for k, v in r["status_counts"].items()),
+        "  status: " + ", ".join(f"{k} {v}" for k, v in r["status_counts"].items()),
         f"  {r['wall_seconds']:.1f} s wall" + (f", {r['designs_per_hour']:.0f} designs/hour" if r["computed"] else ""),
         f"  results: {r['results']}" + ("" if r["complete"] else " (incomplete: rerun to resume)"),
     ]

@@ -122,7 +122,8 @@ def run(args) -> dict:
     summary["cases"] = [
         {"table": c["table"], "case": V.case_name(c), "modeled_cc": round(r.delivery_per_rev * 1e6, 5),
          "measured_cc": c["measured_delivery"] * 1e6, "thesis_modeled_cc": c["thesis_modeled_delivery"] * 1e6,
-         "peak_opening_mm": [round(x * 1e3, 4) for x in r.peak_opening], "stop_contacts": list(r.stop_contacts)}
+         "peak_opening_mm": [round(v.peak_opening * 1e3, 4) for v in r.valves.values()],
+         "stop_contacts": [v.stop_contacts for v in r.valves.values()]}
         for c, r in zip(selected, results)
     ]
     summary["wall_seconds"] = round(time.time() - t_start, 1)

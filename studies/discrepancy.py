@@ -38,7 +38,7 @@ from geometry.errors import InputError
 from lumped.effects import Applied, Effect, Library
 
 from .gap import (
-    CycleTrace, Folded, GapScales, Nuisance, RunGap, describe, findings, fit_nuisance, fold, predict, run_gap, summary,
+    CycleTrace, Folded, GapScales, Nuisance, describe, findings, fit_nuisance, fold, predict, run_gap, summary,
 )
 from .measured import Run
 

@@ -290,6 +290,22 @@ def parse_spec(doc: dict, text: str = "", base_dir: Path | None = None) -> Sweep
     return SweepSpec(model, sampler, factors, fixed, samples, seed, scramble, text)
 
 
+def with_base_model(spec: SweepSpec, model: str) -> SweepSpec:
+    """``spec`` with its pump model replaced (``--model``): a pump sweep whose fixed ``model`` is ``model``."""
+    from dataclasses import replace as _replace
+
+    from lumped.model_file import load_model as load_pump_model
+
+    if spec.model != "pump":
+        raise InputError("--model", f"the sweep's model is the module {spec.model!r}, not the pump")
+    if any(f.name in ("model", "valve") for f in spec.factors):
+        raise InputError("--model", "the sweep varies the pump model (a model or valve factor); drop --model")
+    name = model if load_pump_model(model, field="--model") and (Path(model).suffix != ".toml") else \
+        str(Path(model).resolve())
+    fixed = tuple((k, v) for k, v in spec.fixed if k not in ("model", "valve")) + (("model", name),)
+    return _replace(spec, fixed=fixed)
+
+
 def load_spec(path: str | Path) -> SweepSpec:
     """Read and check a sweep TOML file."""
     p = Path(path)

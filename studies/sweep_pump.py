@@ -168,21 +168,29 @@ def check_inputs(fixed: dict, factors: dict) -> None:
             bases = {_base_name({src: v}) for v in factors[src]}
             break
     if not bases:
-        _base_name({})
+        raise InputError("model", "missing: give the pump model (model = NAME|FILE, or valve = disc|reed) as a "
+                                  "factor or in [fixed]")
     keys = {k: [v] for k, v in fixed.items() if k not in OPERATING}
     keys.update({k: list(v) for k, v in factors.items() if k not in OPERATING})
-    for b in sorted(bases):
-        model = load_model(b, field="model")
-        base_values = {translate(k): v[0] for k, v in keys.items()}
-        for name, vals in keys.items():
-            for v in vals:
-                trial = dict(base_values, **{translate(name): v})
-                try:
-                    with_values(model, trial)
-                except InputError as exc:
-                    if exc.field in base_values or exc.field.startswith(translate(name)):
-                        raise InputError(name, exc.message) from None
-                    raise InputError(name, f"{exc.field}: {exc.message}") from None
+    base_values = {translate(k): v[0] for k, v in keys.items()}
+    for name, vals in keys.items():
+        # a key must make sense for at least one base model (a reed key in a disc-and-reed sweep:
+        # the disc designs then fail one by one, recorded with their error)
+        first_error = None
+        for b in sorted(bases):
+            model = load_model(b, field="model")
+            try:
+                for v in vals:
+                    with_values(model, dict(base_values, **{translate(name): v}))
+                first_error = None
+                break
+            except InputError as exc:
+                first_error = first_error or exc
+        if first_error is not None:
+            exc = first_error
+            if exc.field in base_values or exc.field.startswith(translate(name)):
+                raise InputError(name, exc.message) from None
+            raise InputError(name, f"{exc.field}: {exc.message}") from None
 
 
 def build_model(design: dict):

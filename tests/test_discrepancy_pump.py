@@ -38,13 +38,11 @@ def check_found(r: dict):
 
 def test_cyclic_steady_after_the_revolutions_simulated():
     # the workflow simulates REVOLUTIONS revolutions per run; one more changes nothing it measures
-    from lumped.pump_fast import simulate as fast
+    from lumped.cycle import simulate as pump
     c = RunCondition("r", "disc", 743.0, 2.81e6, 0.013)
     m = model_for(c, (Applied.of("seat_compliance", "delivery", {"k_seat": 1.5e6}),))
-    a = fast("disc", c.speed_rpm, c.load_pressure_pa, params=m, revolutions=REVOLUTIONS, trace=True,
-             trace_points=720)
-    b = fast("disc", c.speed_rpm, c.load_pressure_pa, params=m, revolutions=REVOLUTIONS + 2, trace=True,
-             trace_points=720)
+    a = pump(m, c.speed_rpm, c.load_pressure_pa, revolutions=REVOLUTIONS, trace=True, trace_points=720)
+    b = pump(m, c.speed_rpm, c.load_pressure_pa, revolutions=REVOLUTIONS + 2, trace=True, trace_points=720)
     assert a.delivery_per_rev == pytest.approx(b.delivery_per_rev, rel=1e-4)
     for v in ("inlet_position", "delivery_position"):
         assert np.max(np.abs(getattr(a.trace, v) - getattr(b.trace, v))) < 2e-6   # 2 um << 10 um noise

@@ -4,12 +4,20 @@ import math
 
 import pytest
 
-from lumped.effect_library import LIBRARY, contact_mass
+from lumped.effect_library import LIBRARY, baseline, resolve
 from lumped.effects import Applied
-from lumped.params import baseline_model, room_viscosity
+from lumped.model_file import load_model
+from lumped.reed_valve import modal_critical_damping
 from studies.discrepancy import RunCondition
 from studies.measured import Run
-from studies.pump_sim import model_for
+from studies import pump_sim
+
+MU = load_model("thesis-disc").oil.viscosity      # eq A.3 at 22 C
+
+
+def model_for(cond, effects):
+    """The resolved model (effects applied) the workflow simulates for a run condition."""
+    return resolve(pump_sim.model_for(cond, effects))
 
 CONTRACT_EFFECTS = ("seat_compliance", "squeeze_film", "flow_force", "added_mass", "fluid_damping",
                     "piston_leakage", "entrained_air")
@@ -27,30 +35,31 @@ def test_every_contract_effect_is_a_candidate():
 
 def test_baseline_has_every_effect_off_and_takes_the_stated_air():
     m = model_for(cond(), ())
-    assert m == baseline_model("disc")
+    assert m == baseline(load_model("thesis-disc")) and m.effects == ()
     assert m.inlet.seat_stiffness == pytest.approx(3.02e9) and m.delivery.seat_stiffness == pytest.approx(3.02e9)
     assert m.inlet.seat_damping == pytest.approx(6860.0) and m.delivery.seat_damping == pytest.approx(6860.0)
-    assert m.oil.effective_air == 0.0
-    assert model_for(cond(air=0.013), ()).oil.effective_air == pytest.approx(0.013)
+    assert m.oil.air_content == 0.0
+    assert model_for(cond(air=0.013), ()).oil.air_content == pytest.approx(0.013)
 
 
 def test_seat_compliance_damping_is_critical_as_in_table_2_3():
     # Table 2.3: k_seat = 1.5e6 N/m -> c_seat = 153 N s/m (eq 2.23 with 3.9 g)
     m = model_for(cond(), (Applied.of("seat_compliance", "delivery", {"k_seat": 1.5e6}),))
-    assert m.delivery.seat_compliance and not m.inlet.seat_compliance
+    assert m.inlet.seat_stiffness == pytest.approx(3.02e9)
     assert m.delivery.seat_stiffness == 1.5e6
-    assert m.delivery.seat_damping == pytest.approx(153.0, rel=0.005)
+    assert m.delivery.seat_damping_value == pytest.approx(153.0, rel=0.005)
     assert LIBRARY["seat_compliance"].report({"k_seat": 3.02e9}, "disc")["c_seat"] == pytest.approx(6860, rel=0.002)
-    assert contact_mass() == pytest.approx(3.9e-3)
+    assert load_model("thesis-disc").inlet.contact_mass == pytest.approx(3.9e-3)
 
 
 def test_reed_seat_variant_in_pressure_units():
     eff = LIBRARY["seat_compliance"]
     assert eff.parameter("k_seat", "reed").unit == "Pa/m" and eff.parameter("k_seat", "disc").unit == "N/m"
     m = model_for(cond("reed"), (Applied.of("seat_compliance", "delivery", {"k_seat": 8.49e9}),))
-    base = baseline_model("reed").delivery
-    # the loader's critical damping for the same stiffness (lumped/data/reed_valve.toml)
-    assert m.delivery.seat_damping == pytest.approx(base.compliant_seat_damping, rel=1e-3)
+    v = m.delivery
+    # critical damping of the modal equation for the new stiffness (eq 2.23)
+    assert v.seat_damping_value == pytest.approx(
+        modal_critical_damping(8.49e9, v.gamma1, v.density * v.effective_thickness), rel=1e-12)
 
 
 def test_squeeze_film_prior_is_eq_2_15():
@@ -58,9 +67,9 @@ def test_squeeze_film_prior_is_eq_2_15():
     c2 = eff.prior_values("disc")["C2"]
     # Table 2.3 prints 7.630e-11 N m^2 s, which eq 2.15 gives with mu(21 C) = 0.0705 Pa s;
     # C2 is proportional to mu, and valvelab's oil is at 22 C (mu = 0.0683 Pa s)
-    assert c2 * 0.0705 / room_viscosity() == pytest.approx(7.630e-11, rel=0.01)
+    assert c2 * 0.0705 / MU == pytest.approx(7.630e-11, rel=0.01)
     m = model_for(cond(), (Applied.of("squeeze_film", "both", {"C2": 2 * c2}),))
-    assert m.inlet.squeeze_film and m.inlet.c2(room_viscosity()) == pytest.approx(2 * c2)
+    assert m.inlet.squeeze_c2 == pytest.approx(2 * c2) and m.delivery.squeeze_c2 == pytest.approx(2 * c2)
     assert m.delivery.c1 == pytest.approx(0.714, abs=5e-4)   # the rest of the disc is untouched
 
 
@@ -68,7 +77,7 @@ def test_added_mass_priors():
     mf = LIBRARY["added_mass"].prior_values("disc")["m_f"]
     assert mf == pytest.approx(8.0 / 3.0 * 876.0 * 7.5e-3**3, rel=1e-6)   # Lamb's disc, R_o of Table 2.3
     m = model_for(cond(), (Applied.of("added_mass", "both", {"m_f": 3e-3}),))
-    assert m.inlet.moving_mass(876.0) == pytest.approx(2.5e-3 + 0.6e-3 / 3 + 3e-3)
+    assert m.inlet.moving_mass == pytest.approx(2.5e-3 + 0.6e-3 / 3 + 3e-3)
     assert LIBRARY["added_mass"].prior_values("reed")["Gamma_f"] == pytest.approx(0.885)   # Table 3.13
 
 
@@ -78,9 +87,9 @@ def test_fluid_damping_and_leakage():
     assert model_for(cond("reed"), ()).inlet.damping == pytest.approx(77.5)
     eff = LIBRARY["piston_leakage"]
     k = eff.report({"clearance": 2e-5}, "disc")["conductance"]
-    assert k == pytest.approx(math.pi * 15.88e-3 * 2e-5**3 / (12 * room_viscosity() * 20e-3), rel=1e-9)
+    assert k == pytest.approx(math.pi * 15.88e-3 * 2e-5**3 / (12 * MU * 20e-3), rel=1e-9)
     m = model_for(cond(), (Applied.of("piston_leakage", "pump", {"clearance": 2e-5}),))
-    assert m.pump.leakage_coefficient(room_viscosity()) == pytest.approx(k)
+    assert m.pump.leakage_coefficient(MU) == pytest.approx(k)
 
 
 def test_entrained_air_only_when_not_stated():
@@ -92,7 +101,7 @@ def test_entrained_air_only_when_not_stated():
     assert "fluid_damping" not in names(unstated)        # a reed effect
     assert "fluid_damping" in {e.name for e, _ in lib.candidates("reed", unstated)[0]}
     m = model_for(cond(), (Applied.of("entrained_air", "pump", {"R": 0.01}),))
-    assert m.oil.effective_air == pytest.approx(0.01)
+    assert m.oil.air_content == pytest.approx(0.01)
 
 
 def test_discharge_scale_scales_cd_everywhere():

@@ -15,7 +15,7 @@ from lumped import jacobian as J
 from lumped import pump as P
 from lumped import switching as sw
 from lumped.layout import pack
-from lumped.model_file import load_model, with_values
+from lumped.model_file import with_values
 from lumped.pump import G
 from studies.random_designs import random_design
 
@@ -110,7 +110,7 @@ def jacobian_errors(model, speed, load, circuit, seed, jac_fn):
 @pytest.mark.parametrize("effect, valve, circuit", CASES)
 def test_jacobian_equals_central_differences(effect, valve, circuit):
     model, speed, load = _model(valve, effect, seed=CASES.index((effect, valve, circuit)))
-    jac = compiled.function("lumped.jacobian", "pump_jacobian")
+    jac = compiled.cached("lumped.jacobian", "pump_jacobian")
     ej, et = jacobian_errors(model, speed, load, circuit, 7, jac)
     assert ej < 1.0, f"df/dy off by {ej:.3g} tolerance units"
     assert et < 1.0, f"df/dt off by {et:.3g} tolerance units"

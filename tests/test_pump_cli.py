@@ -30,12 +30,12 @@ def test_pump_json_and_trace(cli, tmp_path):
 
 
 def test_pump_fast_method_agrees_with_the_reference(cli):
-    """--method fast: the compiled path, same contract keys, delivery within 0.1 % of --method reference."""
+    """The compiled path (default): same contract keys, delivery within 0.1 % of --method reference."""
     args = ("pump", "--valve", "reed", "--speed-rpm", "595", "--load-pressure-mpa", "2.76", "--revolutions", "3",
             "--json")
-    rc, out, err, fast = cli(*args, "--method", "fast")
+    rc, out, err, fast = cli(*args)                      # the fast path is the default
     assert rc == 0, err
-    rc, out, err, ref = cli(*args)
+    rc, out, err, ref = cli(*args, "--method", "reference")
     assert rc == 0, err
     assert CONTRACT_KEYS <= set(fast) and fast["method"] == "fast" and ref["method"] == "reference"
     assert fast["delivery_cc_per_rev"] == pytest.approx(ref["delivery_cc_per_rev"], rel=1e-3)
@@ -104,11 +104,11 @@ def _fake_props(reed=None, mesh_size=None):
 
 
 def test_pump_takes_reed_parameters_from_a_reed_model(monkeypatch, capsys):
-    """--reed-geometry/--reed-fidelity go through studies.cmd_reed.reed_model."""
-    import studies.cmd_reed as cr
+    """--reed-geometry/--reed-fidelity go through the fidelity registry (lumped.reed_fidelity)."""
+    import lumped.reed_fidelity as rf
     from studies.cli import main
 
-    monkeypatch.setattr(cr, "reed_model", lambda fidelity: _fake_props)
+    monkeypatch.setattr(rf, "reed_model", lambda fidelity, field=None: _fake_props)
     rc = main(["pump", "--valve", "reed", "--speed-rpm", "595", "--load-pressure-mpa", "2.76", "--revolutions", "2",
                "--reed-geometry", "prototype", "--json"])
     out, err = capsys.readouterr()

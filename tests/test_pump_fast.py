@@ -38,7 +38,7 @@ def _random_states(model, rng, k=6):
 def test_compiled_physics_is_the_reference_physics(name):
     """lumped.pump.evaluate compiled by numba gives the Python function's numbers (every field)."""
     model = mixed_model() if name == "mixed" else load_model(name)
-    evaluate = compiled.function("lumped.pump", "evaluate")
+    evaluate = compiled.cached("lumped.pump", "evaluate")
     for p0, y, mode, t in _random_states(model, np.random.default_rng(5)):
         want = P.evaluate(t, y.tolist(), p0.tolist(), mode.tolist())
         got = evaluate(t, y, p0, mode)

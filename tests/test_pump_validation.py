@@ -5,12 +5,11 @@ the default suite checks one representative case of each finding.
 """
 
 import math
-from dataclasses import replace
 
 import pytest
 
-from lumped.params import table_5_1_dead_volume, thesis_model
-from lumped.pump import simulate
+from lumped.cycle import simulate
+from lumped.model_file import load_model
 from studies.validation import cases, run_cases, table_5_1_dead_volume_model, table_rows
 
 
@@ -21,21 +20,22 @@ def _case(valve, condition, measured):
 def test_reed_offset_is_a_dead_volume_not_a_valve_effect():
     """docs/errata.md 'Reed pump delivery offset': the reed manifolds' inferred V_tdc = 4.0e-5 m^3
     reproduces Table 5.6; Table 5.1's 2.17e-5 m^3 is ~10 % high."""
-    assert thesis_model("reed").pump.dead_volume == pytest.approx(4.0e-5)
-    assert table_5_1_dead_volume() == pytest.approx(2.17e-5)
+    assert load_model("thesis-reed").pump.dead_volume == pytest.approx(4.0e-5)
+    assert load_model("thesis-disc").pump.dead_volume == pytest.approx(2.17e-5)
     c = _case("reed", "high_speed", "delivery")            # 893 rpm, 3.03 MPa: the most demanding
-    r = simulate("reed", c["speed_rpm"], c["load_pressure"], revolutions=3)
+    r = simulate("thesis-reed", c["speed_rpm"], c["load_pressure"], revolutions=3, method="reference")
     assert r.delivery_per_rev == pytest.approx(c["thesis_modeled_delivery"], rel=2e-3)
-    r51 = simulate("reed", c["speed_rpm"], c["load_pressure"], params=table_5_1_dead_volume_model(c), revolutions=3)
+    r51 = simulate(table_5_1_dead_volume_model(c), c["speed_rpm"], c["load_pressure"], revolutions=3,
+                   method="reference")
     assert 1.08 < r51.delivery_per_rev / c["thesis_modeled_delivery"] < 1.12
 
 
 def test_complete_circuit_holds_the_load_pressure_and_agrees_with_the_simplified_one():
     """Section 4.2.2: the accumulator smooths the load, so the constant-load model is a fair stand-in."""
     c = _case("disc", "baseline", "inlet")
-    full = simulate("disc", c["speed_rpm"], c["load_pressure"], circuit="complete", revolutions=3,
-                    max_revolutions=20)
-    simple = simulate("disc", c["speed_rpm"], c["load_pressure"], revolutions=3)
+    full = simulate("thesis-disc", c["speed_rpm"], c["load_pressure"], circuit="complete", revolutions=3,
+                    max_revolutions=20, method="reference")
+    simple = simulate("thesis-disc", c["speed_rpm"], c["load_pressure"], revolutions=3, method="reference")
     assert full.cyclic_steady
     assert full.mean_load_pressure == pytest.approx(c["load_pressure"], rel=1e-3)
     assert full.delivery_per_rev == pytest.approx(simple.delivery_per_rev, rel=2e-3)
@@ -82,13 +82,14 @@ def test_table_5_6_table_5_1_dead_volume_offset_is_uniform():
 def test_integrator_convergence_study(valve):
     """Delivery vs rtol (Radau, atol = rtol): converged to 0.1 % well before the default 1e-6."""
     c = _case(valve, "baseline" if valve == "disc" else "low_speed", "inlet")
-    ref = simulate(valve, c["speed_rpm"], c["load_pressure"], revolutions=3, rtol=1e-9, atol=1e-9)
+    kw = dict(revolutions=3, method="reference")
+    ref = simulate(f"thesis-{valve}", c["speed_rpm"], c["load_pressure"], rtol=1e-9, atol=1e-9, **kw)
     for tol in (1e-4, 1e-5, 1e-6, 1e-7):
-        r = simulate(valve, c["speed_rpm"], c["load_pressure"], revolutions=3, rtol=tol, atol=tol)
+        r = simulate(f"thesis-{valve}", c["speed_rpm"], c["load_pressure"], rtol=tol, atol=tol, **kw)
         assert r.delivery_per_rev == pytest.approx(ref.delivery_per_rev, rel=1e-3), tol
         assert r.mass_balance_error < 1e-9
     # the default's error is far below the 0.1 % the tables need
-    r = simulate(valve, c["speed_rpm"], c["load_pressure"], revolutions=3)
+    r = simulate(f"thesis-{valve}", c["speed_rpm"], c["load_pressure"], **kw)
     assert abs(r.delivery_per_rev / ref.delivery_per_rev - 1) < 1e-5
 
 
@@ -106,8 +107,8 @@ def test_validate_full_run(cli, tmp_path):
 
 
 def test_air_content_is_the_thesis_value_per_valve():
-    assert thesis_model("disc").oil.air_content == pytest.approx(0.013)
-    assert thesis_model("reed").oil.air_content == pytest.approx(0.008)
+    assert load_model("thesis-disc").oil.air_content == pytest.approx(0.013)
+    assert load_model("thesis-reed").oil.air_content == pytest.approx(0.008)
     for c in cases():
-        assert c["air_content"] == thesis_model(c["valve"]).oil.air_content
-    assert math.isclose(replace(thesis_model("disc").pump).dead_volume, 2.17e-5)
+        assert c["air_content"] == load_model(f"thesis-{c['valve']}").oil.air_content
+    assert math.isclose(load_model("thesis-disc").pump.dead_volume, 2.17e-5)

@@ -317,7 +317,7 @@ def test_pump_model_vets_names_and_values():
         ("[fixed]\nvalve='disc'\nload_pressure=2.8e6\ninlet.nonsense=1.0\n", "fixed.inlet.nonsense"),
         ("[fixed]\nvalve='disc'\nload_pressure=2.8e6\npump.dead_volume=-1e-6\n", "fixed.pump.dead_volume"),
         ("[fixed]\nvalve='gate'\nload_pressure=2.8e6\n", "fixed.valve"),
-        ("[fixed]\nvalve='disc'\n", "fixed"),  # load_pressure missing
+        ("[fixed]\nload_pressure=2.8e6\n", "fixed.model"),  # no pump model
         ("[fixed]\nvalve='disc'\nload_pressure=2.8e6\neffect.magic=true\n", "fixed.effect.magic"),
         ("[fixed]\nvalve='disc'\nload_pressure=2.8e6\nvalves.f1=1.5\n", "fixed.valves.f1"),
     ]
@@ -342,7 +342,7 @@ def test_pump_sweep_on_local_cluster(client, tmp_path):
     s = sweep.run_sweep(spec, tmp_path / "pump", client=client, progress=False)
     df = pd.read_parquet(s["results"]).set_index(["valve", "speed_rpm"])
     disc, reed = df.loc["disc"], df.loc["reed"]
-    assert (disc["status"] == "error").all() and disc["error"].str.contains("not a parameter of disc").all()
+    assert (disc["status"] == "error").all() and disc["error"].str.contains("structure").all()
     assert reed["status"].isin(["ok", "not_cyclic"]).all() and s["failed"] == 2
     # volumetric efficiency is delivery over the swept volume 2 A_p r (Table 5.1: d = 15.88 mm, r = 5.6 mm)
     swept = 2 * math.pi * 15.88e-3**2 / 4 * 5.6e-3
