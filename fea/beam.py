@@ -66,12 +66,6 @@ def _load(v, w):
     return w.q * v
 
 
-def _field(basis: Basis, fn) -> np.ndarray:
-    """A function of s evaluated at the quadrature points, shaped (nelems, nq)."""
-    x = np.asarray(basis.global_coordinates())[0]
-    return np.asarray(fn(x.ravel()), dtype=float).reshape(x.shape)
-
-
 def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> BeamResult:
     """Bending modes [rad/s], uniform-load stiffness kappa = p / v(L) [Pa/m] and shapes of the E-B beam.
 
@@ -82,30 +76,35 @@ def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> BeamR
     check_size(reed, h)
     check_memory("beam model", *estimate(reed, h))
     mesh = line_mesh(reed, h)
-    basis = Basis(mesh, ElementLineHermite(), intorder=INTORDER)
-    x = np.asarray(basis.global_coordinates())[0]
+    # Hermite DOFs are w and w': in metres their scales differ by the element length and
+    # round-off is amplified ~(L/h)^4; assemble in units of the element length ell instead:
+    # K = K'/ell^3, M = M' ell, f = f' ell, so omega^2 = lambda'/ell^4 and w = ell^4 K'^-1 f'.
+    ell = h
+    basis = Basis(type(mesh)(mesh.p / ell, mesh.t), ElementLineHermite(), intorder=INTORDER)
+    x = np.asarray(basis.global_coordinates())[0] * ell
     A, I2 = reed.section(x.ravel())
     EI = reed.material.youngs_modulus * I2.reshape(x.shape)
     m = reed.material.density * A.reshape(x.shape)
-    q = _field(basis, reed.width)  # p = 1 Pa
+    q = np.asarray(reed.width(x.ravel()), dtype=float).reshape(x.shape)  # p = 1 Pa
     K = asm(_stiffness, basis, EI=EI)
     M = asm(_mass, basis, m=m)
     f = asm(_load, basis, q=q)
-    D = basis.get_dofs(lambda x: x[0] < 1e-15).all()
-    u = fem_solve(*condense(K, f, D=D))
+    D = basis.get_dofs(lambda x: x[0] < 1e-12).all()
+    u = fem_solve(*condense(K, f, D=D)) * ell**4
     Kc, Mc, _, I = condense(K, M, D=D)
     k = min(int(n_modes), len(I) - 2)
-    vals, vecs = spla.eigsh(Kc.tocsc(), k=k, M=Mc.tocsc(), sigma=0.0, which="LM")
+    vals, vecs = spla.eigsh(Kc.tocsc(), k=k, M=Mc.tocsc(), sigma=0.0, which="LM",
+                            v0=np.ones(Kc.shape[0]))  # a fixed start: reproducible results
     order = np.argsort(vals)
-    vals, vecs = vals[order], vecs[:, order]
+    vals, vecs = vals[order] / ell**4, vecs[:, order]
     s = np.linspace(0.0, reed.length, N_SHAPE)
-    P = basis.probes(np.clip(s, 0.0, reed.length * (1 - 1e-14))[None, :])
+    P = basis.probes(np.clip(s, 0.0, reed.length * (1 - 1e-14))[None, :] / ell)
     w = P @ u
     full = np.zeros((K.shape[0], k))
     full[I] = vecs
     shapes = P @ full                      # (N_SHAPE, k) mode shapes on s
     phi = shapes[:, 0]
-    tip = basis.get_dofs(lambda x: np.abs(x[0] - reed.length) < 1e-12 * max(1.0, reed.length)).nodal["u"][0]
+    tip = basis.get_dofs(lambda x: np.abs(x[0] - reed.length / ell) < 1e-9).nodal["u"][0]
     kappa = 1.0 / u[tip]
     return BeamResult(
         omega=np.sqrt(vals), kinds=["bending"] * k, bending_index=0, kappa=kappa, s=s,

@@ -125,7 +125,7 @@ def beam_bending_stress(reed: Reed, pressure: float, s0: float = 0.0) -> float:
     M = pressure * np.trapezoid(reed.width(s) * (s - s0), s)
     A, I = reed.section(s0)
     # extreme fibre: the neutral axis shifts away from the grooved face
-    W, h = float(reed.width(s0)), reed.thickness
+    W, h = float(reed.width(s0)), float(reed.thickness_profile(s0))
     zc = (W * h * h / 2 - sum((y1 - y0) * d * d / 2 for y0, y1, d in reed._pockets(s0))) / A
     return float(M * max(zc, h - zc) / I)
 
@@ -141,7 +141,7 @@ def max_opening_stress(reed: Reed, x_stop: float | None = None, mesh_size=None,
     w1 = _tip_deflection(basis, reed, u1)
     p = x_stop / w1  # Pa: linear, so the 1 Pa solution scales
     u = p * u1
-    ce = 2 * reed.thickness if clamp_exclusion is None else clamp_exclusion
+    ce = 2 * reed.max_thickness if clamp_exclusion is None else clamp_exclusion
     mx, loc, away = _stress_summary(reed, basis, u, ce)
     return StressCheck("max_opening", p, x_stop, mx, loc, away, beam_bending_stress(reed, p),
                        yield_stress, dofs, h)
@@ -161,7 +161,7 @@ def seat_reverse_stress(reed: Reed, seat: ReedSeat | None = None, pressure: floa
     zmin = mesh.p[2, mesh.facets[:, bf]].min(axis=0)
     zmax = mesh.p[2, mesh.facets[:, bf]].max(axis=0)
     flat = zmax - zmin < 1e-12
-    top = bf[flat & (np.abs(mid[2] - reed.thickness) < 1e-12)]
+    top = bf[flat & (np.abs(mid[2] - reed.thickness_profile(mid[0])) < 1e-12 * max(1.0, reed.max_thickness))]
     land = bf[flat & (np.abs(mid[2]) < 1e-12) & ~seat.in_slot(mid[0], mid[1])]
     fb = FacetBasis(mesh, basis.elem, facets=top, intorder=INTORDER)
     f = np.zeros(3 * basis.N)
@@ -170,7 +170,7 @@ def seat_reverse_stress(reed: Reed, seat: ReedSeat | None = None, pressure: floa
     support = basis.get_dofs(facets=land).all()
     fixed = np.unique(np.concatenate([fixed_dofs(basis, half), 3 * support + 2]))
     u, dofs = _solve(K, f, fixed)
-    ce = 2 * reed.thickness if clamp_exclusion is None else clamp_exclusion
+    ce = 2 * reed.max_thickness if clamp_exclusion is None else clamp_exclusion
     mx, loc, away = _stress_summary(reed, basis, u, ce)
     return StressCheck("seat_reverse", p, _tip_deflection(basis, reed, u), mx, loc, away, None,
                        yield_stress, dofs, h)

@@ -49,25 +49,32 @@ def _parse_bytes(text: str) -> float:
     return float(text[:-1] if scale != 1.0 else text) * scale
 
 
-def memory_limit() -> float:
-    """Bytes an FE run may use: MEMORY_FRACTION of the available memory, or VALVELAB_MEMORY_LIMIT if smaller."""
+def _limit_and_source() -> tuple[float, str]:
     limit = MEMORY_FRACTION * available_memory()
+    source = f"{MEMORY_FRACTION:.0%} of the memory available now"
     env = os.environ.get("VALVELAB_MEMORY_LIMIT")
     if env:
         try:
-            limit = min(limit, _parse_bytes(env))
+            cap = _parse_bytes(env)
         except ValueError:
             raise InputError("VALVELAB_MEMORY_LIMIT", f"expected bytes such as 2e9 or 2G, got {env!r}") from None
-    return limit
+        if cap < limit:
+            limit, source = cap, "VALVELAB_MEMORY_LIMIT"
+    return limit, source
+
+
+def memory_limit() -> float:
+    """Bytes an FE run may use: MEMORY_FRACTION of the available memory, or VALVELAB_MEMORY_LIMIT if smaller."""
+    return _limit_and_source()[0]
 
 
 def check_memory(what: str, dofs: float, nbytes: float, field: str = "--mesh-size") -> None:
     """InputError naming ``field`` when ``nbytes`` [bytes] exceeds :func:`memory_limit`; ``what`` names the model."""
-    limit = memory_limit()
+    limit, source = _limit_and_source()
     if nbytes > limit:
         raise InputError(field, f"the {what} would have about {dofs:,.0f} DOFs and need about "
-                         f"{nbytes / 1e9:.1f} GB, more than the {limit / 1e9:.1f} GB this machine can give it "
-                         f"now ({MEMORY_FRACTION:.0%} of the available memory); choose a coarser mesh size")
+                         f"{nbytes / 1e9:.2g} GB, more than the {limit / 1e9:.2g} GB allowed ({source}); "
+                         "choose a coarser mesh size")
 
 
 # -- models ---------------------------------------------------------------------------------
