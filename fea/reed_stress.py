@@ -30,7 +30,8 @@ from geometry.reed import Reed
 from geometry.seat_stop import ReedSeat, load_reed_seat
 
 from .mesh import is_symmetric, solid_mesh
-from .solid import DEFAULT_LAYERS, INTORDER, assemble, default_mesh_size, fixed_dofs, pressure_load
+from .resources import check_memory
+from .solid import DEFAULT_LAYERS, INTORDER, assemble, default_mesh_size, estimate, fixed_dofs, pressure_load
 
 #: Delrin 2700 NC010 yield stress [Pa] (thesis section 3.1.1)
 YIELD_STRESS_DELRIN = 63.0e6
@@ -84,6 +85,7 @@ def _setup(reed: Reed, mesh_size, symmetric_extra=True):
     h = default_mesh_size(reed) if mesh_size is None else float(mesh_size)
     half = is_symmetric(reed) and symmetric_extra
     sm = solid_mesh(reed, h, layers=DEFAULT_LAYERS, half=half)
+    check_memory("stress model", *estimate(reed, sm))
     basis = Basis(sm.mesh, ElementHex2(), intorder=INTORDER)
     m = reed.material
     K, _ = assemble(basis, m.youngs_modulus, m.poisson_ratio, m.density)

@@ -2,7 +2,8 @@
 3.11 (alpha from FEA), and the Figure 3.12 style mode-shape plot.
 
 All FEA values here come from the 3-D solid (:mod:`fea.solid`) at its default mesh, whose
-discretisation error the convergence study puts below 0.3 % (docs/errata.md, FEA section).
+discretisation error the convergence study puts at 0.005-0.22 % in omega_n and 0.01-0.42 %
+in kappa on the four reeds (docs/fea.md).
 E-B values come from the analytic model (``lumped.reed_beam``, exact E-B for the real
 profile) when it is installed, otherwise from the beam FE model, the same theory to
 1e-6 (tests/test_fea_beam.py).

@@ -9,7 +9,7 @@ from fea.convergence import ELEMENT_ORDER, convergence_study, default_sizes, ric
 from geometry import load_reed
 
 
-@pytest.mark.parametrize("p", [1.0, 2.0, 4.0])
+@pytest.mark.parametrize("p", [1.2, 2.0, 4.0])
 def test_recovers_order_and_limit_of_a_power_law(p):
     f_inf, C = 2400.0, 37.0
     h = default_sizes(1.0e-3)
@@ -38,9 +38,9 @@ def test_monotonic_but_not_shrinking_changes_give_no_order():
     assert r.error_pct[1] == pytest.approx((0.2 + 0.2) / 9.7 * 100)
 
 
-@pytest.mark.parametrize("p,asymptotic", [(0.3, False), (1.3, True), (4.0, True), (6.0, False)])
+@pytest.mark.parametrize("p,asymptotic", [(0.6, False), (1.3, True), (4.0, True), (6.0, False)])
 def test_observed_order_must_be_plausible_for_the_element(p, asymptotic):
-    """Orders below 0.5 (pre-asymptotic) or above 1.25 x the element's (noise) are not trusted."""
+    """Orders below 1 (pre-asymptotic) or above 1.25 x the element's (noise) are not trusted."""
     h = default_sizes(1.0)
     r = richardson(h, [1.0 + 0.01 * x**p for x in h], theoretical_order=4.0)
     assert r.converging and r.asymptotic == asymptotic and r.reliable == asymptotic
@@ -59,17 +59,17 @@ def test_sizes_ratio():
 def test_study_of_the_beam_estimates_its_true_error():
     """Known converged value: the exact E-B model (lumped.reed_beam, 1e-10) is the beam's limit.
 
-    On coarse meshes (L/4, L/8, L/16) of stepped reed #2 the Hermite beam is in its
-    asymptotic range; the estimated error of the middle mesh is within a factor 1.5 of its
-    actual error against the exact value.
+    On meshes L/16, L/32, L/64 of stepped reed #2 the Hermite beam is in its asymptotic range
+    (order 1.5: the rounded tip's square-root width); the estimated error of the middle mesh is
+    within a factor 1.5 of its actual error against the exact value (measured: 1.00).
     """
     from lumped import reed_beam as rb
 
     reed = load_reed("stepped2")
     exact = rb.reed_properties(reed)
     L = reed.length
-    study = convergence_study(reed, "beam", sizes=(L / 4, L / 8, L / 16), quantities=("omega_n", "kappa"),
-                              progress=False)
+    study = convergence_study(reed, "beam", sizes=(L / 16, L / 32, L / 64), quantities=("omega_n", "kappa"),
+                              progress=False, max_extra=0)
     assert study["reliable"] and study["default_index"] == 1
     for q in ("omega_n", "kappa"):
         c = study["quantities"][q]
@@ -77,3 +77,4 @@ def test_study_of_the_beam_estimates_its_true_error():
         true = abs(c["values"][1] - getattr(exact, q)) / getattr(exact, q) * 100
         assert true > 1e-6  # a measurable error, not round-off
         assert true / 1.5 <= c["default_error_pct"] <= 1.5 * true, (q, c, true)
+
