@@ -19,7 +19,6 @@ more when the thickness exceeds twice the element size.
 from __future__ import annotations
 
 import functools
-import math
 import time
 from dataclasses import dataclass, field
 

@@ -81,6 +81,6 @@ def run(args) -> dict:
 def render(r: dict) -> str:
     lines = []
     for g, ms in r["modes"].items():
-        lines.append(f"{g} ({r.get('fidelity', 'solid')}): " + ", ".join(f"{m['omega']:.0f} rad/s {m['label']}" for m in ms))
+        lines.append(f"{g} ({r.get('fidelity', 'solid')}): " + ", ".join(f"{m['omega']:.5g} rad/s {m['label']}" for m in ms))
     lines += [f"wrote {f}" for f in r["files"]]
     return "\n".join(lines)

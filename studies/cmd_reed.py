@@ -101,13 +101,13 @@ def _plot(path, reed, fidelity, props, mesh_size):
 def render(r: dict) -> str:
     lines = [
         f"reed {r['geometry']} ({r['fidelity']})",
-        f"  omega_n = {r['omega_n']:.1f} rad/s ({r['omega_n'] / 6.283185307:.1f} Hz)",
-        f"  kappa   = {r['kappa'] / 1e6:.4f} MPa/m",
+        f"  omega_n = {r['omega_n']:.6g} rad/s ({r['omega_n'] / 6.283185307:.6g} Hz)",
+        f"  kappa   = {r['kappa'] / 1e6:.6g} MPa/m",
         f"  gamma1..3 = {r['gamma1']:.4f}, {r['gamma2']:.4f}, {r['gamma3']:.4f}",
-        f"  h_eff   = {r['h_eff'] * 1e3:.4f} mm",
+        f"  h_eff   = {r['h_eff'] * 1e3:.5g} mm",
     ]
     if r["dofs"] is not None:
         lines.append(f"  dofs = {r['dofs']}, mesh size = {r['mesh_size'] * 1e3:.4g} mm")
     for k, (w, kind) in enumerate(zip(r.get("frequencies", []), r.get("mode_kinds", []))):
-        lines.append(f"  mode {k + 1}: {w:.1f} rad/s ({w / 6.283185307:.4g} Hz)  {kind}")
+        lines.append(f"  mode {k + 1}: {w:.6g} rad/s ({w / 6.283185307:.5g} Hz)  {kind}")
     return "\n".join(lines)

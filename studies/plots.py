@@ -37,7 +37,7 @@ def plot_reed_shapes(path, reed, shapes: dict, title: str | None = None) -> Path
     out = reed.outline()
     ax0.fill(out[:, 0] * 1e3, out[:, 1] * 1e3, color="0.85", ec="k", lw=1)
     if reed.grooves:  # pockets shaded by depth
-        ss, yy = np.meshgrid(np.linspace(0, reed.length, 400), np.linspace(-reed.width_tip / 2, reed.width_tip / 2, 200))
+        ss, yy = np.meshgrid(np.linspace(0, reed.length, 400), np.linspace(-reed.max_width / 2, reed.max_width / 2, 200))
         inside = np.abs(yy) <= reed.width(ss) / 2
         depth = np.where(inside, reed.groove_depth(ss, yy), np.nan)
         depth = np.where(depth > 0, depth, np.nan)
@@ -121,24 +121,25 @@ def plot_mode_shapes(path, reed, s, y, w, omega, labels, title: str | None = Non
     panel_h = max(1.6, min(3.2, 3.6 * aspect + 0.9)) if two_d else 2.4
     fig = Figure(figsize=(4.0 * cols, panel_h * rows + 0.6), layout="constrained")
     axes = np.atleast_1d(fig.subplots(rows, cols, squeeze=False)).ravel()
-    s_mm = np.asarray(s) * 1e3
+    scale, unit = (1.0, "m") if reed.length > 1.0 else (1e3, "mm")   # lengths in m or mm
+    s_mm = np.asarray(s) * scale
     for k in range(n):
         ax = axes[k]
         if two_d:
             S = np.repeat(s_mm[:, None], w.shape[2], axis=1)
-            cs = ax.contourf(S, np.asarray(y) * 1e3, w[k], levels=np.linspace(-1, 1, 21), cmap="RdBu_r")
-            ax.contour(S, np.asarray(y) * 1e3, w[k], levels=[0.0], colors="k", linewidths=0.8)
+            cs = ax.contourf(S, np.asarray(y) * scale, w[k], levels=np.linspace(-1, 1, 21), cmap="RdBu_r")
+            ax.contour(S, np.asarray(y) * scale, w[k], levels=[0.0], colors="k", linewidths=0.8)
             out = reed.outline()
-            ax.plot(out[:, 0] * 1e3, out[:, 1] * 1e3, color="0.3", lw=0.6)
+            ax.plot(out[:, 0] * scale, out[:, 1] * scale, color="0.3", lw=0.6)
             ax.set_aspect("equal")
-            ax.set_ylabel("y [mm]")
+            ax.set_ylabel(f"y [{unit}]")
             fig.colorbar(cs, ax=ax, label=r"$u_z / \max|u_z|$ [-]", shrink=0.85, ticks=[-1, 0, 1])
         else:
             ax.plot(s_mm, w[k, :, 0], color="C0")
             ax.axhline(0.0, color="0.6", lw=0.5)
             ax.set_ylabel(r"$w / \max|w|$ [-]")
             ax.grid(alpha=0.3)
-        ax.set_xlabel("s [mm] (clamp at 0)")
+        ax.set_xlabel(f"s [{unit}] (clamp at 0)")
         ax.set_title(f"{labels[k]}: {omega[k]:.4g} rad/s ({omega[k] / (2 * np.pi):.4g} Hz)", fontsize=9)
     for ax in axes[n:]:
         ax.set_visible(False)

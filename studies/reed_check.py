@@ -142,7 +142,7 @@ def render_check(c: dict) -> str:
              f"{'':<9} {'rad/s':>9} {'MPa/m':>9}"]
     for r in c["rows"]:
         lines.append(
-            f"{r['fidelity']:<9} {r['omega_n']:9.1f} {r['kappa'] / 1e6:9.4f} {r['gamma1']:7.4f} "
+            f"{r['fidelity']:<9} {r['omega_n']:9.6g} {r['kappa'] / 1e6:9.5g} {r['gamma1']:7.4f} "
             f"{r['gamma2']:7.4f} {r['gamma3']:7.4f} {r['dofs'] if r['dofs'] is not None else '-':>7} "
             f"{r['seconds']:6.1f}")
         d = r["deviation_pct"]
@@ -162,7 +162,7 @@ def render_check(c: dict) -> str:
                     cells.append(f"{'-':>20}")
                     continue
                 d = r["mode_deviation_pct"].get(lab)
-                cells.append(f"{r['frequencies'][k]:>11.1f}" + (f" ({d:+6.2f})" if d is not None else " " * 9))
+                cells.append(f"{r['frequencies'][k]:>11.6g}" + (f" ({d:+6.2f})" if d is not None else " " * 9))
             lines.append(f"{lab:<22}" + "".join(cells))
     if c["flagged"]:
         lines.append("FLAGGED (beyond tolerance): " + ", ".join(c["flagged"]))
