@@ -269,3 +269,13 @@ def test_every_section_may_carry_its_thickness():
         sec["thickness"] = h
     r = parse_reed(d)
     assert r.thickness == 1.5e-3 and [p.h for p in r.pieces()] == [1.5e-3, 1.2e-3, 1.0e-3]
+
+
+@pytest.mark.parametrize("name", ["fv16", "three_section"])
+def test_example_geometry_files_parse(name):
+    from importlib import resources
+
+    path = resources.files("geometry").joinpath(f"data/reed_{name}.toml")
+    r = load_reed(str(path))
+    assert r.name == name and r.mass > 0
+    assert parse_reed(tomllib.loads(reed_to_toml(r))) == r
