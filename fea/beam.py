@@ -5,9 +5,12 @@ The same theory as the analytic model (thesis eq 3.8 without damping and fluid):
 EI(s) and m(s) = rho A(s) come from the exact outline and section of
 :meth:`geometry.Reed.section` (grooves as a reduced section, neutral axis shifted);
 the uniform pressure gives q(s) = p W(s) (eq 3.30 with X = 1). Only bending exists.
+Default element length L / 200 (any reed size).
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse.linalg as spla
@@ -16,17 +19,36 @@ from skfem import Basis, BilinearForm, ElementLineHermite, LinearForm, asm, cond
 from geometry.reed import Reed
 from lumped.mode_function import ReedProperties
 
-from .mesh import line_mesh
-from .modes import ModalResult
+from .mesh import check_size, line_mesh
+from .modes import ModalResult, ModeShapes, bending_labels
+from .resources import beam_bytes, check_memory
 
-#: default element length [m]; Hermite cubics converge as h^4: L/200 is exact to ~1e-9
-DEFAULT_MESH_SIZE = 25.4e-3 / 200
+#: default elements per reed length; Hermite cubics converge as h^4: L/200 is exact to ~1e-9
+ELEMENTS_PER_LENGTH = 200
+#: the default element length [m] of the 1 in thesis reeds (kept for reference)
+DEFAULT_MESH_SIZE = 25.4e-3 / ELEMENTS_PER_LENGTH
 #: Gauss order: high, because W(s) of a rounded tip has a square-root end
 INTORDER = 10
 N_SHAPE = 801
 
 
-BeamResult = ModalResult   # every beam mode is a bending mode: bending_index = 0
+def default_mesh_size(reed: Reed) -> float:
+    """The default element length [m]: L / 200 (0.127 mm on the 1 in thesis reeds)."""
+    return float(f"{reed.length / ELEMENTS_PER_LENGTH:.6g}")
+
+
+def estimate(reed: Reed, mesh_size: float) -> tuple[int, float]:
+    """(DOFs, peak bytes) of the beam with elements of at most ``mesh_size`` [m] (2 DOFs per node)."""
+    n = sum(max(1, int(np.ceil((b - a) / mesh_size - 1e-9)))
+            for a, b in zip(reed.breakpoints()[:-1], reed.breakpoints()[1:]) if b - a >= 1e-12)
+    return 2 * n, beam_bytes(2 * n)
+
+
+@dataclass
+class BeamResult(ModalResult):
+    """The beam's modal result (every mode is a bending mode: bending_index = 0) and its mode shapes."""
+
+    shapes: np.ndarray = None    # w of each mode at ``s``, columns
 
 
 @BilinearForm
@@ -44,42 +66,50 @@ def _load(v, w):
     return w.q * v
 
 
-def _field(basis: Basis, fn) -> np.ndarray:
-    """A function of s evaluated at the quadrature points, shaped (nelems, nq)."""
-    x = np.asarray(basis.global_coordinates())[0]
-    return np.asarray(fn(x.ravel()), dtype=float).reshape(x.shape)
-
-
 def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> BeamResult:
-    """Bending modes, uniform-load stiffness kappa = p / v(L) [Pa/m] and shapes of the E-B beam."""
-    h = DEFAULT_MESH_SIZE if mesh_size is None else float(mesh_size)
+    """Bending modes [rad/s], uniform-load stiffness kappa = p / v(L) [Pa/m] and shapes of the E-B beam.
+
+    EI(s), rho A(s) of any profile (steps, tapers, thickness steps, grooves); the mode
+    shapes (``modes``, w at ``s``) are kept for plots. DOFs and memory are checked first.
+    """
+    h = default_mesh_size(reed) if mesh_size is None else float(mesh_size)
+    check_size(reed, h)
+    check_memory("beam model", *estimate(reed, h))
     mesh = line_mesh(reed, h)
-    basis = Basis(mesh, ElementLineHermite(), intorder=INTORDER)
-    x = np.asarray(basis.global_coordinates())[0]
+    # Hermite DOFs are w and w': in metres their scales differ by the element length and
+    # round-off is amplified ~(L/h)^4; assemble in units of the element length ell instead:
+    # K = K'/ell^3, M = M' ell, f = f' ell, so omega^2 = lambda'/ell^4 and w = ell^4 K'^-1 f'.
+    ell = h
+    basis = Basis(type(mesh)(mesh.p / ell, mesh.t), ElementLineHermite(), intorder=INTORDER)
+    x = np.asarray(basis.global_coordinates())[0] * ell
     A, I2 = reed.section(x.ravel())
     EI = reed.material.youngs_modulus * I2.reshape(x.shape)
     m = reed.material.density * A.reshape(x.shape)
-    q = _field(basis, reed.width)  # p = 1 Pa
+    q = np.asarray(reed.width(x.ravel()), dtype=float).reshape(x.shape)  # p = 1 Pa
     K = asm(_stiffness, basis, EI=EI)
     M = asm(_mass, basis, m=m)
     f = asm(_load, basis, q=q)
-    D = basis.get_dofs(lambda x: x[0] < 1e-15).all()
-    u = fem_solve(*condense(K, f, D=D))
+    D = basis.get_dofs(lambda x: x[0] < 1e-12).all()
+    u = fem_solve(*condense(K, f, D=D)) * ell**4
     Kc, Mc, _, I = condense(K, M, D=D)
-    vals, vecs = spla.eigsh(Kc.tocsc(), k=n_modes, M=Mc.tocsc(), sigma=0.0, which="LM")
+    k = min(int(n_modes), len(I) - 2)
+    vals, vecs = spla.eigsh(Kc.tocsc(), k=k, M=Mc.tocsc(), sigma=0.0, which="LM",
+                            v0=np.ones(Kc.shape[0]))  # a fixed start: reproducible results
     order = np.argsort(vals)
-    vals, vecs = vals[order], vecs[:, order]
+    vals, vecs = vals[order] / ell**4, vecs[:, order]
     s = np.linspace(0.0, reed.length, N_SHAPE)
-    P = basis.probes(np.clip(s, 0.0, reed.length * (1 - 1e-14))[None, :])
+    P = basis.probes(np.clip(s, 0.0, reed.length * (1 - 1e-14))[None, :] / ell)
     w = P @ u
-    phi_full = np.zeros(K.shape[0])
-    phi_full[I] = vecs[:, 0]
-    phi = P @ phi_full
-    tip = basis.get_dofs(lambda x: np.abs(x[0] - reed.length) < 1e-12).nodal["u"][0]
+    full = np.zeros((K.shape[0], k))
+    full[I] = vecs
+    shapes = P @ full                      # (N_SHAPE, k) mode shapes on s
+    phi = shapes[:, 0]
+    tip = basis.get_dofs(lambda x: np.abs(x[0] - reed.length / ell) < 1e-9).nodal["u"][0]
     kappa = 1.0 / u[tip]
     return BeamResult(
-        omega=np.sqrt(vals), kinds=["bending"] * n_modes, bending_index=0, kappa=kappa, s=s,
-        psi_static=w / w[-1], psi_mode=phi / phi[-1], dofs=len(I), mesh_size=h,
+        omega=np.sqrt(vals), kinds=["bending"] * k, bending_index=0, kappa=kappa, s=s,
+        psi_static=w / w[-1], psi_mode=phi / phi[-1], dofs=len(I), mesh_size=h, labels=bending_labels(k),
+        shapes=shapes,
     )
 
 
@@ -88,3 +118,35 @@ def reed_properties(reed: Reed, mesh_size: float | None = None) -> ReedPropertie
     r = solve(reed, mesh_size)
     return ReedProperties.from_shape("beam", reed, r.omega_n, r.kappa, r.s, r.psi_static,
                                      dofs=r.dofs, mesh_size=r.mesh_size)
+
+
+def modes(reed: Reed, n: int, mesh_size: float | None = None) -> BeamResult:
+    """The first n bending frequencies [rad/s] of the E-B beam FE model, labelled bending 1..n."""
+    return solve(reed, mesh_size, n_modes=max(int(n), 1))
+
+
+def properties_and_modes(reed: Reed, n: int, mesh_size: float | None = None):
+    """(ReedProperties, BeamResult with n modes) from one solution."""
+    r = modes(reed, n, mesh_size)
+    props = ReedProperties.from_shape("beam", reed, r.omega_n, r.kappa, r.s, r.psi_static,
+                                      dofs=r.dofs, mesh_size=r.mesh_size)
+    return props, r
+
+
+def mode_shapes(result: BeamResult, reed: Reed, n: int | None = None) -> ModeShapes:
+    """w(s) of the first n modes (each max |w| = 1) for plots; y = 0."""
+    n = result.shapes.shape[1] if n is None else min(n, result.shapes.shape[1])
+    w = result.shapes[:, :n].T / np.max(np.abs(result.shapes[:, :n]), axis=0)[:, None]
+    return ModeShapes(s=result.s, y=np.zeros((len(result.s), 1)), w=w[:, :, None],
+                      omega=result.omega[:n], labels=result.labels[:n], fidelity="beam")
+
+
+def write_modes_vtu(result: BeamResult, reed: Reed, path) -> None:
+    """Write the line s in [0, L] with each mode's w (max |w| = 1) as point data (VTU)."""
+    import meshio
+
+    pts = np.column_stack([result.s, 0 * result.s, 0 * result.s])
+    cells = [("line", np.column_stack([np.arange(len(result.s) - 1), np.arange(1, len(result.s))]))]
+    data = {f"mode{k + 1}_{lab.replace(' ', '_')}_{w:.0f}rad_s": result.shapes[:, k] / np.abs(result.shapes[:, k]).max()
+            for k, (lab, w) in enumerate(zip(result.labels, result.omega))}
+    meshio.write(str(path), meshio.Mesh(pts, cells, point_data=data), file_format="vtu")

@@ -9,9 +9,14 @@
 - :func:`write_vtu`: any of them (with point data) to a VTU file through meshio.
 
 One parameter, ``mesh_size`` [m], controls the refinement: it is the element size away
-from the clamp; the clamp edge gets ``CLAMP_GRADING * mesh_size``. gmsh runs with one
-thread (reproducible meshes) and is initialised and finalised inside each call, so
-repeated calls, tests and an already initialised gmsh session all work.
+from the clamp; the clamp edge gets ``CLAMP_GRADING * mesh_size``, growing to
+``mesh_size`` over :func:`grading_length`. Default sizes scale with the part
+(:func:`reference_length`, :func:`scaled_mesh_size`): the sizes converged on the 1 in
+thesis reeds become the same fractions of any reed, from a 5 mm strip to a 10 m plate.
+Section ends where the thickness changes are mesh lines, so every element has one
+thickness. gmsh runs with one thread (reproducible meshes) and is initialised and
+finalised inside each call, so repeated calls, tests and an already initialised gmsh
+session all work.
 """
 
 from __future__ import annotations
@@ -30,8 +35,12 @@ from geometry.reed import Reed
 #: element size at the clamp line relative to ``mesh_size`` (the root carries the
 #: largest curvature and the clamp-corner singularities)
 CLAMP_GRADING = 0.15
-#: distance [m] over which the size grows from the clamp size to ``mesh_size``
-GRADING_LENGTH = 3.0e-3
+#: the reeds the default sizes were converged on: 1 in long, 5/8 in widest (Table 3.1)
+REFERENCE_LENGTH = 25.4e-3
+#: reference in-plane length per unit of widest width (25.4 mm / 15.875 mm)
+LENGTH_PER_WIDTH = 1.6
+#: grading distance as a fraction of :func:`reference_length` (3 mm on the thesis reeds)
+GRADING_FRACTION = 3.0e-3 / REFERENCE_LENGTH
 
 
 @contextlib.contextmanager
@@ -56,9 +65,26 @@ def _gmsh_session():
             gmsh.finalize()
 
 
-def scaled_mesh_size(reed: Reed, size_for_one_inch: float) -> float:
-    """Element size [m] for ``reed``: a size converged on a 1 in reed, scaled down for shorter reeds."""
-    return size_for_one_inch * min(1.0, reed.length / 25.4e-3)
+def reference_length(reed: Reed) -> float:
+    """In-plane length [m] the default meshes scale with: min(L, 1.6 W_max) (25.4 mm for the thesis reeds).
+
+    The smaller of the length and 1.6 times the widest width, so a narrow strip is
+    resolved across its width and a wide plate along its length, as the thesis reeds are.
+    """
+    return min(reed.length, LENGTH_PER_WIDTH * reed.max_width)
+
+
+def scaled_mesh_size(reed: Reed, size_for_reference: float) -> float:
+    """Element size [m] for ``reed``: a size converged on the thesis reeds times reference_length / 25.4 mm.
+
+    Rounded to 6 significant digits (the thesis reeds keep their sizes exactly).
+    """
+    return float(f"{size_for_reference * reference_length(reed) / REFERENCE_LENGTH:.6g}")
+
+
+def grading_length(reed: Reed) -> float:
+    """Distance [m] from the clamp over which elements grow from the clamp size to the mesh size (3 mm at 1 in)."""
+    return float(f"{GRADING_FRACTION * reference_length(reed):.6g}")
 
 
 def gmsh_cells(node_tags, coords, etypes, enodes, element_type: int, nodes_per_cell: int):
@@ -77,13 +103,32 @@ def gmsh_cells(node_tags, coords, etypes, enodes, element_type: int, nodes_per_c
     return coords.reshape(-1, 3)[used], remap[t]
 
 
-def _check_size(reed: Reed, mesh_size: float) -> None:
+def check_size(reed: Reed, mesh_size: float) -> None:
+    """InputError naming --mesh-size unless 0 < mesh_size <= L / 4 [m] (how fine is judged by memory)."""
     if not (mesh_size > 0.0 and np.isfinite(mesh_size)):
-        raise InputError("mesh_size", f"must be a positive length in m, got {mesh_size}")
+        raise InputError("--mesh-size", f"must be a positive length in m, got {mesh_size}")
     if mesh_size > reed.length / 4:
-        raise InputError("mesh_size", f"{mesh_size:g} m is too coarse for a {reed.length:g} m reed (at most L/4)")
-    if reed.length / mesh_size > 2000:
-        raise InputError("mesh_size", f"{mesh_size:g} m is too fine (more than 2000 elements along the reed)")
+        raise InputError("--mesh-size", f"{mesh_size:g} m is too coarse for a {reed.length:g} m reed (at most L/4)")
+
+
+_check_size = check_size  # the old private name
+
+
+def face_element_estimate(reed: Reed, mesh_size: float, quad: bool = False, half: bool = False) -> float:
+    """Expected number of face elements [-] of :func:`face_mesh` before meshing (within a factor 1.5).
+
+    Triangles of size h fill about 0.43 h^2 each, gmsh's subdivided quadrilaterals about
+    0.6 h^2 (measured 0.54-0.9 on the thesis reeds and plates); the clamp grading
+    (CLAMP_GRADING h at s = 0 growing linearly to h over G) adds
+    W G / h^2 (1 / CLAMP_GRADING - 1) / (1 - CLAMP_GRADING) equal-size elements.
+    """
+    h = float(mesh_size)
+    G = min(grading_length(reed), reed.length)
+    W = reed.max_width
+    zone = W * G / h**2 * (1.0 / CLAMP_GRADING - 1.0) / (1.0 - CLAMP_GRADING)
+    n = reed.face_area / h**2 + zone - W * G / h**2
+    n *= 1.6 if quad else 2.31
+    return 0.5 * n if half else n
 
 
 # -- 1-D ----------------------------------------------------------------------------------
@@ -93,7 +138,7 @@ def line_mesh(reed: Reed, mesh_size: float) -> skfem.MeshLine:
     A 1-D mesh needs no mesher: each interval between breakpoints (step, tip start,
     groove ends) is split uniformly, so EI(s) and m(s) jump only at nodes.
     """
-    _check_size(reed, mesh_size)
+    check_size(reed, mesh_size)
     bp = reed.breakpoints()
     pts = [bp[:1]]
     for a, b in zip(bp[:-1], bp[1:]):
@@ -109,13 +154,20 @@ def line_mesh(reed: Reed, mesh_size: float) -> skfem.MeshLine:
 class FaceMesh:
     """Triangles or quadrilaterals of the reed face (s, y) [m].
 
-    ``depth``: groove depth [m] of each element (0 outside grooves); ``clamp``,
-    ``tip``: indices of the nodes on s = 0 and of the tip point (L, 0).
+    ``depth``: groove depth [m] of each element (0 outside grooves); ``thickness``: the
+    element's section thickness h(s) [m] (grooves not subtracted); ``tip_node``: index of
+    the tip point (L, 0).
     """
 
     mesh: skfem.Mesh
     depth: np.ndarray
     mesh_size: float
+    thickness: np.ndarray | None = None
+
+    @property
+    def material_thickness(self) -> np.ndarray:
+        """Material thickness [m] of each element: section thickness minus groove depth."""
+        return self.thickness - self.depth
 
     @property
     def tip_node(self) -> int:
@@ -124,39 +176,57 @@ class FaceMesh:
 
 
 def _outline_curves(gmsh, reed: Reed) -> int:
-    """Add the outline (lines and tip arcs, split at y = 0 on the clamp and tip) as one surface."""
-    occ = gmsh.model.occ
-    L, L1, R = reed.length, reed.step_location, reed.tip_radius
-    w1 = (reed.width_root if reed.step_fraction > 0.0 else reed.width_tip) / 2
-    w2 = reed.width_tip / 2
-    stepped = L1 > 0.0 and w1 != w2
+    """Add the outline (lines, tip arcs or splines, split at y = 0 on the clamp and tip) as one surface.
 
-    pts: list[tuple[float, float]] = [(0.0, 0.0), (0.0, -w1)]
-    if stepped:
-        pts += [(L1, -w1), (L1, -w2)]
-    kinds: list[object] = []  # for each segment from pts[i] to pts[i+1]: "line" or arc centre
-    kinds += ["line"] * (len(pts) - 1)
+    Built from :meth:`geometry.Reed.pieces`: straight (or tapered) edges, a vertical
+    segment at every width step, circular tip corners (splines through the exact corner
+    curve on a tapered last piece).
+    """
+    occ = gmsh.model.occ
+    L, R = reed.length, reed.tip_radius
+    ps = reed.pieces()
+    last = ps[-1]
+    # lower straight edge: clamp corner to the start of the tip zone (the same points as
+    # Reed.lower_edge without its tip corner)
+    low: list[tuple[float, float]] = [(0.0, -ps[0].w0 / 2)]
+    for k, p in enumerate(ps):
+        is_last = k == len(ps) - 1
+        s_end = reed.tip_start if (is_last and R > 0.0) else p.s1
+        if s_end > low[-1][0] + 1e-12 and (p.tapered or is_last or ps[k + 1].w0 != p.w1):
+            low.append((s_end, -float(p.width(s_end)) / 2))
+        if not is_last and ps[k + 1].w0 != p.w1:
+            low.append((p.s1, -ps[k + 1].w0 / 2))
+    pts: list[tuple[float, float]] = [(0.0, 0.0)] + low
+    kinds: list[object] = ["line"] * (len(pts) - 1)  # segment pts[i] -> pts[i + 1]
+    w_end = last.w1 / 2  # half width at the tip end before rounding
     if R > 0.0:
-        if L - R > pts[-1][0] + 1e-12:
-            pts.append((L - R, -w2))
-            kinds.append("line")
-        pts.append((L, -(w2 - R)))
-        kinds.append((L - R, -(w2 - R)))
-        if w2 - R > 1e-12:
+        if last.tapered:  # spline from the straight edge through the exact corner curve
+            corner = [xy for xy in reed.lower_edge(16) if xy[0] > reed.tip_start + 1e-12 * L]
+            pts.append(corner[-1])
+            kinds.append(("spline", corner[:-1]))
+        else:
+            pts.append((L, -(w_end - R)))
+            kinds.append((L - R, -(w_end - R)))
+        if w_end - R > 1e-12:
             pts.append((L, 0.0))
             kinds.append("line")
-            pts.append((L, w2 - R))
+            pts.append((L, w_end - R))
             kinds.append("line")
-        pts.append((L - R, w2))
-        kinds.append((L - R, w2 - R))
+        if last.tapered:
+            mirrored = [(x, -y) for x, y in reversed(corner[:-1])]
+            pts.append((reed.tip_start, -low[-1][1]))
+            kinds.append(("spline", mirrored))
+        else:
+            pts.append((L - R, w_end))
+            kinds.append((L - R, w_end - R))
     else:
-        pts += [(L, -w2), (L, 0.0), (L, w2)]
-        kinds += ["line"] * 3
-    if stepped:
-        pts += [(L1, w2), (L1, w1)]
+        pts += [(L, 0.0), (L, -low[-1][1])]
         kinds += ["line", "line"]
-    pts.append((0.0, w1))
-    kinds.append("line")
+    upper = [(x, -y) for x, y in reversed(low[:-1])]
+    for xy in upper:
+        if np.hypot(xy[0] - pts[-1][0], xy[1] - pts[-1][1]) > 1e-12 * L:
+            pts.append(xy)
+            kinds.append("line")
     kinds.append("line")  # back to (0, 0)
     tags = [occ.addPoint(x, y, 0.0) for x, y in pts]
     curves = []
@@ -165,10 +235,26 @@ def _outline_curves(gmsh, reed: Reed) -> int:
         a, b = tags[i], tags[(i + 1) % n]
         if kind == "line":
             curves.append(occ.addLine(a, b))
+        elif kind[0] == "spline":
+            mids = [occ.addPoint(x, y, 0.0) for x, y in kind[1]]
+            curves.append(occ.addSpline([a, *mids, b]))
         else:  # quarter arcs; a full semicircular tip has (L, 0) as their common end
             curves.append(occ.addCircleArc(a, occ.addPoint(kind[0], kind[1], 0.0), b))
     loop = occ.addCurveLoop(curves)
     return occ.addPlaneSurface([loop])
+
+
+def _section_lines(gmsh, reed: Reed, half: bool) -> list[int]:
+    """Lines s = const across the face where the thickness changes (each element then has one h)."""
+    occ = gmsh.model.occ
+    ps = reed.pieces()
+    out = []
+    for p, q in zip(ps[:-1], ps[1:]):
+        if p.h != q.h:
+            w = min(p.w1, q.w0) / 2
+            y0 = 0.0 if half else -w
+            out.append(occ.addLine(occ.addPoint(p.s1, y0, 0.0), occ.addPoint(p.s1, w, 0.0)))
+    return out
 
 
 def _groove_surfaces(gmsh, reed: Reed) -> list[int]:
@@ -206,18 +292,23 @@ def face_mesh(reed: Reed, mesh_size: float, quad: bool = False, order: int = 1,
     """Mesh of the reed outline [m]: triangles (``quad=False``) or all-quadrilaterals.
 
     ``half=True`` meshes only y >= 0 (for symmetric reeds, :func:`is_symmetric`).
-    The step, tip arcs, groove edges and the centre line are mesh lines, so every
-    element lies wholly inside or outside each groove and the centre line is sampled
-    by nodes. Sizes: ``CLAMP_GRADING * mesh_size`` at s = 0 growing to ``mesh_size``.
+    The step, tip arcs, groove edges, thickness steps and the centre line are mesh lines,
+    so every element lies wholly inside or outside each groove, has one thickness, and the
+    centre line is sampled by nodes. Sizes: ``CLAMP_GRADING * mesh_size`` at s = 0 growing
+    to ``mesh_size`` over :func:`grading_length`.
     """
-    _check_size(reed, mesh_size)
+    check_size(reed, mesh_size)
+    from .resources import check_face_mesh
+
+    check_face_mesh(reed, mesh_size, quad=quad, half=half)
     with _gmsh_session() as gmsh:
         occ = gmsh.model.occ
         face = _outline_curves(gmsh, reed)
         centre = occ.addLine(occ.addPoint(0.0, 0.0, 0.0), occ.addPoint(reed.length, 0.0, 0.0))
         tools = [(1, centre)] + [(2, t) for t in _groove_surfaces(gmsh, reed)]
+        tools += [(1, t) for t in _section_lines(gmsh, reed, half)]
         if half:
-            box = occ.addRectangle(-reed.length, 0.0, 0.0, 3 * reed.length, 2 * reed.width_tip)
+            box = occ.addRectangle(-reed.length, 0.0, 0.0, 3 * reed.length, 2 * reed.max_width)
             cut, _ = occ.intersect([(2, face)], [(2, box)])
             face = cut[0][1]
             occ.remove([(1, centre)], recursive=True)  # the centre line is now the boundary
@@ -246,7 +337,7 @@ def face_mesh(reed: Reed, mesh_size: float, quad: bool = False, order: int = 1,
         f.setNumber(thr, "SizeMin", scale * CLAMP_GRADING * mesh_size)
         f.setNumber(thr, "SizeMax", scale * mesh_size)
         f.setNumber(thr, "DistMin", 0.0)
-        f.setNumber(thr, "DistMax", GRADING_LENGTH)
+        f.setNumber(thr, "DistMax", grading_length(reed))
         f.setAsBackgroundMesh(thr)
         gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
         gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
@@ -282,7 +373,8 @@ def face_mesh(reed: Reed, mesh_size: float, quad: bool = False, order: int = 1,
     # the element's groove depth from its centroid (elements never straddle a groove edge)
     cen = mesh.p[:, mesh.t].mean(axis=1)
     depth = reed.groove_depth(cen[0], cen[1])
-    return FaceMesh(mesh=mesh, depth=np.asarray(depth, dtype=float), mesh_size=mesh_size)
+    thick = np.asarray(reed.thickness_profile(cen[0]), dtype=float)
+    return FaceMesh(mesh=mesh, depth=np.asarray(depth, dtype=float), mesh_size=mesh_size, thickness=thick)
 
 
 # -- 3-D solid --------------------------------------------------------------------------------
@@ -303,11 +395,15 @@ class SolidMesh:
 
 
 def _z_levels(reed: Reed, layers: int) -> np.ndarray:
-    """Node planes through the thickness: 0, every groove depth, the reference surface (h/2) and h."""
-    from .modes import probe_z
+    """Node planes through the thickness: 0, every groove depth, every piece's thickness and
+    reference surface (h/2), split into ``layers`` elements per half of the largest thickness."""
+    from .modes import piece_probe_z
 
-    h = reed.thickness
-    cuts = sorted({0.0, probe_z(reed), h, *(g.depth for g in reed.grooves)})
+    h = reed.max_thickness
+    cuts = {0.0, *(g.depth for g in reed.grooves)}
+    for p, z in zip(reed.pieces(), piece_probe_z(reed)):
+        cuts.update((p.h, z))
+    cuts = sorted(cuts)
     levels = [0.0]
     for a, b in zip(cuts[:-1], cuts[1:]):
         if b - a < 1e-9 * h:
@@ -320,9 +416,11 @@ def _z_levels(reed: Reed, layers: int) -> np.ndarray:
 def solid_mesh(reed: Reed, mesh_size: float, layers: int = 1, half: bool = False) -> SolidMesh:
     """Hexahedral mesh of the reed [m]: the quad face mesh swept through the thickness.
 
-    ``layers`` elements per half thickness (more where grooves split the thickness
-    unevenly); a quad whose centroid lies in a groove of depth d gets no elements
-    below z = d: the pocket is cut out of the solid. ``half=True``: only y >= 0.
+    ``layers`` elements per half thickness (more where grooves or thickness steps split
+    the thickness unevenly); a quad whose centroid lies in a groove of depth d gets no
+    elements below z = d (the pocket is cut out of the solid) and none above its section's
+    thickness h(s) (thickness steps are steps of the downstream face z = h; the upstream
+    face z = 0 stays flat). ``half=True``: only y >= 0.
     """
     face = face_mesh(reed, mesh_size, quad=True, half=half)
     p2, q = face.mesh.p, face.mesh.t  # q: (4, nq), counter-clockwise in (s, y)
@@ -330,13 +428,14 @@ def solid_mesh(reed: Reed, mesh_size: float, layers: int = 1, half: bool = False
     npl = p2.shape[1]
     nodes = np.vstack([np.tile(p2, len(zl)), np.repeat(zl, npl)[None, :]])
     hexes, wet = [], []
+    tol = 1e-12 * reed.max_thickness
     for k in range(len(zl) - 1):
         z0, z1 = zl[k], zl[k + 1]
-        keep = face.depth <= z0 + 1e-12 * reed.thickness
+        keep = (face.depth <= z0 + tol) & (face.thickness >= z1 - tol)
         qq = q[:, keep]
         hexes.append(np.vstack([qq + k * npl, qq + (k + 1) * npl]))  # VTK hexahedron order
         # wetted horizontal faces: the first solid layer above each quad
-        first = keep & (face.depth >= z0 - 1e-12 * reed.thickness)
+        first = keep & (face.depth >= z0 - tol)
         wet.append(q[:, first] + k * npl)
     t = np.hstack(hexes)
     used = np.unique(t)

@@ -1,14 +1,26 @@
 """Kirchhoff plate reed with Argyris triangles (scikit-fem ``ElementTriArgyris``).
 
 The reed face (s, y) as a thin plate of rigidity D = E h^3 / 12 (1 - nu^2), clamped on
-s = 0: w = 0 and dw/dn = 0. Where a groove is cut the element carries the remaining
-material thickness h - d (the mid-surface offset of a one-sided pocket is neglected:
-the plate is the reed's "thickness per element" model). Mass rho h per unit area; the
-uniform pressure p = 1 Pa gives kappa = p / w(L, 0) (eq 3.30). Argyris elements are
-C1-conforming quintics, so frequencies converge from above.
+s = 0: w = 0 and dw/dn = 0. Each element carries its section's thickness h(s) (thickness
+steps of multi-section reeds are mesh lines where w_xx may jump:
+:func:`release_step_curvature`), less the groove depth where a groove is cut
+(the mid-surface offset of a one-sided pocket or step is neglected: the plate is the
+reed's "thickness per element" model). Mass rho h per unit area; the uniform pressure
+p = 1 Pa gives kappa = p / w(L, 0) (eq 3.30). Argyris elements are C1-conforming
+quintics, so frequencies converge from above.
+
+Default element size: 2 mm on the 1 in thesis reeds, scaled with the reed's in-plane size
+(:func:`fea.mesh.scaled_mesh_size`). Measured discretisation error of that default (not
+"about 0.2 %" as documented before): stepped #2 0.56 % in omega_n and 0.90 % in kappa
+(0.50 % and 0.77 % against a 0.25 mm mesh), stepped #1 0.16 / 0.32 %, prototype 0.39 /
+0.70 %, uniform < 0.001 % (the re-entrant step corners and the clamped-free corners are
+singular, so convergence is of order ~1.1-1.7 in h; docs/fea.md); 6e-6 on six modes of the
+square cantilever plate (FV16 geometry) against an independent Ritz solution.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse.linalg as spla
@@ -18,22 +30,29 @@ from skfem.helpers import dd, ddot, eye, trace
 from geometry.reed import Reed
 from lumped.mode_function import ReedProperties
 
-from .mesh import face_mesh, scaled_mesh_size
-from .modes import ModalResult, classify_by_symmetry, mirror_points
+from .mesh import FaceMesh, face_mesh, scaled_mesh_size
+from .modes import ModalResult, ModeShapes, describe_modes, face_grid, first_bending, pull_inside
+from .resources import check_memory, plate_bytes
 
-#: default element size [m] away from the clamp (about 0.2 % from converged on the stepped reeds, whose step corners converge slowest)
+#: default element size [m] away from the clamp for the 1 in thesis reeds, scaled for others
 DEFAULT_MESH_SIZE = 2.0e-3
 INTORDER = 10
 N_SHAPE = 401
 
 
-
 def default_mesh_size(reed: Reed) -> float:
-    """The converged default element size [m]: DEFAULT_MESH_SIZE, scaled down for reeds shorter than 1 in."""
+    """The default element size [m]: DEFAULT_MESH_SIZE scaled with the reed (fea.mesh.scaled_mesh_size)."""
     return scaled_mesh_size(reed, DEFAULT_MESH_SIZE)
 
 
-PlateResult = ModalResult
+@dataclass
+class PlateResult(ModalResult):
+    """The plate's modal result plus its basis, mesh and full mode vectors (for shapes and VTU)."""
+
+    basis: Basis = None          # on the mesh in units of ``scale`` (probe points / scale)
+    face: FaceMesh = None
+    modes: np.ndarray = None
+    scale: float = 1.0           # length unit of the basis mesh [m]
 
 
 @BilinearForm
@@ -55,37 +74,100 @@ def _load(v, w):
     return 1.0 * v
 
 
+def release_step_curvature(basis: Basis, reed: Reed, ell: float) -> int:
+    """Give the elements beyond each thickness step their own w_xx DOF at the vertices on the step line.
+
+    Argyris elements share w and all its first and second derivatives at vertices (C2 there),
+    but across a line s = s_k where the rigidity D jumps only w, w_x, w_y, w_xy and w_yy are
+    continuous: the bending moment D w_xx is, so w_xx jumps. Shared, it would stiffen the
+    plate (+0.3 % in kappa at 2 mm on a reed with two steps, converging slowly); released,
+    the plate with nu = 0 equals the beam. Lengths of the basis mesh are in units of
+    ``ell`` [m]. Returns the number of DOFs added (groove edges are left as they are: the
+    plate's groove model is an approximation anyway, docs/fea.md).
+    """
+    ps = reed.pieces()
+    steps = [p.s1 / ell for p, q in zip(ps[:-1], ps[1:]) if p.h != q.h]
+    if not steps:
+        return 0
+    mesh, dofs = basis.mesh, basis.dofs
+    ed = dofs.element_dofs            # (21, nel), modified in place (the basis reads it)
+    cen = mesh.p[0, mesh.t].mean(axis=0)
+    n_new = int(dofs.N)
+    added = 0
+    for sk in steps:
+        tol = 1e-9 * max(1.0, sk)
+        on_line = np.nonzero(np.abs(mesh.p[0] - sk) < tol)[0]
+        right = cen > sk
+        for v in on_line:
+            touches = np.any(mesh.t == v, axis=0)
+            if not (np.any(touches & right) and np.any(touches & ~right)):
+                continue                             # on the outline's step edge: one side only
+            new = None
+            for i in range(3):                       # local vertex i: DOFs 6 i .. 6 i + 5, u_xx at 6 i + 3
+                els = np.nonzero((mesh.t[i] == v) & right)[0]
+                if els.size:
+                    if new is None:
+                        new, n_new = n_new, n_new + 1
+                        added += 1
+                    ed[6 * i + 3, els] = new
+    dofs.N = n_new
+    return added
+
+
+def estimate(fm: FaceMesh) -> tuple[int, float]:
+    """(DOFs, peak bytes) of the plate on the face mesh ``fm``: 6 per vertex + 1 per edge (Argyris)."""
+    m = fm.mesh
+    dofs = 6 * m.p.shape[1] + m.facets.shape[1]
+    return dofs, plate_bytes(dofs)
+
+
 def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> PlateResult:
-    """Modes (classified), uniform-load stiffness [Pa/m] and centre-line shapes of the clamped plate."""
+    """Modes (named by nodal pattern), uniform-load stiffness [Pa/m] and centre-line shapes of the clamped plate.
+
+    Before assembling, the DOFs and memory are estimated and an InputError naming
+    --mesh-size raised if they exceed what the machine has (fea.resources).
+    """
     size = default_mesh_size(reed) if mesh_size is None else float(mesh_size)
     fm = face_mesh(reed, size, quad=False)
-    basis = Basis(fm.mesh, ElementTriArgyris(), intorder=INTORDER)
-    hel = (reed.thickness - fm.depth)[:, None] * np.ones((1, basis.X.shape[1]))
+    check_memory("plate model", *estimate(fm))
+    # Argyris DOFs are w and its first and second derivatives: in metres their scales differ
+    # by (element size)^2 and the LU loses every digit on fine meshes (stepped #2 at 0.18 mm
+    # was 0.5 % off). Assemble on the mesh in units of the element size ell instead:
+    # K = K'/ell^2, M = M' ell^2, f = f' ell^2, so omega^2 = lambda'/ell^4, w = ell^4 K'^-1 f'.
+    ell = size
+    basis = Basis(type(fm.mesh)(fm.mesh.p / ell, fm.mesh.t), ElementTriArgyris(), intorder=INTORDER)
+    release_step_curvature(basis, reed, ell)
+    hel = fm.material_thickness[:, None] * np.ones((1, basis.X.shape[1]))
     mat = reed.material
     K = asm(_stiffness, basis, E=mat.youngs_modulus, nu=mat.poisson_ratio, h=hel)
     M = asm(_mass, basis, rho=mat.density, h=hel)
     f = asm(_load, basis)
     # clamp: w and all its derivatives along the edge vanish; only w_xx stays free
-    clamp = basis.get_dofs(lambda x: x[0] < 1e-12)
+    tol = 1e-12 * max(1.0, reed.length / ell)
+    clamp = basis.get_dofs(lambda x: x[0] < tol)
     D = np.concatenate([clamp.nodal[n] for n in ("u", "u_x", "u_y", "u_xy", "u_yy")] + [clamp.facet["u_n"]])
-    u = fem_solve(*condense(K, f, D=D))
+    u = fem_solve(*condense(K, f, D=D)) * ell**4
     Kc, Mc, _, I = condense(K, M, D=D)
-    vals, vecs = spla.eigsh(Kc.tocsc(), k=n_modes, M=Mc.tocsc(), sigma=0.0, which="LM")
+    k = min(int(n_modes), len(I) - 2)
+    vals, vecs = spla.eigsh(Kc.tocsc(), k=k, M=Mc.tocsc(), sigma=0.0, which="LM",
+                            v0=np.ones(Kc.shape[0]))  # a fixed start: reproducible results
     order = np.argsort(vals)
-    vals, vecs = vals[order], vecs[:, order]
-    modes = np.zeros((K.shape[0], n_modes))
+    vals, vecs = vals[order] / ell**4, vecs[:, order]
+    modes = np.zeros((K.shape[0], k))
     modes[I] = vecs
-    up, down = mirror_points(reed)
-    Pu, Pd = basis.probes(up), basis.probes(down)
-    kinds = [classify_by_symmetry(Pu @ modes[:, k], Pd @ modes[:, k]) for k in range(n_modes)]
-    bending = kinds.index("bending") if "bending" in kinds else 0
+    grid = face_grid(reed)
+    P = basis.probes(pull_inside(fm.mesh, grid[4]) / ell)
+    fields = [(P @ modes[:, j]).reshape(len(grid[0]), len(grid[1])) for j in range(k)]
+    kinds, labels = describe_modes(fields, reed, grid=grid)
+    bending = first_bending(kinds, labels)
     s = np.linspace(0.0, reed.length, N_SHAPE)
-    P = basis.probes(np.vstack([np.clip(s, 1e-12, reed.length * (1 - 1e-12)), 0 * s]))
-    w = P @ u
-    phi = P @ modes[:, bending]
+    Pc = basis.probes(np.vstack([np.clip(s, 1e-12 * reed.length, reed.length * (1 - 1e-12)), 0 * s]) / ell)
+    w = Pc @ u
+    phi = Pc @ modes[:, bending]
     return PlateResult(
         omega=np.sqrt(vals), kinds=kinds, bending_index=bending, kappa=1.0 / w[-1], s=s,
-        psi_static=w / w[-1], psi_mode=phi / phi[-1], dofs=len(I), mesh_size=size,
+        psi_static=w / w[-1], psi_mode=phi / phi[-1], dofs=len(I), mesh_size=size, labels=labels,
+        basis=basis, face=fm, modes=modes, scale=ell,
     )
 
 
@@ -94,3 +176,43 @@ def reed_properties(reed: Reed, mesh_size: float | None = None) -> ReedPropertie
     r = solve(reed, mesh_size)
     return ReedProperties.from_shape("plate", reed, r.omega_n, r.kappa, r.s, r.psi_static,
                                      dofs=r.dofs, mesh_size=r.mesh_size)
+
+
+def modes(reed: Reed, n: int, mesh_size: float | None = None) -> PlateResult:
+    """The first n natural frequencies [rad/s] of the Kirchhoff plate, named by nodal pattern (fea.modes)."""
+    return solve(reed, mesh_size, n_modes=max(int(n), 4))
+
+
+def properties_and_modes(reed: Reed, n: int, mesh_size: float | None = None):
+    """(ReedProperties, PlateResult with at least n modes) from one solution."""
+    r = modes(reed, n, mesh_size)
+    props = ReedProperties.from_shape("plate", reed, r.omega_n, r.kappa, r.s, r.psi_static,
+                                      dofs=r.dofs, mesh_size=r.mesh_size)
+    return props, r
+
+
+def mode_shapes(result: PlateResult, reed: Reed, n: int | None = None, ns: int = 60, ny: int = 21) -> ModeShapes:
+    """w of the first n modes on a (s, y) grid of the face, each max |w| = 1 (for plots)."""
+    n = result.modes.shape[1] if n is None else min(n, result.modes.shape[1])
+    s = np.linspace(1e-4, 1 - 1e-4, ns) * reed.length
+    eta = np.linspace(-1.0, 1.0, ny) * 0.999
+    Y = eta[None, :] * np.asarray(reed.width(s))[:, None] / 2
+    S = np.repeat(s[:, None], ny, axis=1)
+    P = result.basis.probes(pull_inside(result.face.mesh, np.vstack([S.ravel(), Y.ravel()])) / result.scale)
+    w = np.empty((n, ns, ny))
+    for k in range(n):
+        wk = (P @ result.modes[:, k]).reshape(ns, ny)
+        w[k] = wk / (np.max(np.abs(wk)) or 1.0)
+    return ModeShapes(s=s, y=Y, w=w, omega=result.omega[:n], labels=result.labels[:n], fidelity="plate")
+
+
+def write_modes_vtu(result: PlateResult, path) -> None:
+    """Write the face mesh with each mode's deflection w (max |w| = 1) as point data (VTU)."""
+    from .mesh import write_vtu
+
+    nodal = result.basis.nodal_dofs[0]  # the value DOF 'u' of each vertex
+    data = {}
+    for k in range(result.modes.shape[1]):
+        v = result.modes[nodal, k]
+        data[f"mode{k + 1}_{result.labels[k].replace(' ', '_')}_{result.omega[k]:.0f}rad_s"] = v / np.abs(v).max()
+    write_vtu(path, result.face.mesh, data)

@@ -28,7 +28,8 @@ from geometry.reed import Reed
 from geometry.seat_stop import ReedSeat, load_reed_seat
 
 from .mesh import is_symmetric, solid_mesh
-from .solid import DEFAULT_LAYERS, INTORDER, assemble, default_mesh_size, fixed_dofs, pressure_load
+from .resources import check_memory
+from .solid import DEFAULT_LAYERS, INTORDER, assemble, default_mesh_size, estimate, fixed_dofs, pressure_load
 
 #: Delrin 2700 NC010 yield stress [Pa] (thesis section 3.1.1)
 YIELD_STRESS_DELRIN = 63.0e6
@@ -83,6 +84,7 @@ def _setup(reed: Reed, mesh_size, symmetric_extra=True):
     h = default_mesh_size(reed) if mesh_size is None else float(mesh_size)
     half = is_symmetric(reed) and symmetric_extra
     sm = solid_mesh(reed, h, layers=DEFAULT_LAYERS, half=half)
+    check_memory("stress model", *estimate(reed, sm))
     basis = Basis(sm.mesh, ElementHex2(), intorder=INTORDER)
     m = reed.material
     K, _ = assemble(basis, m.youngs_modulus, m.poisson_ratio, m.density)
@@ -124,7 +126,7 @@ def beam_bending_stress(reed: Reed, pressure: float, s0: float = 0.0) -> float:
     M = pressure * np.trapezoid(reed.width(s) * (s - s0), s)
     A, I = reed.section(s0)
     # extreme fibre: the neutral axis shifts away from the grooved face
-    W, h = float(reed.width(s0)), reed.thickness
+    W, h = float(reed.width(s0)), float(reed.thickness_profile(s0))
     zc = (W * h * h / 2 - sum((y1 - y0) * d * d / 2 for y0, y1, d in reed._pockets(s0))) / A
     return float(M * max(zc, h - zc) / I)
 
@@ -140,7 +142,7 @@ def max_opening_stress(reed: Reed, x_stop: float | None = None, mesh_size=None,
     w1 = _tip_deflection(basis, reed, u1)
     p = x_stop / w1  # Pa: linear, so the 1 Pa solution scales
     u = p * u1
-    ce = 2 * reed.thickness if clamp_exclusion is None else clamp_exclusion
+    ce = 2 * reed.max_thickness if clamp_exclusion is None else clamp_exclusion
     mx, loc, away = _stress_summary(reed, basis, u, ce)
     return StressCheck("max_opening", p, x_stop, mx, loc, away, beam_bending_stress(reed, p),
                        yield_stress, dofs, h)
@@ -160,7 +162,7 @@ def seat_reverse_stress(reed: Reed, seat: ReedSeat | None = None, pressure: floa
     zmin = mesh.p[2, mesh.facets[:, bf]].min(axis=0)
     zmax = mesh.p[2, mesh.facets[:, bf]].max(axis=0)
     flat = zmax - zmin < 1e-12
-    top = bf[flat & (np.abs(mid[2] - reed.thickness) < 1e-12)]
+    top = bf[flat & (np.abs(mid[2] - reed.thickness_profile(mid[0])) < 1e-12 * max(1.0, reed.max_thickness))]
     land = bf[flat & (np.abs(mid[2]) < 1e-12) & ~seat.in_slot(mid[0], mid[1])]
     fb = FacetBasis(mesh, basis.elem, facets=top, intorder=INTORDER)
     f = np.zeros(3 * basis.N)
@@ -169,7 +171,7 @@ def seat_reverse_stress(reed: Reed, seat: ReedSeat | None = None, pressure: floa
     support = basis.get_dofs(facets=land).all()
     fixed = np.unique(np.concatenate([fixed_dofs(basis, half), 3 * support + 2]))
     u, dofs = _solve(K, f, fixed)
-    ce = 2 * reed.thickness if clamp_exclusion is None else clamp_exclusion
+    ce = 2 * reed.max_thickness if clamp_exclusion is None else clamp_exclusion
     mx, loc, away = _stress_summary(reed, basis, u, ce)
     return StressCheck("seat_reverse", p, _tip_deflection(basis, reed, u), mx, loc, away, None,
                        yield_stress, dofs, h)

@@ -5,9 +5,15 @@ clamped on its whole s = 0 face, in vacuum. One sparse LU factorisation of the c
 stiffness serves the static pressure solve and the shift-invert eigen-solve.
 
 "Tip deflection" (kappa = p / x, eq 3.30) is the z-displacement at the tip of the centre
-line on the mid-surface, the point (s, y, z) = (L, 0, h/2); the deflection shape psi(s)
-is the z-displacement along (s, 0, h/2) (a node line of every mesh: the centre line and
-the mid-plane are mesh lines).
+line on the reference surface, the point (s, y, z) = (L, 0, h/2) (h the tip section's
+thickness); the deflection shape psi(s) is the z-displacement along (s, 0, h(s)/2) (a node
+line of every mesh: the centre line and each piece's mid-plane are mesh lines).
+
+Default element size: 1 mm on the 1 in thesis reeds (estimated discretisation error of
+omega_n 0.005-0.22 % and of kappa 0.01-0.42 % on the four reeds, within a factor 1.5 of the
+error against much finer meshes, docs/fea.md), scaled with the reed's in-plane size
+(:func:`fea.mesh.scaled_mesh_size`); one element layer per half of the largest thickness,
+more when the thickness exceeds twice the element size.
 """
 
 from __future__ import annotations
@@ -25,23 +31,31 @@ from geometry.reed import Reed
 from lumped.mode_function import ReedProperties
 
 from .mesh import SolidMesh, is_symmetric, scaled_mesh_size, solid_mesh, write_vtu
-from .modes import ModalResult, classify_solid_modes, probe_z
+from .modes import ModalResult, ModeShapes, describe_modes, face_grid, first_bending, probe_z, pull_inside
+from .resources import check_memory, solid_bytes
 
-#: default element size [m] (away from the clamp) for a 1 in reed: discretisation error
-#: < 0.3 % in omega_n and kappa (three-mesh study, tests/test_fea_slow.py, docs/errata.md)
+#: default element size [m] (away from the clamp) for the 1 in thesis reeds, scaled for others
+#: (errors of omega_n / kappa at this size: uniform 0.005 / 0.009 %, stepped #1 0.12 / 0.22 %,
+#: stepped #2 0.22 / 0.42 %, prototype 0.22 / 0.37 %; docs/fea.md)
 DEFAULT_MESH_SIZE = 1.0e-3
-#: elements through half the thickness
+#: elements through half the thickness (at least)
 DEFAULT_LAYERS = 1
 #: Gauss order: exact for the Q2 x Q2 mass on affine hexahedra (3 points per direction)
 INTORDER = 4
 #: points sampled along the centre line for psi(s)
 N_SHAPE = 401
-
+#: elements per chunk of the batched element-matrix assembly (bounds its memory)
+CHUNK = 1000
 
 
 def default_mesh_size(reed: Reed) -> float:
-    """The converged default element size [m]: DEFAULT_MESH_SIZE, scaled down for reeds shorter than 1 in."""
+    """The converged default element size [m]: DEFAULT_MESH_SIZE scaled with the reed (fea.mesh.scaled_mesh_size)."""
     return scaled_mesh_size(reed, DEFAULT_MESH_SIZE)
+
+
+def default_layers(reed: Reed) -> int:
+    """Elements through half the largest thickness: DEFAULT_LAYERS, more when h/2 exceeds the default size."""
+    return max(DEFAULT_LAYERS, int(round(reed.max_thickness / 2 / default_mesh_size(reed))))
 
 
 @dataclass
@@ -53,6 +67,7 @@ class SolidResult(ModalResult):
     u_static: np.ndarray         # displacement per unit pressure (full vector) [m/Pa]
     modes: np.ndarray            # mode vectors (full), columns
     basis: Basis
+    antisymmetric: np.ndarray = None   # per mode: True if from the antisymmetric half model
     timings: dict = field(default_factory=dict)
 
 
@@ -61,43 +76,65 @@ def _scalar_basis(mesh, intorder=INTORDER) -> Basis:
 
 
 def assemble(basis: Basis, youngs_modulus: float, poisson_ratio: float, density: float,
-             chunk: int = 2000) -> tuple[sp.csr_matrix, sp.csr_matrix]:
-    """Stiffness K [N/m] and mass M [kg] of 3-D linear elasticity on a scalar Q2 basis.
+             chunk: int = CHUNK) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+    """Stiffness K [N/m] and mass M [kg] of 3-D linear elasticity on a scalar Q2 (or P2) basis.
 
-    Element matrices by batched matrix products over elements (scikit-fem's generic
-    form assembly evaluates the 81 x 81 vector form entry pair by pair, ~20x slower
-    here). Vector DOF 3 k + i is component i of scalar DOF k, as in ``ElementVector``.
+    Element matrices by batched matrix products over chunks of elements (scikit-fem's
+    generic form assembly evaluates the 81 x 81 vector form entry pair by pair, ~20x
+    slower here); each chunk builds its own quadrature basis and is summed into K as a
+    sparse matrix, so memory stays bounded. The mass is assembled as a scalar matrix and
+    expanded to the three components. Vector DOF 3 k + i is component i of scalar DOF k,
+    as in ``ElementVector``.
     """
     E, nu = youngs_modulus, poisson_ratio
     lam = E * nu / ((1 + nu) * (1 - 2 * nu))
     mu = E / (2 * (1 + nu))
-    nb = len(basis.basis)
+    mesh, elem = basis.mesh, basis.elem
     nel = basis.nelems
-    edofs = basis.element_dofs  # (nb, nel)
-    vdofs = (3 * edofs[:, None, :] + np.arange(3)[None, :, None]).reshape(3 * nb, nel).T  # (nel, 3nb)
-    kdata = np.empty((nel, 3 * nb, 3 * nb))
-    mdata = np.zeros((nel, 3 * nb, 3 * nb))
+    N = basis.N
+    n = 3 * N
+    idx = np.int32 if n < 2**31 - 1 else np.int64
+    parts: list[tuple[int, sp.csr_matrix]] = []  # (level, partial sum): balanced summation
+    ms_rows, ms_cols, ms_data = [], [], []
     for e0 in range(0, nel, chunk):
-        sl = slice(e0, min(e0 + chunk, nel))
-        dx = basis.dx[sl]                                                   # (ne, nq)
-        G = np.stack([basis.basis[a][0].grad[:, sl] for a in range(nb)])    # (nb, 3, ne, nq)
+        sel = np.arange(e0, min(e0 + chunk, nel))
+        b = Basis(mesh, elem, quadrature=basis.quadrature, elements=sel, dofs=basis.dofs)
+        nb = len(b.basis)
+        edofs = b.element_dofs.astype(idx)                                     # (nb, ne)
+        vd = (3 * edofs[:, None, :] + np.arange(3, dtype=idx)[None, :, None]).reshape(3 * nb, -1).T
+        dx = b.dx                                                            # (ne, nq)
+        G = np.stack([b.basis[a][0].grad for a in range(nb)])               # (nb, 3, ne, nq)
         G = G.transpose(2, 0, 1, 3).reshape(-1, 3 * nb, dx.shape[1])        # (ne, 3nb, nq)
         D = np.matmul(G * dx[:, None, :], G.transpose(0, 2, 1))            # d_i phi_a . d_j phi_b
+        del G
         D4 = D.reshape(-1, nb, 3, nb, 3)
         tr = np.einsum("eakbk->eab", D4)
         Ke = lam * D4 + mu * D4.transpose(0, 1, 4, 3, 2)
         Ke += mu * tr[:, :, None, :, None] * np.eye(3)[None, None, :, None, :]
-        kdata[sl] = Ke.reshape(-1, 3 * nb, 3 * nb)
-        phi = np.stack([np.asarray(basis.basis[a][0])[sl] for a in range(nb)], axis=1)  # (ne, nb, nq)
+        del D, D4
+        Ke = Ke.reshape(-1, 3 * nb, 3 * nb)
+        rows = np.broadcast_to(vd[:, :, None], Ke.shape).ravel()
+        cols = np.broadcast_to(vd[:, None, :], Ke.shape).ravel()
+        Kc = sp.csr_matrix((Ke.ravel(), (rows, cols)), shape=(n, n))
+        del Ke, rows, cols
+        level = 0
+        while parts and parts[-1][0] == level:
+            Kc = parts.pop()[1] + Kc
+            level += 1
+        parts.append((level, Kc))
+        phi = np.stack([np.asarray(b.basis[a][0]) for a in range(nb)], axis=1)  # (ne, nb, nq)
         Me = density * np.matmul(phi * dx[:, None, :], phi.transpose(0, 2, 1))  # (ne, nb, nb)
-        for i in range(3):
-            mdata[sl, i::3, i::3] = Me
-    n = 3 * basis.N
-    rows = np.broadcast_to(vdofs[:, :, None], kdata.shape).ravel()
-    cols = np.broadcast_to(vdofs[:, None, :], kdata.shape).ravel()
-    K = sp.csr_matrix((kdata.ravel(), (rows, cols)), shape=(n, n))
-    M = sp.csr_matrix((mdata.ravel(), (rows, cols)), shape=(n, n))
-    return K, M
+        ed = edofs.T                                                             # (ne, nb)
+        ms_rows.append(np.broadcast_to(ed[:, :, None], Me.shape).ravel())
+        ms_cols.append(np.broadcast_to(ed[:, None, :], Me.shape).ravel())
+        ms_data.append(Me.ravel())
+    K = parts.pop()[1]
+    while parts:
+        K = parts.pop()[1] + K
+    Ms = sp.csr_matrix((np.concatenate(ms_data), (np.concatenate(ms_rows), np.concatenate(ms_cols))),
+                       shape=(N, N))
+    M = sp.kron(Ms, sp.identity(3, format="csr"), format="csr")
+    return K.tocsr(), M
 
 
 def pressure_load(sm: SolidMesh, basis: Basis, pressure: float = 1.0) -> np.ndarray:
@@ -117,18 +154,20 @@ def fixed_dofs(basis: Basis, half: bool, antisymmetric: bool = False, tol: float
     """Constrained vector DOFs: all three components on the clamp face s = 0; on the symmetry
     plane y = 0 of a half model u_y = 0 (symmetric modes and loads), or u_x = u_z = 0
     (``antisymmetric``: torsion-like modes)."""
-    d = basis.get_dofs(lambda x: x[0] < tol).all()
+    scale = max(1.0, float(np.max(np.abs(basis.mesh.p))))  # 1e-12 m on reeds up to 1 m
+    d = basis.get_dofs(lambda x: x[0] < tol * scale).all()
     out = [(3 * d[:, None] + np.arange(3)[None, :]).ravel()]
     if half:
-        c = basis.get_dofs(lambda x: np.abs(x[1]) < tol).all()
+        c = basis.get_dofs(lambda x: np.abs(x[1]) < tol * scale).all()
         comps = [0, 2] if antisymmetric else [1]
         out.append((3 * c[:, None] + np.array(comps)[None, :]).ravel())
     return np.unique(np.concatenate(out))
 
 
 def centre_line_probe(basis: Basis, reed: Reed, s: np.ndarray) -> sp.csr_matrix:
-    """Matrix mapping the vector DOFs to u_z at (s, 0, h/2) [m per m]."""
-    pts = np.vstack([np.clip(s, 1e-12, reed.length * (1 - 1e-12)), 0 * s, 0 * s + probe_z(reed)])
+    """Matrix mapping the vector DOFs to u_z at (s, 0, z(s)) [m per m], z the reference surface (fea.modes.probe_z)."""
+    sc = np.clip(s, 1e-12 * reed.length, reed.length * (1 - 1e-12))
+    pts = np.vstack([sc, 0 * s, probe_z(reed, sc)])
     P = basis.probes(pts).tocoo()  # scalar
     return sp.csr_matrix((P.data, (P.row, 3 * P.col + 2)), shape=(len(s), 3 * basis.N))
 
@@ -136,12 +175,41 @@ def centre_line_probe(basis: Basis, reed: Reed, s: np.ndarray) -> sp.csr_matrix:
 def _eigen(Kf, Mf, lu, n_modes: int, v0=None):
     """Lowest eigenpairs of K phi = omega^2 M phi by ARPACK shift-invert about 0 with the given LU of K."""
     op = spla.LinearOperator(Kf.shape, matvec=lu.solve, dtype=float)
-    vals, vecs = spla.eigsh(Kf, k=n_modes, M=Mf, sigma=0.0, OPinv=op, which="LM", v0=v0, tol=1e-10)
+    k = min(n_modes, Kf.shape[0] - 2)
+    vals, vecs = spla.eigsh(Kf, k=k, M=Mf, sigma=0.0, OPinv=op, which="LM", v0=v0, tol=1e-10)
     order = np.argsort(vals)
     return vals[order], vecs[:, order]
 
 
-def solve(reed: Reed, mesh_size: float | None = None, layers: int = DEFAULT_LAYERS,
+def estimate(reed: Reed, sm: SolidMesh) -> tuple[int, float]:
+    """(DOFs, peak bytes) of solving on the mesh ``sm`` (Q2 nodes = vertices + edges + faces + cells)."""
+    m = sm.mesh
+    nodes = m.p.shape[1] + m.edges.shape[1] + m.facets.shape[1] + m.t.shape[1]
+    dofs = 3 * nodes
+    return dofs, solid_bytes(dofs, m.t.shape[1])
+
+
+def _mode_fields(basis: Basis, modes: np.ndarray, reed: Reed, half: bool, anti: np.ndarray, grid, sm_face):
+    """u_z of each mode on :func:`fea.modes.face_grid` (mirrored on a half model) and in-plane flags."""
+    s, eta, wts, W, pts = grid
+    ns, ny = len(s), len(eta)
+    pts = pull_inside(sm_face, pts, mirror=half)
+    y = pts[1]
+    z = probe_z(reed, pts[0])
+    P = basis.probes(np.vstack([pts[0], np.abs(y) if half else y, z]))
+    fields, in_plane = [], []
+    for k in range(modes.shape[1]):
+        u = modes[:, k].reshape(-1, 3)
+        ux, uy, uz = (P @ u[:, i] for i in range(3))
+        if half:  # symmetric half: u_z even in y; antisymmetric half: odd
+            sign = np.where(y < 0, -1.0 if anti[k] else 1.0, 1.0)
+            uz = uz * sign
+        in_plane.append(bool(np.sum(uz**2) < np.sum(ux**2 + uy**2)))
+        fields.append(uz.reshape(ns, ny))
+    return fields, in_plane
+
+
+def solve(reed: Reed, mesh_size: float | None = None, layers: int | None = None,
           n_modes: int = 4, symmetry: bool | None = None, torsion: bool = False) -> SolidResult:
     """First modes, uniform-load stiffness and centre-line shapes of the clamped 3-D reed.
 
@@ -149,13 +217,19 @@ def solve(reed: Reed, mesh_size: float | None = None, layers: int = DEFAULT_LAYE
     per eq 3.30 from the static solve K u = f(p = 1 Pa); both use one LU of K.
     ``symmetry`` (default: when the reed is symmetric) solves the half y >= 0 with the
     symmetric plane condition, which holds the bending modes and the pressure response;
-    ``torsion=True`` then also solves the antisymmetric half for the torsion modes.
+    ``torsion=True`` then also solves the antisymmetric half for the torsion modes (each half
+    gives ``n_modes``). Modes are named by their nodal pattern (fea.modes). Before assembling,
+    the DOFs and memory are estimated and an InputError naming --mesh-size raised if they
+    exceed what the machine has (fea.resources).
     """
     h = default_mesh_size(reed) if mesh_size is None else float(mesh_size)
+    layers = default_layers(reed) if layers is None else int(layers)
     half = is_symmetric(reed) if symmetry is None else bool(symmetry and is_symmetric(reed))
     tm = {}
     t0 = time.perf_counter()
     sm = solid_mesh(reed, h, layers=layers, half=half)
+    dofs_est, nbytes = estimate(reed, sm)
+    check_memory("solid model", dofs_est, nbytes)
     tm["mesh"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     basis = _scalar_basis(sm.mesh)
@@ -176,26 +250,28 @@ def solve(reed: Reed, mesh_size: float | None = None, layers: int = DEFAULT_LAYE
     t0 = time.perf_counter()
     # the static shape is close to the first bending mode: a good start vector
     vals, vecs = _eigen(Kf, Mf, lu, n_modes, v0=u[free] / np.abs(u[free]).max())
-    modes = np.zeros((K.shape[0], n_modes))
+    del lu, Kf, Mf
+    modes = np.zeros((K.shape[0], vecs.shape[1]))
     modes[free] = vecs
-    kinds = classify_solid_modes(basis, modes, reed, half=half)
+    anti = np.zeros(vecs.shape[1], dtype=bool)
     if half and torsion:
         free_a = np.setdiff1d(np.arange(K.shape[0]), fixed_dofs(basis, half, antisymmetric=True))
         Ka = K[free_a][:, free_a].tocsc()
         lu_a = spla.splu(Ka, permc_spec="MMD_AT_PLUS_A")
         va, xa = _eigen(Ka, M[free_a][:, free_a].tocsr(), lu_a, n_modes)
-        ma = np.zeros((K.shape[0], n_modes))
+        del lu_a, Ka
+        ma = np.zeros((K.shape[0], xa.shape[1]))
         ma[free_a] = xa
-        kinds_a = ["torsion" if k == "bending" else "in-plane" for k in
-                   classify_solid_modes(basis, ma, reed, half=True)]
         vals = np.concatenate([vals, va])
         modes = np.hstack([modes, ma])
-        kinds = kinds + kinds_a
+        anti = np.concatenate([anti, np.ones(xa.shape[1], dtype=bool)])
         order = np.argsort(vals)
-        vals, modes, kinds = vals[order], modes[:, order], [kinds[i] for i in order]
+        vals, modes, anti = vals[order], modes[:, order], anti[order]
     tm["eigen"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    bending = kinds.index("bending") if "bending" in kinds else 0
+    fields, in_plane = _mode_fields(basis, modes, reed, half, anti, face_grid(reed), sm.face.mesh)
+    kinds, labels = describe_modes(fields, reed, in_plane)
+    bending = first_bending(kinds, labels)
     s = np.linspace(0.0, reed.length, N_SHAPE)
     P = centre_line_probe(basis, reed, s)
     w = P @ u
@@ -203,8 +279,8 @@ def solve(reed: Reed, mesh_size: float | None = None, layers: int = DEFAULT_LAYE
     tm["post"] = time.perf_counter() - t0
     return SolidResult(
         omega=np.sqrt(np.abs(vals)), kinds=kinds, bending_index=bending, kappa=1.0 / w[-1],
-        s=s, psi_static=w / w[-1], psi_mode=phi / phi[-1], dofs=len(free), mesh_size=h,
-        mesh=sm, u_static=u, modes=modes, basis=basis, timings=tm,
+        s=s, psi_static=w / w[-1], psi_mode=phi / phi[-1], dofs=len(free), mesh_size=h, labels=labels,
+        mesh=sm, u_static=u, modes=modes, basis=basis, antisymmetric=anti, timings=tm,
     )
 
 
@@ -224,6 +300,45 @@ def _reed_properties(reed: Reed, mesh_size: float | None) -> ReedProperties:
                                      dofs=r.dofs, mesh_size=r.mesh_size)
 
 
+def modes(reed: Reed, n: int, mesh_size: float | None = None) -> SolidResult:
+    """The first n natural frequencies [rad/s] of the 3-D solid, bending and torsion, named by nodal pattern.
+
+    A symmetric reed is solved as its symmetric and antisymmetric halves (n modes each); the
+    result's ``first(n)`` gives the CONTRACT ``frequencies`` and ``mode_kinds``.
+    """
+    return solve(reed, mesh_size, n_modes=max(int(n), 1), torsion=True)
+
+
+def properties_and_modes(reed: Reed, n: int, mesh_size: float | None = None):
+    """(ReedProperties, SolidResult with at least n modes) from one solution of each half model."""
+    r = modes(reed, n, mesh_size)
+    props = ReedProperties.from_shape("solid", reed, r.omega_n, r.kappa, r.s, r.psi_static,
+                                      dofs=r.dofs, mesh_size=r.mesh_size)
+    return props, r
+
+
+def mode_shapes(result: SolidResult, reed: Reed, n: int | None = None, ns: int = 60, ny: int = 21) -> ModeShapes:
+    """u_z of the first n modes on a (s, y) grid of the reference surface, each max |u_z| = 1 (for plots)."""
+    n = result.modes.shape[1] if n is None else min(n, result.modes.shape[1])
+    s = np.linspace(1e-4, 1 - 1e-4, ns) * reed.length
+    eta = np.linspace(-1.0, 1.0, ny) * 0.999
+    W = np.asarray(reed.width(s))
+    Y = eta[None, :] * W[:, None] / 2
+    S = np.repeat(s[:, None], ny, axis=1)
+    half = result.mesh.half
+    sy = pull_inside(result.mesh.face.mesh, np.vstack([S.ravel(), Y.ravel()]), mirror=half)
+    pts = np.vstack([sy[0], np.abs(sy[1]) if half else sy[1], probe_z(reed, sy[0])])
+    P = result.basis.probes(pts)
+    w = np.empty((n, ns, ny))
+    for k in range(n):
+        uz = P @ result.modes[:, k].reshape(-1, 3)[:, 2]
+        if half and result.antisymmetric is not None and result.antisymmetric[k]:
+            uz = uz * np.where(Y.ravel() < 0, -1.0, 1.0)
+        uz = uz.reshape(ns, ny)
+        w[k] = uz / (np.max(np.abs(uz)) or 1.0)
+    return ModeShapes(s=s, y=Y, w=w, omega=result.omega[:n], labels=result.labels[:n], fidelity="solid")
+
+
 def write_modes_vtu(result: SolidResult, path) -> None:
     """Write the static shape (per unit pressure) and the mode shapes (max |u| = 1) as VTU point data."""
     mesh = result.mesh.mesh
@@ -233,5 +348,5 @@ def write_modes_vtu(result: SolidResult, path) -> None:
     for k in range(result.modes.shape[1]):
         v = result.modes[:, k].reshape(-1, 3)[:nv]
         v = v / np.abs(v).max()
-        data[f"mode{k + 1}_{result.kinds[k]}_{result.omega[k]:.0f}rad_s"] = v
+        data[f"mode{k + 1}_{result.labels[k].replace(' ', '_')}_{result.omega[k]:.0f}rad_s"] = v
     write_vtu(path, mesh, data)

@@ -2,10 +2,10 @@
 
 from .disc import DiscValveGeometry, load_disc_geometry
 from .errors import InputError
-from .reed import Groove, Material, Reed
+from .reed import Groove, Material, Piece, Reed, Section
 from .reed_io import PRESETS, load_reed, parse_reed, reed_to_toml
 
 __all__ = [
-    "DiscValveGeometry", "Groove", "InputError", "Material", "PRESETS", "Reed",
+    "DiscValveGeometry", "Groove", "InputError", "Material", "PRESETS", "Piece", "Reed", "Section",
     "load_disc_geometry", "load_reed", "parse_reed", "reed_to_toml",
 ]

@@ -5,10 +5,21 @@ the tip (s = length); ``y`` runs across it from the centre line; ``z`` runs
 through the thickness from the upstream face (z = 0, where grooves are cut) to
 the downstream face (z = thickness).
 
-The outline is a root section of width ``width_root`` for
-``0 <= s < step_fraction * length`` (thesis Table 3.1, R_l), then ``width_tip``
-up to a tip rounded with ``tip_radius`` (Table 3.5: a full semicircle when
-``tip_radius == width_tip / 2``, square when 0).
+Two ways to describe the outline along s, both resolved into the same list of
+:class:`Piece` objects (:meth:`Reed.pieces`) that every model reads:
+
+- the thesis's one-step form (Table 3.1): a root section of width ``width_root`` for
+  ``0 <= s < step_fraction * length`` (R_l), then ``width_tip``, all of thickness
+  ``thickness``;
+- sections (:class:`Section`, ``[[reed.sections]]`` in the geometry file): any number of
+  pieces from the clamp to the tip, each with its own width, optional thickness (default
+  ``thickness``) and optional linear width taper. The upstream face z = 0 is flat (it
+  seals on the seat); a thickness step is a step of the downstream face.
+
+Either form ends in a tip rounded with ``tip_radius`` (Table 3.5: a full semicircle when
+``tip_radius == width / 2`` of the last piece, square when 0). On a tapered last piece
+the rounded corners follow the taper: the edge is the straight taper edge moved inward by
+R - sqrt(R^2 - d^2), d = s - (L - R) (a circular arc when the piece is not tapered).
 """
 
 from __future__ import annotations
@@ -82,8 +93,57 @@ class Groove:
 
 
 @dataclass(frozen=True)
+class Section:
+    """One section of a multi-section reed (``[[reed.sections]]``); lengths in m.
+
+    It runs from the previous section's ``s_end`` (0 for the first) to its own ``s_end``,
+    with width ``width`` at its start varying linearly to ``taper_to`` at ``s_end`` (None:
+    constant width) and thickness ``thickness`` (None: the reed's ``thickness``).
+    """
+
+    s_end: float
+    width: float
+    thickness: float | None = None
+    taper_to: float | None = None
+
+
+@dataclass(frozen=True)
+class Piece:
+    """A resolved piece of the outline: s0 <= s < s1 [m], width w0 -> w1 (linear) [m], thickness h [m]."""
+
+    s0: float
+    s1: float
+    w0: float
+    w1: float
+    h: float
+
+    @property
+    def tapered(self) -> bool:
+        return self.w0 != self.w1
+
+    def width(self, s):
+        """Straight-edged width [m] at s (linear between w0 and w1; no tip rounding)."""
+        if not self.tapered:
+            return np.full(np.shape(s), self.w0, dtype=float)
+        return self.w0 + (self.w1 - self.w0) * (np.asarray(s, dtype=float) - self.s0) / (self.s1 - self.s0)
+
+    @property
+    def area(self) -> float:
+        """Face area [m^2] of the straight-edged piece (trapezoid)."""
+        return 0.5 * (self.w0 + self.w1) * (self.s1 - self.s0)
+
+
+@dataclass(frozen=True)
 class Reed:
-    """A cantilever reed clamped at s = 0; all lengths in m."""
+    """A cantilever reed clamped at s = 0; all lengths in m.
+
+    For a reed given by ``sections`` the one-step fields still hold sensible values
+    (built by :meth:`from_sections`): ``width_root`` is the first section's width,
+    ``width_tip`` the width at the tip end of the last section (before rounding),
+    ``step_fraction`` the first section's end / length (0 for one section) and
+    ``thickness`` the reed-level default thickness. Every model reads the profile through
+    :meth:`pieces`, :meth:`width`, :meth:`thickness_profile` and :meth:`section`.
+    """
 
     length: float
     thickness: float
@@ -94,6 +154,93 @@ class Reed:
     material: Material
     grooves: tuple[Groove, ...] = field(default_factory=tuple)
     name: str = "custom"
+    sections: tuple[Section, ...] = field(default_factory=tuple)
+
+    @classmethod
+    def from_sections(cls, length: float, sections, thickness: float, tip_radius: float,
+                      material: Material, grooves=(), name: str = "custom") -> "Reed":
+        """A multi-section reed; the one-step fields are derived (see the class docstring)."""
+        sections = tuple(sections)
+        if not sections:
+            raise ValueError("need at least one section")
+        last = sections[-1]
+        w_tip = last.width if last.taper_to is None else last.taper_to
+        step = sections[0].s_end / length if len(sections) > 1 else 0.0
+        return cls(length=length, thickness=thickness, width_root=sections[0].width, width_tip=w_tip,
+                   step_fraction=step, tip_radius=tip_radius, material=material,
+                   grooves=tuple(grooves), name=name, sections=sections)
+
+    # -- the profile as pieces ------------------------------------------------------
+    @property
+    def is_sectioned(self) -> bool:
+        """True for a reed described by ``sections`` (else the one-step form)."""
+        return bool(self.sections)
+
+    def pieces(self) -> tuple[Piece, ...]:
+        """The outline from the clamp to the tip as pieces of linear width and constant thickness."""
+        cached = self.__dict__.get("_pieces")
+        if cached is not None:
+            return cached
+        if self.sections:
+            out, s0 = [], 0.0
+            for k, sec in enumerate(self.sections):
+                s1 = self.length if k == len(self.sections) - 1 else sec.s_end
+                h = self.thickness if sec.thickness is None else sec.thickness
+                w1 = sec.width if sec.taper_to is None else sec.taper_to
+                out.append(Piece(s0, s1, sec.width, w1, h))
+                s0 = s1
+        else:
+            h, L, L1 = self.thickness, self.length, self.step_location
+            if self.step_fraction > 0.0:
+                out = [Piece(0.0, L1, self.width_root, self.width_root, h),
+                       Piece(L1, L, self.width_tip, self.width_tip, h)]
+            else:
+                out = [Piece(0.0, L, self.width_tip, self.width_tip, h)]
+        out = tuple(out)
+        self.__dict__["_pieces"] = out  # frozen dataclass: cache beside the fields
+        return out
+
+    def _piece_index(self, s) -> np.ndarray:
+        """Index of the piece holding each s (a piece holds s0 <= s < s1; the tip belongs to the last)."""
+        ends = np.array([p.s1 for p in self.pieces()[:-1]])
+        return np.searchsorted(ends, np.asarray(s, dtype=float), side="right")
+
+    @property
+    def is_tapered(self) -> bool:
+        """True when some piece's width varies linearly (a taper)."""
+        return any(p.tapered for p in self.pieces())
+
+    @property
+    def has_thickness_steps(self) -> bool:
+        return len({p.h for p in self.pieces()}) > 1
+
+    @property
+    def max_thickness(self) -> float:
+        """Largest thickness of any piece [m]."""
+        return max(p.h for p in self.pieces())
+
+    @property
+    def min_thickness(self) -> float:
+        """Smallest thickness of any piece [m]."""
+        return min(p.h for p in self.pieces())
+
+    @property
+    def max_width(self) -> float:
+        """Largest width of the outline [m]."""
+        return max(max(p.w0, p.w1) for p in self.pieces())
+
+    @property
+    def is_piecewise_uniform(self) -> bool:
+        """True when the profile is a chain of uniform beams: no taper, square tip, no grooves."""
+        return not self.is_tapered and self.tip_radius == 0.0 and not self.grooves
+
+    def thickness_profile(self, s):
+        """Thickness h(s) [m] of the piece at s, grooves ignored (vectorised; ``thickness`` for one-step reeds)."""
+        if not self.sections:
+            return np.full(np.shape(s), self.thickness, dtype=float) if np.ndim(s) else self.thickness
+        hs = np.array([p.h for p in self.pieces()])
+        out = hs[np.clip(self._piece_index(s), 0, len(hs) - 1)]
+        return out if np.ndim(s) else float(out)
 
     # -- derived lengths (Table 3.5) ------------------------------------------------
     @property
@@ -113,12 +260,18 @@ class Reed:
 
     @property
     def is_stepped(self) -> bool:
+        """True when the width or thickness changes along the reed (a step or a taper)."""
+        if self.sections:
+            ps = self.pieces()
+            return len(ps) > 1 and len({(p.w0, p.w1, p.h) for p in ps}) > 1 or self.is_tapered
         return self.step_fraction > 0.0 and self.width_root != self.width_tip
 
     # -- outline ----------------------------------------------------------------
     def width(self, s):
         """Outline width W(s) [m] at distance s [m] from the clamp (vectorised)."""
         s = np.asarray(s, dtype=float)
+        if self.sections:
+            return self._sectioned_width(s)
         w1 = self.width_root if self.step_fraction > 0.0 else self.width_tip
         w = np.where(s < self.step_location, w1, self.width_tip)
         R = self.tip_radius
@@ -131,9 +284,24 @@ class Reed:
             )
         return np.where((s < 0.0) | (s > self.length), 0.0, w)
 
+    def _sectioned_width(self, s: np.ndarray) -> np.ndarray:
+        ps = self.pieces()
+        k = np.clip(self._piece_index(s), 0, len(ps) - 1)
+        w = np.empty(s.shape)
+        for i, p in enumerate(ps):
+            sel = k == i
+            w[sel] = p.width(s[sel])
+        R = self.tip_radius
+        if R > 0.0:
+            d = np.clip(s - self.tip_start, 0.0, R)
+            w = np.where(s > self.tip_start, w - 2 * R + 2 * np.sqrt(np.maximum(R**2 - d**2, 0.0)), w)
+        return np.where((s < 0.0) | (s > self.length), 0.0, w)
+
     @property
     def face_area(self) -> float:
-        """Face area [m^2]: W1 L1 + W2 (L - L1) - (2 - pi/2) R^2 (sum of Table 3.5 areas)."""
+        """Face area [m^2]: W1 L1 + W2 (L - L1) - (2 - pi/2) R^2 (sum of Table 3.5 areas; trapezoids per section)."""
+        if self.sections:
+            return sum(p.area for p in self.pieces()) - (2.0 - np.pi / 2.0) * self.tip_radius**2
         L1 = self.step_location
         w1 = self.width_root if self.step_fraction > 0.0 else self.width_tip
         return (
@@ -143,9 +311,11 @@ class Reed:
         )
 
     def breakpoints(self) -> np.ndarray:
-        """Sorted s [m] where W(s) or the grooves change: the step, tip start and groove ends."""
+        """Sorted s [m] where W(s), h(s) or the grooves change: steps, section ends, tip start and groove ends."""
         pts = {0.0, self.length}
-        if self.step_fraction > 0.0:
+        if self.sections:
+            pts.update(p.s1 for p in self.pieces())
+        elif self.step_fraction > 0.0:
             pts.add(self.step_location)
         if self.tip_radius > 0.0:
             pts.add(self.tip_start)
@@ -156,6 +326,8 @@ class Reed:
 
     def outline(self, n_arc: int = 32) -> np.ndarray:
         """Closed outline polygon, counter-clockwise, as an (n, 2) array of (s, y) [m]."""
+        if self.sections:
+            return self._sectioned_outline(n_arc)
         L, L1, R = self.length, self.step_location, self.tip_radius
         w1 = (self.width_root if self.step_fraction > 0.0 else self.width_tip) / 2
         w2 = self.width_tip / 2
@@ -178,6 +350,42 @@ class Reed:
                 out.append(p)
         return np.array(out)
 
+    def lower_edge(self, n_arc: int = 32) -> list[tuple[float, float]]:
+        """Points (s, y) [m] of the lower edge y = -W(s)/2 from the clamp corner to the tip end (y <= 0).
+
+        Straight edges are given by their ends (a step adds a point on each side); the
+        rounded tip corner by ``n_arc + 1`` points, evenly spaced in angle.
+        """
+        ps, R, L = self.pieces(), self.tip_radius, self.length
+        pts = [(0.0, -ps[0].w0 / 2)]
+        for k, p in enumerate(ps):
+            last = k == len(ps) - 1
+            s_end = self.tip_start if (last and R > 0.0) else p.s1
+            if s_end > pts[-1][0] + 1e-12 * L and (p.tapered or last or ps[k + 1].w0 != p.w1):
+                pts.append((s_end, -float(p.width(s_end)) / 2))
+            if not last and ps[k + 1].w0 != p.w1:
+                pts.append((p.s1, -ps[k + 1].w0 / 2))
+        if R > 0.0:
+            p = ps[-1]
+            for a in np.linspace(0.0, np.pi / 2, n_arc + 1)[1:]:
+                d = R * np.sin(a)
+                s = self.tip_start + d
+                pts.append((s, -(float(p.width(s)) / 2 - (R - R * np.cos(a)))))
+        return pts
+
+    def _sectioned_outline(self, n_arc: int) -> np.ndarray:
+        low = self.lower_edge(n_arc)
+        if self.tip_radius == 0.0 or low[-1][1] < -1e-12 * self.length:
+            up = [(s, -y) for s, y in reversed(low)]
+        else:
+            up = [(s, -y) for s, y in reversed(low[:-1])]
+        pts = low + up
+        out = [pts[0]]
+        for p in pts[1:]:
+            if np.hypot(p[0] - out[-1][0], p[1] - out[-1][1]) > 1e-12:
+                out.append(p)
+        return np.array(out)
+
     # -- thickness and sections ---------------------------------------------------
     def groove_depth(self, s, y):
         """Depth [m] of the pocket at (s, y), 0 outside grooves (vectorised)."""
@@ -189,8 +397,8 @@ class Reed:
         return depth
 
     def local_thickness(self, s, y):
-        """Material thickness [m] at the face point (s, y): h minus any pocket depth."""
-        return self.thickness - self.groove_depth(s, y)
+        """Material thickness [m] at the face point (s, y): h(s) minus any pocket depth."""
+        return self.thickness_profile(s) - self.groove_depth(s, y)
 
     def _pockets(self, s: float) -> list[tuple[float, float, float]]:
         """Pockets across the section at s as (y0, y1, depth), clipped to the outline, merged."""
@@ -217,14 +425,16 @@ class Reed:
     def section(self, s) -> tuple[np.ndarray, np.ndarray]:
         """Cross-section area A(s) [m^2] and second moment I(s) [m^4] about its own centroid.
 
-        Rectangle W h minus the groove pockets cut from the upstream face, so the
-        neutral axis shifts toward the downstream face where grooves are cut.
+        Rectangle W(s) h(s) minus the groove pockets cut from the upstream face, so the
+        neutral axis shifts toward the downstream face where grooves are cut. At a step
+        (width or thickness) the value is the one of the piece beginning there.
         """
         s_arr = np.atleast_1d(np.asarray(s, dtype=float))
         A = np.empty_like(s_arr)
         I = np.empty_like(s_arr)
-        h = self.thickness
+        hs = np.atleast_1d(self.thickness_profile(s_arr))
         for k, sk in enumerate(s_arr):
+            h = float(hs[k])
             W = float(self.width(sk))
             parts = [(W * h, h / 2, W * h**3 / 12)]  # (area, centroid z, own I)
             for y0, y1, d in self._pockets(sk):
@@ -259,7 +469,12 @@ class Reed:
 
     @property
     def mass(self) -> float:
-        """Reed mass [kg] from s = 0 to the tip: rho_c (h A_face - groove volume)."""
+        """Reed mass [kg] from s = 0 to the tip: rho_c (sum of h A_face per piece - groove volume)."""
+        if self.sections:
+            ps = self.pieces()
+            vol = (sum(p.h * p.area for p in ps) - ps[-1].h * (2.0 - np.pi / 2.0) * self.tip_radius**2
+                   - sum(_groove_volume(g) for g in self.grooves))
+            return self.material.density * vol
         vol = self.thickness * self.face_area - sum(_groove_volume(g) for g in self.grooves)
         return self.material.density * vol
 

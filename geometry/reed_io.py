@@ -16,15 +16,18 @@ import numpy as np
 from .errors import InputError
 from dataclasses import replace
 
-from .reed import Groove, Material, Reed
+from .reed import Groove, Material, Reed, Section
 
 #: Presets of Table 3.1 of the thesis; each is a packaged file in the user format.
 PRESETS = ("uniform", "stepped1", "stepped2", "prototype")
 
 _REED_KEYS = {
     "length", "thickness", "width_root", "width_tip", "step_fraction", "tip_radius",
-    "material", "grooves", "name",
+    "material", "grooves", "name", "sections",
 }
+_SECTION_KEYS = {"s_end", "width", "thickness", "taper_to"}
+#: the one-step fields that ``[[reed.sections]]`` replaces
+_ONE_STEP_KEYS = ("width_root", "width_tip", "step_fraction")
 _MATERIAL_KEYS = {"youngs_modulus", "density", "poisson_ratio"}
 _RECT_KEYS = {"kind", "s_start", "s_end", "y_center", "width", "depth"}
 _RING_KEYS = {"kind", "s_center", "r_inner", "r_outer", "depth"}
@@ -79,12 +82,51 @@ def _check_keys(table: dict, allowed: set[str], where: str) -> None:
 
 
 def parse_reed(data: dict, source: str = "custom") -> Reed:
-    """Validated :class:`Reed` from the parsed TOML mapping (top-level table ``[reed]``)."""
+    """Validated :class:`Reed` from the parsed TOML mapping (top-level table ``[reed]``).
+
+    The outline is either the one-step form (``width_root``, ``width_tip``,
+    ``step_fraction``) or a list of ``[[reed.sections]]`` (CONTRACT.md, "Multi-section
+    reeds"); giving both is an error.
+    """
     if "reed" not in data:
         raise InputError("reed", "missing [reed] table")
     r = data["reed"]
     _check_keys(r, _REED_KEYS, "reed")
     length = _positive(r, "length", "reed")
+    material = _parse_material(r)
+    name = r.get("name", source)
+    if not isinstance(name, str):
+        raise InputError("reed.name", f"expected a string, got {name!r}")
+    if "sections" in r:
+        reed = _parse_sectioned(r, length, material, name)
+    else:
+        reed = _parse_one_step(r, length, material, name)
+    grooves_raw = r.get("grooves", [])
+    if not isinstance(grooves_raw, list):
+        raise InputError("reed.grooves", "expected an array of tables [[reed.grooves]]")
+    grooves = tuple(_parse_groove(g, f"reed.grooves[{i}]", reed) for i, g in enumerate(grooves_raw))
+    return replace(reed, grooves=grooves)
+
+
+def _parse_material(r: dict) -> Material:
+    if "material" not in r:
+        raise InputError("reed.material", "missing [reed.material] table")
+    m = r["material"]
+    _check_keys(m, _MATERIAL_KEYS, "reed.material")
+    material = Material(
+        youngs_modulus=_positive(m, "youngs_modulus", "reed.material"),
+        density=_positive(m, "density", "reed.material"),
+        poisson_ratio=_number(m, "poisson_ratio", "reed.material"),
+    )
+    if not 0.0 <= material.poisson_ratio < 0.5:
+        raise InputError(
+            "reed.material.poisson_ratio", f"must be in [0, 0.5), got {material.poisson_ratio:g}"
+        )
+    return material
+
+
+def _parse_one_step(r: dict, length: float, material: Material, name: str) -> Reed:
+    """The thesis's form: width_root up to step_fraction * length, then width_tip (Table 3.1)."""
     thickness = _positive(r, "thickness", "reed")
     width_tip = _positive(r, "width_tip", "reed")
     step_fraction = _number(r, "step_fraction", "reed", required=False, default=0.0)
@@ -109,31 +151,70 @@ def parse_reed(data: dict, source: str = "custom") -> Reed:
             f"{tip_radius:g} m reaches past the step at {step_fraction * length:g} m; "
             "expected tip_radius <= length * (1 - step_fraction)",
         )
-    if "material" not in r:
-        raise InputError("reed.material", "missing [reed.material] table")
-    m = r["material"]
-    _check_keys(m, _MATERIAL_KEYS, "reed.material")
-    material = Material(
-        youngs_modulus=_positive(m, "youngs_modulus", "reed.material"),
-        density=_positive(m, "density", "reed.material"),
-        poisson_ratio=_number(m, "poisson_ratio", "reed.material"),
-    )
-    if not 0.0 <= material.poisson_ratio < 0.5:
-        raise InputError(
-            "reed.material.poisson_ratio", f"must be in [0, 0.5), got {material.poisson_ratio:g}"
-        )
-    name = r.get("name", source)
-    if not isinstance(name, str):
-        raise InputError("reed.name", f"expected a string, got {name!r}")
-    reed = Reed(
+    return Reed(
         length=length, thickness=thickness, width_root=width_root, width_tip=width_tip,
         step_fraction=step_fraction, tip_radius=tip_radius, material=material, name=name,
     )
-    grooves_raw = r.get("grooves", [])
-    if not isinstance(grooves_raw, list):
-        raise InputError("reed.grooves", "expected an array of tables [[reed.grooves]]")
-    grooves = tuple(_parse_groove(g, f"reed.grooves[{i}]", reed) for i, g in enumerate(grooves_raw))
-    return replace(reed, grooves=grooves)
+
+
+def _parse_sectioned(r: dict, length: float, material: Material, name: str) -> Reed:
+    """``[[reed.sections]]``: pieces from the clamp to the tip (CONTRACT.md, "Multi-section reeds")."""
+    for k in _ONE_STEP_KEYS:
+        if k in r:
+            raise InputError(f"reed.{k}", "not allowed together with [[reed.sections]]: the sections "
+                             "replace width_root, width_tip and step_fraction")
+    raw = r["sections"]
+    if not isinstance(raw, list) or not raw:
+        raise InputError("reed.sections", "expected a non-empty array of tables [[reed.sections]]")
+    for i, sec in enumerate(raw):
+        _check_keys(sec, _SECTION_KEYS, f"reed.sections[{i}]")
+    if "thickness" in r or not all("thickness" in sec for sec in raw):
+        thickness = _positive(r, "thickness", "reed")
+    else:  # every section has its own: the reed-level default is the root's
+        thickness = None
+    sections, prev = [], 0.0
+    for i, sec in enumerate(raw):
+        where = f"reed.sections[{i}]"
+        s_end = _positive(sec, "s_end", where)
+        if s_end <= prev:
+            raise InputError(f"{where}.s_end", f"{s_end:g} m must exceed the previous section's end "
+                             f"({prev:g} m): sections run from the clamp to the tip in order")
+        if i < len(raw) - 1 and s_end >= length * (1 - 1e-12):
+            raise InputError(f"{where}.s_end", f"{s_end:g} m reaches the tip at reed.length = {length:g} m "
+                             f"but {len(raw) - 1 - i} more section(s) follow")
+        width = _positive(sec, "width", where)
+        h = _positive(sec, "thickness", where, required=False, default=None)
+        taper = _positive(sec, "taper_to", where, required=False, default=None)
+        sections.append(Section(s_end=s_end, width=width, thickness=h, taper_to=taper))
+        prev = s_end
+    last = len(raw) - 1
+    if abs(sections[-1].s_end - length) > 1e-9 * length:
+        raise InputError(f"reed.sections[{last}].s_end", f"the last section must end at the tip, "
+                         f"reed.length = {length:g} m; got {sections[-1].s_end:g} m")
+    sections[-1] = replace(sections[-1], s_end=length)
+    if thickness is None:
+        thickness = sections[0].thickness
+    tip_radius = _number(r, "tip_radius", "reed", required=False, default=0.0)
+    if tip_radius < 0.0:
+        raise InputError("reed.tip_radius", f"must be >= 0, got {tip_radius:g}")
+    end = sections[-1]
+    w_end = end.width if end.taper_to is None else end.taper_to
+    if tip_radius > w_end / 2 * (1 + 1e-12):
+        raise InputError("reed.tip_radius", f"{tip_radius:g} m is wider than the last section: at most "
+                         f"half its width at the tip, {w_end / 2:g} m (reed.sections[{last}])")
+    tip_radius = min(tip_radius, w_end / 2)
+    start_last = sections[-2].s_end if len(sections) > 1 else 0.0
+    if tip_radius > length - start_last:
+        raise InputError("reed.tip_radius", f"{tip_radius:g} m reaches past the start of the last section at "
+                         f"{start_last:g} m; expected tip_radius <= {length - start_last:g} m")
+    reed = Reed.from_sections(length, sections, thickness, tip_radius, material, name=name)
+    # a tapered last section with a rounded tip: the outline must keep a positive width
+    s = np.linspace(0.0, length, 2001)[:-1]
+    if np.any(reed.width(s) <= 0.0):
+        k = int(np.argmax(reed.width(s) <= 0.0))
+        raise InputError(f"reed.sections[{int(reed._piece_index(s[k]))}].taper_to",
+                         f"the outline closes before the tip (width <= 0 at s = {s[k]:g} m)")
+    return reed
 
 
 def _parse_groove(g: dict, where: str, reed: Reed) -> Groove:
@@ -143,9 +224,9 @@ def _parse_groove(g: dict, where: str, reed: Reed) -> Groove:
     if kind not in ("rect", "half_ring"):
         raise InputError(f"{where}.kind", f"expected 'rect' or 'half_ring', got {kind!r}")
     depth = _positive(g, "depth", where)
-    if depth >= reed.thickness:
+    if depth >= reed.max_thickness:
         raise InputError(
-            f"{where}.depth", f"{depth:g} m is not shallower than the reed thickness {reed.thickness:g} m"
+            f"{where}.depth", f"{depth:g} m is not shallower than the reed thickness {reed.max_thickness:g} m"
         )
     if kind == "rect":
         _check_keys(g, _RECT_KEYS, where)
@@ -185,20 +266,27 @@ def _parse_groove(g: dict, where: str, reed: Reed) -> Groove:
         y = groove.r_outer * np.sin(th)
         if np.any(s > reed.length) or np.any(np.abs(y) > reed.width(s) / 2 * (1 + 1e-9)):
             raise InputError(f"{where}.r_outer", "the half ring leaves the reed outline")
+    a, b = groove.s_range()
+    thinnest = min(p.h for p in reed.pieces() if p.s0 < b and p.s1 > a)
+    if depth >= thinnest:
+        k = next(i for i, p in enumerate(reed.pieces()) if p.s0 < b and p.s1 > a and p.h == thinnest)
+        raise InputError(f"{where}.depth", f"{depth:g} m is not shallower than the local thickness "
+                         f"{thinnest:g} m (reed.sections[{k}]) over s = {a:g}..{b:g} m")
     return groove
 
 
 def reed_to_toml(reed: Reed) -> str:
-    """The reed as a TOML document in the user format (round-trips through :func:`parse_reed`)."""
+    """The reed as a TOML document in the user format (round-trips through :func:`parse_reed`).
+
+    One-step reeds are written with width_root, width_tip, step_fraction; multi-section
+    reeds with their ``[[reed.sections]]`` (the one-step fields are derived, not written).
+    """
     m = reed.material
-    lines = [
-        "[reed]",
-        f'name = "{reed.name}"',
-        f"length = {reed.length!r}",
-        f"thickness = {reed.thickness!r}",
-        f"width_root = {reed.width_root!r}",
-        f"width_tip = {reed.width_tip!r}",
-        f"step_fraction = {reed.step_fraction!r}",
+    lines = ["[reed]", f'name = "{reed.name}"', f"length = {reed.length!r}", f"thickness = {reed.thickness!r}"]
+    if not reed.is_sectioned:
+        lines += [f"width_root = {reed.width_root!r}", f"width_tip = {reed.width_tip!r}",
+                  f"step_fraction = {reed.step_fraction!r}"]
+    lines += [
         f"tip_radius = {reed.tip_radius!r}",
         "",
         "[reed.material]",
@@ -206,6 +294,12 @@ def reed_to_toml(reed: Reed) -> str:
         f"density = {m.density!r}",
         f"poisson_ratio = {m.poisson_ratio!r}",
     ]
+    for sec in reed.sections:
+        lines += ["", "[[reed.sections]]", f"s_end = {sec.s_end!r}", f"width = {sec.width!r}"]
+        if sec.thickness is not None:
+            lines.append(f"thickness = {sec.thickness!r}")
+        if sec.taper_to is not None:
+            lines.append(f"taper_to = {sec.taper_to!r}")
     for g in reed.grooves:
         lines += ["", "[[reed.grooves]]", f'kind = "{g.kind}"']
         keys = ("s_start", "s_end", "y_center", "width") if g.kind == "rect" else ("s_center", "r_inner", "r_outer")

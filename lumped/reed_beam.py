@@ -10,13 +10,15 @@ Three layers, each usable on its own:
    (Tables 3.5, 3.6, eqs 3.37-3.39 for kappa, eqs 3.42-3.45 for the shape); it
    takes the tip section as rigid.
 3. Exact Euler-Bernoulli theory on the real profile of any :class:`geometry.Reed`
-   (steps, rounded tips, grooves): EI(s) = E I(s) and m(s) = rho A(s) from
-   ``reed.section``. The static deflection of a cantilever is a chain of four
+   (width and thickness steps, tapers, several sections, rounded tips, grooves):
+   EI(s) = E I(s) and m(s) = rho A(s) from ``reed.section``. The static deflection of a cantilever is a chain of four
    integrals (shear, moment, slope, deflection), evaluated with a spectral
    quadrature on the pieces between the profile's breakpoints; the free-vibration
    problem w = omega^2 G[m w] (G the static flexibility operator) is solved on the
    same quadrature. Both converge exponentially: ~1e-10 relative with the default
-   node count. :func:`reed_properties` is the ``analytic`` fidelity.
+   node count. :func:`reed_properties` is the ``analytic`` fidelity; :func:`modes` gives
+   the first n bending modes (Naguleswaran determinant of the segment chain where the
+   profile is piecewise uniform, else the dense eigenproblem of G diag(m)).
 
 SI units throughout; s runs from the clamp (0) to the tip (L).
 """
@@ -190,9 +192,9 @@ def cantilever_mode_shape(segments: list[Segment], omega: float, s) -> np.ndarra
 
 
 def stepped_segments(reed: Reed) -> list[Segment]:
-    """The reed as uniform segments, valid when it has a square tip and no grooves (else InputError)."""
-    if reed.tip_radius > 0.0 or reed.grooves:
-        raise InputError("reed", "the exact stepped-beam determinant needs a square tip and no grooves")
+    """The reed as uniform segments (width and thickness steps), valid for a square tip, no grooves and no taper."""
+    if not reed.is_piecewise_uniform:
+        raise InputError("reed", "the exact stepped-beam determinant needs a square tip, no grooves and no taper")
     out = []
     for a, b in zip(reed.breakpoints()[:-1], reed.breakpoints()[1:]):
         mid = 0.5 * (a + b)
@@ -240,7 +242,14 @@ class ThreeSection:
 
     @classmethod
     def from_reed(cls, reed: Reed) -> "ThreeSection":
-        """Table 3.5 quantities of a stepped reed with a rounded tip (grooves ignored: nominal h)."""
+        """Table 3.5 quantities of a stepped reed with a rounded tip (grooves ignored: nominal h).
+
+        Needs the thesis's outline: at most one width step, uniform thickness, no taper
+        (InputError naming reed.sections otherwise).
+        """
+        if reed.is_sectioned and (len(reed.pieces()) > 2 or reed.is_tapered or reed.has_thickness_steps):
+            raise InputError("reed.sections", "the thesis's three-section method (Tables 3.5, 3.6) needs one "
+                             "width step at uniform thickness and no taper; use the exact E-B model")
         L, R, h, E = reed.length, reed.tip_radius, reed.thickness, reed.material.youngs_modulus
         L1 = reed.step_location
         W1 = reed.width_root if reed.step_fraction > 0.0 else reed.width_tip
@@ -412,12 +421,63 @@ def free_vibration(reed: Reed, n: int = NODES_PER_PIECE, s_out=None):
 def natural_frequency(reed: Reed, n: int = NODES_PER_PIECE, model: BeamModel | None = None) -> float:
     """omega_n [rad/s] of the first bending mode in vacuum by exact E-B on the real profile.
 
-    Piecewise-uniform reeds (square tip, no grooves) use the exact Naguleswaran
-    determinant; others the spectral solution of :func:`free_vibration`.
+    Piecewise-uniform reeds (square tip, no grooves, no taper; width and thickness
+    steps allowed) use the exact Naguleswaran determinant; others the spectral solution
+    of :func:`free_vibration`.
     """
-    if reed.tip_radius == 0.0 and not reed.grooves:
+    if reed.is_piecewise_uniform:
         return float(cantilever_frequencies(stepped_segments(reed), 1)[0])
     return _first_mode(model if model is not None else BeamModel.of(reed, n))[0]
+
+
+@dataclass(frozen=True)
+class BendingModes:
+    """The first bending modes of an E-B reed (SI): omega [rad/s] ascending, labels
+    ("bending 1", ...: mode n has n - 1 nodes), shapes w(s) at ``s`` [m] (columns, max |w| = 1)."""
+
+    omega: np.ndarray
+    labels: list
+    s: np.ndarray
+    shapes: np.ndarray
+
+    def first(self, n: int):
+        """The first n frequencies [rad/s] and labels (CONTRACT ``frequencies``, ``mode_kinds``)."""
+        return [float(w) for w in self.omega[:n]], list(self.labels[:n])
+
+
+def modes(reed: Reed, n_modes: int, mesh_size=None, nodes: int | None = None) -> BendingModes:
+    """First ``n_modes`` bending natural frequencies [rad/s] and mode shapes of any reed by exact E-B.
+
+    (EI(s) w'')'' = omega^2 m(s) w, clamped-free. Piecewise-uniform profiles (width and
+    thickness steps, square tip, no grooves): roots of the Naguleswaran (2002) determinant
+    of the exact segment transfer matrices and their exact shapes. Others (tapers, rounded
+    tips, grooves): the eigenproblem w = omega^2 G[m w] on the spectral quadrature, with
+    max(24, 6 n) Chebyshev nodes per piece (mode 8 of a uniform reed to 3e-8).
+    ``mesh_size`` is ignored.
+    """
+    n_modes = max(int(n_modes), 1)
+    s_out = plot_grid(reed)
+    if reed.is_piecewise_uniform:
+        segs = stepped_segments(reed)
+        omega = cantilever_frequencies(segs, n_modes)
+        shapes = np.column_stack([cantilever_mode_shape(segs, w, s_out) for w in omega])
+    else:
+        n = max(NODES_PER_PIECE, 6 * n_modes) if nodes is None else nodes
+        bm = BeamModel.of(reed, n)
+        vals, vecs = np.linalg.eig(bm.flexibility() * bm.m[None, :])
+        order = np.argsort(-vals.real)[:n_modes]
+        lam = vals.real[order]
+        omega = 1.0 / np.sqrt(lam)
+        shapes = np.column_stack([bm.quad.forward_at(s_out) @ bm.slope(bm.m * vecs[:, k].real)
+                                  for k in order])
+    shapes = shapes / np.max(np.abs(shapes), axis=0)
+    labels = [f"bending {k + 1}" for k in range(n_modes)]
+    return BendingModes(omega=np.asarray(omega, dtype=float), labels=labels, s=s_out, shapes=shapes)
+
+
+def properties_and_modes(reed: Reed, n: int, mesh_size=None):
+    """(ReedProperties of :func:`reed_properties`, :class:`BendingModes` of :func:`modes`)."""
+    return reed_properties(reed), modes(reed, n)
 
 
 #: shapes :func:`shape_mode_parameters` knows

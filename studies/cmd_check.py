@@ -21,8 +21,12 @@ def configure(p):
                    help=f"flag deviations from the reference above this [%%] (default {DEFAULT_TOLERANCE_PCT:g})")
     p.add_argument("--mesh-size", type=float, default=None,
                    help="FEA element size [m] for every FEA fidelity (default: each one's converged size)")
+    p.add_argument("--modes", type=int, default=4, metavar="N",
+                   help="compare the first N natural frequencies across fidelities by nodal pattern "
+                        "(default 4; 0: only omega_n)")
     p.add_argument("--convergence", action="store_true",
-                   help="also run a three-mesh convergence study of each FEA fidelity (slow)")
+                   help="also run a mesh convergence study of each FEA fidelity (2h, h, h/2, refined further "
+                        "when not asymptotic; slow)")
     p.add_argument("--out", default=None,
                    help="folder for plots (shapes, convergence) and VTU files of the solid modes")
     p.add_argument("--force", action="store_true", help="write into an existing folder valvelab did not make")
@@ -43,23 +47,28 @@ def run(args) -> dict:
         raise InputError("--tolerance-pct", f"must be a positive percentage, got {args.tolerance_pct}")
     if args.mesh_size is not None and not args.mesh_size > 0:
         raise InputError("--mesh-size", f"must be a positive length in m, got {args.mesh_size}")
+    from .cmd_reed import check_modes_count
+
+    n_modes = check_modes_count(args.modes, allow_zero=True)
     out_dir = None
     if args.out is not None:
         from .outputs import prepare_output_dir
 
         out_dir = prepare_output_dir(args.out, "--out", args.force)
-    check = multi_fidelity_check(reed, fids, args.tolerance_pct, args.mesh_size, progress=True)
+    check = multi_fidelity_check(reed, fids, args.tolerance_pct, args.mesh_size, progress=True, modes=n_modes)
     result = check_as_json(check)
     result["geometry"] = args.geometry
     if args.convergence:
         from fea.convergence import convergence_study, default_sizes, plot_convergence
+
+        from .cmd_reed import reed_model
 
         studies = {}
         for fid in fids:
             if fid == "analytic":
                 continue
             sizes = default_sizes(args.mesh_size) if args.mesh_size else None
-            studies[fid] = convergence_study(reed, fid, sizes=sizes)
+            studies[fid] = convergence_study(reed, fid, sizes=sizes, model=reed_model(fid))
             if out_dir is not None:
                 plot_convergence(studies[fid], out_dir / f"convergence_{fid}.png")
         result["convergence"] = studies
@@ -86,6 +95,10 @@ def _write_outputs(reed, fids, mesh_size, out_dir) -> list[str]:
         mod = importlib.import_module(f"fea.{fid}")
         kw = {"torsion": True} if fid == "solid" else {}
         r = mod.solve(reed, mesh_size, **kw)
+        if fid == "plate":
+            path = out_dir / "plate_modes.vtu"
+            mod.write_modes_vtu(r, path)
+            files.append(str(path))
         a1.plot(r.s * 1e3, r.psi_mode, label=f"{fid}: {r.omega_n:.0f} rad/s")
         a2.plot(r.s * 1e3, r.psi_static, label=f"{fid}: {r.kappa / 1e6:.3f} MPa/m")
         if fid == "solid":
@@ -114,9 +127,12 @@ def render(r: dict) -> str:
     text = render_check(r)
     for fid, st in r.get("convergence", {}).items():
         for q, c in st["quantities"].items():
-            order = f"p = {c['order']:.2f}" if c["order"] else ("monotonic, not asymptotic" if c["monotonic"] else "not monotonic")
+            state = (f"p = {c['order']:.2f}" if c["reliable"] and c["order"] else c["note"])
             text += (f"\nconvergence {fid} {q}: {', '.join(f'{v:.6g}' for v in c['values'])} -> "
-                     f"{c['extrapolated']:.6g} ({order}); error at the default mesh {c['error_pct'][1]:.3f} %")
+                     f"{c['extrapolated']:.6g} ({state}); error at the default mesh {c['default_error_pct']:.3f} %"
+                     + ("" if c["reliable"] else " (UNRELIABLE)"))
+        for note in st.get("notes", []):
+            text += f"\n  note ({fid}): {note}"
     for f in r.get("files", []):
         text += f"\nwrote {f}"
     return text

@@ -1,4 +1,4 @@
-"""``valvelab modes --out DIR``: mode-shape figure (cf. thesis Figure 3.12) and VTU files of the solid modes."""
+"""``valvelab modes``: natural frequencies and mode shapes of reeds at any fidelity (plots, VTU)."""
 
 from __future__ import annotations
 
@@ -6,45 +6,81 @@ import sys
 
 from geometry import load_reed
 
-HELP = "mode shapes of reeds (Figure 3.12 style plot) and VTU files of their 3-D solid modes"
+HELP = "natural frequencies and mode shapes of reeds at any fidelity: plots of every mode and VTU files"
+
+#: modes computed per reed unless --modes says otherwise
+DEFAULT_MODES = 6
 
 
 def configure(p):
     p.add_argument("geometries", nargs="*", default=["uniform", "stepped1", "stepped2", "prototype"],
                    help="presets or reed TOML files (default: the four thesis reeds)")
+    p.add_argument("--fidelity", default="solid", help="analytic, beam, plate or solid (default solid)")
+    p.add_argument("--modes", type=int, default=DEFAULT_MODES, metavar="N",
+                   help=f"number of modes per reed (default {DEFAULT_MODES})")
     p.add_argument("--out", default="out/modes", help="output folder (default out/modes)")
     p.add_argument("--force", action="store_true", help="write into an existing folder valvelab did not make")
-    p.add_argument("--mesh-size", type=float, default=None, help="solid element size [m] (default: converged)")
+    p.add_argument("--mesh-size", type=float, default=None,
+                   help="FEA element size [m] (default: converged size scaled to each reed)")
+
+
+def _shapes(fidelity, mod, result, reed, n):
+    """(s [m], y [m] (ns, ny), w (n, ns, ny)) of the first n modes, each max |w| = 1."""
+    import numpy as np
+
+    if fidelity == "analytic":
+        w = result.shapes[:, :n].T
+        return result.s, np.zeros((len(result.s), 1)), w[:, :, None]
+    ms = mod.mode_shapes(result, reed, n)
+    return ms.s, ms.y, ms.w
 
 
 def run(args) -> dict:
-    from fea.solid import solve, write_modes_vtu
     from geometry.errors import InputError
 
+    from .cmd_reed import check_modes_count, fidelity_module
     from .outputs import prepare_output_dir
+    from .plots import plot_mode_shapes
     from .tables_fea import figure_3_12
 
     if args.mesh_size is not None and not args.mesh_size > 0:
         raise InputError("--mesh-size", f"must be a positive length in m, got {args.mesh_size}")
+    n = check_modes_count(args.modes)
+    mod = fidelity_module(args.fidelity)
     reeds = [load_reed(g) for g in args.geometries]  # validate every input before writing
+    if args.mesh_size is not None and args.fidelity != "analytic":
+        from fea.mesh import check_size
+
+        for reed in reeds:
+            check_size(reed, args.mesh_size)
     out = prepare_output_dir(args.out, "--out", args.force)
     files, modes = [], {}
     for g, reed in zip(args.geometries, reeds):
-        print(f"modes: solid {reed.name} (bending and torsion)", file=sys.stderr, flush=True)
-        r = solve(reed, args.mesh_size, torsion=True)
-        path = out / f"{reed.name}_solid_modes.vtu"
-        write_modes_vtu(r, path)
-        files.append(str(path))
-        modes[g] = [{"omega": float(w), "kind": k} for w, k in zip(r.omega, r.kinds)]
+        print(f"modes: {args.fidelity} {reed.name} ({n} modes)", file=sys.stderr, flush=True)
+        _, result = mod.properties_and_modes(reed, n, mesh_size=args.mesh_size)
+        freqs, labels = result.first(n)
+        families = getattr(result, "kinds", ["bending"] * len(labels))
+        modes[g] = [{"omega": w, "kind": k, "label": lab} for w, k, lab in zip(freqs, families, labels)]
+        if args.fidelity != "analytic":
+            path = out / f"{reed.name}_{args.fidelity}_modes.vtu"
+            if args.fidelity == "beam":
+                mod.write_modes_vtu(result, reed, path)
+            else:
+                mod.write_modes_vtu(result, path)
+            files.append(str(path))
+        s, y, w = _shapes(args.fidelity, mod, result, reed, n)
+        png = plot_mode_shapes(out / f"{reed.name}_{args.fidelity}_mode_shapes.png", reed, s, y, w, freqs, labels,
+                               title=f"reed {reed.name}: first {n} modes ({args.fidelity})")
+        files.append(str(png))
     fig = out / "mode_shapes.png"
-    figure_3_12(fig, reeds=args.geometries, mesh_size=args.mesh_size)
+    figure_3_12(fig, reeds=args.geometries, mesh_size=args.mesh_size, fidelity=args.fidelity)
     files.append(str(fig))
-    return {"modes": modes, "files": files}
+    return {"fidelity": args.fidelity, "modes": modes, "files": files}
 
 
 def render(r: dict) -> str:
     lines = []
     for g, ms in r["modes"].items():
-        lines.append(f"{g}: " + ", ".join(f"{m['omega']:.0f} rad/s {m['kind']}" for m in ms))
+        lines.append(f"{g} ({r.get('fidelity', 'solid')}): " + ", ".join(f"{m['omega']:.5g} rad/s {m['label']}" for m in ms))
     lines += [f"wrote {f}" for f in r["files"]]
     return "\n".join(lines)

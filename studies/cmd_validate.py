@@ -53,11 +53,13 @@ def run(args) -> dict:
         if chain["status"] != "ok":
             _log(f"  {chain['reason']}: the pump uses Table 3.13 only")
     if chain["rows"]:
-        V.write_table([_plain(r) for r in chain["rows"]], out / "reed_parameters",
-                      "Prototype reed parameters by fidelity (step 1)")
+        rows, notes = V.reed_parameter_table(chain)
+        V.write_table([_plain(r) for r in rows], out / "reed_parameters",
+                      "Prototype reed parameters by fidelity (step 1), beside the thesis's FEA", notes)
     sel = chain["selected"]
     summary["steps"]["reed_parameters"] = {
         "status": chain["status"], "reason": chain["reason"], "fidelities": len(chain["rows"]),
+        "flagged": list(chain.get("flagged", [])),
         "selected": None if sel is None else {k: _num(getattr(sel, k)) for k in
                                               ("fidelity", "omega_n", "kappa", "gamma1", "gamma2", "gamma3", "h_eff")},
     }

@@ -37,7 +37,7 @@ def plot_reed_shapes(path, reed, shapes: dict, title: str | None = None) -> Path
     out = reed.outline()
     ax0.fill(out[:, 0] * 1e3, out[:, 1] * 1e3, color="0.85", ec="k", lw=1)
     if reed.grooves:  # pockets shaded by depth
-        ss, yy = np.meshgrid(np.linspace(0, reed.length, 400), np.linspace(-reed.width_tip / 2, reed.width_tip / 2, 200))
+        ss, yy = np.meshgrid(np.linspace(0, reed.length, 400), np.linspace(-reed.max_width / 2, reed.max_width / 2, 200))
         inside = np.abs(yy) <= reed.width(ss) / 2
         depth = np.where(inside, reed.groove_depth(ss, yy), np.nan)
         depth = np.where(depth > 0, depth, np.nan)
@@ -101,4 +101,48 @@ def plot_ringdown(path, traces, fits, title: str = "plucked reed: eq 3.67 fits")
     ax.set_title(title)
     ax.legend(fontsize=7)
     fig.savefig(path, dpi=120)
+    return Path(path)
+
+
+def plot_mode_shapes(path, reed, s, y, w, omega, labels, title: str | None = None) -> Path:
+    """Shapes of any number of modes, one panel each, with units on every axis.
+
+    ``s`` [m] (ns,), ``y`` [m] (ns, ny) across the width at each station, ``w`` (n, ns, ny)
+    normalised deflections (max |w| = 1); ny = 1 draws w(s) of a one-dimensional model,
+    ny > 1 draws u_z over the face (s, y) as filled contours with its nodal lines (w = 0).
+    ``omega`` [rad/s] and ``labels`` (e.g. "torsion 1") title each panel.
+    """
+    w = np.asarray(w, dtype=float)
+    n = w.shape[0]
+    cols = min(n, 3)
+    rows = int(np.ceil(n / cols))
+    two_d = w.shape[2] > 1
+    aspect = float(reed.max_width / reed.length) if two_d else 0.5
+    panel_h = max(1.6, min(3.2, 3.6 * aspect + 0.9)) if two_d else 2.4
+    fig = Figure(figsize=(4.0 * cols, panel_h * rows + 0.6), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(rows, cols, squeeze=False)).ravel()
+    scale, unit = (1.0, "m") if reed.length > 1.0 else (1e3, "mm")   # lengths in m or mm
+    s_mm = np.asarray(s) * scale
+    for k in range(n):
+        ax = axes[k]
+        if two_d:
+            S = np.repeat(s_mm[:, None], w.shape[2], axis=1)
+            cs = ax.contourf(S, np.asarray(y) * scale, w[k], levels=np.linspace(-1, 1, 21), cmap="RdBu_r")
+            ax.contour(S, np.asarray(y) * scale, w[k], levels=[0.0], colors="k", linewidths=0.8)
+            out = reed.outline()
+            ax.plot(out[:, 0] * scale, out[:, 1] * scale, color="0.3", lw=0.6)
+            ax.set_aspect("equal")
+            ax.set_ylabel(f"y [{unit}]")
+            fig.colorbar(cs, ax=ax, label=r"$u_z / \max|u_z|$ [-]", shrink=0.85, ticks=[-1, 0, 1])
+        else:
+            ax.plot(s_mm, w[k, :, 0], color="C0")
+            ax.axhline(0.0, color="0.6", lw=0.5)
+            ax.set_ylabel(r"$w / \max|w|$ [-]")
+            ax.grid(alpha=0.3)
+        ax.set_xlabel(f"s [{unit}] (clamp at 0)")
+        ax.set_title(f"{labels[k]}: {omega[k]:.4g} rad/s ({omega[k] / (2 * np.pi):.4g} Hz)", fontsize=9)
+    for ax in axes[n:]:
+        ax.set_visible(False)
+    fig.suptitle(title or f"mode shapes of reed {reed.name}")
+    fig.savefig(path, dpi=110)
     return Path(path)

@@ -12,6 +12,12 @@ every deviation above ``tolerance_pct`` and selects the values that feed the pum
 
 The default tolerance, 4 %, is the thesis's own statement of the E-B model's accuracy
 for reed stiffness (section 3.5.1: "valid for estimating reed stiffness within ~4 %").
+
+With ``modes = N`` each fidelity also gives its first N natural frequencies named by nodal
+pattern (``bending 2``, ``torsion 1``, ...); each is compared with the reference's mode of
+the same name (``mode_deviation_pct``, null where the reference has no such mode among its
+first N, e.g. torsion for the beam). Mode deviations are reported, not flagged: they do not
+feed the pump model.
 """
 
 from __future__ import annotations
@@ -31,16 +37,20 @@ EB_ORDER = ("analytic", "beam")
 DEFAULT_TOLERANCE_PCT = 4.0
 
 
-def _run(fidelity: str, reed: Reed, mesh_size):
-    from studies.cmd_reed import reed_model
+def _run(fidelity: str, reed: Reed, mesh_size, modes: int = 0):
+    """(ReedProperties, (frequencies, labels) or None) of one fidelity."""
+    from studies.cmd_reed import modes_model, reed_model
 
-    model = reed_model(fidelity)
-    return model(reed, mesh_size=None if fidelity == "analytic" else mesh_size)
+    size = None if fidelity == "analytic" else mesh_size
+    if not modes:
+        return reed_model(fidelity)(reed, mesh_size=size), None
+    props, result = modes_model(fidelity)(reed, modes, mesh_size=size)
+    return props, result.first(modes)
 
 
 def multi_fidelity_check(reed: Reed, fidelities=("analytic", "beam", "plate", "solid"),
                          tolerance_pct: float = DEFAULT_TOLERANCE_PCT, mesh_size=None,
-                         progress: bool = True) -> dict:
+                         progress: bool = True, modes: int = 0) -> dict:
     """Run ``fidelities`` on ``reed`` and compare them (see the module docstring).
 
     Returns a dict with ``rows`` (one per fidelity: the Table 3.4 values, ``dofs``,
@@ -48,15 +58,18 @@ def multi_fidelity_check(reed: Reed, fidelities=("analytic", "beam", "plate", "s
     ``flags``), ``reference``, ``tolerance_pct``, ``flagged`` (list of "fidelity.quantity")
     and ``selected``: ``{"fidelity", "reason",
     "properties": ReedProperties}``. ``mesh_size`` None uses each FEA fidelity's converged
-    default. Progress goes to stderr.
+    default. Progress goes to stderr. ``modes`` > 0 adds each row's ``frequencies`` [rad/s],
+    ``mode_kinds`` and ``mode_deviation_pct`` (see the module docstring) and a top-level
+    ``modes`` summary ``{"count", "labels"}``.
     """
     results: dict[str, ReedProperties] = {}
+    mode_sets: dict[str, tuple] = {}
     seconds: dict[str, float] = {}
     for k, fid in enumerate(fidelities):
         if progress:
             print(f"check {reed.name}: {fid} ({k + 1}/{len(fidelities)})", file=sys.stderr, flush=True)
         t0 = time.perf_counter()
-        results[fid] = _run(fid, reed, mesh_size)
+        results[fid], mode_sets[fid] = _run(fid, reed, mesh_size, modes)
         seconds[fid] = time.perf_counter() - t0
     ran = list(results)
     reference = next((f for f in REFERENCE_ORDER if f in results), ran[0])
@@ -73,6 +86,17 @@ def multi_fidelity_check(reed: Reed, fidelities=("analytic", "beam", "plate", "s
             "h_eff": float(p.h_eff), "dofs": p.dofs, "mesh_size": p.mesh_size,
             "seconds": round(seconds[fid], 3), "deviation_pct": dev, "flags": flags,
         })
+        if modes:
+            freqs, kinds = mode_sets[fid]
+            ref_f, ref_k = mode_sets[reference]
+            ref_by = {}
+            for w, lab in zip(ref_f, ref_k):
+                ref_by.setdefault(lab, w)
+            row["frequencies"] = freqs
+            row["mode_kinds"] = kinds
+            row["mode_deviation_pct"] = {
+                lab: (None if lab not in ref_by else (w - ref_by[lab]) / ref_by[lab] * 100.0)
+                for w, lab in zip(freqs, kinds)}
         rows.append(row)
     selected, reason = reference, f"{reference} is the reference"
     for fid in EB_ORDER:
@@ -86,11 +110,17 @@ def multi_fidelity_check(reed: Reed, fidelities=("analytic", "beam", "plate", "s
                 reason = (f"{fid} deviates from {reference} by more than {tolerance_pct:g} % in "
                           + ", ".join(row["flags"]) + f"; the {reference} values are used")
             break
-    return {
+    out = {
         "geometry": reed.name, "reference": reference, "tolerance_pct": float(tolerance_pct),
         "rows": rows, "flagged": flagged,
         "selected": {"fidelity": selected, "reason": reason, "properties": results[selected]},
     }
+    if modes:
+        labels = []
+        for fid in [reference] + [f for f in ran if f != reference]:
+            labels += [lab for lab in mode_sets[fid][1] if lab not in labels]
+        out["modes"] = {"count": int(modes), "labels": labels}
+    return out
 
 
 def check_as_json(check: dict) -> dict:
@@ -112,7 +142,7 @@ def render_check(c: dict) -> str:
              f"{'':<9} {'rad/s':>9} {'MPa/m':>9}"]
     for r in c["rows"]:
         lines.append(
-            f"{r['fidelity']:<9} {r['omega_n']:9.1f} {r['kappa'] / 1e6:9.4f} {r['gamma1']:7.4f} "
+            f"{r['fidelity']:<9} {r['omega_n']:9.6g} {r['kappa'] / 1e6:9.5g} {r['gamma1']:7.4f} "
             f"{r['gamma2']:7.4f} {r['gamma3']:7.4f} {r['dofs'] if r['dofs'] is not None else '-':>7} "
             f"{r['seconds']:6.1f}")
         d = r["deviation_pct"]
@@ -120,6 +150,20 @@ def render_check(c: dict) -> str:
         lines.append(
             f"{'  dev %':<9} {d['omega_n']:+8.2f}{mark('omega_n')} {d['kappa']:+8.2f}{mark('kappa')} "
             f"{d['gamma1']:+6.2f}{mark('gamma1')} {d['gamma2']:+6.2f}{mark('gamma2')} {d['gamma3']:+6.2f}{mark('gamma3')}")
+    if c.get("modes"):
+        fids = [r["fidelity"] for r in c["rows"]]
+        lines.append(f"first {c['modes']['count']} modes [rad/s] (% from {c['reference']}, same nodal pattern):")
+        lines.append(f"{'mode':<22}" + "".join(f"{f:>20}" for f in fids))
+        for lab in c["modes"]["labels"]:
+            cells = []
+            for r in c["rows"]:
+                k = r["mode_kinds"].index(lab) if lab in r["mode_kinds"] else None
+                if k is None:
+                    cells.append(f"{'-':>20}")
+                    continue
+                d = r["mode_deviation_pct"].get(lab)
+                cells.append(f"{r['frequencies'][k]:>11.6g}" + (f" ({d:+6.2f})" if d is not None else " " * 9))
+            lines.append(f"{lab:<22}" + "".join(cells))
     if c["flagged"]:
         lines.append("FLAGGED (beyond tolerance): " + ", ".join(c["flagged"]))
     else:

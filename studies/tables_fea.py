@@ -2,7 +2,8 @@
 3.11 (alpha from FEA), and the Figure 3.12 style mode-shape plot.
 
 All FEA values here come from the 3-D solid (:mod:`fea.solid`) at its default mesh, whose
-discretisation error the convergence study puts below 0.3 % (docs/errata.md, FEA section).
+discretisation error the convergence study puts at 0.005-0.22 % in omega_n and 0.01-0.42 %
+in kappa on the four reeds (docs/fea.md).
 E-B values come from the analytic model (``lumped.reed_beam``, exact E-B for the real
 profile) when it is installed, otherwise from the beam FE model, the same theory to
 1e-6 (tests/test_fea_beam.py).
@@ -145,36 +146,44 @@ def table_3_11() -> dict:
     return {"rows": rows, "notes": notes}
 
 
-def figure_3_12(path, reeds=REEDS, mesh_size=None) -> dict:
+def figure_3_12(path, reeds=REEDS, mesh_size=None, fidelity: str = "solid") -> dict:
     """Figure 3.12 style plot: centre-line shapes in free vibration and under uniform load.
 
-    Solid FEA (lines) and exact E-B beam FE (dashed) for each reed; returns the shape data.
+    ``fidelity`` (solid by default; beam or plate) at ``mesh_size`` (lines) and exact E-B
+    (analytic model, dashed) for each reed; ``reeds`` are presets or reed files. Returns
+    the shape data.
     """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from fea import beam, solid
+    from lumped import reed_beam as rb
 
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
     data = {}
     for k, name in enumerate(reeds):
         reed = load_reed(name)
         print(f"mode shapes: {reed.name} ({k + 1}/{len(reeds)})", file=sys.stderr, flush=True)
-        rs = solid.solve(reed, mesh_size)
-        rb = beam.solve(reed)
-        c = f"C{k}"
-        a1.plot(rs.s * 1e3, rs.psi_mode, color=c, label=f"{reed.name} solid")
-        a1.plot(rb.s * 1e3, rb.psi_mode, color=c, ls="--", lw=0.9, label=f"{reed.name} E-B")
-        a2.plot(rs.s * 1e3, rs.psi_static, color=c, label=f"{reed.name} solid")
-        a2.plot(rb.s * 1e3, rb.psi_static, color=c, ls="--", lw=0.9, label=f"{reed.name} E-B")
-        data[reed.name] = {"s": rs.s, "psi_mode": rs.psi_mode, "psi_static": rs.psi_static}
+        c = f"C{k % 10}"
+        if fidelity != "analytic":
+            import importlib
+
+            rs = importlib.import_module(f"fea.{fidelity}").solve(reed, mesh_size)
+            a1.plot(rs.s * 1e3, rs.psi_mode, color=c, label=f"{reed.name} {fidelity}")
+            a2.plot(rs.s * 1e3, rs.psi_static, color=c, label=f"{reed.name} {fidelity}")
+            data[reed.name] = {"s": rs.s, "psi_mode": rs.psi_mode, "psi_static": rs.psi_static}
+        s = rb.plot_grid(reed)
+        _, free = rb.shape(reed, "free", s)
+        _, load = rb.shape(reed, "load", s)
+        a1.plot(s * 1e3, free, color=c, ls="--", lw=0.9, label=f"{reed.name} E-B")
+        a2.plot(s * 1e3, load, color=c, ls="--", lw=0.9, label=f"{reed.name} E-B")
+        data.setdefault(reed.name, {"s": s, "psi_mode": free, "psi_static": load})
     for ax, title in ((a1, "free vibration (first bending mode)"), (a2, "uniform distributed load")):
         ax.set_xlabel("s [mm]")
         ax.set_title(title, fontsize=10)
         ax.grid(alpha=0.3)
-    a1.set_ylabel("mode function psi(s) on the centre line")
+    a1.set_ylabel("mode function psi(s) = w(s) / w(L) on the centre line [-]")
     a2.legend(fontsize=7, ncol=2)
     fig.suptitle("Mode functions of the reeds (cf. thesis Figure 3.12)")
     fig.tight_layout()

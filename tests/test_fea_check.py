@@ -90,7 +90,7 @@ def test_cli_check_json_and_text(cli, tmp_path):
     (("check", "stepped1", "--tolerance-pct", "-1"), "--tolerance-pct"),
     (("check", "stepped1", "--mesh-size", "0"), "--mesh-size"),
     (("check", "nope.toml"), "nope.toml"),
-    (("reed", "stepped1", "--fidelity", "plate", "--mesh-size", "1.0"), "mesh_size"),
+    (("reed", "stepped1", "--fidelity", "plate", "--mesh-size", "1.0"), "--mesh-size"),
 ])
 def test_cli_bad_input_is_one_line(cli, args, field):
     rc, out, err = cli(*args)

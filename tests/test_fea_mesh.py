@@ -103,5 +103,5 @@ def test_vtu_export(tmp_path):
 
 @pytest.mark.parametrize("size", [0.0, -1e-3, float("nan"), 1.0])
 def test_bad_mesh_size_is_an_input_error(size):
-    with pytest.raises(InputError, match="mesh_size"):
+    with pytest.raises(InputError, match="--mesh-size"):
         face_mesh(load_reed("uniform"), size)

@@ -132,3 +132,150 @@ def test_missing_file_is_named(tmp_path):
     bad.write_text("[reed\nlength=")
     with pytest.raises(InputError, match="not valid TOML"):
         load_reed(bad)
+
+
+# -- multi-section reeds ([[reed.sections]], CONTRACT "Multi-section reeds") ----------------
+
+SECTIONED = """
+[reed]
+length = 25.4e-3
+thickness = 1.0e-3
+tip_radius = 5.0e-3
+[reed.material]
+youngs_modulus = 2.9e9
+density = 1410.0
+poisson_ratio = 0.35
+[[reed.sections]]
+s_end = 6.0e-3
+width = 8.0e-3
+thickness = 1.5e-3
+[[reed.sections]]
+s_end = 15.0e-3
+width = 12.0e-3
+[[reed.sections]]
+s_end = 25.4e-3
+width = 16.0e-3
+taper_to = 12.0e-3
+"""
+
+ONE_STEP_AS_SECTIONS = """
+[reed]
+length = 25.4e-3
+thickness = 1.35e-3
+tip_radius = 7.9375e-3
+[reed.material]
+youngs_modulus = 2.9e9
+density = 1410.0
+poisson_ratio = 0.35
+[[reed.sections]]
+s_end = 4.7625e-3
+width = 7.9375e-3
+[[reed.sections]]
+s_end = 25.4e-3
+width = 15.875e-3
+"""
+
+
+def test_one_step_reed_as_sections_is_the_same_outline():
+    """stepped #2 written as two sections: the same width, sections, areas and mass (to round-off)."""
+    a, b = load_reed("stepped2"), parse_reed(tomllib.loads(ONE_STEP_AS_SECTIONS))
+    s = np.linspace(0.0, a.length, 2001)
+    s = s[np.min(np.abs(s[:, None] - a.breakpoints()[None, :]), axis=1) > 1e-12]  # R_l L is 1 ulp off s_end
+    assert np.array_equal(a.width(s), b.width(s))
+    A1, I1 = a.section(s)
+    A2, I2 = b.section(s)
+    assert np.array_equal(A1, A2) and np.array_equal(I1, I2)
+    assert b.face_area == pytest.approx(a.face_area, rel=1e-14) and b.mass == pytest.approx(a.mass, rel=1e-14)
+    assert np.allclose(a.breakpoints(), b.breakpoints(), rtol=0, atol=1e-15)
+    # the one-step fields of a sectioned reed hold sensible values (documented on Reed)
+    assert (b.width_root, b.width_tip, b.thickness) == (a.width_root, a.width_tip, a.thickness)
+    assert b.step_location == pytest.approx(a.step_location, rel=1e-14)
+
+
+def test_sectioned_profile_by_independent_integration():
+    """Face area, mass and h(s) of a three-section reed (thickness step, taper, rounded tip)."""
+    r = parse_reed(tomllib.loads(SECTIONED))
+    assert [p.h for p in r.pieces()] == [1.5e-3, 1.0e-3, 1.0e-3]
+    assert r.width(3e-3) == pytest.approx(8e-3) and r.width(10e-3) == pytest.approx(12e-3)
+    assert r.width(15e-3 + 1e-9) == pytest.approx(16e-3, rel=1e-6)      # the taper starts at 16 mm ...
+    assert r.width(20.4e-3) == pytest.approx(16e-3 - 4e-3 * 5.4 / 10.4)  # ... and runs to 12 mm
+    assert r.width(r.length) == pytest.approx(12e-3 - 2 * 5e-3)        # rounded corners of radius 5 mm
+    assert r.thickness_profile(5.9e-3) == 1.5e-3 and r.thickness_profile(6.1e-3) == 1.0e-3
+    pts = r.breakpoints()
+    area = sum(quad(r.width, a, b, limit=500, epsabs=0, epsrel=1e-12)[0] for a, b in zip(pts[:-1], pts[1:]))
+    assert r.face_area == pytest.approx(area, rel=1e-10)
+    vol = sum(quad(lambda s: float(r.section(s)[0]), a, b, limit=500, epsabs=0, epsrel=1e-12)[0]
+              for a, b in zip(pts[:-1], pts[1:]))
+    assert r.mass == pytest.approx(r.material.density * vol, rel=1e-10)
+    assert shoelace(r.outline(n_arc=2000)) == pytest.approx(r.face_area, rel=1e-5)
+    assert r.is_tapered and r.has_thickness_steps and not r.is_piecewise_uniform
+    assert (r.width_root, r.width_tip, r.max_thickness, r.min_thickness) == (8e-3, 12e-3, 1.5e-3, 1.0e-3)
+
+
+def test_sectioned_toml_round_trip():
+    r = parse_reed(tomllib.loads(SECTIONED))
+    text = reed_to_toml(r)
+    assert "[[reed.sections]]" in text and "width_root" not in text
+    assert parse_reed(tomllib.loads(text)) == r
+
+
+def _sec(edit):
+    d = tomllib.loads(SECTIONED)
+    edit(d["reed"])
+    return d
+
+
+@pytest.mark.parametrize(
+    "edit,field",
+    [
+        (lambda r: r["sections"][1].update(widht=1e-3), "reed.sections[1].widht"),
+        (lambda r: r["sections"][1].update(s_end=5e-3), "reed.sections[1].s_end"),
+        (lambda r: r["sections"][2].update(s_end=25.0e-3), "reed.sections[2].s_end"),
+        (lambda r: r["sections"][1].update(s_end=25.4e-3), "reed.sections[1].s_end"),
+        (lambda r: r["sections"][2].update(width=-1e-3), "reed.sections[2].width"),
+        (lambda r: r["sections"][0].update(thickness=0.0), "reed.sections[0].thickness"),
+        (lambda r: r["sections"][2].update(taper_to="narrow"), "reed.sections[2].taper_to"),
+        (lambda r: r["sections"][0].pop("width"), "reed.sections[0].width"),
+        (lambda r: r.update(width_tip=16e-3), "reed.width_tip"),
+        (lambda r: r.update(step_fraction=0.2), "reed.step_fraction"),
+        (lambda r: r.update(tip_radius=6.5e-3), "reed.tip_radius"),          # > half of the 12 mm tip
+        (lambda r: r.update(tip_radius=6.0e-3, sections=r["sections"][:2] + [
+            {"s_end": 25.4e-3, "width": 12e-3}]) or r["sections"][1].update(s_end=20e-3), "reed.tip_radius"),
+        (lambda r: r.update(sections=[]), "reed.sections"),
+        (lambda r: r.pop("thickness"), "reed.thickness"),
+    ],
+)
+def test_bad_sections_are_named(edit, field):
+    with pytest.raises(InputError) as exc:
+        parse_reed(_sec(edit))
+    assert exc.value.field == field
+
+
+def test_grooves_must_be_shallower_than_the_local_thickness():
+    base = SECTIONED + "[[reed.grooves]]\ns_start = {a}\ns_end = {b}\ny_center = 0.0\nwidth = 2e-3\ndepth = 1.2e-3\n"
+    parse_reed(tomllib.loads(base.format(a=1e-3, b=5e-3)))     # 1.2 mm deep in the 1.5 mm root: fine
+    with pytest.raises(InputError) as exc:                       # reaching the 1 mm section: not
+        parse_reed(tomllib.loads(base.format(a=1e-3, b=8e-3)))
+    assert exc.value.field == "reed.grooves[0].depth" and "sections[1]" in exc.value.message
+    with pytest.raises(InputError) as exc:                       # leaving the 8 mm wide root
+        parse_reed(tomllib.loads(base.format(a=1e-3, b=5e-3).replace("y_center = 0.0", "y_center = 3.5e-3")))
+    assert exc.value.field == "reed.grooves[0].y_center"
+
+
+def test_every_section_may_carry_its_thickness():
+    d = tomllib.loads(SECTIONED)
+    d["reed"].pop("thickness")
+    for sec, h in zip(d["reed"]["sections"], (1.5e-3, 1.2e-3, 1.0e-3)):
+        sec["thickness"] = h
+    r = parse_reed(d)
+    assert r.thickness == 1.5e-3 and [p.h for p in r.pieces()] == [1.5e-3, 1.2e-3, 1.0e-3]
+
+
+@pytest.mark.parametrize("name", ["fv16", "three_section"])
+def test_example_geometry_files_parse(name):
+    from importlib import resources
+
+    path = resources.files("geometry").joinpath(f"data/reed_{name}.toml")
+    r = load_reed(str(path))
+    assert r.name == name and r.mass > 0
+    assert parse_reed(tomllib.loads(reed_to_toml(r))) == r
