@@ -26,12 +26,12 @@ from lumped.layout import pack
 from lumped.model import POSITIONS, Operating, PumpModel
 from lumped.model_file import load_model
 from lumped.pump import (
-    G, M_CAV, N_MODE, N_STATES, RATES_FIELDS, S_MCYL, S_MIN, S_MLEAK, S_MLOAD, S_MNV, S_MOUT, S_UDEL, S_UIN,
+    G, M_CAV, N_MODE, N_STATES, OFF_DEL, OFF_IN, RATES_FIELDS, S_MCYL, S_MIN, S_MLEAK, S_MLOAD, S_MNV, S_MOUT, S_UDEL, S_UIN,
     S_XDEL, S_XIN,
 )
 from lumped.steppers import RadauStepper, RodasStepper, state_scales
 from lumped.trace import Trace
-from lumped.valve import FREE, SEAT, STOP, kind_of
+from lumped.valve import FREE, SEAT, STOP, VALVE, kind_of
 
 METHODS = ("fast", "reference", "Radau", "BDF", "LSODA")
 #: default tolerances (rtol, atol in units of each state's scale): the fast path's from
@@ -42,6 +42,9 @@ MASS_BALANCE_LIMIT = 1e-6
 DELIVERY_LIMITS = (-0.01, 1.01)      # x the swept volume (times rho(P_tank)/rho_0: a supercharged inlet)
 MAX_REVOLUTIONS = 100_000
 ENERGY_SAMPLES = 1440                # per revolution, for the valve losses and the pressure extremes
+#: a stop contact counts when the element arrives after being this fraction of its stop gap clear
+CONTACT_EXCURSION = 1e-3
+EXCURSION_SAMPLES = 33               # dense-output samples between leaving the stop and returning
 
 
 class InvariantError(RuntimeError):
@@ -370,7 +373,7 @@ def simulate(model="thesis-disc", speed_rpm: float | None = None, load_pressure:
 
     span = last["span"]
     omega = p[G.omega]
-    timing = _valve_timing(span.events, span.t0, period, last["y_start"], omega)
+    timing = _valve_timing(span, period, last["y_start"], omega, p)
     impacts = _impacts(span)
     ts = span.t0 + period * np.arange(ENERGY_SAMPLES) / ENERGY_SAMPLES
     ys, modes = span.sample(ts)
@@ -508,8 +511,6 @@ def _mean_load_pressure(span, p, complete: bool, physics) -> float:
 
 def _cycle_change(deliveries, states, p, m_rev: float, complete: bool) -> float:
     """Largest relative change between the last two revolutions: delivery and state at TDC."""
-    from lumped.pump import OFF_DEL, OFF_IN
-    from lumped.valve import VALVE
 
     d1, d0 = deliveries[-1], deliveries[-2]
     a, b = states[-1], states[-2]
@@ -522,12 +523,40 @@ def _cycle_change(deliveries, states, p, m_rev: float, complete: bool) -> float:
     return float(max(ch))
 
 
-def _valve_timing(events, t0, period, y_start, omega):
+def _stop_arrivals(span, v: int, xi: int, gap: float) -> int:
+    """Arrivals of valve v on its stop in the span that follow a real excursion (see CONTACT_EXCURSION).
+
+    A contact is counted when the element arrives on the stop after having been at least
+    CONTACT_EXCURSION x the stop gap clear of it since it last left it; a departure and
+    return of a few nanometres while pressed on a compliant stop is the step-size control
+    crossing x_stop, not a rebound anyone could measure, and counting it would make the
+    count depend on the tolerance (the two steppers then disagree).
+    """
+    n, left_at = 0, None
+    for t, slot, old, new in span.events:
+        if slot != 2 * v:
+            continue
+        if old == STOP and new != STOP:
+            left_at = t
+        elif new == STOP:
+            if left_at is None or t <= left_at:
+                n += 1
+            else:
+                ts = np.linspace(left_at, t, EXCURSION_SAMPLES)
+                ys, _ = span.sample(ts)
+                if gap - float(np.min(ys[:, xi])) >= CONTACT_EXCURSION * gap:
+                    n += 1
+            left_at = None
+    return n
+
+
+def _valve_timing(span, period, y_start, omega, p):
     """Crank angles of the main opening and closing of each valve and its stop contacts in a revolution."""
+    events, t0 = span.events, span.t0
     opening, closing, stops = [], [], []
-    for v, xi in enumerate((S_XIN, S_XDEL)):
+    for v, (xi, off) in enumerate(((S_XIN, OFF_IN), (S_XDEL, OFF_DEL))):
         ev = [(t, new) for (t, slot, old, new) in events if slot == 2 * v]
-        stops.append(sum(1 for _, new in ev if new == STOP))
+        stops.append(_stop_arrivals(span, v, xi, float(p[off + VALVE.stop_gap])))
         # open intervals [start, end) of x > 0 within the periodic revolution
         was_open = y_start[xi] > 0.0
         intervals, start = [], (t0 if was_open else None)

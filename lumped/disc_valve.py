@@ -290,9 +290,11 @@ def disc_acceleration(x: float, u: float, dp: float, p_down: float, p_vap: float
 
 KIND = register(ValveKind(
     name="disc", default_model="thesis-disc", params=DiscValve, acceleration=disc_acceleration, block=DISC,
-    # x1: a disc leaving its stop grazing (u ~ 0) is decided by um/s; the looser x30 saved 20 % of
-    # the steps but moved such departures by a degree and counted a spurious second stop contact
-    # (benchmarks/pump_tolerance_study.py)
-    contact_velocity_atol=1.0,
+    # x30: the velocity of a disc pressed on its seat or stop only matters to the nearest
+    # 0.3 mm/s; x1 took 25 % more steps for the same deliveries and angles. Stop contacts are
+    # counted after a real excursion (lumped.cycle.CONTACT_EXCURSION), so the nanometre
+    # departures this tolerance lets through are not counted as rebounds
+    # (benchmarks/pump_tolerance_study.py).
+    contact_velocity_atol=30.0,
     summary="spring-loaded disc on a bevelled seat (thesis chapter 2)",
 ))

@@ -406,6 +406,7 @@ def tolerance_table(atol: float, atol_v: np.ndarray, p: np.ndarray, contact_atol
             x_tol = x_free if k <= 0.0 else min(x_free, CONTACT_POSITION_ATOL * atol * p[G.load_pressure] * area / k)
             in_contact = kind.contact_velocity_atol if contact_atol is None else contact_atol
             u_tol = atol_v[xi + 1] * (FREE_VELOCITY_ATOL if c == FREE else in_contact)
+
             table[2 * (3 * v + c)] = x_tol
             table[2 * (3 * v + c) + 1] = u_tol
     return table

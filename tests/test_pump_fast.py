@@ -154,3 +154,26 @@ def test_cyclic_steady_state_is_judged_at_the_fast_paths_accuracy():
     assert f.delivery_per_rev == pytest.approx(r.delivery_per_rev, rel=DELIVERY_RTOL)
     # a design that has not settled is still reported as such: two revolutions from rest
     assert not simulate(*args, air_content=air, revolutions=2).cyclic_steady
+
+
+def test_a_stop_contact_needs_a_real_excursion():
+    """A return to the stop counts only after the element was CONTACT_EXCURSION x gap clear of it."""
+    from types import SimpleNamespace
+
+    from lumped.cycle import CONTACT_EXCURSION, _stop_arrivals
+    from lumped.pump import S_XDEL
+    from lumped.valve import FREE, STOP
+
+    gap = 2e-3
+
+    def span(dip):
+        # delivery valve (slot 2): arrives at t=1, leaves at t=2, x dips by `dip` at t=2.5, back at t=3
+        def sample(ts):
+            y = np.zeros((len(ts), 10))
+            y[:, S_XDEL] = gap - dip * np.sin(np.pi * np.clip(ts - 2.0, 0.0, 1.0))
+            return y, None
+        ev = [(1.0, 2, FREE, STOP), (2.0, 2, STOP, FREE), (3.0, 2, FREE, STOP)]
+        return SimpleNamespace(events=ev, sample=sample)
+
+    assert _stop_arrivals(span(1e-9), 1, S_XDEL, gap) == 1           # a nanometre: one contact
+    assert _stop_arrivals(span(3 * CONTACT_EXCURSION * gap), 1, S_XDEL, gap) == 2   # a rebound: two
