@@ -153,7 +153,8 @@ def _fits(reed, fidelity: str, size: float) -> bool:
 
     mod = importlib.import_module(MODULES[fidelity])
     from . import mesh as fm
-    from .resources import check_face_mesh, check_memory
+    from .mesh import check_face_mesh
+    from .resources import check_memory
 
     try:
         if fidelity == "beam":

@@ -32,6 +32,8 @@ from skfem.io.meshio import from_meshio
 from geometry.errors import InputError
 from geometry.reed import Reed
 
+from .resources import check_memory, memory_limit, plate_bytes, plate_dofs, solid_bytes
+
 #: element size at the clamp line relative to ``mesh_size`` (the root carries the
 #: largest curvature and the clamp-corner singularities)
 CLAMP_GRADING = 0.15
@@ -298,7 +300,6 @@ def face_mesh(reed: Reed, mesh_size: float, quad: bool = False, order: int = 1,
     to ``mesh_size`` over :func:`grading_length`.
     """
     check_size(reed, mesh_size)
-    from .resources import check_face_mesh
 
     check_face_mesh(reed, mesh_size, quad=quad, half=half)
     with _gmsh_session() as gmsh:
@@ -474,3 +475,23 @@ def write_vtu(path, mesh: skfem.Mesh, point_data: dict | None = None) -> None:
 
     m = to_meshio(mesh, point_data=point_data or {})
     meshio.write(str(path), m, file_format="vtu")
+
+
+def check_face_mesh(reed, mesh_size: float, quad: bool = False, half: bool = False) -> None:
+    """Refuse (InputError naming --mesh-size) a face mesh whose element count alone could not fit.
+
+    Called before gmsh runs, from the geometry (:func:`face_element_estimate`): a plate or
+    solid of that many elements would need far more memory than the machine has.
+    """
+    n = face_element_estimate(reed, mesh_size, quad=quad, half=half)
+    if quad:  # the solid: ~4 Q2 nodes per face element, 5 node planes at least, 3 DOFs each
+        dofs = 60.0 * n
+        nbytes = solid_bytes(dofs, 2 * n)
+        what = "solid mesh"
+    else:
+        dofs = plate_dofs(n)
+        nbytes = plate_bytes(dofs)
+        what = "plate mesh"
+    # the estimate is rough before meshing: refuse only what is clearly out of reach
+    if nbytes > 2.0 * memory_limit():
+        check_memory(what, dofs, nbytes)

@@ -112,25 +112,3 @@ def solid_bytes(dofs: float, hexes: float) -> float:
     lu = 15.6 * solid_lu_nonzeros(dofs)
     matrices = 3 * 12.0 * 250.0 * dofs
     return BASE_BYTES + 120e6 + 22e3 * hexes + matrices + lu
-
-
-def check_face_mesh(reed, mesh_size: float, quad: bool = False, half: bool = False) -> None:
-    """Refuse (InputError naming --mesh-size) a face mesh whose element count alone could not fit.
-
-    Called before gmsh runs, from the geometry (``fea.mesh.face_element_estimate``): a plate or
-    solid of that many elements would need far more memory than the machine has.
-    """
-    from .mesh import face_element_estimate
-
-    n = face_element_estimate(reed, mesh_size, quad=quad, half=half)
-    if quad:  # the solid: ~4 Q2 nodes per face element, 5 node planes at least, 3 DOFs each
-        dofs = 60.0 * n
-        nbytes = solid_bytes(dofs, 2 * n)
-        what = "solid mesh"
-    else:
-        dofs = plate_dofs(n)
-        nbytes = plate_bytes(dofs)
-        what = "plate mesh"
-    # the estimate is rough before meshing: refuse only what is clearly out of reach
-    if nbytes > 2.0 * memory_limit():
-        check_memory(what, dofs, nbytes)

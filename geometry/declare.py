@@ -23,16 +23,16 @@ Spring(stiffness=213.0)
 >>> read_table(Spring, {"stiffnes": 213}, "spring")
 Traceback (most recent call last):
 ...
-geometry.errors.InputError: spring.stiffnes: unknown key; expected one of stiffness
+geometry.errors.InputError: spring.stiffnes: unknown key (did you mean stiffness?); expected one of stiffness
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import MISSING, dataclass
 from typing import Any
 
+from . import validate as _v
 from .errors import InputError
 
 #: metadata key under which a field's :class:`Spec` is stored
@@ -122,44 +122,17 @@ def _kind_of(cls, name: str) -> str:
     return "float"
 
 
-#: unit -> (factor, the unit the value would have been typed in): 2.76 in a Pa field looks like MPa
-UNIT_SLIPS = {
-    "Pa": ((1e6, "MPa"), (1e5, "bar"), (1e3, "kPa"), (1e9, "GPa")),
-    "MPa": ((1e-6, "Pa"), (1e-3, "kPa"), (0.1, "bar")),
-    "m": ((1e-3, "mm"), (1e-6, "um")),
-    "m^2": ((1e-6, "mm^2"),),
-    "m^3": ((1e-6, "cm^3"), (1e-3, "L"), (1e-9, "mm^3")),
-    "kg": ((1e-3, "g"),),
-    "kg/m^3": ((1e3, "g/cm^3"),),
-    "rad": ((3.141592653589793 / 180.0, "deg"),),
-    "Pa s": ((1e-3, "mPa s (cP)"),),
-}
-
-
-def _unit_hint(value: float, spec: Spec) -> str:
-    """' (did you mean ...?)' when the value is in range read in a unit commonly typed instead."""
-    if spec.bounds is None:
-        return ""
-    lo, hi = spec.bounds
-    for factor, other in UNIT_SLIPS.get(spec.unit, ()):
-        v = value * factor
-        if lo <= v <= hi and (v > 0 or not spec.positive):
-            return f" (did you mean {v:g} {spec.unit}? {value:g} looks like a value in {other})"
-    return ""
+# the checks themselves live in geometry.validate (one validation layer); kept importable here
+UNIT_SLIPS = _v.UNIT_SLIPS
 
 
 def describe_range(spec: Spec) -> str:
-    """'a number in N/m between 1 and 1e+08' style text for messages."""
-    unit = "" if spec.unit in ("-", "") else f" in {spec.unit}"
-    if spec.bounds is None:
-        return f"a {'positive ' if spec.positive else ''}finite number{unit}"
-    lo, hi = spec.bounds
-    low = f"above {lo:g}" if spec.positive and lo == 0 else f"from {lo:g}"
-    return f"a number{unit} {low} to {hi:g}"
+    """'a number in N/m from 1 to 1e+08' style text for messages."""
+    return _v.describe(spec.unit, spec.bounds, spec.positive)
 
 
 def check_value(value, spec: Spec, where: str, kind: str = "float"):
-    """``value`` converted to its declared type, or InputError naming ``where``."""
+    """``value`` converted to its declared type (``kind``), or InputError naming ``where``."""
     if kind == "bool":
         if not isinstance(value, bool):
             raise InputError(where, f"expected true or false, got {value!r}")
@@ -167,24 +140,11 @@ def check_value(value, spec: Spec, where: str, kind: str = "float"):
     if kind == "str":
         if not isinstance(value, str):
             raise InputError(where, f"expected a string, got {value!r}")
-        if spec.choices is not None and value not in spec.choices:
-            raise InputError(where, f"expected one of {', '.join(spec.choices)}, got {value!r}")
+        if spec.choices is not None:
+            _v.choice(value, where, spec.choices)
         return value
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(where, f"expected {describe_range(spec)}, got {value!r}")
-    if kind == "int":
-        if int(value) != value:
-            raise InputError(where, f"expected an integer, got {value!r}")
-        value = int(value)
-    else:
-        value = float(value)
-    if not math.isfinite(value):
-        raise InputError(where, f"expected {describe_range(spec)}, got {value}")
-    if spec.positive and not value > 0:
-        raise InputError(where, f"expected {describe_range(spec)}, got {value:g}{_unit_hint(value, spec)}")
-    if spec.bounds is not None and not spec.bounds[0] <= value <= spec.bounds[1]:
-        raise InputError(where, f"expected {describe_range(spec)}, got {value:g}{_unit_hint(value, spec)}")
-    return value
+    return _v.number(value, where, unit=spec.unit, bounds=spec.bounds, positive=spec.positive,
+                     integer=kind == "int")
 
 
 def check_field(obj_or_cls, name: str, value, where: str):
@@ -240,8 +200,7 @@ def read_table(cls, table: dict, where: str, *, extra_keys=(), require=False) ->
         elif k in extra or top in extra:
             continue
         else:
-            close = sorted(keys) + sorted(extra)
-            raise InputError(f"{where}.{k}", "unknown key; expected one of " + ", ".join(close))
+            _v.keys({k: v}, sorted(keys) + sorted(extra), where)
     if require:
         for k, n in keys.items():
             if n not in out and not spec_of(cls, n).optional:

@@ -24,13 +24,13 @@ seat/stop FEA and the thesis tables. The thesis valve is the preset ``thesis``
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 
+from .data_files import package_toml
 from .declare import param, read_table
 from .errors import InputError
+from .validate import read_toml
 
 #: disc geometry presets shipped in geometry/data
 PRESETS = {"thesis": "disc_valve.toml"}
@@ -87,21 +87,12 @@ def load_disc_geometry(spec: str | Path = "thesis", field: str = "geometry") -> 
     """A disc valve geometry from a preset name (``thesis``) or a TOML file; InputError names ``field``."""
     name = str(spec)
     if name in PRESETS:
-        text = resources.files("geometry").joinpath(f"data/{PRESETS[name]}").read_text()
-        where = name
+        data, where = package_toml("geometry", PRESETS[name]), name
     else:
         path = Path(name)
-        if not path.is_file():
+        if not path.exists():
             raise InputError(field, f"{name!r}: no such file; expected a disc geometry preset "
                                     f"({', '.join(PRESETS)}) or a TOML file")
-        try:
-            text = path.read_text()
-        except (OSError, UnicodeDecodeError) as exc:
-            raise InputError(field, f"{name!r} cannot be read ({exc})") from None
-        where = path.name
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(field, f"{where} is not valid TOML ({exc})") from None
+        data, where = read_toml(path, field), path.name
     values = read_table(DiscValveGeometry, data, where, require=True)
     return DiscValveGeometry(**values)

@@ -28,14 +28,24 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .declare import param
+
+# plausible ranges: any reed from a 0.1 mm micro-valve strip to a 10 m plate; the
+# proportions (slenderness, width to length) are checked in geometry.reed_io
+_LEN = (1e-4, 10.0)
+_THICK = (1e-6, 0.1)
+_WIDTH = (1e-5, 10.0)
 
 @dataclass(frozen=True)
 class Material:
     """Linear elastic reed material; SI units (Pa, kg/m^3)."""
 
-    youngs_modulus: float
-    density: float
-    poisson_ratio: float
+    youngs_modulus: float = param("youngs_modulus", "Pa", "datasheet (Table 3.1: Delrin 2.9 GPa)",
+                                  bounds=(1e6, 1.5e12), positive=True, doc="rubber to diamond")
+    density: float = param("density", "kg/m^3", "datasheet (Table 3.1: 1410 kg/m^3)", bounds=(100.0, 25000.0),
+                           positive=True)
+    poisson_ratio: float = param("poisson_ratio", "-", "datasheet (not in the thesis: thesis-notes)",
+                                 bounds=(0.0, 0.4999))
 
 
 @dataclass(frozen=True)
@@ -47,15 +57,15 @@ class Groove:
     with ``s >= s_center`` (it closes U-shaped grooves toward the tip).
     """
 
-    depth: float
-    kind: str = "rect"
-    s_start: float = 0.0
-    s_end: float = 0.0
-    y_center: float = 0.0
-    width: float = 0.0
-    s_center: float = 0.0
-    r_inner: float = 0.0
-    r_outer: float = 0.0
+    depth: float = param("depth", "m", "drawing", bounds=_THICK, positive=True)
+    kind: str = param("kind", "-", "drawing", default="rect", choices=("rect", "half_ring"))
+    s_start: float = param("s_start", "m", "drawing", default=0.0, bounds=(0.0, _LEN[1]))
+    s_end: float = param("s_end", "m", "drawing", default=0.0, bounds=(0.0, _LEN[1]))
+    y_center: float = param("y_center", "m", "drawing", default=0.0, bounds=(-_WIDTH[1], _WIDTH[1]))
+    width: float = param("width", "m", "drawing", default=0.0, bounds=(0.0, _WIDTH[1]), positive=True)
+    s_center: float = param("s_center", "m", "drawing", default=0.0, bounds=(0.0, _LEN[1]))
+    r_inner: float = param("r_inner", "m", "drawing", default=0.0, bounds=(0.0, _WIDTH[1]))
+    r_outer: float = param("r_outer", "m", "drawing", default=0.0, bounds=(0.0, _WIDTH[1]), positive=True)
 
     def s_range(self) -> tuple[float, float]:
         """Extent of the pocket along the reed [m]."""
@@ -101,10 +111,10 @@ class Section:
     constant width) and thickness ``thickness`` (None: the reed's ``thickness``).
     """
 
-    s_end: float
-    width: float
-    thickness: float | None = None
-    taper_to: float | None = None
+    s_end: float = param("s_end", "m", "drawing", bounds=_LEN, positive=True)
+    width: float = param("width", "m", "drawing", bounds=_WIDTH, positive=True)
+    thickness: float | None = param("thickness", "m", "drawing", bounds=_THICK, positive=True, optional=True)
+    taper_to: float | None = param("taper_to", "m", "drawing", bounds=_WIDTH, positive=True, optional=True)
 
 
 @dataclass(frozen=True)
@@ -145,12 +155,12 @@ class Reed:
     :meth:`pieces`, :meth:`width`, :meth:`thickness_profile` and :meth:`section`.
     """
 
-    length: float
-    thickness: float
-    width_root: float
-    width_tip: float
-    step_fraction: float
-    tip_radius: float
+    length: float = param("length", "m", "drawing (Table 3.1: 1 in)", bounds=_LEN, positive=True)
+    thickness: float = param("thickness", "m", "drawing (Table 3.1: 1.35 mm)", bounds=_THICK, positive=True)
+    width_root: float = param("width_root", "m", "drawing (Table 3.1)", bounds=_WIDTH, positive=True)
+    width_tip: float = param("width_tip", "m", "drawing (Table 3.1)", bounds=_WIDTH, positive=True)
+    step_fraction: float = param("step_fraction", "-", "R_l (Table 3.1)", bounds=(0.0, 0.999))
+    tip_radius: float = param("tip_radius", "m", "drawing (Table 3.5)", bounds=(0.0, _WIDTH[1]))
     material: Material
     grooves: tuple[Groove, ...] = field(default_factory=tuple)
     name: str = "custom"

@@ -6,16 +6,16 @@ naming it (``reed.grooves[1].depth``), so the command line can exit 2 with one l
 
 from __future__ import annotations
 
-import math
-import tomllib
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
 from dataclasses import replace
 
+from . import validate
+from .data_files import package_toml
+from .declare import check_field, describe_range, spec_of
+from .errors import InputError
 from .reed import Groove, Material, Reed, Section
 
 #: Presets of Table 3.1 of the thesis; each is a packaged file in the user format.
@@ -31,54 +31,85 @@ _ONE_STEP_KEYS = ("width_root", "width_tip", "step_fraction")
 _MATERIAL_KEYS = {"youngs_modulus", "density", "poisson_ratio"}
 _RECT_KEYS = {"kind", "s_start", "s_end", "y_center", "width", "depth"}
 _RING_KEYS = {"kind", "s_center", "r_inner", "r_outer", "depth"}
+_UNUSED_GROOVE_FIELDS = {"rect": _RING_KEYS - _RECT_KEYS, "half_ring": _RECT_KEYS - _RING_KEYS}
 
 
 def load_reed(spec: str | Path) -> Reed:
     """Reed from a preset name (``uniform``, ``stepped1``, ``stepped2``, ``prototype``) or a TOML path."""
     spec_str = str(spec)
     if spec_str in PRESETS:
-        text = resources.files("geometry").joinpath(f"data/reed_{spec_str}.toml").read_text()
-        return parse_reed(tomllib.loads(text), source=spec_str)
+        return parse_reed(package_toml("geometry", f"reed_{spec_str}.toml"), source=spec_str)
     path = Path(spec_str)
-    if not path.is_file():
+    if not path.exists():
         raise InputError(
             spec_str,
             "no such file; expected a preset (" + ", ".join(PRESETS) + ") or a reed TOML file",
         )
-    try:
-        data = tomllib.loads(path.read_text())
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(spec_str, f"not valid TOML ({exc})") from None
+    data = validate.read_toml(path, spec_str)
     return parse_reed(data, source=path.stem)
 
 
-def _number(table: dict, key: str, where: str, *, required: bool = True, default=None) -> float:
+def _read(cls, table: dict, key: str, where: str, *, required: bool = True, default=None):
+    """Field ``key`` of ``table`` checked against ``cls``'s declaration (geometry.reed), or ``default``."""
     if key not in table:
         if required:
-            raise InputError(f"{where}.{key}", "missing; expected a number in SI units")
+            raise InputError(f"{where}.{key}", f"missing; expected {describe_range(spec_of(cls, key))}")
         return default
-    v = table[key]
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise InputError(f"{where}.{key}", f"expected a number, got {v!r}")
-    v = float(v)
-    if not math.isfinite(v):
-        raise InputError(f"{where}.{key}", f"expected a finite number, got {v}")
-    return v
-
-
-def _positive(table: dict, key: str, where: str, **kw) -> float:
-    v = _number(table, key, where, **kw)
-    if v is not None and v <= 0.0:
-        raise InputError(f"{where}.{key}", f"must be positive, got {v:g}")
-    return v
+    return check_field(cls, key, table[key], f"{where}.{key}")
 
 
 def _check_keys(table: dict, allowed: set[str], where: str) -> None:
-    if not isinstance(table, dict):
-        raise InputError(where, "expected a table")
-    for k in table:
-        if k not in allowed:
-            raise InputError(f"{where}.{k}", "unknown field; expected one of " + ", ".join(sorted(allowed)))
+    validate.keys(table, sorted(allowed), where)
+
+
+#: a reed is a plate: at most this thick for its length (Kirchhoff, Euler-Bernoulli), at least
+#: this thick (a foil 10^4 times longer than thick does not carry a pressure as a reed does)
+MAX_THICKNESS_TO_LENGTH = 0.25
+MIN_THICKNESS_TO_LENGTH = 1e-4
+#: and at most this wide for its length (a cantilever, not a hinged flap along its long edge)
+MAX_WIDTH_TO_LENGTH = 10.0
+
+
+def _proportions(reed: Reed) -> None:
+    """InputError naming the field when the reed's proportions are not a reed's (mm typed as m)."""
+    L = reed.length
+    thick = [("reed.thickness", reed.thickness)] + [
+        (f"reed.sections[{i}].thickness", sec.thickness) for i, sec in enumerate(reed.sections)
+        if sec.thickness is not None]
+    for where, h in thick:
+        if h > MAX_THICKNESS_TO_LENGTH * L:
+            raise InputError(where, f"{h:g} m is {h / L:.3g} times the length {L:g} m; a reed is at most "
+                                    f"{MAX_THICKNESS_TO_LENGTH:g} of its length thick{_mm_hint(h)}")
+        if h < MIN_THICKNESS_TO_LENGTH * L:
+            raise InputError(where, f"{h:g} m is {h / L:.2g} of the length {L:g} m; a reed is at least "
+                                    f"{MIN_THICKNESS_TO_LENGTH:g} of its length thick (is reed.length in mm?)")
+    widths = [("reed.width_root", reed.width_root), ("reed.width_tip", reed.width_tip)] if not reed.sections else [
+        (f"reed.sections[{i}].{k}", getattr(sec, k)) for i, sec in enumerate(reed.sections)
+        for k in ("width", "taper_to") if getattr(sec, k) is not None]
+    for where, w in widths:
+        if w > MAX_WIDTH_TO_LENGTH * L:
+            raise InputError(where, f"{w:g} m is {w / L:.3g} times the length {L:g} m; a reed is at most "
+                                    f"{MAX_WIDTH_TO_LENGTH:g} times as wide as long{_mm_hint(w)}")
+
+
+def check_reed(reed: Reed, where: str = "reed") -> Reed:
+    """A Reed built in Python checked as a reed file would be (declared ranges, proportions); InputError."""
+    from .declare import specs
+
+    for obj, at in [(reed, where), (reed.material, f"{where}.material")] + \
+            [(sec, f"{where}.sections[{i}]") for i, sec in enumerate(reed.sections)] + \
+            [(g, f"{where}.grooves[{i}]") for i, g in enumerate(reed.grooves)]:
+        for name, spec in specs(obj):
+            v = getattr(obj, name)
+            unused = isinstance(obj, Groove) and name in _UNUSED_GROOVE_FIELDS[obj.kind]
+            if not (spec.optional and v is None) and not unused:
+                check_field(obj, name, v, f"{at}.{name}")
+    _proportions(reed)
+    return reed
+
+
+def _mm_hint(v: float) -> str:
+    return f" (did you mean {v * 1e-3:g} m? {v:g} looks like a value in mm)"
 
 
 def parse_reed(data: dict, source: str = "custom") -> Reed:
@@ -92,7 +123,7 @@ def parse_reed(data: dict, source: str = "custom") -> Reed:
         raise InputError("reed", "missing [reed] table")
     r = data["reed"]
     _check_keys(r, _REED_KEYS, "reed")
-    length = _positive(r, "length", "reed")
+    length = _read(Reed, r, "length", "reed")
     material = _parse_material(r)
     name = r.get("name", source)
     if not isinstance(name, str):
@@ -101,6 +132,7 @@ def parse_reed(data: dict, source: str = "custom") -> Reed:
         reed = _parse_sectioned(r, length, material, name)
     else:
         reed = _parse_one_step(r, length, material, name)
+    _proportions(reed)
     grooves_raw = r.get("grooves", [])
     if not isinstance(grooves_raw, list):
         raise InputError("reed.grooves", "expected an array of tables [[reed.grooves]]")
@@ -114,9 +146,9 @@ def _parse_material(r: dict) -> Material:
     m = r["material"]
     _check_keys(m, _MATERIAL_KEYS, "reed.material")
     material = Material(
-        youngs_modulus=_positive(m, "youngs_modulus", "reed.material"),
-        density=_positive(m, "density", "reed.material"),
-        poisson_ratio=_number(m, "poisson_ratio", "reed.material"),
+        youngs_modulus=_read(Material, m, "youngs_modulus", "reed.material"),
+        density=_read(Material, m, "density", "reed.material"),
+        poisson_ratio=_read(Material, m, "poisson_ratio", "reed.material"),
     )
     if not 0.0 <= material.poisson_ratio < 0.5:
         raise InputError(
@@ -127,16 +159,16 @@ def _parse_material(r: dict) -> Material:
 
 def _parse_one_step(r: dict, length: float, material: Material, name: str) -> Reed:
     """The thesis's form: width_root up to step_fraction * length, then width_tip (Table 3.1)."""
-    thickness = _positive(r, "thickness", "reed")
-    width_tip = _positive(r, "width_tip", "reed")
-    step_fraction = _number(r, "step_fraction", "reed", required=False, default=0.0)
+    thickness = _read(Reed, r, "thickness", "reed")
+    width_tip = _read(Reed, r, "width_tip", "reed")
+    step_fraction = _read(Reed, r, "step_fraction", "reed", required=False, default=0.0)
     if not 0.0 <= step_fraction < 1.0:
         raise InputError("reed.step_fraction", f"must be in [0, 1), got {step_fraction:g}")
     if step_fraction > 0.0:
-        width_root = _positive(r, "width_root", "reed")
+        width_root = _read(Reed, r, "width_root", "reed")
     else:
-        width_root = _positive(r, "width_root", "reed", required=False, default=width_tip)
-    tip_radius = _number(r, "tip_radius", "reed", required=False, default=0.0)
+        width_root = _read(Reed, r, "width_root", "reed", required=False, default=width_tip)
+    tip_radius = _read(Reed, r, "tip_radius", "reed", required=False, default=0.0)
     if tip_radius < 0.0:
         raise InputError("reed.tip_radius", f"must be >= 0, got {tip_radius:g}")
     if tip_radius > width_tip / 2 * (1 + 1e-12):
@@ -169,22 +201,22 @@ def _parse_sectioned(r: dict, length: float, material: Material, name: str) -> R
     for i, sec in enumerate(raw):
         _check_keys(sec, _SECTION_KEYS, f"reed.sections[{i}]")
     if "thickness" in r or not all("thickness" in sec for sec in raw):
-        thickness = _positive(r, "thickness", "reed")
+        thickness = _read(Reed, r, "thickness", "reed")
     else:  # every section has its own: the reed-level default is the root's
         thickness = None
     sections, prev = [], 0.0
     for i, sec in enumerate(raw):
         where = f"reed.sections[{i}]"
-        s_end = _positive(sec, "s_end", where)
+        s_end = _read(Section, sec, "s_end", where)
         if s_end <= prev:
             raise InputError(f"{where}.s_end", f"{s_end:g} m must exceed the previous section's end "
                              f"({prev:g} m): sections run from the clamp to the tip in order")
         if i < len(raw) - 1 and s_end >= length * (1 - 1e-12):
             raise InputError(f"{where}.s_end", f"{s_end:g} m reaches the tip at reed.length = {length:g} m "
                              f"but {len(raw) - 1 - i} more section(s) follow")
-        width = _positive(sec, "width", where)
-        h = _positive(sec, "thickness", where, required=False, default=None)
-        taper = _positive(sec, "taper_to", where, required=False, default=None)
+        width = _read(Section, sec, "width", where)
+        h = _read(Section, sec, "thickness", where, required=False, default=None)
+        taper = _read(Section, sec, "taper_to", where, required=False, default=None)
         sections.append(Section(s_end=s_end, width=width, thickness=h, taper_to=taper))
         prev = s_end
     last = len(raw) - 1
@@ -194,7 +226,7 @@ def _parse_sectioned(r: dict, length: float, material: Material, name: str) -> R
     sections[-1] = replace(sections[-1], s_end=length)
     if thickness is None:
         thickness = sections[0].thickness
-    tip_radius = _number(r, "tip_radius", "reed", required=False, default=0.0)
+    tip_radius = _read(Reed, r, "tip_radius", "reed", required=False, default=0.0)
     if tip_radius < 0.0:
         raise InputError("reed.tip_radius", f"must be >= 0, got {tip_radius:g}")
     end = sections[-1]
@@ -223,7 +255,7 @@ def _parse_groove(g: dict, where: str, reed: Reed) -> Groove:
     kind = g.get("kind", "rect")
     if kind not in ("rect", "half_ring"):
         raise InputError(f"{where}.kind", f"expected 'rect' or 'half_ring', got {kind!r}")
-    depth = _positive(g, "depth", where)
+    depth = _read(Groove, g, "depth", where)
     if depth >= reed.max_thickness:
         raise InputError(
             f"{where}.depth", f"{depth:g} m is not shallower than the reed thickness {reed.max_thickness:g} m"
@@ -232,8 +264,8 @@ def _parse_groove(g: dict, where: str, reed: Reed) -> Groove:
         _check_keys(g, _RECT_KEYS, where)
         groove = Groove(
             depth=depth, kind="rect",
-            s_start=_number(g, "s_start", where), s_end=_number(g, "s_end", where),
-            y_center=_number(g, "y_center", where), width=_positive(g, "width", where),
+            s_start=_read(Groove, g, "s_start", where), s_end=_read(Groove, g, "s_end", where),
+            y_center=_read(Groove, g, "y_center", where), width=_read(Groove, g, "width", where),
         )
         if groove.s_start < 0.0:
             raise InputError(f"{where}.s_start", f"must be >= 0 (the clamp line), got {groove.s_start:g}")
@@ -254,8 +286,8 @@ def _parse_groove(g: dict, where: str, reed: Reed) -> Groove:
     else:
         _check_keys(g, _RING_KEYS, where)
         groove = Groove(
-            depth=depth, kind="half_ring", s_center=_number(g, "s_center", where),
-            r_inner=_number(g, "r_inner", where), r_outer=_positive(g, "r_outer", where),
+            depth=depth, kind="half_ring", s_center=_read(Groove, g, "s_center", where),
+            r_inner=_read(Groove, g, "r_inner", where), r_outer=_read(Groove, g, "r_outer", where),
         )
         if not 0.0 <= groove.r_inner < groove.r_outer:
             raise InputError(f"{where}.r_inner", f"must be in [0, r_outer), got {groove.r_inner:g}")

@@ -8,10 +8,9 @@ SI units; all solids are axisymmetric about z except the housing's flow windows.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
-from importlib import resources
 
+from geometry.data_files import package_toml
 from geometry.reed import Material
 
 
@@ -82,7 +81,7 @@ class ReedSeat:
 
 
 def _data() -> dict:
-    return tomllib.loads(resources.files("geometry").joinpath("data/seat_stop.toml").read_text())
+    return package_toml("geometry", "seat_stop.toml")
 
 
 def _material(d: dict) -> Material:

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from geometry.declare import check_field, check_value, Spec
-from geometry.errors import InputError
+from geometry.errors import InputError, ModelFailure
 from lumped import switching as sw
 from lumped.effect_library import resolve
 from lumped.layout import pack
@@ -47,7 +47,7 @@ CONTACT_EXCURSION = 1e-3
 EXCURSION_SAMPLES = 33               # dense-output samples between leaving the stop and returning
 
 
-class InvariantError(RuntimeError):
+class InvariantError(ModelFailure):
     """A result that breaks its own invariants (mass balance, delivery beyond the swept volume, NaN)."""
 
 

@@ -17,11 +17,10 @@ point, the same model with every candidate effect off.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import replace
 from functools import cache
-from importlib import resources
 
+from geometry.data_files import package_toml
 from lumped.effects import BOTH_VALVES, PER_VALVE, PUMP, Effect, Library, Parameter
 from lumped.model import POSITIONS, PumpModel
 
@@ -32,7 +31,7 @@ register = LIBRARY.register
 @cache
 def priors() -> dict:
     """lumped/data/effect_priors.toml."""
-    return tomllib.loads(resources.files("lumped").joinpath("data/effect_priors.toml").read_text())
+    return package_toml("lumped", "effect_priors.toml")
 
 
 def _targets(target: str) -> tuple[str, ...]:

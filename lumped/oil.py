@@ -43,10 +43,9 @@ def thesis_oil_viscosity(temperature: float | None = None) -> tuple[float, float
     temperature of Appendix A (22 C), where mu = 0.0683 Pa s (Table 5.1). The one place
     the viscosity law is evaluated for the thesis oil.
     """
-    import tomllib
-    from importlib import resources
+    from geometry.data_files import package_toml
 
-    v = tomllib.loads(resources.files("lumped").joinpath("data/oil.toml").read_text())["viscosity"]
+    v = package_toml("lumped", "oil.toml")["viscosity"]
     mu0, b = viscosity_parameters(v["kinematic_low"], v["temperature_low"], v["kinematic_high"],
                                   v["temperature_high"], v["density"])
     t = v["room_temperature"] if temperature is None else temperature

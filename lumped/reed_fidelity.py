@@ -52,5 +52,8 @@ def reed_model(fidelity: str, field: str = "--fidelity") -> Callable:
 
 
 def reed_properties(reed, fidelity: str = "analytic", mesh_size=None, field: str = "--fidelity"):
-    """kappa, gamma1..3, h_eff, omega_n of ``reed`` by ``fidelity`` (a ReedProperties)."""
-    return reed_model(fidelity, field)(reed, mesh_size=mesh_size)
+    """kappa, gamma1..3, h_eff, omega_n of ``reed`` by ``fidelity`` (a ReedProperties); the reed is
+    checked first as a reed file would be (geometry.reed_io.check_reed)."""
+    from geometry.reed_io import check_reed
+
+    return reed_model(fidelity, field)(check_reed(reed), mesh_size=mesh_size)

@@ -10,13 +10,12 @@ correlation X(x) (eq 3.83). SI units throughout. Inputs that are not in Table 3.
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass
 from functools import cache
-from importlib import resources
 
 import numpy as np
 
+from geometry.data_files import package_toml
 from geometry.reed import Reed
 from lumped.oil import thesis_oil_viscosity
 
@@ -25,7 +24,7 @@ from lumped.oil import thesis_oil_viscosity
 
 @cache
 def _data(name: str) -> dict:
-    return tomllib.loads(resources.files("lumped").joinpath(f"data/{name}.toml").read_text())
+    return package_toml("lumped", f"{name}.toml")
 
 
 def fluid_data() -> dict:

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from geometry.errors import ModelFailure
 from lumped import switching as sw
 from lumped.pump import (
     G, N_MODE, N_STATES, NP, OFF_DEL, OFF_IN, QUADRATURES, S_MLOAD, S_UDEL, S_UIN, S_XDEL, S_XIN, evaluate,
@@ -34,6 +35,10 @@ from lumped.valve import FREE, SEAT, STOP, VALVE, KINDS
 
 #: events per revolution before a run is called chatter
 MAX_EVENTS_PER_REV = 20_000
+
+
+class IntegrationError(ModelFailure):
+    """A stepper gave up: the integrator failed, ran out of its step budget, or the valves chatter."""
 
 
 @dataclass
@@ -148,9 +153,9 @@ class RadauStepper(Stepper):
                 msg = solver.step()
                 steps += 1
                 if solver.status == "failed":
-                    raise RuntimeError(f"integrator failed at t = {solver.t:.6g} s: {msg}")
+                    raise IntegrationError(f"integrator failed at t = {solver.t:.6g} s: {msg}")
                 if steps > self.max_steps:
-                    raise RuntimeError(f"integrator needed more than {self.max_steps} steps "
+                    raise IntegrationError(f"integrator needed more than {self.max_steps} steps "
                                        f"(t = {solver.t:.6g} s)")
                 t_prev, t_new = solver.t_old, solver.t
                 sol = solver.dense_output()
@@ -184,7 +189,7 @@ class RadauStepper(Stepper):
                     events.append((te,) + sw.decode(code))
                     states.append(before)
                 if len(events) > MAX_EVENTS_PER_REV:
-                    raise RuntimeError(f"valve chatter: {len(events)} switches near t = {te:.6g} s; "
+                    raise IntegrationError(f"valve chatter: {len(events)} switches near t = {te:.6g} s; "
                                        "loosen the contact model or the tolerances")
                 h = max(te - t_prev, 1e-12 * (t1 - t0))
                 t = te
@@ -346,7 +351,7 @@ class RodasStepper(Stepper):
                              t0 if self.record else np.inf, sw.N_SWITCHES, MAX_EVENTS_PER_REV, JAC_REUSE)
         r = self.solver(t0, np.asarray(y, dtype=float), np.array([t1]), q, opts)
         if r.status != rodas.OK:
-            raise RuntimeError(f"fast integrator failed ({rodas.STATUS_TEXT[int(r.status)]}, "
+            raise IntegrationError(f"fast integrator failed ({rodas.STATUS_TEXT[int(r.status)]}, "
                                f"t = {r.rec_t[-1] if len(r.rec_t) else t0:.6g} s)")
         self.h = r.h_next
         events = [(float(t),) + sw.decode(int(c)) for t, c in zip(r.ev_t, r.ev_code)]

@@ -7,7 +7,9 @@ and ``run(args) -> dict`` (the JSON payload) and optionally ``render(result) -> 
 Conventions shared by every command:
 - ``--json`` prints exactly one JSON object on stdout; progress and logs go to stderr;
 - a user mistake (:class:`geometry.errors.InputError`, bad flags) exits 2 with one
-  line on stderr naming the field or file; never a traceback, never a NaN in output.
+  line on stderr naming the field or file; never a traceback, never a NaN in output;
+- anything else that goes wrong (a result breaking its own invariants, a bug) exits 1
+  with one line and, for a bug, where to report it.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import os
 import sys
 
 from geometry.errors import InputError
@@ -57,6 +60,28 @@ def _finite(obj, path="result"):
             _finite(v, f"{path}[{i}]")
 
 
+#: where users report a failure that is not their mistake
+REPORT_URL = "https://github.com/valvelab/valvelab/issues"
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
+def _internal_error(command: str, exc: BaseException) -> int:
+    """Exit status 1 and one line for a failure that is not a user mistake (VALVELAB_DEBUG=1: traceback)."""
+    if os.environ.get("VALVELAB_DEBUG"):
+        import traceback
+
+        traceback.print_exception(exc)
+    model_failure = getattr(exc, "model_failure", False) or "is not finite" in str(exc)
+    what = "the model failed" if model_failure else "internal error"
+    hint = "" if model_failure else f" (please report it with the command line at {REPORT_URL}; " \
+                                    "VALVELAB_DEBUG=1 shows the traceback)"
+    sys.stderr.write(f"valvelab {command}: {what}: {type(exc).__name__}: {_one_line(exc)}{hint}\n")
+    return 1
+
+
 def build_parser(selected: str | None = None) -> argparse.ArgumentParser:
     """The parser; only the ``selected`` command's module is imported (all of them for --help)."""
     parser = _Parser(prog="valvelab", description="Hydraulic disc and reed check valve models.")
@@ -78,24 +103,23 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     # importing every command module (scipy, matplotlib, skfem...) costs seconds per call
     selected = next((a for a in argv if not a.startswith("-")), None)
-    parser = build_parser(selected if selected in COMMANDS else None)
+    try:
+        parser = build_parser(selected if selected in COMMANDS else None)
+    except Exception as exc:  # noqa: BLE001 - a broken installation, said in one line
+        return _internal_error(selected or "", exc)
     args = parser.parse_args(argv)
     mod = args._module
     try:
         result = mod.run(args)
         _finite(result)
     except InputError as exc:
-        sys.stderr.write(f"valvelab {args.command}: error: {exc}\n")
+        sys.stderr.write(f"valvelab {args.command}: error: {_one_line(str(exc))}\n")
         return 2
     except KeyboardInterrupt:
         sys.stderr.write("valvelab: interrupted\n")
         return 130
-    except ValueError as exc:
-        # a non-finite result is a model failure, reported without a traceback
-        if "is not finite" in str(exc):
-            sys.stderr.write(f"valvelab {args.command}: error: {exc}\n")
-            return 1
-        raise
+    except Exception as exc:  # noqa: BLE001 - the boundary: anything else is our failure, said in one line
+        return _internal_error(args.command, exc)
     if args.json:
         sys.stdout.write(json.dumps(result, allow_nan=False) + "\n")
     else:

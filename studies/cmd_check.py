@@ -6,8 +6,14 @@ import sys
 
 from geometry import load_reed
 from geometry.errors import InputError
+from studies import flags
 
-from .reed_check import DEFAULT_TOLERANCE_PCT, check_as_json, multi_fidelity_check, render_check
+from .reed_check import (
+    DEFAULT_TOLERANCE_PCT,
+    check_as_json,
+    multi_fidelity_check,
+    render_check,
+)
 
 HELP = "multi-fidelity check of a reed: analytic, beam, plate and solid FEA with % deviations"
 FIDELITY_NAMES = ("analytic", "beam", "plate", "solid")
@@ -17,11 +23,11 @@ def configure(p):
     p.add_argument("geometry", help="preset (uniform, stepped1, stepped2, prototype) or reed TOML file")
     p.add_argument("--fidelities", default=",".join(FIDELITY_NAMES),
                    help="comma-separated subset of analytic,beam,plate,solid (default: all four)")
-    p.add_argument("--tolerance-pct", type=float, default=DEFAULT_TOLERANCE_PCT,
+    p.add_argument("--tolerance-pct", type=flags.number("%", (0.0, 100.0), positive=True), default=DEFAULT_TOLERANCE_PCT,
                    help=f"flag deviations from the reference above this [%%] (default {DEFAULT_TOLERANCE_PCT:g})")
-    p.add_argument("--mesh-size", type=float, default=None,
+    p.add_argument("--mesh-size", type=flags.number("m", (1e-7, 10.0), positive=True), default=None,
                    help="FEA element size [m] for every FEA fidelity (default: each one's converged size)")
-    p.add_argument("--modes", type=int, default=4, metavar="N",
+    p.add_argument("--modes", type=flags.integer(0, 50), default=4, metavar="N",
                    help="compare the first N natural frequencies across fidelities by nodal pattern "
                         "(default 4; 0: only omega_n)")
     p.add_argument("--convergence", action="store_true",
@@ -43,10 +49,6 @@ def _fidelities(text: str) -> tuple[str, ...]:
 def run(args) -> dict:
     reed = load_reed(args.geometry)
     fids = _fidelities(args.fidelities)
-    if not args.tolerance_pct > 0:
-        raise InputError("--tolerance-pct", f"must be a positive percentage, got {args.tolerance_pct}")
-    if args.mesh_size is not None and not args.mesh_size > 0:
-        raise InputError("--mesh-size", f"must be a positive length in m, got {args.mesh_size}")
     from .cmd_reed import check_modes_count
 
     n_modes = check_modes_count(args.modes, allow_zero=True)

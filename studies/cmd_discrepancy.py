@@ -2,17 +2,18 @@
 
 from __future__ import annotations
 
-import math
 import sys
 from pathlib import Path
 
 from geometry.errors import InputError
 
-from .discrepancy import ModelFailure, Settings, Workflow
+from . import flags
+from .discrepancy import Settings, Workflow
 from .discrepancy_report import write_report
 from .gap import GapScales
 from .measured import read_dataset
 from .model_choice import choose
+from .outputs import check_output_dir
 
 HELP = "name the effects the baseline model misses in a measured dataset, fit them, report the gap"
 
@@ -23,24 +24,24 @@ def configure(p):
     p.add_argument("--demo", action="store_true",
                    help="the thesis's own story: first write DATASET (default thesis_oring_demo) synthesised "
                         "with the delivery valve's O-ring compliance hidden (sections 2.4.3.2, 5.4.5), then run")
-    p.add_argument("--seed", type=int, default=0, help="seed of the --demo dataset (default 0)")
+    p.add_argument("--seed", type=flags.integer(0, 2**32 - 1), default=0, help="seed of the --demo dataset (default 0)")
     p.add_argument("--report", default=None,
                    help="report folder (default: <dataset name>_discrepancy in the current folder)")
     p.add_argument("--no-report", action="store_true", help="print the result only")
     p.add_argument("--force", action="store_true", help="write the report into a folder valvelab did not create")
     p.add_argument("--holdout", action="append", default=None, metavar="RUN",
                    help="run held out from fitting (repeatable; default: every third operating condition)")
-    p.add_argument("--position-tolerance-um", type=float, default=20.0,
+    p.add_argument("--position-tolerance-um", type=flags.number("um", (1e-3, 1e4), positive=True), default=20.0,
                    help="position RMS gap worth one unit [um] (default 20)")
-    p.add_argument("--delivery-tolerance-pct", type=float, default=0.5,
+    p.add_argument("--delivery-tolerance-pct", type=flags.number("%", (1e-4, 100.0), positive=True), default=0.5,
                    help="delivery error worth one unit [%%] (default 0.5)")
-    p.add_argument("--min-improvement-pct", type=float, default=30.0,
+    p.add_argument("--min-improvement-pct", type=flags.number("%", (0.0, 99.9), positive=True), default=30.0,
                    help="how much an effect must shrink the held-out gap to be added [%%] (default 30)")
-    p.add_argument("--min-gain-units", type=float, default=3.0,
+    p.add_argument("--min-gain-units", type=flags.number("-", (0.0, 1e6), positive=True), default=3.0,
                    help="how much an effect must shrink the held-out gap in tolerance units (default 3: above "
                         "what a 3 %% discharge-coefficient error lets a wrong effect gain)")
-    p.add_argument("--max-rounds", type=int, default=3, help="most effects added (default 3)")
-    p.add_argument("--workers", type=int, default=2, help="parallel simulations (default 2)")
+    p.add_argument("--max-rounds", type=flags.integer(0, 20), default=3, help="most effects added (default 3)")
+    p.add_argument("--workers", type=flags.integer(1, 256), default=2, help="parallel simulations (default 2)")
     p.add_argument("--model", default=None, metavar="NAME|FILE",
                    help="pump model (a shipped one or a model file; default: run.toml's model, else the thesis "
                         "model of the runs' valve type); the baseline is it with every candidate effect off")
@@ -59,54 +60,32 @@ def demo_dataset(folder, seed: int, workers: int, force: bool):
     truth = sim.context.effects                    # the O-ring: seat_compliance on the delivery valve
     conds = thesis_conditions("disc", sim.context.oil.air_content)
     sys.stderr.write(f"discrepancy: writing the O-ring demonstration dataset to {folder}\n")
-    try:
-        runs, truth_doc = synthesize(sim.simulate, "disc", conds, truth, Noise(), seed=seed, workers=workers)
-    except ModelFailure as exc:
-        sys.stderr.write(f"valvelab discrepancy: error: {exc}\n")
-        raise SystemExit(1) from None
+    runs, truth_doc = synthesize(sim.simulate, "disc", conds, truth, Noise(), seed=seed, workers=workers)
     write_synthetic(folder, runs, truth_doc, force=force)
 
 
-def _positive(v, flag):
-    if not (math.isfinite(v) and v > 0):
-        raise InputError(flag, f"must be a positive number, got {v}")
-    return v
-
-
 def run(args) -> dict:
-    scales = GapScales(_positive(args.position_tolerance_um, "--position-tolerance-um") * 1e-6,
-                       _positive(args.delivery_tolerance_pct, "--delivery-tolerance-pct") / 100.0)
-    rel = _positive(args.min_improvement_pct, "--min-improvement-pct") / 100.0
-    if rel >= 1:
-        raise InputError("--min-improvement-pct", "must be below 100")
-    gain = _positive(args.min_gain_units, "--min-gain-units")
-    if args.max_rounds < 0:
-        raise InputError("--max-rounds", "must be 0 or more")
-    if args.workers < 1:
-        raise InputError("--workers", "must be 1 or more")
+    scales = GapScales(args.position_tolerance_um * 1e-6, args.delivery_tolerance_pct / 100.0)
+    rel = args.min_improvement_pct / 100.0
+    gain = args.min_gain_units
     if args.demo:
         args.dataset = args.dataset or "thesis_oring_demo"
-        demo_dataset(args.dataset, args.seed, args.workers, args.force)
+        check_output_dir(args.dataset, "DATASET", args.force)
     elif args.dataset is None:
         raise InputError("DATASET", "missing; give a dataset folder (or --demo)")
-    runs = read_dataset(args.dataset)
     report = None
-    if not args.no_report:
+    if not args.no_report:       # refuse an unusable report folder before minutes of search
         report = Path(args.report) if args.report else Path(f"{Path(args.dataset).resolve().name}_discrepancy")
-        # refuse a user's folder before spending minutes on the search
-        if report.exists() and any(report.iterdir()) and not (report / ".valvelab-output").exists() \
-                and not args.force:
-            raise InputError("--report", f"{report} is a non-empty folder valvelab did not create; "
-                             "choose another (or pass --force)")
+        check_output_dir(report, "--report", args.force)
+    if args.demo:
+        demo_dataset(args.dataset, args.seed, args.workers, args.force)
+    runs = read_dataset(args.dataset)
     sim = choose(args.model, args.simulator, runs)
     settings = Settings(scales=scales, min_rel_improvement=rel, min_abs_improvement=gain,
                         max_rounds=args.max_rounds, holdout=tuple(args.holdout) if args.holdout else None,
                         workers=args.workers)
-    try:
-        outcome = Workflow(runs, sim.simulate, sim.library, settings, progress=True, context=sim.context).run()
-    except ModelFailure as exc:   # not a user mistake: exit 1 with one line, no traceback
-        sys.stderr.write(f"valvelab discrepancy: error: {exc}\n")
-        raise SystemExit(1) from None
+    # a ModelFailure is not a user mistake: exit 1 with one line (studies.cli)
+    outcome = Workflow(runs, sim.simulate, sim.library, settings, progress=True, context=sim.context).run()
     result = outcome.as_contract()
     result["dataset"] = str(args.dataset)
     result["model"] = sim.name

@@ -8,16 +8,19 @@ sensor voltages to positions (a new file, never overwriting one) and plots x_act
 from __future__ import annotations
 
 import csv
+import io
 import math
 import sys
-import tomllib
 from dataclasses import fields, replace
 from pathlib import Path
 
 import numpy as np
 
+from geometry import validate
+from geometry.declare import read_table, spec_of
 from geometry.errors import InputError
-from studies import lts
+from instruments import lts
+from studies import flags
 from studies.outputs import check_new_file
 
 HELP = "laser triangulation scale factor through air, PMMA and oil (section 5.3); voltage -> position"
@@ -43,24 +46,20 @@ def configure(p):
     p.add_argument("setup", nargs="?", default="all",
                    help="disc_inlet, disc_delivery, reed, all (default) or a setup TOML file ([lts] table)")
     g = p.add_argument_group("override an input (applies to every selected setup)")
-    g.add_argument("--apparent-scale-mm-per-v", type=float, help="C_app, sensor scale in air [mm/V]")
-    g.add_argument("--c1-mm", type=float, help="C_1, receiving lens behind the sensor face [mm]")
-    g.add_argument("--c2-mm", type=float, help="C_2, receiving lens across from the laser beam [mm]")
-    g.add_argument("--standoff-mm", type=float, help="L_s, sensor face to its zero-voltage reference [mm]")
-    g.add_argument("--n-air", type=float, help="refractive index of air")
-    g.add_argument("--n-window", type=float, help="refractive index of the window (PMMA)")
-    g.add_argument("--n-fluid", type=float, help="refractive index of the fluid (oil)")
-    g.add_argument("--air-gap-mm", type=float, help="t_a, sensor face to window [mm]")
-    g.add_argument("--window-mm", type=float, help="t_p, window thickness [mm]")
+    for flag, (name, factor) in _OVERRIDES.items():
+        spec = spec_of(lts.LtsSetup, name)
+        unit = {1e-3: spec.unit.replace("m", "mm", 1)}.get(factor, spec.unit)
+        g.add_argument("--" + flag.replace("_", "-"), help=f"{spec.doc or name} [{unit}]",
+                       type=flags.number(unit, tuple(b / factor for b in spec.bounds), positive=spec.positive))
     p.add_argument("--indices", choices=lts.INDEX_SOURCES, default="table_b_2",
                    help="n_o, n_p of the thesis setups: as printed in Table B.2 (default) or recomputed "
                         "from Table B.1 by eq B.2 (appendix_b)")
-    p.add_argument("--x-max-mm", type=float, default=None, help="largest actual displacement of the fit [mm] (1.2)")
-    p.add_argument("--points", type=int, default=None, help="points of the least-squares fit (11)")
+    p.add_argument("--x-max-mm", type=flags.number("mm", (1e-3, 100.0), positive=True), default=None, help="largest actual displacement of the fit [mm] (1.2)")
+    p.add_argument("--points", type=flags.integer(3, 10_001), default=None, help="points of the least-squares fit (11)")
     c = p.add_argument_group("convert your own sensor voltages")
     c.add_argument("--voltages", metavar="CSV", help="CSV file with a column of sensor voltages [V]")
     c.add_argument("--column", help="name of the voltage column (needed when the CSV has several)")
-    c.add_argument("--zero-voltage", type=float, default=0.0,
+    c.add_argument("--zero-voltage", type=flags.number("V", (-1e3, 1e3)), default=0.0,
                    help="voltage at the zero position; dV = V - this [V] (default 0)")
     c.add_argument("--exact", action="store_true",
                    help="invert eqs 5.7-5.9 exactly instead of the linear eq 5.10")
@@ -71,44 +70,27 @@ def configure(p):
 
 # ------------------------------------------------------------------ setups
 
-def _number(v, field: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(float(v)):
-        raise InputError(field, f"expected a finite number, got {v!r}")
-    return float(v)
-
-
 def load_setup_file(path: Path, indices: str = "table_b_2") -> tuple[str, lts.LtsSetup, dict]:
     """(name, setup, deltas) from a TOML file with an ``[lts]`` table (SI) and optional ``[lts.uncertainty]``."""
-    if not path.is_file():
+    if not path.exists():
         raise InputError(str(path), "no such file; expected disc_inlet, disc_delivery, reed, all or a setup TOML file")
-    try:
-        data = tomllib.loads(path.read_text())
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(str(path), f"not valid TOML ({exc})") from None
-    t = data.get("lts")
+    data = validate.read_toml(path, str(path))
+    validate.keys(data, ("lts",), str(path), required=("lts",))
+    t = data["lts"]
     if not isinstance(t, dict):
-        raise InputError(f"{path}: lts", "missing [lts] table")
+        raise InputError("lts", "expected a table [lts]")
     base, deltas = lts.thesis_setup("disc_inlet", indices=indices)
-    unc = t.get("uncertainty", {})
-    if not isinstance(unc, dict):
-        raise InputError("lts.uncertainty", "expected a table")
-    for k in t:
-        if k not in (*_FIELDS, "name", "uncertainty"):
-            raise InputError(f"lts.{k}", "unknown field; expected one of " + ", ".join(_FIELDS + ["name"]))
+    unc = t.pop("uncertainty", {})
+    name = t.pop("name", path.stem)
+    if not isinstance(name, str):
+        raise InputError("lts.name", f"expected a string, got {name!r}")
     for k in _REQUIRED:
         if k not in t:
             raise InputError(f"lts.{k}", "missing; expected a length in m")
-    vals = {k: _number(t[k], f"lts.{k}") for k in _FIELDS if k in t}
+    vals = read_table(lts.LtsSetup, t, "lts")
+    validate.keys(unc, _FIELDS, "lts.uncertainty")
     for k, v in unc.items():
-        if k not in _FIELDS:
-            raise InputError(f"lts.uncertainty.{k}", "unknown field; expected one of " + ", ".join(_FIELDS))
-        v = _number(v, f"lts.uncertainty.{k}")
-        if v < 0:
-            raise InputError(f"lts.uncertainty.{k}", f"must be >= 0, got {v:g}")
-        deltas[k] = v
-    name = t.get("name", path.stem)
-    if not isinstance(name, str):
-        raise InputError("lts.name", f"expected a string, got {name!r}")
+        deltas[k] = validate.number(v, f"lts.uncertainty.{k}", unit=spec_of(lts.LtsSetup, k).unit, bounds=(0.0, 1.0))
     setup = replace(base, **vals)
     _validate(setup, "lts.")
     return name, setup, deltas
@@ -134,8 +116,6 @@ def select_setups(args) -> list[tuple[str, lts.LtsSetup, dict]]:
     for flag, (name, factor) in _OVERRIDES.items():
         v = getattr(args, flag)
         if v is not None:
-            if not math.isfinite(v):
-                raise InputError("--" + flag.replace("_", "-"), f"expected a finite number, got {v}")
             over[name] = (v * factor, "--" + flag.replace("_", "-"))
     out = []
     for name, setup, deltas in chosen:
@@ -155,16 +135,14 @@ def select_setups(args) -> list[tuple[str, lts.LtsSetup, dict]]:
 
 def _read_voltages(path: Path, column: str | None) -> tuple[list[str], list[list[str]], str, np.ndarray]:
     """(header, rows as text, column name, voltages [V]) of a CSV; the rows are kept verbatim for the output."""
-    if not path.is_file():
-        raise InputError(str(path), "no such file; expected a CSV of sensor voltages")
+    text = validate.read_text(path, "--voltages")
     try:
-        with path.open(newline="") as fh:
-            table = [r for r in csv.reader(fh) if r]
-    except (UnicodeDecodeError, csv.Error) as exc:
+        table = [r for r in csv.reader(io.StringIO(text, newline="")) if r]
+    except csv.Error as exc:
         raise InputError(str(path), f"not a readable CSV ({exc})") from None
     if len(table) < 2:
         raise InputError(str(path), "needs a header row and at least one data row")
-    header, rows = [h.strip() for h in table[0]], table[1:]
+    header, rows = validate.columns(table[0], str(path)), table[1:]
     if column is None:
         if len(header) != 1:
             raise InputError("--column", "the CSV has several columns (" + ", ".join(header) + "); name the voltage column")
@@ -252,12 +230,6 @@ def plot(path: Path, results: list[dict], setups: dict) -> None:
 
 def run(args) -> dict:
     x_max = None if args.x_max_mm is None else args.x_max_mm * 1e-3
-    if x_max is not None and not (math.isfinite(x_max) and x_max > 0):
-        raise InputError("--x-max-mm", f"must be a positive length, got {args.x_max_mm}")
-    if args.points is not None and args.points < 3:
-        raise InputError("--points", f"need at least 3 points, got {args.points}")
-    if not math.isfinite(args.zero_voltage):
-        raise InputError("--zero-voltage", f"expected a finite number, got {args.zero_voltage}")
     plot_path = check_new_file(args.plot, "--plot", args.force) if args.plot else None
     out_path = _output_path(args) if args.voltages else None
     chosen = select_setups(args)

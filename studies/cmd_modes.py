@@ -5,6 +5,7 @@ from __future__ import annotations
 import sys
 
 from geometry import load_reed
+from studies import flags
 
 HELP = "natural frequencies and mode shapes of reeds at any fidelity: plots of every mode and VTU files"
 
@@ -16,11 +17,11 @@ def configure(p):
     p.add_argument("geometries", nargs="*", default=["uniform", "stepped1", "stepped2", "prototype"],
                    help="presets or reed TOML files (default: the four thesis reeds)")
     p.add_argument("--fidelity", default="solid", help="analytic, beam, plate or solid (default solid)")
-    p.add_argument("--modes", type=int, default=DEFAULT_MODES, metavar="N",
+    p.add_argument("--modes", type=flags.integer(1, 50), default=DEFAULT_MODES, metavar="N",
                    help=f"number of modes per reed (default {DEFAULT_MODES})")
     p.add_argument("--out", default="out/modes", help="output folder (default out/modes)")
     p.add_argument("--force", action="store_true", help="write into an existing folder valvelab did not make")
-    p.add_argument("--mesh-size", type=float, default=None,
+    p.add_argument("--mesh-size", type=flags.number("m", (1e-7, 10.0), positive=True), default=None,
                    help="FEA element size [m] (default: converged size scaled to each reed)")
 
 
@@ -36,15 +37,12 @@ def _shapes(fidelity, mod, result, reed, n):
 
 
 def run(args) -> dict:
-    from geometry.errors import InputError
 
     from .cmd_reed import check_modes_count, fidelity_module
     from .outputs import prepare_output_dir
     from .plots import plot_mode_shapes
     from .tables_fea import figure_3_12
 
-    if args.mesh_size is not None and not args.mesh_size > 0:
-        raise InputError("--mesh-size", f"must be a positive length in m, got {args.mesh_size}")
     n = check_modes_count(args.modes)
     mod = fidelity_module(args.fidelity)
     reeds = [load_reed(g) for g in args.geometries]  # validate every input before writing

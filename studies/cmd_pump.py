@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import csv
 
-from geometry.declare import Spec, check_value
+from geometry.declare import Spec, spec_of
 from geometry.errors import InputError
+from lumped.oil import Oil
+from studies import flags
 
 HELP = "simulate a pump (a shipped model or your model file) with its check valves to cyclic steady state"
 
@@ -14,6 +16,9 @@ TRACE_COLUMNS = ("time_s", "valve_position_m", "cylinder_pressure_pa", "load_pre
 #: plausible ranges of the engineering-unit flags (the model file's are in SI, lumped.model)
 SPEED = Spec(None, "rpm", "", bounds=(10.0, 20000.0), positive=True)
 LOAD_MPA = Spec(None, "MPa", "", bounds=(0.01, 100.0), positive=True)
+AIR_BOUNDS = spec_of(Oil, "air_content").bounds       # declared once, with the oil
+TOL_BOUNDS = (1e-14, 0.1)
+MAX_REVOLUTIONS = 100_000
 
 
 def configure(p):
@@ -22,13 +27,13 @@ def configure(p):
                         "(default: thesis-<--valve>)")
     p.add_argument("--valve", default=None, choices=("disc", "reed"),
                    help="check valve type of the thesis pump (thesis-disc or thesis-reed) when no --model")
-    p.add_argument("--speed-rpm", type=float, default=None, help="crank speed [rpm] (default: the model's)")
-    p.add_argument("--load-pressure-mpa", type=float, default=None,
+    p.add_argument("--speed-rpm", type=flags.number("rpm", SPEED.bounds), default=None, help="crank speed [rpm] (default: the model's)")
+    p.add_argument("--load-pressure-mpa", type=flags.number("MPa", LOAD_MPA.bounds), default=None,
                    help="(mean) load pressure [MPa, absolute] (default: the model's)")
-    p.add_argument("--air-content", type=float, default=None,
+    p.add_argument("--air-content", type=flags.number("-", AIR_BOUNDS), default=None,
                    help="entrained air R at 1 atm, in [0, 0.5) (default: the model's oil.air_content)")
-    p.add_argument("--revolutions", type=int, default=5, help="revolutions to simulate (>= 2, default 5)")
-    p.add_argument("--max-revolutions", type=int, default=None,
+    p.add_argument("--revolutions", type=flags.integer(2, MAX_REVOLUTIONS), default=5, help="revolutions to simulate (>= 2, default 5)")
+    p.add_argument("--max-revolutions", type=flags.integer(2, MAX_REVOLUTIONS), default=None,
                    help="continue past --revolutions until cyclic steady state, at most this many")
     p.add_argument("--circuit", default=None, choices=("simplified", "complete"),
                    help="constant load pressure or accumulator + needle valve + load line (default: the model's)")
@@ -41,10 +46,10 @@ def configure(p):
                    help="reed valves: derive kappa, gamma1..3 and h_eff from this reed geometry")
     p.add_argument("--reed-fidelity", default=None,
                    help="reed model for --reed-geometry: analytic (default), beam, plate or solid")
-    p.add_argument("--dead-volume-m3", type=float, default=None, help="cylinder volume at TDC [m^3]")
-    p.add_argument("--rtol", type=float, default=None,
+    p.add_argument("--dead-volume-m3", type=flags.number("m^3", positive=True), default=None, help="cylinder volume at TDC [m^3]")
+    p.add_argument("--rtol", type=flags.number("-", TOL_BOUNDS), default=None,
                    help="integrator relative tolerance (default: fast 1e-3, reference 1e-6)")
-    p.add_argument("--atol", type=float, default=None,
+    p.add_argument("--atol", type=flags.number("-", TOL_BOUNDS), default=None,
                    help="integrator absolute tolerance in state scales (default: fast 1e-5, reference 1e-6)")
     p.add_argument("--method", default="fast", choices=("fast", "reference"),
                    help="fast: compiled Rodas4P (default; delivery within 0.1 %% and valve timing within 0.5 deg of "
@@ -63,9 +68,14 @@ def model_for(args, field: str = "--model"):
     values = {}
     if args.dead_volume_m3 is not None:
         values["pump.dead_volume"] = args.dead_volume_m3
+    if args.reed_fidelity is not None:
+        from lumped.reed_fidelity import reed_model
+
+        reed_model(args.reed_fidelity, "--reed-fidelity")      # an unknown name, before anything else
     if args.reed_geometry is not None or args.reed_fidelity is not None:
         if "reed" not in model.kinds:
-            raise InputError("--reed-geometry", f"the model {model.name!r} has no reed valve")
+            flag = "--reed-geometry" if args.reed_geometry is not None else "--reed-fidelity"
+            raise InputError(flag, f"the model {model.name!r} has no reed valve")
         for pos, kind in zip(("inlet", "delivery"), model.kinds):
             if kind == "reed":
                 geo = args.reed_geometry or model.valve(pos).geometry
@@ -85,20 +95,10 @@ def model_for(args, field: str = "--model"):
 
 
 def _check_args(args) -> None:
-    if args.speed_rpm is not None:
-        check_value(args.speed_rpm, SPEED, "--speed-rpm")
-    if args.load_pressure_mpa is not None:
-        check_value(args.load_pressure_mpa, LOAD_MPA, "--load-pressure-mpa")
-    if args.air_content is not None:
-        check_value(args.air_content, Spec(None, "-", "", bounds=(0.0, 0.49)), "--air-content")
-    if not 2 <= args.revolutions <= 100_000:
-        raise InputError("--revolutions", f"expected an integer from 2 to 100000, got {args.revolutions}")
-    if args.max_revolutions is not None and not args.revolutions <= args.max_revolutions <= 100_000:
-        raise InputError("--max-revolutions", f"expected an integer from --revolutions ({args.revolutions}) "
-                                              f"to 100000, got {args.max_revolutions}")
-    for name, v in (("--rtol", args.rtol), ("--atol", args.atol)):
-        if v is not None:
-            check_value(v, Spec(None, "-", "", bounds=(1e-14, 0.1), positive=True), name)
+    """What the flags' own types cannot see: one flag against another."""
+    if args.max_revolutions is not None and args.max_revolutions < args.revolutions:
+        raise InputError("--max-revolutions", f"expected at least --revolutions ({args.revolutions}), "
+                                              f"got {args.max_revolutions}")
 
 
 def run(args) -> dict:

@@ -6,6 +6,7 @@ import importlib
 
 from geometry import load_reed
 from geometry.errors import InputError
+from studies import flags
 
 HELP = "first bending frequency, stiffness and mode-function parameters of a reed (and its first N modes)"
 
@@ -52,9 +53,9 @@ def check_modes_count(n, field: str = "--modes", allow_zero: bool = False) -> in
 def configure(p):
     p.add_argument("geometry", help="preset (uniform, stepped1, stepped2, prototype) or reed TOML file")
     p.add_argument("--fidelity", default="analytic", help="analytic (default), beam, plate or solid")
-    p.add_argument("--mesh-size", type=float, default=None,
+    p.add_argument("--mesh-size", type=flags.number("m", (1e-7, 10.0), positive=True), default=None,
                    help="FEA element size [m] (default: converged size scaled to the reed)")
-    p.add_argument("--modes", type=int, default=None, metavar="N",
+    p.add_argument("--modes", type=flags.integer(1, 50), default=None, metavar="N",
                    help="also report the first N natural frequencies and their mode kinds")
     p.add_argument("--plot", default=None, metavar="FILE.png",
                    help="draw the outline, the uniform-load shape and the free-vibration mode shape")
@@ -63,8 +64,6 @@ def configure(p):
 
 def run(args) -> dict:
     reed = load_reed(args.geometry)
-    if args.mesh_size is not None and not args.mesh_size > 0:
-        raise InputError("--mesh-size", f"must be a positive length in m, got {args.mesh_size}")
     plot = getattr(args, "plot", None)
     if plot is not None:  # refuse a bad or existing file before any computation
         from studies.outputs import check_new_file

@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 from geometry.errors import InputError
+from studies import flags
+
+#: the reed stress check is linear: a tip opening beyond this fraction of the length is not small
+MAX_OPENING_TO_LENGTH = 0.3
 
 HELP = "k_seat, k_stop and critical damping of the disc valve (FEA); reed stress at maximum opening and on its seat"
 
@@ -10,11 +14,11 @@ HELP = "k_seat, k_stop and critical damping of the disc valve (FEA); reed stress
 def configure(p):
     p.add_argument("--reed", default="prototype",
                    help="reed for the stress check: preset or reed TOML (default: prototype)")
-    p.add_argument("--x-stop-mm", type=float, default=None,
+    p.add_argument("--x-stop-mm", type=flags.number("mm", (1e-3, 1e4), positive=True), default=None,
                    help="reed tip opening at the stop [mm] (default: 1.9 mm, thesis-reed's stop.gap)")
-    p.add_argument("--reverse-pressure-mpa", type=float, default=None,
+    p.add_argument("--reverse-pressure-mpa", type=flags.number("MPa", (1e-4, 100.0), positive=True), default=None,
                    help="reverse pressure difference on the closed reed [MPa] (default: geometry/data/seat_stop.toml)")
-    p.add_argument("--mesh-size", type=float, default=None, help="element size [m] of the reed solid")
+    p.add_argument("--mesh-size", type=flags.number("m", (1e-7, 1.0), positive=True), default=None, help="element size [m] of the reed solid")
     p.add_argument("--skip-disc", action="store_true", help="only the reed stress check")
     p.add_argument("--skip-reed", action="store_true", help="only the disc valve's seat and stop")
 
@@ -24,12 +28,22 @@ def run(args) -> dict:
 
     if args.skip_disc and args.skip_reed:
         raise InputError("--skip-disc/--skip-reed", "skipping both leaves nothing to compute")
-    for name in ("x_stop_mm", "reverse_pressure_mpa", "mesh_size"):
-        v = getattr(args, name)
-        if v is not None and not v > 0:
-            raise InputError("--" + name.replace("_", "-"), f"must be positive, got {v}")
     tv = thesis_values()
     out: dict = {}
+    if not args.skip_reed:       # the reed and its opening checked before any FEA
+        from geometry import load_reed
+
+        reed = load_reed(args.reed)
+        if args.x_stop_mm is not None and args.x_stop_mm * 1e-3 > MAX_OPENING_TO_LENGTH * reed.length:
+            raise InputError("--x-stop-mm", f"{args.x_stop_mm:g} mm is more than {MAX_OPENING_TO_LENGTH:g} of the "
+                                            f"reed's length ({reed.length * 1e3:g} mm): the linear stress model "
+                                            "holds for small deflections only")
+        if args.mesh_size is not None:          # a mesh out of reach is refused before the disc's FEA runs
+            from fea.mesh import check_size
+            from fea.mesh import check_face_mesh
+
+            check_size(reed, args.mesh_size)
+            check_face_mesh(reed, args.mesh_size, quad=True)
     if not args.skip_disc:
         from fea.seat_stop import seat_and_stop
 
@@ -41,10 +55,8 @@ def run(args) -> dict:
     if not args.skip_reed:
         import sys
 
-        from geometry import load_reed
         from fea.reed_stress import max_opening_stress, seat_reverse_stress
 
-        reed = load_reed(args.reed)
         x = None if args.x_stop_mm is None else args.x_stop_mm * 1e-3
         pr = None if args.reverse_pressure_mpa is None else args.reverse_pressure_mpa * 1e6
         print(f"reed stress: {reed.name} at maximum opening", file=sys.stderr, flush=True)

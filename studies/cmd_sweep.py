@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 from geometry.errors import InputError
-from studies import sweep
+from studies import flags, sweep
 
 HELP = "run (or resume) a design-of-experiments sweep on a dask cluster"
 
@@ -17,8 +17,8 @@ def configure(p):
     p.add_argument("--format", default="parquet", choices=sweep.FORMATS, help="results table format")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="dask scheduler address (e.g. tcp://host:8786); default: a local cluster")
-    p.add_argument("--workers", type=int, default=None, help="local cluster worker processes (default: one per core)")
-    p.add_argument("--batch-size", type=int, default=None, help="designs per dask task (default: automatic)")
+    p.add_argument("--workers", type=flags.integer(1, 1024), default=None, help="local cluster worker processes (default: one per core)")
+    p.add_argument("--batch-size", type=flags.integer(1, 1_000_000), default=None, help="designs per dask task (default: automatic)")
     p.add_argument("--retry-failed", action="store_true", help="recompute designs recorded with status error")
     p.add_argument("--plot", action="store_true", help="also write main_effects.png into the sweep folder")
     p.add_argument("--force", action="store_true", help="start over in a folder that holds another sweep")

@@ -2,17 +2,17 @@
 
 from __future__ import annotations
 
-import math
-import sys
 from dataclasses import replace
 from pathlib import Path
 
+from geometry import validate
 from geometry.errors import InputError
 from lumped.effects import Applied
 
+from . import flags
+from .cmd_pump import AIR_BOUNDS, LOAD_MPA, SPEED
 from .measured import MEASURED_VALVES
 from .model_choice import choose
-from .discrepancy import ModelFailure
 from .synth import Condition, Noise, synthesize, write_synthetic
 from .thesis import experiments
 
@@ -21,7 +21,7 @@ HELP = "write a synthetic measured dataset from the model with chosen effects hi
 
 def configure(p):
     p.add_argument("out", help="dataset folder to write (refused if it holds files valvelab did not write)")
-    p.add_argument("--valve", default=None, help="disc (default) or reed: the thesis model of that valve type "
+    p.add_argument("--valve", default=None, choices=("disc", "reed"), help="disc (default) or reed: the thesis model of that valve type "
                                                   "when no --model")
     p.add_argument("--effect", action="append", default=[], metavar="NAME[@TARGET][:PARAM=VALUE,...]",
                    help="effect to hide, e.g. seat_compliance@delivery:k_seat=1.5e6 (repeatable; parameters "
@@ -29,20 +29,20 @@ def configure(p):
     p.add_argument("--condition", action="append", default=[], metavar="RPM:MPA[:VALVE]",
                    help="operating condition (speed rpm, load pressure MPa, measured valve inlet/delivery/both); "
                         "repeatable; default: the thesis's six runs for the valve type (Tables 5.3, 5.5)")
-    p.add_argument("--air-content", type=float, default=None,
+    p.add_argument("--air-content", type=flags.number("-", AIR_BOUNDS), default=None,
                    help="air content R stated in every run.toml (default: not stated)")
-    p.add_argument("--noise-um", type=float, default=10.0, help="white position noise [um] (default 10)")
-    p.add_argument("--pressure-noise-kpa", type=float, default=10.0, help="white pressure noise [kPa] (default 10)")
-    p.add_argument("--delivery-noise-pct", type=float, default=0.3,
+    p.add_argument("--noise-um", type=flags.number("um", (0.0, 1e4)), default=10.0, help="white position noise [um] (default 10)")
+    p.add_argument("--pressure-noise-kpa", type=flags.number("kPa", (0.0, 1e4)), default=10.0, help="white pressure noise [kPa] (default 10)")
+    p.add_argument("--delivery-noise-pct", type=flags.number("%", (0.0, 50.0)), default=0.3,
                    help="standard deviation of the measured delivery [%%] (default 0.3)")
-    p.add_argument("--scale-error", type=float, default=None,
+    p.add_argument("--scale-error", type=flags.number("-", (-0.2, 0.2)), default=None,
                    help="position-sensor scale error of both valves, e.g. 0.01 (default: drawn within +-1.12 %%)")
-    p.add_argument("--time-offset-ms", type=float, default=None,
+    p.add_argument("--time-offset-ms", type=flags.number("ms", (-5.0, 5.0)), default=None,
                    help="sensor lag behind the crank angle [ms] (default: drawn within +-0.2 ms)")
-    p.add_argument("--sample-rate-hz", type=float, default=1.0e4, help="sampling rate (default 10 kHz, as the thesis)")
-    p.add_argument("--revolutions", type=int, default=1, help="revolutions written per run (default 1)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--workers", type=int, default=1, help="parallel simulations (default 1)")
+    p.add_argument("--sample-rate-hz", type=flags.number("Hz", (1e3, 1e7)), default=1.0e4, help="sampling rate (default 10 kHz, as the thesis)")
+    p.add_argument("--revolutions", type=flags.integer(1, 1000), default=1, help="revolutions written per run (default 1)")
+    p.add_argument("--seed", type=flags.integer(0, 2**32 - 1), default=0, help="random seed (default 0)")
+    p.add_argument("--workers", type=flags.integer(1, 256), default=1, help="parallel simulations (default 1)")
     p.add_argument("--model", default=None, metavar="NAME|FILE",
                    help="pump model to synthesise from (a shipped one or a model file; default thesis-<--valve>); "
                         "the data come from its baseline (every candidate effect off, as the workflow starts "
@@ -52,14 +52,12 @@ def configure(p):
     p.add_argument("--force", action="store_true", help="write into a folder valvelab did not create")
 
 
-def _number(text: str, field: str) -> float:
+def _number(text: str, field: str, unit: str = "-", bounds=None) -> float:
     try:
         v = float(text)
     except ValueError:
         raise InputError(field, f"expected a number, got {text!r}") from None
-    if not math.isfinite(v):
-        raise InputError(field, f"expected a finite number, got {text!r}")
-    return v
+    return validate.number(v, field, unit=unit, bounds=bounds)
 
 
 def parse_effect(spec: str, library, valve_type) -> Applied:
@@ -76,6 +74,7 @@ def parse_effect(spec: str, library, valve_type) -> Applied:
         what = valve_type if isinstance(valve_type, str) else valve_type.kind_at(target)
         raise InputError("--effect", f"{name} does not apply to the {what} valve")
     values = eff.prior_values(valve_type, target)
+    given = {}
     for item in filter(None, tail.split(",")):
         k, eq, v = item.partition("=")
         if not eq:
@@ -88,6 +87,11 @@ def parse_effect(spec: str, library, valve_type) -> Applied:
         if par.log and x <= 0:
             raise InputError(f"--effect {name}:{k}", f"must be positive ({par.unit}), got {x:g}")
         values[k] = x
+        given[k] = x
+    if given and not isinstance(valve_type, str):    # a pump model: each value against its declared field
+        from lumped.effect_library import check_values
+
+        check_values(eff, given, valve_type, target, f"--effect {name}")
     return Applied.of(name, target, values)
 
 
@@ -95,13 +99,9 @@ def parse_condition(spec: str, air: float | None) -> Condition:
     parts = spec.split(":")
     if len(parts) not in (2, 3):
         raise InputError("--condition", f"expected RPM:MPA[:VALVE], got {spec!r}")
-    rpm = _number(parts[0], "--condition")
-    mpa = _number(parts[1], "--condition")
+    rpm = _number(parts[0], "--condition (speed)", "rpm", SPEED.bounds)
+    mpa = _number(parts[1], "--condition (load pressure)", "MPa", LOAD_MPA.bounds)
     valve = parts[2] if len(parts) == 3 else "delivery"
-    if not 10 <= rpm <= 20000:
-        raise InputError("--condition", f"speed {rpm:g} rpm out of range 10-20000")
-    if not 0.01 <= mpa <= 100:
-        raise InputError("--condition", f"load pressure {mpa:g} MPa out of range 0.01-100 (it is in MPa)")
     if valve not in MEASURED_VALVES:
         raise InputError("--condition", f"measured valve {valve!r}; expected one of {', '.join(MEASURED_VALVES)}")
     return Condition(rpm, mpa * 1e6, valve, air)
@@ -113,21 +113,14 @@ def thesis_conditions(valve_type: str, air: float | None) -> list[Condition]:
             for c in experiments() if c["valve"] == valve_type]
 
 
+#: samples one run may hold (a trace.csv of ~80 MB)
+MAX_SAMPLES_PER_RUN = 1_000_000
+
+
 def run(args) -> dict:
-    if args.valve is not None and args.valve not in ("disc", "reed"):
-        raise InputError("--valve", f"expected disc or reed, got {args.valve!r}")
-    if args.air_content is not None and not 0 <= args.air_content < 0.5:
-        raise InputError("--air-content", f"a volume fraction 0 <= R < 0.5, got {args.air_content:g}")
-    for flag, v in (("--noise-um", args.noise_um), ("--pressure-noise-kpa", args.pressure_noise_kpa),
-                    ("--delivery-noise-pct", args.delivery_noise_pct)):
-        if not (math.isfinite(v) and v >= 0):
-            raise InputError(flag, f"must be a non-negative number, got {v}")
-    if args.scale_error is not None and not abs(args.scale_error) < 0.2:
-        raise InputError("--scale-error", f"a fraction such as 0.01, got {args.scale_error:g}")
-    if args.time_offset_ms is not None and not abs(args.time_offset_ms) < 5:
-        raise InputError("--time-offset-ms", f"a few tenths of a ms at most, got {args.time_offset_ms:g}")
-    if args.sample_rate_hz < 1000 or args.revolutions < 1:
-        raise InputError("--sample-rate-hz", "at least 1000 Hz and one revolution")
+    from .outputs import check_output_dir
+
+    check_output_dir(args.out, "OUT", args.force)          # before any simulation
     if args.model is not None and args.valve is not None:
         raise InputError("--valve", "the valves come from --model; give one or the other")
     sim = choose(args.model, args.simulator, valve_type=args.valve or "disc")
@@ -141,6 +134,10 @@ def run(args) -> dict:
         raise InputError("--condition", f"the thesis ran no {valve_type} pump: give the operating conditions")
     conds = ([parse_condition(c, args.air_content) for c in args.condition] if args.condition
              else thesis_conditions(valve_type, args.air_content))
+    for c in conds:                                         # the trace size, before any simulation
+        validate.size(args.revolutions * 60.0 / c.speed_rpm * args.sample_rate_hz, "--revolutions",
+                      limit=MAX_SAMPLES_PER_RUN, unit="samples per run", bytes_each=80.0,
+                      how=f"at {c.speed_rpm:g} rpm lower --revolutions or --sample-rate-hz")
     noise = Noise(
         position_m=args.noise_um * 1e-6, pressure_pa=args.pressure_noise_kpa * 1e3,
         delivery_frac=args.delivery_noise_pct / 100.0,
@@ -148,12 +145,8 @@ def run(args) -> dict:
         time_offset_s=None if args.time_offset_ms is None else args.time_offset_ms * 1e-3,
         sample_rate_hz=args.sample_rate_hz, revolutions=args.revolutions,
     )
-    try:
-        runs, truth_doc = synthesize(sim.simulate, valve_type, conds, truth, noise, seed=args.seed,
-                                     workers=args.workers)
-    except ModelFailure as exc:   # not a user mistake: exit 1 with one line, no traceback
-        sys.stderr.write(f"valvelab synth: error: {exc}\n")
-        raise SystemExit(1) from None
+    runs, truth_doc = synthesize(sim.simulate, valve_type, conds, truth, noise, seed=args.seed,
+                                 workers=args.workers)     # a ModelFailure: exit 1, one line (studies.cli)
     model_file = None
     if sim.context is not None and args.model is not None:
         from lumped.model_file import SHIPPED, to_toml

@@ -15,6 +15,7 @@ import time
 from pathlib import Path
 
 from geometry.errors import InputError
+from studies import flags
 
 HELP = "run the full validation (reed parameters, 12 pump cases) and write tables and plots to out/"
 
@@ -23,7 +24,7 @@ def configure(p):
     p.add_argument("--out", default="out", help="output folder (default out/)")
     p.add_argument("--quick", action="store_true", help="fewer revolutions, one traced revolution, coarse FEA (tests)")
     p.add_argument("--force", action="store_true", help="write into a non-empty folder valvelab did not create")
-    p.add_argument("--jobs", type=int, default=None, help="processes for the pump cases (default 1 or $VALVELAB_JOBS)")
+    p.add_argument("--jobs", type=flags.integer(1, 256), default=None, help="processes for the pump cases (default 1 or $VALVELAB_JOBS)")
     p.add_argument("--valve", choices=("disc", "reed"), default=None, help="only the cases of one valve type")
     p.add_argument("--skip-reed-chain", action="store_true", help="skip step 1 (reed parameters by fidelity)")
 

@@ -41,10 +41,7 @@ from .gap import (
     CycleTrace, Folded, GapScales, Nuisance, describe, findings, fit_nuisance, fold, predict, run_gap, summary,
 )
 from .measured import Run
-
-
-class ModelFailure(RuntimeError):
-    """The model could not simulate a run of the dataset with the baseline or the final effects."""
+from geometry.errors import ModelFailure  # noqa: F401  (re-exported: raised when a run cannot be simulated)
 
 
 @dataclass(frozen=True)

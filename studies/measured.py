@@ -13,8 +13,6 @@ written by valvelab carries), so both valves' positions can be used where measur
 
 from __future__ import annotations
 
-import math
-import tomllib
 from dataclasses import dataclass, field, replace
 from functools import cache
 from pathlib import Path
@@ -23,6 +21,7 @@ import numpy as np
 import pandas as pd
 import tomli_w
 
+from geometry import validate
 from geometry.errors import InputError
 
 from .outputs import check_new_file, prepare_output_dir
@@ -43,6 +42,8 @@ MAX_PRESSURE_PA = 1.0e8        # 1000 bar
 MIN_LOAD_PRESSURE_PA = 1.0e4   # below 0.1 bar absolute a pump cannot deliver
 MAX_PRESSURE_TRACE_PA = 1.0e8
 MIN_PRESSURE_PEAK_PA = 1.0e3   # a pump pressure trace peaking below 1 kPa is not in Pa
+MAX_NOISE_BELOW_VACUUM_PA = 5.0e4   # a cavitating cylinder reads ~0 Pa absolute plus sensor noise;
+                                    # a gauge trace would read down to -1e5 Pa
 SPEED_RANGE_RPM = (10.0, 20000.0)
 MIN_SAMPLES_PER_REV = 90       # coarser than 4 crank degrees cannot time valve events
 WHOLE_REV_TOLERANCE = 0.02     # fraction of a revolution (plus one sample)
@@ -115,21 +116,13 @@ def _num(table: dict, key: str, where: str, required: bool) -> float | None:
         if required:
             raise InputError(f"{where}: {key}", "missing; expected a number in SI units")
         return None
-    v = table[key]
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise InputError(f"{where}: {key}", f"expected a number, got {v!r}")
-    v = float(v)
-    if not math.isfinite(v):
-        raise InputError(f"{where}: {key}", f"expected a finite number, got {v}")
-    return v
+    return validate.number(table[key], f"{where}: {key}")
 
 
 def parse_run_toml(data: dict, where: str) -> dict:
     """Validated run.toml fields (SI); ``where`` names the file in messages."""
     out: dict = {}
-    for k in data:
-        if k not in KNOWN_RUN_KEYS:
-            raise InputError(f"{where}: {k}", "unknown key; expected some of " + ", ".join(sorted(KNOWN_RUN_KEYS)))
+    validate.keys(data, sorted(KNOWN_RUN_KEYS), where, sep=": ")
     vt = data.get("valve_type")
     if vt not in valve_types():
         raise InputError(f"{where}: valve_type", f"expected one of {', '.join(valve_types())}, got {vt!r}")
@@ -192,9 +185,31 @@ def _csv_line(row_index: int) -> int:
     return int(row_index) + 2
 
 
+#: the columns trace.csv may hold (CONTRACT.md); other columns are ignored unless they look like a typo of one
+TRACE_COLUMNS = ("time_s", "valve_position_m", "cylinder_pressure_pa", "load_pressure_pa",
+                 "inlet_position_m", "delivery_position_m")
+
+
+def _check_header(text: str, where: str) -> None:
+    """Refuse a duplicated column, and an extra column that is a near-miss of a known one (a typo
+    would otherwise drop the data silently: CONTRACT.md ignores extra columns)."""
+    import csv
+    import difflib
+
+    first = next(csv.reader([text.splitlines()[0] if text.strip() else ""]), [])
+    names = validate.columns(first, where) if first else []
+    for n in names:
+        if n not in TRACE_COLUMNS:
+            near = difflib.get_close_matches(n, TRACE_COLUMNS, n=1, cutoff=0.85)
+            if near and near[0] not in names:
+                raise InputError(f"{where}, {n}", f"unknown column (did you mean {near[0]}?); expected some of "
+                                                  + ", ".join(TRACE_COLUMNS))
+
+
 def read_trace(path: Path, measured_valve: str | None, speed_rpm: float) -> tuple[Trace, str]:
     """Validated trace.csv; returns the trace and the measured valve(s) it holds."""
     where = str(path)
+    _check_header(validate.read_text(path, where), where)
     try:
         df = pd.read_csv(path, dtype=str, skipinitialspace=True, keep_default_na=False)
     except pd.errors.EmptyDataError:
@@ -245,6 +260,10 @@ def read_trace(path: Path, measured_valve: str | None, speed_rpm: float) -> tupl
             f"time {t[i]:.9g} s does not increase (previous row {t[i - 1]:.9g} s)",
         )
     step = float(np.median(dt))
+    if abs(t[0]) > 1.5 * step:
+        raise InputError(f"{where}, line 2, time_s",
+                         f"the trace starts at {t[0]:.6g} s; time zero is top dead centre (CONTRACT.md): "
+                         "subtract the time of the first TDC")
     irregular = np.flatnonzero(np.abs(dt - step) > UNIFORM_DT_TOLERANCE * step)
     if irregular.size:
         i = irregular[0] + 1
@@ -303,12 +322,13 @@ def read_trace(path: Path, measured_valve: str | None, speed_rpm: float) -> tupl
                 f"{where}, line {_csv_line(i)}, {col}",
                 f"the largest pressure is {p[i]:g} Pa; a pump pressure in Pa is ~1e6 (is it in MPa or bar?)",
             )
-        neg = np.flatnonzero(p < -MIN_LOAD_PRESSURE_PA)
+        neg = np.flatnonzero(p < -MAX_NOISE_BELOW_VACUUM_PA)
         if neg.size:
             i = neg[0]
             raise InputError(
                 f"{where}, line {_csv_line(i)}, {col}",
-                f"{p[i]:g} Pa is below vacuum; expected an absolute pressure in Pa",
+                f"{p[i]:g} Pa is below vacuum by more than sensor noise; expected an absolute pressure in Pa "
+                "(a gauge pressure? add the atmospheric pressure)",
             )
         pressures[col] = p
     return Trace(t, positions, pressures["cylinder_pressure_pa"], pressures["load_pressure_pa"]), measured_valve
@@ -320,10 +340,7 @@ def read_run(folder: str | Path) -> Run:
     toml_path = folder / "run.toml"
     if not toml_path.is_file():
         raise InputError(str(folder), "not a run folder: no run.toml")
-    try:
-        data = tomllib.loads(toml_path.read_text())
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(str(toml_path), f"not valid TOML ({exc})") from None
+    data = validate.read_toml(toml_path, str(toml_path))
     fields = parse_run_toml(data, str(toml_path))
     trace = None
     csv = folder / "trace.csv"

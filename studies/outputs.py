@@ -7,6 +7,7 @@ anything else that already exists is refused unless the user passes ``--force``.
 from __future__ import annotations
 
 import os
+import tempfile
 from pathlib import Path
 
 from geometry.errors import InputError
@@ -14,9 +15,26 @@ from geometry.errors import InputError
 MARKER = ".valvelab-output"
 
 
+def _probe(folder: Path) -> str | None:
+    """Why nothing can be written in ``folder`` (None if a file can be): a real write, not os.access,
+    which says yes to root in a read-only folder and knows nothing of read-only file systems."""
+    try:
+        fd, name = tempfile.mkstemp(prefix=".valvelab-probe-", dir=folder)
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    os.close(fd)
+    try:
+        os.unlink(name)
+    except OSError:
+        pass
+    return None
+
+
 def check_new_file(path: str | Path, field: str, force: bool = False, writable: bool = True) -> Path:
     """``path`` as a Path, after checking it may be written: its folder exists and is writable, it is
     not a folder, and no user file is there (unless ``force``). Call it before any computation."""
+    if not str(path).strip():
+        raise InputError(field, "expected a file name, got an empty one")
     p = Path(path)
     if p.is_dir():
         raise InputError(field, f"{p} is a folder; expected a file name")
@@ -27,13 +45,17 @@ def check_new_file(path: str | Path, field: str, force: bool = False, writable: 
         raise InputError(field, f"folder {parent} does not exist")
     if not parent.is_dir():
         raise InputError(field, f"{parent} is not a folder")
-    if writable and (not os.access(parent, os.W_OK) or (p.exists() and not os.access(p, os.W_OK))):
-        raise InputError(field, f"{p} cannot be written (no write permission)")
+    if writable:
+        why = _probe(parent)
+        if why is not None or (p.exists() and not os.access(p, os.W_OK)):
+            raise InputError(field, f"{p} cannot be written ({why or 'no write permission'})")
     return p
 
 
 def check_output_dir(path: str | Path, field: str, force: bool = False) -> Path:
     """``path`` as a Path after checking a valvelab output folder may go there (nothing created yet)."""
+    if not str(path).strip():
+        raise InputError(field, "expected a folder name, got an empty one")
     p = Path(path)
     if p.exists():
         if not p.is_dir():
@@ -42,14 +64,18 @@ def check_output_dir(path: str | Path, field: str, force: bool = False) -> Path:
             raise InputError(
                 field, f"{p} is a non-empty folder valvelab did not create; choose another (or pass --force)"
             )
-        if not os.access(p, os.W_OK):
-            raise InputError(field, f"{p} cannot be written (no write permission)")
+        why = _probe(p)
+        if why is not None:
+            raise InputError(field, f"{p} cannot be written ({why})")
         return p
     anc = p.parent
     while not anc.exists() and anc != anc.parent:
         anc = anc.parent
-    if not anc.is_dir() or not os.access(anc, os.W_OK):
-        raise InputError(field, f"{p} cannot be created: {anc} is not a writable folder")
+    if not anc.is_dir():
+        raise InputError(field, f"{p} cannot be created: {anc} is not a folder")
+    why = _probe(anc)
+    if why is not None:
+        raise InputError(field, f"{p} cannot be created: nothing can be written in {anc} ({why})")
     return p
 
 

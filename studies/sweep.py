@@ -41,12 +41,15 @@ from pathlib import Path
 
 import numpy as np
 
+from geometry import validate
 from geometry.errors import InputError
 
 #: model alias -> module implementing the model protocol
 MODELS: dict[str, str] = {"pump": "studies.sweep_pump"}
 SAMPLERS = ("grid", "lhs", "sobol", "random")
 FORMATS = ("parquet", "csv")
+#: most designs one sweep may hold (its design table alone is ~100 MB per 1e6 designs)
+MAX_DESIGNS = 10_000_000
 #: columns every results table has besides the inputs and the model outputs
 META_COLUMNS = {"design_id": "int64", "status": "string", "error": "string", "eval_seconds": "float64"}
 
@@ -179,8 +182,7 @@ def _parse_factor(name: str, d, sampler: str) -> Factor:
     if sampler == "grid":
         if levels is None:
             raise InputError(f"{where}.levels", "the grid sampler needs levels (>= 2) for a range")
-        if isinstance(levels, bool) or not isinstance(levels, int) or levels < 2:
-            raise InputError(f"{where}.levels", f"must be an integer >= 2, got {levels!r}")
+        validate.number(levels, f"{where}.levels", integer=True, bounds=(2, MAX_DESIGNS))
     elif levels is not None:
         raise InputError(f"{where}.levels", f"only the grid sampler uses levels (sampler is {sampler!r})")
     return Factor(name, low=low, high=high, scale=scale, levels=levels, integer=integer)
@@ -256,8 +258,8 @@ def parse_spec(doc: dict, text: str = "", base_dir: Path | None = None) -> Sweep
     if sampler == "grid":
         if samples is not None:
             raise InputError("sweep.samples", "the grid sampler takes its size from the factors' levels; remove samples")
-    elif isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
-        raise InputError("sweep.samples", f"must be a positive integer, got {samples!r}")
+    else:
+        validate.number(samples, "sweep.samples", integer=True, bounds=(1, MAX_DESIGNS))
     seed = sw.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise InputError("sweep.seed", f"must be a non-negative integer, got {seed!r}")
@@ -287,7 +289,11 @@ def parse_spec(doc: dict, text: str = "", base_dir: Path | None = None) -> Sweep
     reserved = {f.name for f in factors} & set(META_COLUMNS)
     if reserved:
         raise InputError(f"factors.{sorted(reserved)[0]}", "is a reserved column name")
-    return SweepSpec(model, sampler, factors, fixed, samples, seed, scramble, text)
+    spec = SweepSpec(model, sampler, factors, fixed, samples, seed, scramble, text)
+    if sampler == "grid":        # the product of the levels, before any array is made
+        validate.size(spec.n_designs, "factors", limit=MAX_DESIGNS, unit="grid designs",
+                      how="fewer levels, or the sobol sampler")
+    return spec
 
 
 def with_base_model(spec: SweepSpec, model: str) -> SweepSpec:
@@ -309,9 +315,9 @@ def with_base_model(spec: SweepSpec, model: str) -> SweepSpec:
 def load_spec(path: str | Path) -> SweepSpec:
     """Read and check a sweep TOML file."""
     p = Path(path)
-    if not p.is_file():
+    if not p.exists():
         raise InputError(str(path), "sweep file not found")
-    text = p.read_text()
+    text = validate.read_text(p, str(path))
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from studies import lts
+from instruments import lts
 from studies.thesis import thesis_values
 
 
@@ -26,7 +26,7 @@ def table_5_2() -> dict:
         "scale in m/V, oil_gap in m (eq 5.6); 11 points 0-1.2 mm, least-squares slope (eq 5.10)",
         "inputs as printed in Table 5.2; index uncertainties from Table B.2's percentages "
         "(Table 5.2's rounded +/-0.016 would give 1.143 % and 1.136 %, docs/errata.md)",
-        "reed manifold inputs not printed: assumed the mean of the two disc manifolds (studies/data/lts.toml); "
+        "reed manifold inputs not printed: assumed the mean of the two disc manifolds (instruments/data/lts.toml); "
         "the thesis estimates its uncertainty as 1.12 %",
     ]}
 

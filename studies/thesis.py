@@ -2,19 +2,18 @@
 
 from __future__ import annotations
 
-import tomllib
 from functools import cache
-from importlib import resources
+
+from geometry.data_files import package_toml
 
 
 @cache
 def thesis_values() -> dict:
     """All printed values, keyed by table (``table_3_3``, ...)."""
-    return tomllib.loads(resources.files("studies").joinpath("data/thesis_values.toml").read_text())
+    return package_toml("studies", "thesis_values.toml")
 
 
 @cache
 def experiments() -> list[dict]:
     """The 12 pump validation cases of Tables 5.3-5.6 (studies/data/experiments.toml)."""
-    text = resources.files("studies").joinpath("data/experiments.toml").read_text()
-    return tomllib.loads(text)["case"]
+    return package_toml("studies", "experiments.toml")["case"]

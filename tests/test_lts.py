@@ -1,4 +1,4 @@
-"""Laser triangulation through air, PMMA and oil (section 5.3, Appendix B): studies/lts.py and `valvelab lts`."""
+"""Laser triangulation through air, PMMA and oil (section 5.3, Appendix B): instruments/lts.py and `valvelab lts`."""
 
 import math
 from dataclasses import replace
@@ -6,7 +6,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from studies import lts
+from instruments import lts
 from studies.cmd_lts import load_setup_file
 from studies.thesis import thesis_values
 

@@ -20,50 +20,56 @@ absolute one-at-a-time changes), reported in the unit of the result and in perce
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, fields, replace
 from functools import cache
-from importlib import resources
 from typing import Callable, Mapping
 
 import numpy as np
 
+from geometry.data_files import package_toml
+from geometry.declare import check_field, param, specs
 from geometry.errors import InputError
 
 # scipy is imported where it is used: every `valvelab` command imports this module to
 # build its parser, and scipy.optimize alone costs about a second to import.
 
-#: thesis manifolds with their inputs in ``studies/data/lts.toml`` (Table 5.2; the reed one assumed)
+#: thesis manifolds with their inputs in ``instruments/data/lts.toml`` (Table 5.2; the reed one assumed)
 MANIFOLDS = ("disc_inlet", "disc_delivery", "reed")
 #: samples of the refractive-index experiment (Tables B.1, B.2)
 SAMPLES = ("water", "isopropanol_70", "hydraulic_oil", "acrylic")
+
+
+_SRC = "instruments/data/lts.toml (Table 5.2)"
 
 
 @dataclass(frozen=True)
 class LtsSetup:
     """One LTS measurement through air, a window and a fluid (inputs of Table 5.2), SI units."""
 
-    apparent_scale: float    # C_app [m/V], manufacturer's scale in air
-    c1: float                # C_1 [m], receiving lens behind the sensor face
-    c2: float                # C_2 [m], receiving lens across from the laser beam
-    standoff: float          # L_s [m], sensor face to the zero-voltage reference in air
-    n_air: float             # n_a
-    n_window: float          # n_p (PMMA)
-    n_fluid: float           # n_o (oil)
-    air_gap: float           # t_a [m], sensor face to window
-    window_thickness: float  # t_p [m]
+    apparent_scale: float = param("apparent_scale", "m/V", _SRC, bounds=(1e-6, 0.1), positive=True,
+                                  doc="C_app, the manufacturer's scale in air")
+    c1: float = param("c1", "m", _SRC, bounds=(-1.0, 1.0), doc="C_1, receiving lens behind the sensor face")
+    c2: float = param("c2", "m", _SRC, bounds=(1e-4, 1.0), positive=True,
+                      doc="C_2, receiving lens across from the laser beam")
+    standoff: float = param("standoff", "m", _SRC, bounds=(1e-3, 10.0), positive=True,
+                            doc="L_s, sensor face to the zero-voltage reference in air")
+    n_air: float = param("n_air", "-", _SRC, bounds=(1.0, 4.0), doc="n_a")
+    n_window: float = param("n_window", "-", "Table B.2", bounds=(1.0, 4.0), doc="n_p (PMMA)")
+    n_fluid: float = param("n_fluid", "-", "Table B.2", bounds=(1.0, 4.0), doc="n_o (oil)")
+    air_gap: float = param("air_gap", "m", _SRC, bounds=(0.0, 10.0), doc="t_a, sensor face to window")
+    window_thickness: float = param("window_thickness", "m", _SRC, bounds=(0.0, 1.0), doc="t_p")
 
 
 @dataclass(frozen=True)
 class IndexExperiment:
     """One refractive-index measurement of Appendix B (Figure B.1, Table B.1), SI units."""
 
-    c1: float         # C_1 [m]
-    c2: float         # C_2 [m]
-    standoff: float   # L_s [m]
-    n_air: float      # n_a
-    air_gap: float    # t_a [m], sensor face to the sample's surface
-    thickness: float  # t_m [m], sample thickness above the target
+    c1: float = param("c1", "m", "Table B.1", bounds=(-1.0, 1.0))
+    c2: float = param("c2", "m", "Table B.1", bounds=(1e-4, 1.0), positive=True)
+    standoff: float = param("standoff", "m", "Table B.1", bounds=(1e-3, 10.0), positive=True)
+    n_air: float = param("n_air", "-", "Table B.1", bounds=(1.0, 4.0))
+    air_gap: float = param("air_gap", "m", "Table B.1", bounds=(0.0, 10.0), doc="t_a, sensor face to the sample")
+    thickness: float = param("thickness", "m", "Table B.1", bounds=(0.0, 1.0), doc="t_m, sample above the target")
 
 
 @dataclass(frozen=True)
@@ -80,24 +86,10 @@ class ScaleFit:
 
 # ---------------------------------------------------------------- validation
 
-_POSITIVE = {"apparent_scale", "c2", "standoff"}
-_NONNEGATIVE = {"air_gap", "window_thickness", "thickness"}
-_INDICES = {"n_air", "n_window", "n_fluid"}
-
-
 def validate(obj, prefix: str = ""):
     """``obj`` (LtsSetup or IndexExperiment) unchanged, or InputError naming the bad field."""
-    for f in fields(obj):
-        v = getattr(obj, f.name)
-        name = prefix + f.name
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise InputError(name, f"expected a finite number, got {v!r}")
-        if f.name in _POSITIVE and v <= 0:
-            raise InputError(name, f"must be positive, got {v:g}")
-        if f.name in _NONNEGATIVE and v < 0:
-            raise InputError(name, f"a thickness must be >= 0 m, got {v:g}")
-        if f.name in _INDICES and v < 1.0:
-            raise InputError(name, f"a refractive index must be >= 1, got {v:g}")
+    for name, _ in specs(obj):
+        check_field(obj, name, getattr(obj, name), prefix + name)
     if obj.c1 + obj.standoff <= 0:
         raise InputError(prefix + "c1", "c1 + standoff must be positive")
     return obj
@@ -188,7 +180,7 @@ def sweep(setup: LtsSetup, x_max: float, points: int) -> tuple[np.ndarray, np.nd
 def scale_factor(setup: LtsSetup, x_max: float | None = None, points: int | None = None) -> ScaleFit:
     """Actual scale factor C_act [m/V]: least-squares slope of x_act on dV (eqs 5.9, 5.10).
 
-    The sweep defaults to the thesis's 11 points from 0 to 1.2 mm (``studies/data/lts.toml``).
+    The sweep defaults to the thesis's 11 points from 0 to 1.2 mm (``instruments/data/lts.toml``).
     """
     dx, dp = sweep_settings()
     x, v = sweep(setup, dx if x_max is None else x_max, dp if points is None else points)
@@ -236,8 +228,8 @@ def refractive_index(exp: IndexExperiment) -> float:
 
 @cache
 def lts_data() -> dict:
-    """The thesis inputs of ``studies/data/lts.toml`` (Tables 5.2, B.1, B.2)."""
-    return tomllib.loads(resources.files("studies").joinpath("data/lts.toml").read_text())
+    """The thesis inputs of ``instruments/data/lts.toml`` (Tables 5.2, B.1, B.2)."""
+    return package_toml("instruments", "lts.toml")
 
 
 def _vu(entry) -> tuple[float, float]:
