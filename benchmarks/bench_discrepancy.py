@@ -32,10 +32,10 @@ def main() -> int:
         os.environ["VALVELAB_REFERENCE"] = "1"
 
     from lumped.effects import Applied
-    from studies.cmd_synth import thesis_conditions
-    from studies.discrepancy import RunCondition, Settings, Workflow
-    from studies.pump_sim import LIBRARY, simulate
-    from studies.synth import Noise, synthesize
+    from studies.discrepancy.synth import thesis_conditions
+    from studies.discrepancy.workflow import RunCondition, Settings, Workflow
+    from studies.discrepancy.pump_sim import LIBRARY, simulate
+    from studies.discrepancy.synth import Noise, synthesize
 
     t0 = time.perf_counter()
     simulate(RunCondition("warm-up", "disc", 593.0, 2.79e6, 0.013), ())   # compile or load the cache

@@ -39,7 +39,7 @@ def run_once() -> dict:
             total[k] = total.get(k, 0.0) + v
     solid_seconds = time.perf_counter() - t0
     t1 = time.perf_counter()
-    from studies.tables_fea import _eb_properties
+    from studies.tables.fea import _eb_properties
 
     for name in REEDS:
         _eb_properties(load_reed(name))

@@ -32,7 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from lumped import steppers  # noqa: E402
 from lumped.cycle import DEFAULT_TOLERANCES, ensure_compiled, simulate  # noqa: E402
 from lumped.valve import KINDS  # noqa: E402
-from studies.thesis import experiments  # noqa: E402
+from studies.tables.thesis import experiments  # noqa: E402
 
 
 def run(quick: bool = False, revolutions: int = 5, repeat: int = 3) -> dict:

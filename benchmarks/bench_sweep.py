@@ -3,7 +3,7 @@
 Run on demand from the repository root: ``python benchmarks/bench_sweep.py [--designs N]
 [--workers W]``; prints one JSON object. A Sobol sweep over valve type, speed, load
 pressure and air content (5 revolutions per design, the fast path) runs through
-``studies.sweep.run_sweep`` on a fresh LocalCluster into a temporary folder, exactly as
+``studies.sweeps.sweep.run_sweep`` on a fresh LocalCluster into a temporary folder, exactly as
 ``valvelab sweep`` does; the cluster's start-up and each worker's numba cache load are
 included in the wall time. Peak memory is the largest resident set of the client and of
 each worker process.
@@ -24,7 +24,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from studies import sweep  # noqa: E402
+from studies.sweeps import sweep  # noqa: E402
 
 SPEC = """
 [sweep]

@@ -5,7 +5,7 @@ Run on demand from the repository root: ``python benchmarks/pump_tolerance_study
 (the scipy Radau stepper at its defaults, rtol = atol = 1e-6) is run once per case:
 the 12 validation cases of Tables 5.4 and 5.6 (five revolutions) and N random designs
 (three revolutions; operating point, air, seat stiffness, spring, reed kappa and f1/f2
-drawn by studies.random_designs, as in tests/test_pump_fast.py). Then the fast path runs every case under each
+drawn by studies.sweeps.random_designs, as in tests/test_pump_fast.py). Then the fast path runs every case under each
 setting below, and the study reports per setting and valve type: Rosenbrock step
 attempts per revolution (the machine-independent measure of work), CPU ms per
 simulated second (median of two runs), the worst delivery deviation and the worst
@@ -32,8 +32,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from lumped import steppers as fast  # noqa: E402
 from lumped.cycle import simulate  # noqa: E402
-from studies.random_designs import random_design  # noqa: E402
-from studies.thesis import experiments  # noqa: E402
+from studies.sweeps.random_designs import random_design  # noqa: E402
+from studies.tables.thesis import experiments  # noqa: E402
 
 # (name, attributes of lumped.steppers to set, simulate keyword arguments)
 SETTINGS = [

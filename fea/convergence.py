@@ -29,7 +29,6 @@ sqrt(2) study underestimated it about twice.
 
 from __future__ import annotations
 
-import importlib
 import math
 import sys
 from dataclasses import asdict, dataclass, replace
@@ -51,7 +50,6 @@ MAX_ORDER_FACTOR = 1.25
 #: default refinement ratio of the study (see the module docstring)
 RATIO = 2.0
 #: module of each FEA fidelity (for its default mesh size)
-MODULES = {"beam": "fea.beam", "plate": "fea.plate", "solid": "fea.solid"}
 
 
 @dataclass(frozen=True)
@@ -142,17 +140,19 @@ def default_sizes(mesh_size: float, ratio: float = RATIO) -> tuple[float, float,
 
 def default_mesh_size(reed, fidelity: str) -> float:
     """The default element size [m] of an FEA fidelity (beam, plate, solid) for ``reed``."""
-    if fidelity not in MODULES:
-        raise ValueError(f"no mesh for fidelity {fidelity!r}")
-    return importlib.import_module(MODULES[fidelity]).default_mesh_size(reed)
+    from .fidelities import get
+
+    return get(fidelity, "fidelity").default_mesh_size(reed)
 
 
 def _fits(reed, fidelity: str, size: float) -> bool:
     """Whether one more mesh of ``size`` [m] fits the memory the machine has now (fea.resources)."""
     from geometry.errors import InputError
 
-    mod = importlib.import_module(MODULES[fidelity])
     from . import mesh as fm
+    from .fidelities import get
+
+    mod = get(fidelity, "fidelity").module
     from .mesh import check_face_mesh
     from .resources import check_memory
 
@@ -186,9 +186,9 @@ def convergence_study(reed, fidelity: str, sizes=None, quantities=("omega_n", "k
     second mesh: the default size when ``sizes`` is None).
     """
     if model is None:
-        if fidelity not in MODULES:
-            raise ValueError(f"no mesh for fidelity {fidelity!r}")
-        model = importlib.import_module(MODULES[fidelity]).reed_properties
+        from .fidelities import get
+
+        model = get(fidelity, "fidelity").reed_properties
     if sizes is None:
         sizes = default_sizes(default_mesh_size(reed, fidelity))
     sizes = [float(h) for h in sizes]

@@ -15,7 +15,7 @@ TOML or CSV file, a Python call):
 
 Every refusal is an :class:`~geometry.errors.InputError` naming the field; the command
 line turns it into exit status 2 and one line on stderr. Layers above declare *what* to
-check (:func:`geometry.declare.param` for model parameters, ``studies.flags`` for
+check (:func:`geometry.declare.param` for model parameters, ``studies.cli.flags`` for
 command-line flags); the checks themselves live only here. This module is in the bottom
 layer because every layer reads inputs.
 

@@ -4,7 +4,9 @@ The public face (see README.md, "Python"):
 
 - models: :func:`load_model` (a shipped name or a model file), :class:`PumpModel`,
   :func:`with_values` (change keys by path), :func:`to_toml`, :data:`SHIPPED`;
-- simulation: :func:`simulate` -> :class:`PumpResult` (``.to_dict()``, ``.to_frame()``, ``.plot()``);
+- simulation: :func:`simulate` -> :class:`PumpResult` (``.to_dict()``, ``.to_frame()``, ``.plot()``),
+  its :class:`Trace` (``.fold()``, ``.to_frame()``, ``.plot()``);
+- reeds: :func:`reed_properties` (kappa, gamma1..3, h_eff of a reed by a registered fidelity);
 - valve kinds: :data:`KINDS` (disc, reed), :class:`DiscValve`, :class:`ReedValve`;
 - effects: :data:`LIBRARY` (the candidate effects of the discrepancy workflow).
 """
@@ -13,12 +15,15 @@ The public face (see README.md, "Python"):
 # model needs them registered first
 from lumped import disc_valve as _disc_valve  # noqa: F401
 from lumped import reed_valve as _reed_valve  # noqa: F401
+from lumped.cycle import InvariantError, PumpResult, ValveResult, simulate
 from lumped.disc_valve import DiscValve
 from lumped.effect_library import LIBRARY
 from lumped.model import PumpModel
 from lumped.model_file import SHIPPED, load_model, to_toml, with_values
+from lumped.reed_fidelity import reed_properties
 from lumped.reed_valve import ReedValve
+from lumped.trace import Trace
 from lumped.valve import KINDS
 
-__all__ = ["DiscValve", "KINDS", "LIBRARY", "PumpModel", "ReedValve", "SHIPPED", "load_model", "to_toml",
-           "with_values"]
+__all__ = ["DiscValve", "InvariantError", "KINDS", "LIBRARY", "PumpModel", "PumpResult", "ReedValve", "SHIPPED",
+           "Trace", "ValveResult", "load_model", "reed_properties", "simulate", "to_toml", "with_values"]

@@ -268,8 +268,8 @@ def simulate(model="thesis-disc", speed_rpm: float | None = None, load_pressure:
     Examples
     --------
     >>> r = simulate("thesis-disc", 593, 2.76e6)
-    >>> round(r.delivery_per_rev * 1e6, 2)      # Table 5.4, baseline: the thesis's model 1.731 cc/rev
-    1.73
+    >>> print(f"{r.delivery_per_rev * 1e6:.2f} cc/rev")    # Table 5.4, baseline: the thesis's model 1.731
+    1.73 cc/rev
     """
     m = load_model(model, field="model")
     if air_content is not None:

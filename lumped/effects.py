@@ -1,6 +1,6 @@
 """Candidate effects: named, switchable extensions of the baseline pump/valve model.
 
-The discrepancy workflow (``studies/discrepancy.py``) asks which physics the
+The discrepancy workflow (``studies/discrepancy/workflow.py``) asks which physics the
 baseline is missing. Each candidate is one :class:`Effect`: its parameters with
 search bounds, a physical prior (the value physics predicts and where it comes
 from: a thesis equation, an FEA result, a correlation) and a plausibility range,

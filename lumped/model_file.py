@@ -63,6 +63,28 @@ def load_model(spec, field: str = "--model") -> PumpModel:
     """A model from a shipped name (``thesis-disc``, ``thesis-reed``), a model file, or a PumpModel.
 
     The legacy valve names ``disc`` and ``reed`` stand for the thesis models.
+
+    Parameters
+    ----------
+    spec : str, Path or PumpModel
+        A shipped name, a model TOML file (CONTRACT.md, "Model file"), or a model (returned as is).
+    field : str
+        The name a bad ``spec`` is reported under (InputError, exit 2 at the command line).
+
+    Returns
+    -------
+    PumpModel
+        Frozen and validated, SI units.
+
+    References
+    ----------
+    Knutson (2016), Table 5.1 (pump and oil), Table 2.2 (disc valves), Table 3.1 (reeds).
+
+    Examples
+    --------
+    >>> m = load_model("thesis-disc")
+    >>> round(m.pump.piston_diameter * 1e3, 2), m.kind_at("inlet")    # Table 5.1: 15.88 mm bore
+    (15.88, 'disc')
     """
     if isinstance(spec, PumpModel):
         return spec
@@ -315,7 +337,15 @@ def _comment(spec, extra: str = "") -> str:
 
 
 def to_toml(model: PumpModel, comments: bool = True) -> str:
-    """The complete resolved model as a model file, each key with its unit and source (model show)."""
+    """The complete resolved model as a model file, each key with its unit and source (model show).
+
+    Examples
+    --------
+    >>> text = to_toml(load_model("thesis-reed"))
+    >>> load_model("thesis-reed") == parse_model(__import__("tomllib").loads(text), name="thesis-reed",
+    ...                                          source=load_model("thesis-reed").source)
+    True
+    """
     lines = [f"# valvelab model {model.name!r}" + (f" (from {model.source})" if model.source else ""),
              "# complete and resolved: every key with its unit and source; copy it and edit", ""]
     lines.append(_fmt("name", model.name))
@@ -409,7 +439,18 @@ def _derived_rows(v):
 def with_values(model: PumpModel, values: dict, field_prefix: str = "") -> PumpModel:
     """``model`` with keys changed by their paths (``pump.dead_volume``, ``valves.inlet.spring.stiffness``,
     ``valves.spring.stiffness`` for both valves, ``valves.delivery.geometry.thickness``,
-    ``effects.seat_compliance.delivery.k_seat``); InputError names the path of a bad key or value."""
+    ``effects.seat_compliance.delivery.k_seat``); InputError names the path of a bad key or value.
+
+    Examples
+    --------
+    >>> m = with_values(load_model("thesis-disc"), {"pump.dead_volume": 2e-6})
+    >>> m.pump.dead_volume
+    2e-06
+    >>> with_values(m, {"pump.dead_volum": 1e-6})
+    Traceback (most recent call last):
+    ...
+    geometry.errors.InputError: pump.dead_volum: unknown key (did you mean dead_volume?); expected one of ...
+    """
     if not values:
         return model
     table = model_table(model)

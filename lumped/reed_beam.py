@@ -53,7 +53,13 @@ def uniform_frequency_parameter(mode: int = 1) -> float:
 
 def uniform_natural_frequency(youngs_modulus: float, density: float, thickness: float,
                               length: float, alpha: float | None = None) -> float:
-    """omega_n = alpha^2 (h / L^2) sqrt(E / (12 rho)) [rad/s] of a uniform (or stepped-width) reed (eqs 3.4, 3.7)."""
+    """omega_n = alpha^2 (h / L^2) sqrt(E / (12 rho)) [rad/s] of a uniform (or stepped-width) reed (eqs 3.4, 3.7).
+
+    Examples
+    --------
+    >>> print(f"{uniform_natural_frequency(2.9e9, 1410.0, 1.35e-3, 25.4e-3):.0f} rad/s")   # Table 3.3: 3046
+    3046 rad/s
+    """
     a = uniform_frequency_parameter() if alpha is None else alpha
     return a**2 * thickness / length**2 * np.sqrt(youngs_modulus / (12.0 * density))
 

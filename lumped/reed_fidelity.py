@@ -53,7 +53,34 @@ def reed_model(fidelity: str, field: str = "--fidelity") -> Callable:
 
 def reed_properties(reed, fidelity: str = "analytic", mesh_size=None, field: str = "--fidelity"):
     """kappa, gamma1..3, h_eff, omega_n of ``reed`` by ``fidelity`` (a ReedProperties); the reed is
-    checked first as a reed file would be (geometry.reed_io.check_reed)."""
+    checked first as a reed file would be (geometry.reed_io.check_reed).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (``geometry.load_reed`` of a preset or a reed file).
+    fidelity : str
+        ``analytic`` (exact Euler-Bernoulli) or a registered FEA fidelity (``beam``, ``plate``, ``solid``).
+    mesh_size : float, optional
+        FE element size [m]; None: the fidelity's default for this reed.
+
+    Returns
+    -------
+    ReedProperties
+        ``kappa`` [Pa/m] (eq 3.40's pressure per tip deflection), ``omega_n`` [rad/s],
+        ``gamma1..3`` (eqs 3.62-3.64), ``h_eff`` [m].
+
+    References
+    ----------
+    Knutson (2016), sections 3.4-3.7; Table 3.13 (the prototype reed).
+
+    Examples
+    --------
+    >>> from geometry import load_reed
+    >>> p = reed_properties(load_reed("uniform"))
+    >>> print(f"{p.omega_n:.0f} rad/s")      # Table 3.3: exact E-B 3046 rad/s
+    3046 rad/s
+    """
     from geometry.reed_io import check_reed
 
     return reed_model(fidelity, field)(check_reed(reed), mesh_size=mesh_size)

@@ -96,7 +96,7 @@ def _cases(tmp: Path, data: dict) -> list[tuple[str, list[str], str]]:
         ("lts --plot unwritable", ["lts", "disc_inlet", "--plot", f"{RO}/x.png"], "--plot"),
         ("lts --out unwritable", ["lts", "disc_inlet", "--voltages", str(tmp / "volts.csv"), "--out", f"{RO}/o.csv"],
          "--out"),
-        ("sweep-plot --output unwritable", ["sweep-plot", str(tmp / "sw"), "--output", f"/proc/x.png"], "--output"),
+        ("sweep-plot --output unwritable", ["sweep-plot", str(tmp / "sw"), "--output", "/proc/x.png"], "--output"),
         ("pump --trace unwritable", pump + ["--trace", "/proc/t.csv"], "--trace"),
         ("validate unwritable", ["validate", "--out", f"{RO}/v"], "--out"),
         ("modes unwritable", ["modes", "--out", f"{RO}/m"], "--out"),

@@ -105,7 +105,7 @@ def test_model_file_example_runs(cli, tmp_path):
 
 
 def test_sweep_file_example_is_accepted(tmp_path):
-    from studies import sweep
+    from studies.sweeps import sweep
 
     (tmp_path / "spec.toml").write_text(block("toml", "[sweep]\nmodel"))
     spec = sweep.load_spec(tmp_path / "spec.toml")

@@ -16,8 +16,8 @@ from lumped.model_file import load_model
 from lumped.oil import thesis_oil_viscosity
 from lumped.orifice import discharge_coefficient, laminar_slope, orifice_flow
 from lumped.pump import OFF_IN
-from studies.tables_pump import table_2_3
-from studies.thesis import thesis_values
+from studies.tables.pump import table_2_3
+from studies.tables.thesis import thesis_values
 
 TH = thesis_values()["table_2_3"]
 G = load_disc_geometry()

@@ -12,8 +12,8 @@ import pytest
 
 import standin
 from lumped.effects import Applied, Effect, Library, Parameter
-from studies.discrepancy import Settings, Workflow, conditions, split
-from studies.synth import Condition, Noise, synthesize
+from studies.discrepancy.workflow import Settings, Workflow, conditions, split
+from studies.discrepancy.synth import Condition, Noise, synthesize
 
 THESIS_DISC = [Condition(593, 2.76e6, "inlet"), Condition(593, 2.79e6, "delivery"),
                Condition(743, 2.81e6, "inlet"), Condition(743, 2.75e6, "delivery"),

@@ -1,7 +1,7 @@
 """Acceptance of the discrepancy workflow on valvelab's pump model (fast compiled path).
 
 Datasets are synthesised from the pump with an effect hidden (chosen and valued by a
-seed, studies/confusion.py), realistic noise (10 um position noise, 10 kPa pressure
+seed, studies/discrepancy/confusion.py), realistic noise (10 um position noise, 10 kPa pressure
 noise, 0.3 % delivery error, a +-1.12 % sensor scale error per valve and a +-0.2 ms
 time offset) at the thesis's six disc runs (three operating conditions x two measured
 valves). The workflow must name the hidden effect, recover its parameter within 20 %
@@ -12,7 +12,7 @@ The default run holds the thesis's own story (the O-ring, ~20 s) and a represent
 subset (nothing hidden, the discharge coefficient 3 % low, leakage behind reed valves;
 ~30 s); the full matrix (every hidden effect, two at once, nothing, the 3 %
 discharge-coefficient error, ~20 min) is marked slow (``pytest -m slow``);
-``python -m studies.confusion`` gives the confusion matrix over many seeds
+``python -m studies.discrepancy.confusion`` gives the confusion matrix over many seeds
 (docs/discrepancy.md).
 """
 
@@ -20,9 +20,9 @@ import numpy as np
 import pytest
 
 from lumped.effects import Applied
-from studies.confusion import CASES, run_case
-from studies.discrepancy import RunCondition, Settings
-from studies.pump_sim import LIBRARY, REVOLUTIONS, model_for, simulate
+from studies.discrepancy.confusion import CASES, run_case
+from studies.discrepancy.workflow import RunCondition, Settings
+from studies.discrepancy.pump_sim import LIBRARY, REVOLUTIONS, model_for, simulate
 
 SETTINGS = Settings(workers=2)
 

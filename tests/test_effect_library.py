@@ -8,9 +8,9 @@ from lumped.effect_library import LIBRARY, baseline, resolve
 from lumped.effects import Applied
 from lumped.model_file import load_model
 from lumped.reed_valve import modal_critical_damping
-from studies.discrepancy import RunCondition
-from studies.measured import Run
-from studies import pump_sim
+from studies.discrepancy.workflow import RunCondition
+from studies.discrepancy.measured import Run
+from studies.discrepancy import pump_sim
 
 MU = load_model("thesis-disc").oil.viscosity      # eq A.3 at 22 C
 

@@ -8,7 +8,7 @@ from scipy.integrate import cumulative_trapezoid
 
 from fea import beam
 from geometry import load_reed
-from studies.thesis import thesis_values
+from studies.tables.thesis import thesis_values
 
 ALPHA1, ALPHA2 = 1.8751040687119611, 4.6940911329741745  # roots of cos a cosh a + 1 = 0
 

@@ -1,11 +1,11 @@
-"""The multi-fidelity check (studies.reed_check, valvelab check) and the FEA fidelities of valvelab reed."""
+"""The multi-fidelity check (studies.validation.reed_check, valvelab check) and the FEA fidelities of valvelab reed."""
 
 import json
 
 import pytest
 
 from geometry import load_reed, parse_reed
-from studies.reed_check import multi_fidelity_check
+from studies.validation.reed_check import multi_fidelity_check
 
 # a reed unlike the presets: narrower, thinner, a half-round tip on a short step, and one
 # off-centre groove (no mirror symmetry: the solid runs the full model)

@@ -65,7 +65,7 @@ def test_cli_reed_modes_json(cli):
 
 
 def test_check_compares_modes_by_name():
-    from studies.reed_check import multi_fidelity_check
+    from studies.validation.reed_check import multi_fidelity_check
 
     c = multi_fidelity_check(load_reed("stepped1"), ("analytic", "plate"), mesh_size=3e-3, progress=False, modes=3)
     rows = {r["fidelity"]: r for r in c["rows"]}

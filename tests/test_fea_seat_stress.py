@@ -11,7 +11,7 @@ from fea.seat_stop import _revolved_mesh, _facet_geometry, _static_stiffness, se
 from geometry import load_reed
 from geometry.reed import Material
 from geometry.seat_stop import load_housing_stop, load_seat_ring
-from studies.thesis import thesis_values
+from studies.tables.thesis import thesis_values
 
 
 def test_ring_in_compression_is_EA_over_H():

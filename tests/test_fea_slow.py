@@ -8,7 +8,7 @@ import pytest
 from fea import solid
 from fea.convergence import convergence_study, default_sizes, plot_convergence
 from geometry import load_reed
-from studies.thesis import thesis_values
+from studies.tables.thesis import thesis_values
 
 pytestmark = pytest.mark.slow
 REEDS = ("uniform", "stepped1", "stepped2", "prototype")

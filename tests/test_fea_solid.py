@@ -8,12 +8,12 @@ import pytest
 from fea import beam, solid
 from fea.convergence import richardson
 from geometry import Groove, load_reed
-from studies.thesis import thesis_values
+from studies.tables.thesis import thesis_values
 
 
 @pytest.fixture(scope="module")
 def table33():
-    from studies.tables_fea import table_3_3
+    from studies.tables.fea import table_3_3
 
     return {r["case"]: r for r in table_3_3()["rows"]}
 
@@ -39,7 +39,7 @@ def test_section_3_5_1_stiffness_within_4_percent(table33, case, key):
 
 
 def test_table_3_9_fea_alternative(table33):
-    from studies.tables_fea import table_3_9
+    from studies.tables.fea import table_3_9
 
     rows = {r["method"]: r for r in table_3_9()["rows"]}
     assert set(rows) >= {"eb_direct", "eb_alternative", "fea_alternative"}
@@ -51,7 +51,7 @@ def test_table_3_9_fea_alternative(table33):
 
 
 def test_table_3_11_alpha_from_fea(table33):
-    from studies.tables_fea import alpha_from_omega, table_3_11
+    from studies.tables.fea import alpha_from_omega, table_3_11
 
     rows = {r["case"]: r for r in table_3_11()["rows"]}
     for case in ("uniform", "stepped1", "stepped2"):

@@ -5,12 +5,12 @@ import re
 import numpy as np
 import pytest
 
-from studies.gap import (
+from studies.discrepancy.gap import (
     CycleTrace, GapScales, Nuisance, describe, findings, fit_nuisance, fold, noise_std, run_gap, valve_events,
     wrap_deg,
 )
-from studies.measured import Run, Trace
-from studies.thesis import experiments
+from studies.discrepancy.measured import Run, Trace
+from studies.tables.thesis import experiments
 
 GRID = np.arange(0.0, 360.0, 0.2)
 

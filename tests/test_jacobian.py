@@ -17,7 +17,7 @@ from lumped import switching as sw
 from lumped.layout import pack
 from lumped.model_file import with_values
 from lumped.pump import G
-from studies.random_designs import random_design
+from studies.sweeps.random_designs import random_design
 
 EFFECTS = {
     "none": {},

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from instruments import lts
-from studies.cmd_lts import load_setup_file
-from studies.thesis import thesis_values
+from studies.cli.lts import load_setup_file
+from studies.tables.thesis import thesis_values
 
 T52 = thesis_values()["table_5_2"]
 TB2 = thesis_values()["table_b_2"]

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from geometry.errors import InputError
-from studies.measured import Run, Trace, read_dataset, read_run, swept_volume_m3, write_dataset, write_run
+from studies.discrepancy.measured import Run, Trace, read_dataset, read_run, swept_volume_m3, write_dataset, write_run
 
 RPM = 600.0  # 0.1 s per revolution
 FS = 10_000.0

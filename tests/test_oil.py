@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from lumped import oil
 from lumped.model_file import load_model
-from studies.thesis import thesis_values
+from studies.tables.thesis import thesis_values
 
 RHO0, P0, BETA = 876.0, 101325.0, 1.84e9
 

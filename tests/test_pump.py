@@ -14,7 +14,7 @@ from lumped.effect_library import baseline, resolve
 from lumped.layout import pack
 from lumped.model_file import load_model, with_values
 from lumped.pump import G
-from studies.thesis import experiments
+from studies.tables.thesis import experiments
 
 PUMP = load_model("thesis-disc").pump
 CASES = {(c["valve"], c["condition"], c["measured_valve"]): c for c in experiments()}

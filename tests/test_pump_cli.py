@@ -125,7 +125,7 @@ def test_pump_takes_reed_parameters_from_a_reed_model(monkeypatch, capsys):
 
 def test_reed_parameter_chain_feeds_the_pump():
     """Step 1 of validate: the multi-fidelity check's selection becomes the pump's reed parameters."""
-    from studies import validation as V
+    from studies.validation import chain as V
 
     out = V.reed_parameter_chain(fidelities=("analytic", "beam"), progress=False)
     assert [r["fidelity"] for r in out["rows"]] == ["analytic", "beam"]

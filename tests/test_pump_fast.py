@@ -14,8 +14,8 @@ from lumped import switching as sw
 from lumped.cycle import simulate
 from lumped.layout import pack
 from lumped.model_file import load_model, with_values
-from studies.random_designs import mixed_model, random_design
-from studies.thesis import experiments
+from studies.sweeps.random_designs import mixed_model, random_design
+from studies.tables.thesis import experiments
 
 DELIVERY_RTOL = 1e-3  # the acceptance: delivery within 0.1 % of the reference path
 ANGLE_TOL = math.radians(0.5)

@@ -10,7 +10,7 @@ import pytest
 
 from lumped.cycle import simulate
 from lumped.model_file import load_model
-from studies.validation import cases, run_cases, table_5_1_dead_volume_model, table_rows
+from studies.validation.chain import cases, run_cases, table_5_1_dead_volume_model, table_rows
 
 
 def _case(valve, condition, measured):

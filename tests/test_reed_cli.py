@@ -9,7 +9,7 @@ import json
 import pytest
 
 from studies.cli import main
-from studies.thesis import thesis_values
+from studies.tables.thesis import thesis_values
 
 TV = thesis_values()
 

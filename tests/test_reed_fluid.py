@@ -8,7 +8,7 @@ from scipy.optimize import minimize_scalar
 from geometry import load_reed
 from lumped import reed_beam as rb
 from lumped import reed_fluid as rf
-from studies.thesis import thesis_values
+from studies.tables.thesis import thesis_values
 
 TV = thesis_values()
 T13 = TV["table_3_13"]

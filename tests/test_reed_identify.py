@@ -5,7 +5,7 @@ import pytest
 
 from geometry.errors import InputError
 from lumped import reed_identify as ri
-from studies.thesis import thesis_values
+from studies.tables.thesis import thesis_values
 
 T10 = thesis_values()["table_3_10"]
 # the brief's synthesis values: Table 3.10 means with gamma1 of stepped #2, h_eff of Table 3.13

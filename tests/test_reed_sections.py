@@ -278,7 +278,7 @@ def sectioned_reeds(draw):
     for k, e in enumerate(ends + [1.0]):
         sec = {"s_end": e * L if k < n - 1 else L, "width": draw(st.floats(2e-3, 20e-3))}
         if draw(st.booleans()):
-            sec["thickness"] = draw(st.floats(0.2e-3, 2e-3))
+            sec["thickness"] = draw(st.floats(0.2e-3, min(2e-3, 0.2 * L)))  # a reed, not a block (t/L <= 0.25)
         if draw(st.booleans()):
             sec["taper_to"] = sec["width"] * draw(st.floats(0.5, 1.5))
         secs.append(sec)

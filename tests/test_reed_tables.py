@@ -1,9 +1,9 @@
-"""The chapter 3 table functions (studies/tables_reed.py): computed values beside the printed ones."""
+"""The chapter 3 table functions (studies/tables/reed.py): computed values beside the printed ones."""
 
 import pytest
 
-from studies import tables_reed as T
-from studies.thesis import thesis_values
+from studies.tables import reed as T
+from studies.tables.thesis import thesis_values
 
 TV = thesis_values()
 

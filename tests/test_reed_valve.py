@@ -19,7 +19,7 @@ from lumped.orifice import discharge_coefficient, orifice_flow
 from lumped.pump import OFF_DEL, OFF_IN
 from lumped.reed_valve import REED
 from lumped.valve import displacement_area, valve_flow
-from studies.thesis import thesis_values
+from studies.tables.thesis import thesis_values
 
 
 def thesis_model(_valve="reed"):

@@ -21,7 +21,7 @@ import pandas as pd
 import pytest
 
 from geometry.errors import InputError
-from studies import sweep
+from studies.sweeps import sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -310,7 +310,7 @@ def test_cli_errors_and_plot(cli, tmp_path):
 
 
 def test_pump_model_vets_names_and_values():
-    from studies import sweep_pump
+    from studies.sweeps import pump as sweep_pump
 
     base = "[sweep]\nsampler='lhs'\nsamples=4\n[factors.speed_rpm]\nlow=500\nhigh=900\n"
     cases = [

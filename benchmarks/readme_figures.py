@@ -1,0 +1,87 @@
+"""Write the README's measured figures from the benchmarks' JSON (never pasted by hand).
+
+Each ``benchmarks/results_<name>.json`` is the stdout of ``python benchmarks/bench_<name>.py``
+saved on the project machine (``python benchmarks/bench_pump.py > benchmarks/results_pump.json``).
+This script renders them as the table between the markers ``<!-- figures:begin -->`` and
+``<!-- figures:end -->`` of README.md; ``--check`` only compares (exit 1 when the README is
+stale), which the test suite runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+README = HERE.parent / "README.md"
+BEGIN, END = "<!-- figures:begin -->", "<!-- figures:end -->"
+
+
+def _pump(d: dict) -> list[str]:
+    rows = []
+    for valve, v in d["valves"].items():
+        rows.append(f"| pump, {valve} valves, fast path (`bench_pump.py`) | "
+                    f"{v['fast_cpu_per_simulated_second_median'] * 1e3:.1f} ms CPU per simulated second "
+                    f"(thesis {d['thesis_cpu_per_simulated_second']:.0f} s: {d['thesis_cpu_per_simulated_second'] / v['fast_cpu_per_simulated_second_median']:.0f}x); "
+                    f"{v['speedup_median']:.0f}x the reference path; {v['fast_steps_per_revolution_median']:.0f} steps "
+                    f"per revolution at {v['fast_microseconds_per_step_median']:.2f} us; worst delivery difference "
+                    f"{abs(v['worst_delivery_relative_difference']) * 100:.3f} %, angles {v['worst_angle_difference_deg']:.3f} deg |")
+    return rows
+
+
+def _sweep(d: dict) -> list[str]:
+    return [f"| sweep, {d['designs']} designs on {d['workers']} workers (`bench_sweep.py`) | "
+            f"{d['designs_per_hour']:,.0f} designs per hour ({d['wall_seconds']:.1f} s wall, cluster start included); "
+            f"{d.get('failed', 0)} failed |"]
+
+
+def _generic(name: str, d: dict) -> list[str]:
+    keys = [k for k in ("designs_per_hour", "wall_seconds", "seconds", "evaluations") if k in d]
+    if not keys:
+        return []
+    text = "; ".join(f"{k.replace('_', ' ')} {d[k]:,.4g}" for k in keys)
+    return [f"| {name} (`bench_{name}.py`) | {text} |"]
+
+
+FORMATTERS = {"pump": _pump, "sweep": _sweep}
+
+
+def render(folder: Path = HERE) -> str:
+    """The Markdown table of every results_*.json in ``folder`` (sorted by name)."""
+    lines = ["| benchmark | measured on the project's 2-core machine |", "| --- | --- |"]
+    for path in sorted(folder.glob("results_*.json")):
+        name = path.stem.removeprefix("results_")
+        data = json.loads(path.read_text())
+        fmt = FORMATTERS.get(name)
+        lines += fmt(data) if fmt else _generic(name, data)
+    return "\n".join(lines)
+
+
+def updated(readme: str, table: str) -> str:
+    """``readme`` with the text between the markers replaced by ``table``."""
+    head, sep, rest = readme.partition(BEGIN)
+    if not sep or END not in rest:
+        raise SystemExit(f"README.md has no {BEGIN} ... {END} block")
+    _, _, tail = rest.partition(END)
+    return f"{head}{BEGIN}\n{table}\n{END}{tail}"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--check", action="store_true", help="exit 1 if README.md is not up to date")
+    a = ap.parse_args(argv)
+    text = README.read_text()
+    new = updated(text, render())
+    if a.check:
+        if new != text:
+            print("README.md figures are stale: run python benchmarks/readme_figures.py", file=sys.stderr)
+            return 1
+        return 0
+    README.write_text(new)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,135 @@
+"""The ``valvelab`` command line (CONTRACT.md).
+
+Each subcommand lives in its own module that defines ``HELP``, ``configure(parser)``
+and ``run(args) -> dict`` (the JSON payload) and optionally ``render(result) -> str``
+(the readable text). Adding a command is adding a module to this package (``studies/cli/``).
+
+Conventions shared by every command:
+- ``--json`` prints exactly one JSON object on stdout; progress and logs go to stderr;
+- a user mistake (:class:`geometry.errors.InputError`, bad flags) exits 2 with one
+  line on stderr naming the field or file; never a traceback, never a NaN in output;
+- anything else that goes wrong (a result breaking its own invariants, a bug) exits 1
+  with one line and, for a bug, where to report it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import os
+import pkgutil
+import sys
+
+from geometry.errors import InputError
+
+#: modules of this package that are not commands
+HELPERS = frozenset({"flags"})
+#: the order commands are listed in ``valvelab --help`` (others follow alphabetically)
+ORDER = ("validate", "pump", "model", "reed", "modes", "check", "seat", "table", "lts", "sweep",
+         "sweep-plot", "synth", "discrepancy")
+
+
+def _discover() -> dict[str, str]:
+    """{command name: module name}: every module of this package is a command (``sweep_plot`` ->
+    ``sweep-plot``), found without importing it (each import costs scipy/matplotlib/skfem time)."""
+    found = {m.name.replace("_", "-"): f"{__name__}.{m.name}" for m in pkgutil.iter_modules(__path__)
+             if m.name not in HELPERS and not m.name.startswith("_")}
+    first = [n for n in ORDER if n in found]
+    return {n: found[n] for n in first + sorted(set(found) - set(first))}
+
+
+#: subcommand -> module implementing it (a new module in studies/cli/ is a new command)
+COMMANDS: dict[str, str] = _discover()
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with the contract's one-line error and exit status 2."""
+
+    def error(self, message: str):  # noqa: D102
+        sys.stderr.write(f"{self.prog}: error: {message}\n")
+        raise SystemExit(2)
+
+
+def _finite(obj, path="result"):
+    """Raise if a NaN or infinity would reach the output (never a silent NaN)."""
+    if isinstance(obj, float) and obj != obj or obj in (float("inf"), float("-inf")):
+        raise ValueError(f"{path} is not finite ({obj})")
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            _finite(v, f"{path}.{k}")
+    elif isinstance(obj, (list, tuple)):
+        for i, v in enumerate(obj):
+            _finite(v, f"{path}[{i}]")
+
+
+#: where users report a failure that is not their mistake
+REPORT_URL = "https://github.com/valvelab/valvelab/issues"
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
+def _internal_error(command: str, exc: BaseException) -> int:
+    """Exit status 1 and one line for a failure that is not a user mistake (VALVELAB_DEBUG=1: traceback)."""
+    if os.environ.get("VALVELAB_DEBUG"):
+        import traceback
+
+        traceback.print_exception(exc)
+    model_failure = getattr(exc, "model_failure", False) or "is not finite" in str(exc)
+    what = "the model failed" if model_failure else "internal error"
+    hint = "" if model_failure else f" (please report it with the command line at {REPORT_URL}; " \
+                                    "VALVELAB_DEBUG=1 shows the traceback)"
+    sys.stderr.write(f"valvelab {command}: {what}: {type(exc).__name__}: {_one_line(exc)}{hint}\n")
+    return 1
+
+
+def build_parser(selected: str | None = None) -> argparse.ArgumentParser:
+    """The parser; only the ``selected`` command's module is imported (all of them for --help)."""
+    parser = _Parser(prog="valvelab", description="Hydraulic disc and reed check valve models.")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    for name, modname in COMMANDS.items():
+        if selected is not None and name != selected:
+            sub.add_parser(name)  # known name, configured only when chosen
+            continue
+        mod = importlib.import_module(modname)
+        text = mod.HELP.replace("%", "%%")  # argparse formats help strings with %
+        p = sub.add_parser(name, help=text, description=text)
+        p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+        mod.configure(p)
+        p.set_defaults(_module=mod)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    # importing every command module (scipy, matplotlib, skfem...) costs seconds per call
+    selected = next((a for a in argv if not a.startswith("-")), None)
+    try:
+        parser = build_parser(selected if selected in COMMANDS else None)
+    except Exception as exc:  # noqa: BLE001 - a broken installation, said in one line
+        return _internal_error(selected or "", exc)
+    args = parser.parse_args(argv)
+    mod = args._module
+    try:
+        result = mod.run(args)
+        _finite(result)
+    except InputError as exc:
+        sys.stderr.write(f"valvelab {args.command}: error: {_one_line(str(exc))}\n")
+        return 2
+    except KeyboardInterrupt:
+        sys.stderr.write("valvelab: interrupted\n")
+        return 130
+    except Exception as exc:  # noqa: BLE001 - the boundary: anything else is our failure, said in one line
+        return _internal_error(args.command, exc)
+    if args.json:
+        sys.stdout.write(json.dumps(result, allow_nan=False) + "\n")
+    else:
+        render = getattr(mod, "render", None)
+        sys.stdout.write((render(result) if render else json.dumps(result, indent=2)) + "\n")
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())

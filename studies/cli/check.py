@@ -1,0 +1,140 @@
+"""``valvelab check GEOMETRY``: analytic vs beam, plate and solid FEA for one reed, side by side."""
+
+from __future__ import annotations
+
+import sys
+
+from geometry import load_reed
+from geometry.errors import InputError
+from studies.cli import flags
+
+from studies.validation.reed_check import (
+    DEFAULT_TOLERANCE_PCT,
+    check_as_json,
+    multi_fidelity_check,
+    render_check,
+)
+
+HELP = "multi-fidelity check of a reed: analytic, beam, plate and solid FEA with % deviations"
+FIDELITY_NAMES = ("analytic", "beam", "plate", "solid")
+
+
+def configure(p):
+    p.add_argument("geometry", help="preset (uniform, stepped1, stepped2, prototype) or reed TOML file")
+    p.add_argument("--fidelities", default=",".join(FIDELITY_NAMES),
+                   help="comma-separated subset of analytic,beam,plate,solid (default: all four)")
+    p.add_argument("--tolerance-pct", type=flags.number("%", (0.0, 100.0), positive=True), default=DEFAULT_TOLERANCE_PCT,
+                   help=f"flag deviations from the reference above this [%%] (default {DEFAULT_TOLERANCE_PCT:g})")
+    p.add_argument("--mesh-size", type=flags.number("m", (1e-7, 10.0), positive=True), default=None,
+                   help="FEA element size [m] for every FEA fidelity (default: each one's converged size)")
+    p.add_argument("--modes", type=flags.integer(0, 50), default=4, metavar="N",
+                   help="compare the first N natural frequencies across fidelities by nodal pattern "
+                        "(default 4; 0: only omega_n)")
+    p.add_argument("--convergence", action="store_true",
+                   help="also run a mesh convergence study of each FEA fidelity (2h, h, h/2, refined further "
+                        "when not asymptotic; slow)")
+    p.add_argument("--out", default=None,
+                   help="folder for plots (shapes, convergence) and VTU files of the solid modes")
+    p.add_argument("--force", action="store_true", help="write into an existing folder valvelab did not make")
+
+
+def _fidelities(text: str) -> tuple[str, ...]:
+    fids = tuple(f.strip() for f in text.split(",") if f.strip())
+    bad = [f for f in fids if f not in FIDELITY_NAMES]
+    if not fids or bad:
+        raise InputError("--fidelities", f"expected a comma-separated subset of {','.join(FIDELITY_NAMES)}, got {text!r}")
+    return fids
+
+
+def run(args) -> dict:
+    reed = load_reed(args.geometry)
+    fids = _fidelities(args.fidelities)
+    from studies.cli.reed import check_modes_count
+
+    n_modes = check_modes_count(args.modes, allow_zero=True)
+    out_dir = None
+    if args.out is not None:
+        from studies.outputs import prepare_output_dir
+
+        out_dir = prepare_output_dir(args.out, "--out", args.force)
+    check = multi_fidelity_check(reed, fids, args.tolerance_pct, args.mesh_size, progress=True, modes=n_modes)
+    result = check_as_json(check)
+    result["geometry"] = args.geometry
+    if args.convergence:
+        from fea.convergence import convergence_study, default_sizes, plot_convergence
+
+        from studies.cli.reed import reed_model
+
+        studies = {}
+        for fid in fids:
+            if fid == "analytic":
+                continue
+            sizes = default_sizes(args.mesh_size) if args.mesh_size else None
+            studies[fid] = convergence_study(reed, fid, sizes=sizes, model=reed_model(fid))
+            if out_dir is not None:
+                plot_convergence(studies[fid], out_dir / f"convergence_{fid}.png")
+        result["convergence"] = studies
+    if out_dir is not None:
+        result["files"] = _write_outputs(reed, fids, args.mesh_size, out_dir)
+    return result
+
+
+def _write_outputs(reed, fids, mesh_size, out_dir) -> list[str]:
+    """Shapes of every FEA fidelity (static and free vibration) and VTU of the solid's modes."""
+    import importlib
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    files = []
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 3.6), sharey=True)
+    for fid in fids:
+        if fid == "analytic":
+            continue
+        print(f"check {reed.name}: shapes and modes of {fid}", file=sys.stderr, flush=True)
+        mod = importlib.import_module(f"fea.{fid}")
+        kw = {"torsion": True} if fid == "solid" else {}
+        r = mod.solve(reed, mesh_size, **kw)
+        if fid == "plate":
+            path = out_dir / "plate_modes.vtu"
+            mod.write_modes_vtu(r, path)
+            files.append(str(path))
+        a1.plot(r.s * 1e3, r.psi_mode, label=f"{fid}: {r.omega_n:.0f} rad/s")
+        a2.plot(r.s * 1e3, r.psi_static, label=f"{fid}: {r.kappa / 1e6:.3f} MPa/m")
+        if fid == "solid":
+            from fea.solid import write_modes_vtu
+
+            path = out_dir / "solid_modes.vtu"
+            write_modes_vtu(r, path)
+            files.append(str(path))
+    for ax, title in ((a1, "free vibration (first bending mode)"), (a2, "uniform load")):
+        ax.set_xlabel("s [mm]")
+        ax.set_title(title, fontsize=10)
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+    a1.set_ylabel("psi = v(s) / v(L) on the centre line")
+    fig.suptitle(f"reed {reed.name}")
+    fig.tight_layout()
+    path = out_dir / "shapes.png"
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    files.append(str(path))
+    files += [str(p) for p in sorted(out_dir.glob("convergence_*.png"))]
+    return files
+
+
+def render(r: dict) -> str:
+    text = render_check(r)
+    for fid, st in r.get("convergence", {}).items():
+        for q, c in st["quantities"].items():
+            state = (f"p = {c['order']:.2f}" if c["reliable"] and c["order"] else c["note"])
+            text += (f"\nconvergence {fid} {q}: {', '.join(f'{v:.6g}' for v in c['values'])} -> "
+                     f"{c['extrapolated']:.6g} ({state}); error at the default mesh {c['default_error_pct']:.3f} %"
+                     + ("" if c["reliable"] else " (UNRELIABLE)"))
+        for note in st.get("notes", []):
+            text += f"\n  note ({fid}): {note}"
+    for f in r.get("files", []):
+        text += f"\nwrote {f}"
+    return text

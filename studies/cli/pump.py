@@ -1,0 +1,191 @@
+"""``valvelab pump``: one run of a pump model to cyclic steady state (CONTRACT.md)."""
+
+from __future__ import annotations
+
+import csv
+
+from geometry.declare import Spec, spec_of
+from geometry.errors import InputError
+from lumped.oil import Oil
+from studies.cli import flags
+
+HELP = "simulate a pump (a shipped model or your model file) with its check valves to cyclic steady state"
+
+TRACE_COLUMNS = ("time_s", "valve_position_m", "cylinder_pressure_pa", "load_pressure_pa",
+                 "inlet_position_m", "delivery_position_m")
+#: plausible ranges of the engineering-unit flags (the model file's are in SI, lumped.model)
+SPEED = Spec(None, "rpm", "", bounds=(10.0, 20000.0), positive=True)
+LOAD_MPA = Spec(None, "MPa", "", bounds=(0.01, 100.0), positive=True)
+AIR_BOUNDS = spec_of(Oil, "air_content").bounds       # declared once, with the oil
+TOL_BOUNDS = (1e-14, 0.1)
+MAX_REVOLUTIONS = 100_000
+
+
+def configure(p):
+    p.add_argument("--model", default=None, metavar="NAME|FILE",
+                   help="pump model: a shipped one (thesis-disc, thesis-reed) or a model TOML file "
+                        "(default: thesis-<--valve>)")
+    p.add_argument("--valve", default=None, choices=("disc", "reed"),
+                   help="check valve type of the thesis pump (thesis-disc or thesis-reed) when no --model")
+    p.add_argument("--speed-rpm", type=flags.number("rpm", SPEED.bounds), default=None, help="crank speed [rpm] (default: the model's)")
+    p.add_argument("--load-pressure-mpa", type=flags.number("MPa", LOAD_MPA.bounds), default=None,
+                   help="(mean) load pressure [MPa, absolute] (default: the model's)")
+    p.add_argument("--air-content", type=flags.number("-", AIR_BOUNDS), default=None,
+                   help="entrained air R at 1 atm, in [0, 0.5) (default: the model's oil.air_content)")
+    p.add_argument("--revolutions", type=flags.integer(2, MAX_REVOLUTIONS), default=5, help="revolutions to simulate (>= 2, default 5)")
+    p.add_argument("--max-revolutions", type=flags.integer(2, MAX_REVOLUTIONS), default=None,
+                   help="continue past --revolutions until cyclic steady state, at most this many")
+    p.add_argument("--circuit", default=None, choices=("simplified", "complete"),
+                   help="constant load pressure or accumulator + needle valve + load line (default: the model's)")
+    p.add_argument("--trace", default=None, metavar="FILE.csv", help="write the last revolution's time series")
+    p.add_argument("--trace-valve", default="delivery", choices=("inlet", "delivery"),
+                   help="valve whose position fills the valve_position_m column (default delivery)")
+    p.add_argument("--plot", default=None, metavar="FILE.png", help="draw valve openings and pressures")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --trace or --plot file")
+    p.add_argument("--reed-geometry", default=None, metavar="PRESET|FILE",
+                   help="reed valves: derive kappa, gamma1..3 and h_eff from this reed geometry")
+    p.add_argument("--reed-fidelity", default=None,
+                   help="reed model for --reed-geometry: analytic (default), beam, plate or solid")
+    p.add_argument("--dead-volume-m3", type=flags.number("m^3", positive=True), default=None, help="cylinder volume at TDC [m^3]")
+    p.add_argument("--rtol", type=flags.number("-", TOL_BOUNDS), default=None,
+                   help="integrator relative tolerance (default: fast 1e-3, reference 1e-6)")
+    p.add_argument("--atol", type=flags.number("-", TOL_BOUNDS), default=None,
+                   help="integrator absolute tolerance in state scales (default: fast 1e-5, reference 1e-6)")
+    p.add_argument("--method", default="fast", choices=("fast", "reference"),
+                   help="fast: compiled Rodas4P (default; delivery within 0.1 %% and valve timing within 0.5 deg of "
+                        "the reference, README); reference: scipy Radau")
+
+
+def model_for(args, field: str = "--model"):
+    """The PumpModel the flags describe: --model (or thesis-<--valve>) with the override flags applied."""
+    from lumped.model_file import load_model, with_values
+
+    if args.model is None and args.valve is None:
+        raise InputError("--model", "give a model (--model thesis-disc, thesis-reed or a model file) or --valve")
+    model = load_model(args.model if args.model is not None else f"thesis-{args.valve}", field=field)
+    if args.valve is not None and args.model is not None and set(model.kinds) != {args.valve}:
+        raise InputError("--valve", f"the model {model.name!r} has {model.label} valves, not {args.valve}")
+    values = {}
+    if args.dead_volume_m3 is not None:
+        values["pump.dead_volume"] = args.dead_volume_m3
+    if args.reed_fidelity is not None:
+        from lumped.reed_fidelity import reed_model
+
+        reed_model(args.reed_fidelity, "--reed-fidelity")      # an unknown name, before anything else
+    if args.reed_geometry is not None or args.reed_fidelity is not None:
+        if "reed" not in model.kinds:
+            flag = "--reed-geometry" if args.reed_geometry is not None else "--reed-fidelity"
+            raise InputError(flag, f"the model {model.name!r} has no reed valve")
+        for pos, kind in zip(("inlet", "delivery"), model.kinds):
+            if kind == "reed":
+                geo = args.reed_geometry or model.valve(pos).geometry
+                if geo is None:
+                    raise InputError("--reed-fidelity", "needs --reed-geometry (the model's reed has none)")
+                values[f"valves.{pos}.geometry"] = geo
+                values[f"valves.{pos}.fidelity"] = args.reed_fidelity or "analytic"
+    try:
+        return with_values(model, values)
+    except InputError as exc:
+        flag = {"pump.dead_volume": "--dead-volume-m3"}.get(exc.field)
+        if flag is None and ".fidelity" in exc.field:
+            flag = "--reed-fidelity"
+        if flag is None and ".geometry" in exc.field:
+            flag = "--reed-geometry"
+        raise InputError(flag or exc.field, exc.message) from None
+
+
+def _check_args(args) -> None:
+    """What the flags' own types cannot see: one flag against another."""
+    if args.max_revolutions is not None and args.max_revolutions < args.revolutions:
+        raise InputError("--max-revolutions", f"expected at least --revolutions ({args.revolutions}), "
+                                              f"got {args.max_revolutions}")
+
+
+def run(args) -> dict:
+    from lumped.cycle import simulate
+    from studies.outputs import check_new_file
+
+    _check_args(args)
+    outputs = {}
+    for flag, path in (("--trace", args.trace), ("--plot", args.plot)):
+        if path is not None:                    # fail before the run, not after
+            if flag == "--plot":
+                from studies.plots import check_plot_suffix
+                path = check_plot_suffix(path)
+            outputs[flag] = check_new_file(path, flag, args.force, writable=True)
+    model = model_for(args)
+    speed = args.speed_rpm if args.speed_rpm is not None else model.operating.speed_rpm
+    load = args.load_pressure_mpa * 1e6 if args.load_pressure_mpa is not None else model.operating.load_pressure
+    if speed is None:
+        raise InputError("--speed-rpm", f"missing: the model {model.name!r} has no [operating] speed_rpm")
+    if load is None:
+        raise InputError("--load-pressure-mpa", f"missing: the model {model.name!r} has no [operating] load_pressure")
+    res = simulate(model, speed, load, air_content=args.air_content, revolutions=args.revolutions,
+                   max_revolutions=args.max_revolutions, circuit=args.circuit, rtol=args.rtol, atol=args.atol,
+                   trace=bool(outputs), progress=True, method=args.method)
+    out = res.to_dict()
+    from lumped.model_file import SHIPPED
+
+    out["model"] = model.name if model.name in SHIPPED and model.source.startswith("lumped/") else model.source
+    out["reed_parameters"] = _reed_source(model)
+    out["trace"] = None
+    if "--trace" in outputs:
+        write_trace_csv(res, outputs["--trace"], args.trace_valve)
+        out["trace"] = str(outputs["--trace"])
+    if "--plot" in outputs:
+        res.plot(outputs["--plot"])
+        out["plot"] = str(outputs["--plot"])
+    return out
+
+
+def _reed_source(model) -> str | None:
+    """Where the reed valves' kappa, gammas and h_eff come from (None without reed valves)."""
+    srcs = []
+    for pos, kind in zip(("inlet", "delivery"), model.kinds):
+        if kind == "reed":
+            v = model.valve(pos)
+            srcs.append(f"{v.fidelity} model of {v.geometry} (kappa, gammas, h_eff); Table 3.13 otherwise"
+                        if v.geometry is not None else "Table 3.13")
+    return None if not srcs else (srcs[0] if len(set(srcs)) == 1 else "; ".join(srcs))
+
+
+def write_trace_csv(result, path, measured_valve: str = "delivery") -> None:
+    """The trace with CONTRACT's measured-trace columns (valve_position_m = ``measured_valve``)."""
+    tr = result.trace
+    pos = tr.signals[f"{measured_valve}_position"]
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(TRACE_COLUMNS)
+        for row in zip(tr.time, pos, tr.cylinder_pressure, tr.load_pressure, tr.inlet_position,
+                       tr.delivery_position):
+            w.writerow([f"{v:.9g}" for v in row])
+
+
+def render(r: dict) -> str:
+    def deg(d, k):
+        return "-" if d[k] is None else f"{d[k]:.1f}"
+
+    lines = [
+        f"{r['model']}: {r['valve']} valves, {r['speed_rpm']:.0f} rpm, load {r['load_pressure_pa'] / 1e6:.3f} MPa, "
+        f"R = {r['air_content']:g}, {r['circuit']} circuit",
+        f"  delivery      {r['delivery_cc_per_rev']:.4f} cc/rev, volumetric efficiency "
+        f"{r['volumetric_efficiency'] * 100:.2f} % (last of {r['revolutions']} revolutions; "
+        f"cyclic steady: {'yes' if r['cyclic_steady'] else 'NO'}, change {r['cycle_change']:.1e})",
+        f"  peak opening  inlet {r['peak_opening_m']['inlet'] * 1e3:.3f} mm, "
+        f"delivery {r['peak_opening_m']['delivery'] * 1e3:.3f} mm",
+        f"  opens/closes  inlet {deg(r['opening_angle_deg'], 'inlet')} / {deg(r['closing_angle_deg'], 'inlet')} deg, "
+        f"delivery {deg(r['opening_angle_deg'], 'delivery')} / {deg(r['closing_angle_deg'], 'delivery')} deg",
+        f"  valve losses  inlet {r['valve_loss_j_per_rev']['inlet'] * 1e3:.2f} mJ, "
+        f"delivery {r['valve_loss_j_per_rev']['delivery'] * 1e3:.2f} mJ per revolution",
+        f"  cylinder      {r['min_cylinder_pressure_pa'] / 1e6:.4f} to {r['max_cylinder_pressure_pa'] / 1e6:.3f} MPa"
+        + (f", cavitating {r['cavitation_deg']:.1f} deg" if r["cavitation_deg"] > 0 else ""),
+        f"  mass balance  {r['mass_balance_error']:.1e} (relative, last revolution)",
+        f"  cpu           {r['cpu_seconds']:.3g} s ({r['cpu_seconds_per_simulated_second'] * 1e3:.3g} ms per "
+        f"simulated s, {r.get('method', 'fast')} path)",
+    ]
+    if r["reed_parameters"]:
+        lines.append(f"  reed data     {r['reed_parameters']}")
+    for k in ("trace", "plot"):
+        if r.get(k):
+            lines.append(f"  {k:13s} {r[k]}")
+    return "\n".join(lines)

@@ -1,0 +1,65 @@
+"""``valvelab sweep SPEC.toml --out DIR``: a design sweep on dask, resumable (CONTRACT.md, "Sweeps")."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from geometry.errors import InputError
+from studies.cli import flags
+from studies.sweeps import sweep
+
+HELP = "run (or resume) a design-of-experiments sweep on a dask cluster"
+
+
+def configure(p):
+    p.add_argument("spec", help="sweep TOML file (model, sampler, factors, fixed inputs)")
+    p.add_argument("--out", default=None, help="sweep folder (default: sweep-<spec name>); rerun to resume")
+    p.add_argument("--format", default="parquet", choices=sweep.FORMATS, help="results table format")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="dask scheduler address (e.g. tcp://host:8786); default: a local cluster")
+    p.add_argument("--workers", type=flags.integer(1, 1024), default=None, help="local cluster worker processes (default: one per core)")
+    p.add_argument("--batch-size", type=flags.integer(1, 1_000_000), default=None, help="designs per dask task (default: automatic)")
+    p.add_argument("--retry-failed", action="store_true", help="recompute designs recorded with status error")
+    p.add_argument("--plot", action="store_true", help="also write main_effects.png into the sweep folder")
+    p.add_argument("--force", action="store_true", help="start over in a folder that holds another sweep")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    p.add_argument("--model", default=None, metavar="NAME|FILE",
+                   help="pump sweeps: the base pump model (a shipped one or a model file), overriding the spec's")
+
+
+def run(args) -> dict:
+    spec = sweep.load_spec(args.spec)
+    if args.model is not None:
+        spec = sweep.with_base_model(spec, args.model)
+    out = Path(args.out) if args.out else Path(f"sweep-{Path(args.spec).stem}")
+    if args.scheduler is not None and args.workers is not None:
+        raise InputError("--workers", "applies to the local cluster only; the scheduler at --scheduler has its own")
+    try:
+        summary = sweep.run_sweep(
+            spec, out, fmt=args.format, scheduler=args.scheduler, n_workers=args.workers,
+            batch_size=args.batch_size, force=args.force, retry_failed=args.retry_failed,
+            progress=not args.no_progress,
+        )
+    except KeyboardInterrupt:
+        sys.stderr.write(f"sweep interrupted: the designs finished so far are in {out}; "
+                         "rerun the same command to resume\n")
+        raise
+    if args.plot and summary["complete"]:
+        from studies.cli.sweep_plot import main_effects_report
+
+        summary["main_effects"] = main_effects_report(out, None, out / "main_effects.png", force=True)
+    return summary
+
+
+def render(r: dict) -> str:
+    lines = [
+        f"sweep of {r['designs']} designs ({r['model']}, {r['sampler']}) in {r['out']}",
+        f"  computed {r['computed']}, already done {r['skipped']}, failed {r['failed']}",
+        "  status: " + ", ".join(f"{k} {v}" for k, v in r["status_counts"].items()),
+        f"  {r['wall_seconds']:.1f} s wall" + (f", {r['designs_per_hour']:.0f} designs/hour" if r["computed"] else ""),
+        f"  results: {r['results']}" + ("" if r["complete"] else " (incomplete: rerun to resume)"),
+    ]
+    if "main_effects" in r:
+        lines.append(f"  main effects: {r['main_effects']['plot']}")
+    return "\n".join(lines)

@@ -1,0 +1,55 @@
+"""``valvelab sweep-plot DIR``: main effects of a sweep (mean response against each factor)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from geometry.errors import InputError
+from studies.cli import flags
+from studies.sweeps import sweep
+from studies.outputs import check_new_file
+
+HELP = "plot the main effects of a sweep's factors on its responses"
+
+
+def configure(p):
+    p.add_argument("folder", help="sweep folder written by valvelab sweep")
+    p.add_argument("--response", action="append", default=None,
+                   help="output column to plot (repeatable; default: the model's main responses)")
+    p.add_argument("--bins", type=flags.integer(2, 100), default=8, help="quantile bins for a continuous factor (default 8)")
+    p.add_argument("--output", default=None, help="PNG file (default: DIR/main_effects.png)")
+    p.add_argument("--force", action="store_true", help="replace an existing plot file")
+
+
+def main_effects_report(folder: Path, responses, png: Path, bins: int = 8, force: bool = False) -> dict:
+    """Main effects of the sweep in ``folder``, plotted to ``png``; the numbers as a dict."""
+    png = Path(png)           # the output first: refused before any work
+    ours = (png.parent / ".valvelab-output").exists() and not png.is_dir()   # a plot in a sweep folder
+    check_new_file(png, "--output", force or ours)
+    df, spec = sweep.read_results(folder)
+    model = sweep.load_model(spec.model)
+    numeric = [k for k, t in model.OUTPUTS.items() if t in ("float64", "int64")]
+    responses = responses or list(getattr(model, "MAIN_RESPONSES", numeric[:3]))
+    for r in responses:
+        if r not in numeric:
+            raise InputError("--response", f"{r!r} is not a numeric output of model {spec.model}; "
+                                           f"expected one of {', '.join(numeric)}")
+    if not (df["status"] == "ok").any():
+        raise InputError(str(folder), "no design with status ok to plot")
+    effects = sweep.main_effects(df, spec, responses, bins)
+    sweep.plot_main_effects(effects, png, title=f"{spec.model}: {len(df)} designs ({spec.sampler})")
+    return {"plot": str(png), "designs": int(len(df)), "ok": int((df["status"] == "ok").sum()), "effects": effects}
+
+
+def run(args) -> dict:
+    folder = Path(args.folder)
+    png = Path(args.output) if args.output else folder / "main_effects.png"
+    return {"folder": str(folder), **main_effects_report(folder, args.response, png, args.bins, args.force)}
+
+
+def render(r: dict) -> str:
+    lines = [f"main effects of {r['folder']} ({r['ok']} of {r['designs']} designs ok): {r['plot']}"]
+    for resp, per in r["effects"].items():
+        ranked = sorted(per.items(), key=lambda kv: -kv[1]["span"])
+        lines.append(f"  {resp}: " + ", ".join(f"{f} {e['span']:.4g}" for f, e in ranked))
+    return "\n".join(lines)

@@ -1,0 +1,52 @@
+"""``valvelab table ID``: regenerate a thesis table, computed values beside the printed ones."""
+
+from __future__ import annotations
+
+from geometry.errors import InputError
+from studies.outputs import format_cell
+from studies.tables import registry
+
+HELP = "regenerate a table of the thesis (computed values beside the thesis's)"
+
+def configure(p):
+    p.add_argument("id", help="table id, e.g. 3.3, 3.8, 5.4")
+    p.add_argument("--plot", default=None, metavar="FILE.png", help="also draw the table's figure (3.8: Figure 3.12)")
+    p.add_argument("--force", action="store_true", help="let --plot replace an existing file")
+
+
+def run(args) -> dict:
+    TABLES = registry()
+    if args.id not in TABLES:
+        # (0, int) before (1, str): "B.2" sorts after the numbered chapters instead of failing
+        known = ", ".join(sorted(TABLES, key=lambda t: [(0, int(x), "") if x.isdigit() else (1, 0, x) for x in t.split(".")]))
+        raise InputError("ID", f"no table {args.id!r}; expected one of {known}")
+    plot = getattr(args, "plot", None)
+    if plot is not None:
+        if TABLES[args.id].figure is None:
+            with_figure = ", ".join(t for t, v in TABLES.items() if v.figure is not None)
+            raise InputError("--plot", f"table {args.id} has no figure; tables with one: {with_figure}")
+        from studies.outputs import check_new_file
+        from studies.plots import check_plot_suffix
+
+        plot = check_new_file(check_plot_suffix(plot), "--plot", args.force)
+    out = TABLES[args.id].compute()
+    if isinstance(out, list):
+        out = {"rows": out}
+    out = {"id": args.id, **out}
+    if plot is not None:
+        out["plot"] = str(TABLES[args.id].figure(plot))
+    return out
+
+
+def render(r: dict) -> str:
+    rows = r["rows"]
+    cols: list[str] = []
+    for row in rows:
+        cols += [k for k in row if k not in cols]
+    cells = [[format_cell(row.get(c)) for c in cols] for row in rows]
+    widths = [max(len(c), *(len(x[i]) for x in cells)) for i, c in enumerate(cols)]
+    out = [f"Table {r['id']}", "  ".join(c.ljust(w) for c, w in zip(cols, widths))]
+    out.append("  ".join("-" * w for w in widths))
+    out += ["  ".join(x.ljust(w) for x, w in zip(line, widths)) for line in cells]
+    out += [f"note: {n}" for n in r.get("notes", [])]
+    return "\n".join(out)

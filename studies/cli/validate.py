@@ -1,0 +1,201 @@
+"""``valvelab validate``: the multi-fidelity chain and the 12 pump cases of chapter 5, written to ``out/``.
+
+Steps: 1. reed parameters, analytic vs FEA (``studies.validation.reed_check``); 2. the 12 pump
+cases of Tables 5.4 and 5.6 to cyclic steady state; 3. tables (Markdown and CSV) and
+plots (valve positions and pressures over three revolutions, the model's Figures
+5.7-5.21); 4. a summary of errors vs measured and vs the thesis's model.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+from geometry.errors import InputError
+from studies.cli import flags
+
+HELP = "run the full validation (reed parameters, 12 pump cases) and write tables and plots to out/"
+
+
+def configure(p):
+    p.add_argument("--out", default="out", help="output folder (default out/)")
+    p.add_argument("--quick", action="store_true", help="fewer revolutions, one traced revolution, coarse FEA (tests)")
+    p.add_argument("--force", action="store_true", help="write into a non-empty folder valvelab did not create")
+    p.add_argument("--jobs", type=flags.integer(1, 256), default=None, help="processes for the pump cases (default 1 or $VALVELAB_JOBS)")
+    p.add_argument("--valve", choices=("disc", "reed"), default=None, help="only the cases of one valve type")
+    p.add_argument("--skip-reed-chain", action="store_true", help="skip step 1 (reed parameters by fidelity)")
+
+
+def _log(msg: str) -> None:
+    sys.stderr.write(msg + "\n")
+    sys.stderr.flush()
+
+
+def run(args) -> dict:
+    from studies.validation import chain as V
+    from studies.outputs import prepare_output_dir
+    from studies.tables.pump import REED_NOTE, table_2_3
+
+    jobs = V.default_jobs() if args.jobs is None else args.jobs
+    if jobs < 1:
+        raise InputError("--jobs", f"must be at least 1, got {jobs}")
+    out = prepare_output_dir(args.out, "--out", args.force)
+    t_start = time.time()
+    summary: dict = {"out": str(out), "quick": bool(args.quick), "steps": {}}
+
+    # 1. reed parameters by fidelity
+    chain = {"status": "skipped", "reason": "--skip-reed-chain", "rows": [], "selected": None}
+    if not args.skip_reed_chain and args.valve != "disc":
+        _log("step 1/4: reed parameters of the prototype reed, analytic vs FEA")
+        chain = V.reed_parameter_chain(quick=args.quick, progress=True)
+        if chain["status"] != "ok":
+            _log(f"  {chain['reason']}: the pump uses Table 3.13 only")
+    if chain["rows"]:
+        rows, notes = V.reed_parameter_table(chain)
+        V.write_table([_plain(r) for r in rows], out / "reed_parameters",
+                      "Prototype reed parameters by fidelity (step 1), beside the thesis's FEA", notes)
+    sel = chain["selected"]
+    summary["steps"]["reed_parameters"] = {
+        "status": chain["status"], "reason": chain["reason"], "fidelities": len(chain["rows"]),
+        "flagged": list(chain.get("flagged", [])),
+        "selected": None if sel is None else {k: _num(getattr(sel, k)) for k in
+                                              ("fidelity", "omega_n", "kappa", "gamma1", "gamma2", "gamma3", "h_eff")},
+    }
+
+    # 2. the pump cases
+    selected = V.cases(valve=args.valve)
+    _log(f"step 2/4: {len(selected)} pump cases to cyclic steady state ({'quick' if args.quick else 'full'})")
+    results = V.run_cases(selected, quick=args.quick, progress=True, jobs=jobs)
+    geo_results = {}
+    reed_sel = [c for c in selected if c["valve"] == "reed"]
+    if sel is not None and reed_sel:
+        _log(f"  and the {len(reed_sel)} reed cases with kappa, gammas, h_eff of the {sel.fidelity} model")
+        model = V.reed_model_from(sel)
+        rs = V.run_cases(reed_sel, params_for=lambda c: model, quick=args.quick, trace=False, progress=True,
+                         jobs=jobs, method="fast")     # an auxiliary column: the fast path (within 0.1 %)
+        geo_results = {V.case_name(c): r for c, r in zip(reed_sel, rs)}
+
+    # 3. tables and plots
+    _log("step 3/4: tables and plots")
+    files = []
+    tables = {}
+    for table, valve in (("5.4", "disc"), ("5.6", "reed")):
+        pairs = [(c, r) for c, r in zip(selected, results) if c["table"] == table]
+        if not pairs:
+            continue
+        rows = V.table_rows([c for c, _ in pairs], [r for _, r in pairs])
+        for row, (c, _) in zip(rows, pairs):
+            g = geo_results.get(V.case_name(c))
+            if g is not None:
+                row[f"modeled_cc_{sel.fidelity}"] = round(g.delivery_per_rev * 1e6, 5)
+        notes = []
+        if valve == "reed":
+            _log("  reed cases again with Table 5.1's dead volume (docs/errata.md)")
+            V.add_table_5_1_column([c for c, _ in pairs], rows, quick=args.quick, progress=True, jobs=jobs)
+            notes = [REED_NOTE]
+        files += V.write_table(rows, out / f"table_{table.replace('.', '_')}",
+                               f"Table {table}: {valve} valve pump delivery (cc/rev)", notes)
+        tables[table] = rows
+    t23 = table_2_3()
+    files += V.write_table(t23["rows"], out / "table_2_3", "Table 2.3: disc valve parameters", t23["notes"])
+    for c, r in zip(selected, results):
+        fig = V.FIGURES[(c["valve"], c["measured_valve"], c["condition"])]
+        name = f"fig_{fig.replace('.', '_')}_{V.case_name(c)}.png"
+        files.append(V.plot_case(c, r, out / name))
+
+    # 4. summary
+    _log("step 4/4: summary")
+    cpu = {}
+    for valve in ("disc", "reed"):
+        rs = [r for c, r in zip(selected, results) if c["valve"] == valve]
+        if rs:
+            cpu[valve] = round(float(sum(r.cpu_seconds for r in rs) / sum(r.simulated_seconds for r in rs)), 2)
+    summary["steps"]["pump_cases"] = {
+        "cases": len(selected), "all_cyclic_steady": all(r.cyclic_steady for r in results),
+        "max_mass_balance_error": max(r.mass_balance_error for r in results),
+        "cpu_seconds_per_simulated_second": cpu,
+    }
+    summary["tables"] = {t: V.error_summary(rows) for t, rows in tables.items()}
+    if "5.6" in tables and all(V.TABLE_5_1_COLUMN in r for r in tables["5.6"]):
+        summary["tables"]["5.6"]["table_5_1_dead_volume_max_abs_diff_from_thesis_model_pct"] = round(
+            max(abs(r["table_5_1_vs_thesis_model_pct"]) for r in tables["5.6"]), 3)
+    summary["cases"] = [
+        {"table": c["table"], "case": V.case_name(c), "modeled_cc": round(r.delivery_per_rev * 1e6, 5),
+         "measured_cc": c["measured_delivery"] * 1e6, "thesis_modeled_cc": c["thesis_modeled_delivery"] * 1e6,
+         "peak_opening_mm": [round(v.peak_opening * 1e3, 4) for v in r.valves.values()],
+         "stop_contacts": [v.stop_contacts for v in r.valves.values()]}
+        for c, r in zip(selected, results)
+    ]
+    summary["wall_seconds"] = round(time.time() - t_start, 1)
+    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    (out / "summary.md").write_text(_summary_md(summary))
+    summary["files"] = sorted(str(Path(f).name) for f in files) + ["summary.json", "summary.md"]
+    return summary
+
+
+def _num(v):
+    if isinstance(v, str):
+        return v
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        return None
+    return f if math.isfinite(f) else None
+
+
+def _plain(row) -> dict:
+    """A step-1 row as plain numbers/strings (rows may carry arrays or dataclasses)."""
+    if hasattr(row, "as_contract"):
+        row = row.as_contract("prototype")
+    elif not isinstance(row, dict):
+        row = dict(getattr(row, "__dict__", {}))
+    return {k: (v if isinstance(v, (str, bool)) or v is None else _num(v)) for k, v in row.items()
+            if not hasattr(v, "__len__") or isinstance(v, str)}
+
+
+def _summary_md(s: dict) -> str:
+    lines = ["# valvelab validate: summary", ""]
+    rp = s["steps"]["reed_parameters"]
+    lines.append(f"1. Reed parameters: {rp['status']} {('(' + rp['reason'] + ')') if rp['reason'] else ''}")
+    if rp["selected"]:
+        sel = rp["selected"]
+        lines.append(f"   selected {sel['fidelity']}: kappa = {sel['kappa'] / 1e6:.4f} MPa/m, "
+                     f"gamma1 = {sel['gamma1']:.4f}, h_eff = {sel['h_eff'] * 1e3:.4f} mm")
+    pc = s["steps"]["pump_cases"]
+    lines.append(f"2. Pump cases: {pc['cases']}, all cyclic steady: {pc['all_cyclic_steady']}, "
+                 f"max mass-balance error {pc['max_mass_balance_error']:.1e}, CPU s per simulated s "
+                 + ", ".join(f"{k} {v}" for k, v in pc["cpu_seconds_per_simulated_second"].items())
+                 + " (thesis: 23)")
+    lines.append("3. Tables: " + ", ".join(f"Table {t}" for t in s["tables"]) + " (Markdown and CSV), Table 2.3")
+    lines += ["4. Errors (percent):", "",
+              "| table | mean abs error | max abs error | thesis mean | thesis max | max diff from thesis model |",
+              "|---|---|---|---|---|---|"]
+    for t, e in s["tables"].items():
+        lines.append(f"| {t} | {e['mean_abs_error_pct']} | {e['max_abs_error_pct']} | {e['thesis_mean_abs_error_pct']} "
+                     f"| {e['thesis_max_abs_error_pct']} | {e['max_abs_diff_from_thesis_model_pct']} |")
+    inf = s["tables"].get("5.6", {}).get("table_5_1_dead_volume_max_abs_diff_from_thesis_model_pct")
+    if inf is not None:
+        lines += ["", f"Table 5.6 with Table 5.1's dead volume (2.17e-5 m^3) instead of the inferred reed-manifold "
+                      f"4.0e-5 m^3 (docs/errata.md): largest difference from the thesis's modeled deliveries {inf} %."]
+    lines += ["", "| case | modeled | measured | thesis model | peak opening in/del (mm) | stop contacts |",
+              "|---|---|---|---|---|---|"]
+    for c in s["cases"]:
+        lines.append(f"| {c['case']} | {c['modeled_cc']:.4f} | {c['measured_cc']:.3f} | {c['thesis_modeled_cc']:.3f} "
+                     f"| {c['peak_opening_mm'][0]:.3f} / {c['peak_opening_mm'][1]:.3f} | {c['stop_contacts']} |")
+    lines += ["", f"Wall time {s['wall_seconds']} s."]
+    return "\n".join(lines) + "\n"
+
+
+def render(s: dict) -> str:
+    out = [f"validation written to {s['out']}/"]
+    pc = s["steps"]["pump_cases"]
+    out.append(f"  {pc['cases']} pump cases, all cyclic steady: {pc['all_cyclic_steady']}, "
+               "CPU s per simulated s: " + ", ".join(f"{k} {v:.2f}" for k, v in pc["cpu_seconds_per_simulated_second"].items()))
+    for t, e in s["tables"].items():
+        out.append(f"  Table {t}: mean |error| {e['mean_abs_error_pct']} % (thesis {e['thesis_mean_abs_error_pct']} %), "
+                   f"max diff from the thesis's model {e['max_abs_diff_from_thesis_model_pct']} %")
+    out.append(f"  {len(s['files'])} files, {s['wall_seconds']} s")
+    return "\n".join(out)

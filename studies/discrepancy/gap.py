@@ -1,0 +1,545 @@
+"""The gap between measured and modelled pump runs, and where in the cycle it sits, in words.
+
+Everything here works on one revolution in crank angle (0 deg = top dead centre;
+the suction stroke is 0-180 deg, the delivery stroke 180-360 deg). A measured trace
+is folded onto crank angle; a simulated one (:class:`CycleTrace`) is interpolated
+periodically at the measured crank angles, after the position sensor's nuisances
+(a scale error per valve, one time offset) are applied.
+
+Metrics per run: position RMS [m] (and its excess over the measurement noise),
+opening / closing timing error [crank deg], peak-opening error [m], seated-position
+error [m], delivery error [%] (modelled - measured, the thesis's sign, Tables 5.4,
+5.6). :func:`findings` turns them into sentences a hydraulic engineer reads
+("delivery valve sits 0.30 mm below its modelled seat position during the suction
+stroke (crank 12-171 deg)").
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from studies.discrepancy.measured import Run
+
+VALVES = ("inlet", "delivery")
+
+
+@dataclass(frozen=True)
+class CycleTrace:
+    """One simulated revolution on crank angle: positions [m] of both valves, delivery [m^3/rev]."""
+
+    crank_deg: np.ndarray            # increasing, within [0, 360)
+    positions: dict                  # valve -> position [m]
+    delivery_m3_per_rev: float
+    cylinder_pressure_pa: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class GapScales:
+    """What counts as one unit of gap: a position RMS [m] and a relative delivery error [-].
+
+    They weight the two kinds of evidence in fits and scores (a 20 um RMS position
+    gap weighs as much as a 0.5 % delivery error) and are the smallest gaps put
+    into words.
+    """
+
+    position_m: float = 2.0e-5
+    delivery_frac: float = 5.0e-3
+
+
+@dataclass(frozen=True)
+class Nuisance:
+    """Position-sensor nuisances: scale factor per valve [-], time offset [s] (measured lags model)."""
+
+    scale: dict = field(default_factory=lambda: {"inlet": 1.0, "delivery": 1.0})
+    offset_s: float = 0.0
+
+    def as_dict(self) -> dict:
+        return {"scale_inlet": self.scale.get("inlet", 1.0), "scale_delivery": self.scale.get("delivery", 1.0),
+                "time_offset_s": self.offset_s}
+
+
+# --------------------------------------------------------------------------- folding
+
+
+def crank_angle_deg(time_s: np.ndarray, speed_rpm: float) -> np.ndarray:
+    """Crank angle [deg, 0-360) from time [s] with t = 0 at top dead centre."""
+    return np.mod(np.asarray(time_s) * speed_rpm * 6.0, 360.0)
+
+
+@dataclass(frozen=True)
+class Folded:
+    """A measured run's trace folded onto crank angle, sorted, with its noise estimate."""
+
+    crank_deg: dict       # valve -> crank angles [deg]
+    position: dict        # valve -> measured position [m]
+    noise_m: dict         # valve -> white-noise standard deviation [m]
+
+
+def noise_std(x: np.ndarray) -> float:
+    """White-noise standard deviation of a sampled signal [m] from the MAD of its second differences.
+
+    Second differences cancel the signal's slope; the median ignores the few samples
+    at impacts. Var(x[i+1] - 2 x[i] + x[i-1]) = 6 sigma^2 for white noise.
+    """
+    d2 = np.diff(np.asarray(x, float), 2)
+    if d2.size == 0:
+        return 0.0
+    mad = np.median(np.abs(d2 - np.median(d2)))
+    return float(1.4826 * mad / np.sqrt(6.0))
+
+
+def fold(run: Run) -> Folded:
+    """Fold a measured run's trace onto one revolution of crank angle (noise estimated in time order)."""
+    tr = run.trace
+    th = crank_angle_deg(tr.time_s, run.speed_rpm)
+    order = np.argsort(th, kind="stable")
+    crank, pos, noise = {}, {}, {}
+    for valve, x in tr.positions.items():
+        crank[valve] = th[order]
+        pos[valve] = np.asarray(x, float)[order]
+        noise[valve] = noise_std(x)
+    return Folded(crank, pos, noise)
+
+
+def _periodic_table(crank: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Crank samples in [0, 360) extended by one sample each side so plain interpolation wraps."""
+    c = np.concatenate([[crank[-1] - 360.0], crank, [crank[0] + 360.0]])
+    v = np.concatenate([[values[-1]], values, [values[0]]])
+    return c, v
+
+
+def periodic_interp(theta: np.ndarray, crank: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Linear interpolation of a 360-deg periodic signal at ``theta`` [deg] (``crank`` sorted in [0, 360))."""
+    c, v = _periodic_table(np.asarray(crank, float), np.asarray(values, float))
+    return np.interp(np.mod(theta, 360.0), c, v)
+
+
+def predict(sim: CycleTrace, valve: str, theta: np.ndarray, speed_rpm: float, nuisance: Nuisance) -> np.ndarray:
+    """What the position sensor would read [m]: scale * x_model(theta - crank angle of the time offset)."""
+    shift = nuisance.offset_s * speed_rpm * 6.0
+    return nuisance.scale.get(valve, 1.0) * periodic_interp(theta - shift, sim.crank_deg, sim.positions[valve])
+
+
+# --------------------------------------------------------------------------- nuisances
+
+
+def fit_nuisance(
+    runs: list[Run], folded: dict, sims: dict, *, scale_bounds=(0.95, 1.05), offset_bounds_s=(-1e-3, 1e-3),
+    n_grid: int = 21,
+) -> Nuisance:
+    """Sensor scale per valve and one time offset minimising the position residual over ``runs``.
+
+    For a given offset the best scale of each valve is linear least squares (closed
+    form, clipped to ``scale_bounds``); the offset is found on a grid, refined on a
+    finer grid around the best point and polished by a parabola through three points.
+    ``folded``/``sims`` map run name -> :class:`Folded` / :class:`CycleTrace`.
+    Each trace weighs 1/N (its mean square), like the fit objective.
+    """
+    traces = []
+    for r in runs:
+        if r.trace is None:
+            continue
+        f, s = folded[r.name], sims[r.name]
+        for valve, th in f.crank_deg.items():
+            c, v = _periodic_table(s.crank_deg, s.positions[valve])
+            m = f.position[valve]
+            traces.append((valve, th, m, c, v, r.speed_rpm * 6.0, 1.0 / m.size))
+    if not traces:
+        return Nuisance()
+
+    def solve(offsets: np.ndarray):
+        """(cost per offset, scale per valve per offset)."""
+        k = offsets.size
+        pm = {v: np.zeros(k) for v in VALVES}
+        pp = {v: np.zeros(k) for v in VALVES}
+        mm = 0.0
+        for valve, th, m, c, v, omega, w in traces:
+            x = np.mod(th[None, :] - offsets[:, None] * omega, 360.0)
+            p = np.interp(x.ravel(), c, v).reshape(k, th.size)
+            pm[valve] += w * (p @ m)
+            pp[valve] += w * np.einsum("ij,ij->i", p, p)
+            mm += w * float(m @ m)
+        cost = np.full(k, mm)
+        scale = {}
+        for valve in VALVES:
+            with np.errstate(invalid="ignore", divide="ignore"):
+                sv = np.where(pp[valve] > 0, pm[valve] / pp[valve], 1.0)
+            sv = np.clip(sv, *scale_bounds)
+            cost += -2.0 * sv * pm[valve] + sv**2 * pp[valve]
+            scale[valve] = sv
+        return cost, scale
+
+    lo, hi = offset_bounds_s
+    grid = np.linspace(lo, hi, n_grid)
+    for _ in range(2):   # coarse grid, then a fine grid around its best point
+        cost, _ = solve(grid)
+        i = int(np.argmin(cost))
+        step = grid[1] - grid[0]
+        grid = np.linspace(max(lo, grid[i] - step), min(hi, grid[i] + step), 11)
+    cost, _ = solve(grid)
+    i = int(np.argmin(cost))
+    best = float(grid[i])
+    if 0 < i < grid.size - 1:   # parabola through the best point and its neighbours
+        c0, c1, c2 = cost[i - 1: i + 2]
+        den = c0 - 2 * c1 + c2
+        if den > 0:
+            best += 0.5 * (c0 - c2) / den * (grid[1] - grid[0])
+    _, scale = solve(np.array([best]))
+    return Nuisance(scale={v: float(scale[v][0]) for v in VALVES}, offset_s=best)
+
+
+# --------------------------------------------------------------------------- events
+
+
+def _smooth(theta: np.ndarray, x: np.ndarray, width_deg: float) -> np.ndarray:
+    """Circular moving average over ``width_deg`` of a signal sampled at sorted crank angles."""
+    n = x.size
+    if n < 3 or width_deg <= 0:
+        return x
+    k = max(1, int(round(width_deg / (360.0 / n))))
+    if k < 2:
+        return x
+    pad = np.concatenate([x[-k:], x, x[:k]])
+    c = np.convolve(pad, np.ones(k) / k, mode="same")
+    return c[k:-k]
+
+
+@dataclass(frozen=True)
+class Events:
+    """When a valve is open in one revolution (crank deg) and its peak and seated positions [m]."""
+
+    opening_deg: float | None
+    closing_deg: float | None
+    peak_m: float
+    seated_m: float | None
+    open_mask: np.ndarray
+
+
+def valve_events(theta: np.ndarray, x: np.ndarray, threshold_m: float, smooth_deg: float = 2.0) -> Events:
+    """Opening and closing crank angles of the longest open interval (x above ``threshold_m``).
+
+    ``theta`` sorted in [0, 360). Crossings are interpolated between samples.
+    """
+    xs = _smooth(theta, np.asarray(x, float), smooth_deg)
+    is_open = xs > threshold_m
+    peak = float(np.max(xs))
+    if is_open.all() or not is_open.any():
+        seated = None if is_open.all() else float(np.median(xs))
+        return Events(None, None, peak, seated, is_open)
+    n = xs.size
+    # rotate so that index 0 is closed, then the open intervals do not wrap
+    start = int(np.flatnonzero(~is_open)[0])
+    idx = (np.arange(n) + start) % n
+    o = is_open[idx]
+    edges = np.diff(o.astype(int))
+    rises = np.flatnonzero(edges == 1)     # o[i] closed, o[i+1] open
+    falls = np.flatnonzero(edges == -1)    # o[i] open, o[i+1] closed
+    if o[-1]:
+        falls = np.append(falls, n - 1)
+    best = int(np.argmax([f - r for r, f in zip(rises, falls)]))
+    r, f = rises[best], falls[best]
+
+    def cross(i):  # crossing between rotated samples i and i+1
+        a, b = idx[i], idx[(i + 1) % n]
+        ta, tb = theta[a], theta[b]
+        if tb < ta:
+            tb += 360.0
+        xa, xb = xs[a], xs[b]
+        frac = 0.0 if xb == xa else (threshold_m - xa) / (xb - xa)
+        return float(np.mod(ta + np.clip(frac, 0.0, 1.0) * (tb - ta), 360.0))
+
+    opening = cross(r)
+    closing = cross(f)  # f = n - 1: between the last rotated sample and the first (closed) one
+    open_mask = np.zeros(n, bool)
+    open_mask[idx[r + 1: f + 1]] = True
+    seated = float(np.median(xs[~open_mask])) if (~open_mask).any() else None
+    return Events(opening, closing, peak, seated, open_mask)
+
+
+def wrap_deg(a):
+    """Angle difference(s) wrapped to (-180, 180] [deg]."""
+    w = -(np.mod(-np.asarray(a, float) + 180.0, 360.0) - 180.0)
+    return float(w) if w.ndim == 0 else w
+
+
+def closed_window(theta: np.ndarray, ev: Events, margin_deg: float = 10.0) -> np.ndarray:
+    """Samples well inside the closed phase (``margin_deg`` away from the opening and closing)."""
+    closed = ~ev.open_mask
+    if ev.opening_deg is None:
+        return closed
+    far = np.ones_like(closed)
+    for a in (ev.opening_deg, ev.closing_deg):
+        far &= np.abs(wrap_deg(theta - a)) > margin_deg
+    return closed & far
+
+
+# --------------------------------------------------------------------------- metrics
+
+
+@dataclass(frozen=True)
+class ValveGap:
+    """Gap of one valve's position in one run (measured - modelled unless stated)."""
+
+    valve: str
+    rms_m: float
+    noise_m: float
+    opening_error_deg: float | None     # positive: opens later than modelled
+    closing_error_deg: float | None     # positive: closes later than modelled
+    peak_error_m: float                 # measured peak - modelled peak
+    seated_error_m: float | None        # measured - modelled position in the closed phase
+    measured: Events
+    modelled: Events
+    residual_m: np.ndarray              # measured - predicted, at the measured crank angles
+    crank_deg: np.ndarray
+
+    @property
+    def excess_rms_m(self) -> float:
+        """RMS gap above the white measurement noise [m]."""
+        return float(np.sqrt(max(self.rms_m**2 - self.noise_m**2, 0.0)))
+
+
+@dataclass(frozen=True)
+class RunGap:
+    """Gap of one run: its valves' position gaps and the delivery error."""
+
+    run: str
+    speed_rpm: float
+    load_pressure_pa: float
+    valves: tuple
+    delivery_error_pct: float | None     # (modelled - measured) / measured * 100
+
+    @property
+    def position_rms_m(self) -> float | None:
+        if not self.valves:
+            return None
+        return float(np.sqrt(np.mean([v.rms_m**2 for v in self.valves])))
+
+    def cost(self, scales: GapScales) -> float:
+        """Dimensionless gap: (excess position RMS / scale)^2 + (delivery error / scale)^2."""
+        c = sum(v.excess_rms_m**2 for v in self.valves) / scales.position_m**2
+        if self.delivery_error_pct is not None:
+            c += (self.delivery_error_pct / 100.0 / scales.delivery_frac) ** 2
+        return float(c)
+
+    def as_dict(self) -> dict:
+        d = {"run": self.run, "speed_rpm": self.speed_rpm, "load_pressure_pa": self.load_pressure_pa,
+             "position_rms_m": self.position_rms_m, "delivery_error_pct": self.delivery_error_pct}
+        for v in self.valves:
+            d[v.valve] = {
+                "position_rms_m": v.rms_m, "noise_m": v.noise_m,
+                "opening_error_deg": v.opening_error_deg, "closing_error_deg": v.closing_error_deg,
+                "peak_error_m": v.peak_error_m, "seated_error_m": v.seated_error_m,
+            }
+        return d
+
+
+def event_threshold(x_meas: np.ndarray, noise_m: float) -> float:
+    """Position above which a valve counts as open [m]: 10 % of the measured lift, at least 5 noise sigmas."""
+    lift = float(np.percentile(x_meas, 99.5))
+    return max(0.1 * lift, 5.0 * noise_m, 1e-6)
+
+
+def run_gap(run: Run, folded: Folded, sim: CycleTrace, nuisance: Nuisance) -> RunGap:
+    """Every gap metric of one run against one simulation (nuisances applied to the model)."""
+    valves = []
+    for valve, theta in folded.crank_deg.items():
+        m = folded.position[valve]
+        p = predict(sim, valve, theta, run.speed_rpm, nuisance)
+        thr = event_threshold(m, folded.noise_m[valve])
+        em, es = valve_events(theta, m, thr), valve_events(theta, p, thr)
+        dopen = None if em.opening_deg is None or es.opening_deg is None else wrap_deg(em.opening_deg - es.opening_deg)
+        dclose = None if em.closing_deg is None or es.closing_deg is None else wrap_deg(em.closing_deg - es.closing_deg)
+        win = closed_window(theta, em)
+        seated = float(np.median(m[win]) - np.median(p[win])) if win.sum() >= 5 else None
+        r = m - p
+        valves.append(ValveGap(valve, float(np.sqrt(np.mean(r**2))), folded.noise_m[valve], dopen, dclose,
+                               em.peak_m - es.peak_m, seated, em, es, r, theta))
+    d = None
+    if run.delivery_m3_per_rev is not None:
+        d = 100.0 * (sim.delivery_m3_per_rev - run.delivery_m3_per_rev) / run.delivery_m3_per_rev
+    return RunGap(run.name, run.speed_rpm, run.load_pressure_pa, tuple(valves), d)
+
+
+def summary(gaps: list[RunGap]) -> dict:
+    """Dataset gap: position RMS pooled over runs [m] (also its excess over the measurement noise,
+    the part a model can explain), RMS of the runs' delivery errors [%]."""
+    pos = [g.position_rms_m for g in gaps if g.position_rms_m is not None]
+    exc = [v.excess_rms_m for g in gaps for v in g.valves]
+    dele = [g.delivery_error_pct for g in gaps if g.delivery_error_pct is not None]
+    return {
+        "position_rms_m": float(np.sqrt(np.mean(np.square(pos)))) if pos else None,
+        "position_excess_rms_m": float(np.sqrt(np.mean(np.square(exc)))) if exc else None,
+        "delivery_error_pct": float(np.sqrt(np.mean(np.square(dele)))) if dele else None,
+        "runs": len(gaps),
+    }
+
+
+# --------------------------------------------------------------------------- words
+
+
+def stroke(theta_deg: float) -> str:
+    """Which stroke a crank angle is in (0 deg = TDC)."""
+    t = np.mod(theta_deg, 360.0)
+    if t < 10 or t > 350:
+        return "around top dead centre"
+    if 170 < t < 190:
+        return "around bottom dead centre"
+    return "suction stroke" if t < 180 else "delivery stroke"
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One localised disagreement of one valve in one run (values measured - modelled)."""
+
+    run: str
+    valve: str          # inlet, delivery or pump
+    kind: str           # seated, opening, closing, peak, window, delivery
+    value: float        # m, deg or %
+    window: tuple | None = None  # crank deg (start, end)
+
+
+def _windows(theta: np.ndarray, r: np.ndarray, thr: float, merge_deg=5.0, min_deg=3.0) -> list[tuple]:
+    """Crank windows (start, end, largest residual) where |r| exceeds ``thr``.
+
+    Circular; windows closer than ``merge_deg`` are merged, shorter than ``min_deg`` dropped.
+    """
+    big = np.abs(r) > thr
+    if not big.any():
+        return []
+    if big.all():
+        return [(0.0, 360.0, float(r[np.argmax(np.abs(r))]))]
+    n = r.size
+    start = int(np.flatnonzero(~big)[0])
+    idx = (np.arange(n) + start) % n      # rotated so the first sample is small
+    b = big[idx].astype(int)
+    edges = np.diff(b)
+    rises, falls = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    if b[-1]:
+        falls = np.append(falls, n - 1)
+    runs = [[int(i) + 1, int(j)] for i, j in zip(rises, falls)]
+    merged = [runs[0]]
+    for i, j in runs[1:]:
+        if _ang(theta[idx[i]] - theta[idx[merged[-1][1]]]) < merge_deg:
+            merged[-1][1] = j
+        else:
+            merged.append([i, j])
+    wins = []
+    for i, j in merged:
+        a, e = theta[idx[i]], theta[idx[j]]
+        if _ang(e - a) >= min_deg:
+            seg = r[idx[i:j + 1]]
+            wins.append((float(a), float(e), float(seg[np.argmax(np.abs(seg))])))
+    return wins
+
+
+def _ang(d: float) -> float:
+    return float(np.mod(d, 360.0))
+
+
+def findings(gap: RunGap, scales: GapScales, timing_tol_deg: float = 2.0) -> list[Finding]:
+    """Localised disagreements of one run beyond the tolerances (position, timing, delivery)."""
+    out = []
+    for v in gap.valves:
+        ptol = max(scales.position_m, 5.0 * v.noise_m / np.sqrt(8.0))
+        if v.seated_error_m is not None and abs(v.seated_error_m) > ptol:
+            win = closed_window(v.crank_deg, v.measured)
+            th = v.crank_deg[win]
+            out.append(Finding(gap.run, v.valve, "seated", v.seated_error_m, _span(th)))
+        for kind, err in (("opening", v.opening_error_deg), ("closing", v.closing_error_deg)):
+            if err is not None and abs(err) > timing_tol_deg:
+                at = v.measured.opening_deg if kind == "opening" else v.measured.closing_deg
+                out.append(Finding(gap.run, v.valve, kind, err, (at - err, at)))
+        if abs(v.peak_error_m) > ptol:
+            out.append(Finding(gap.run, v.valve, "peak", v.peak_error_m, None))
+        rs = _smooth(v.crank_deg, v.residual_m, 3.0)
+        for a, e, peak in _windows(v.crank_deg, rs, max(ptol, 3.0 * v.noise_m / np.sqrt(8.0))):
+            out.append(Finding(gap.run, v.valve, "window", peak, (a, e)))
+    if gap.delivery_error_pct is not None and abs(gap.delivery_error_pct) > 100.0 * scales.delivery_frac:
+        out.append(Finding(gap.run, "pump", "delivery", -gap.delivery_error_pct, None))
+    return out
+
+
+def _span(theta: np.ndarray) -> tuple | None:
+    """Smallest circular crank window holding all of ``theta`` (deg)."""
+    if theta.size == 0:
+        return None
+    t = np.sort(np.mod(theta, 360.0))
+    gaps = np.diff(np.concatenate([t, [t[0] + 360.0]]))
+    k = int(np.argmax(gaps))
+    return (float(t[(k + 1) % t.size]), float(t[k]))
+
+
+def _fmt_window(w) -> str:
+    a, e = w
+    return f"crank {a:.0f}-{e:.0f} deg" if e >= a else f"crank {a:.0f}-{e + 360:.0f} deg"
+
+
+def _mid(w) -> float:
+    a, e = w
+    if e < a:
+        e += 360.0
+    return (a + e) / 2.0
+
+
+def describe(found: list[Finding], n_runs: dict) -> list[str]:
+    """Sentences summarising findings over runs, largest first.
+
+    ``n_runs`` maps a valve (and "pump") to the number of runs in which it was
+    measured, so a sentence says in how many of them the disagreement appears; a
+    disagreement seen in fewer than half of them is not systematic and not said.
+    """
+    groups: dict = {}
+    for f in found:
+        if f.kind == "window":
+            continue  # windows are reported per run; the kinds below say them in words
+        key = (f.valve, f.kind, np.sign(f.value))
+        groups.setdefault(key, []).append(f)
+    scored = []
+    for (valve, kind, sign), fs in groups.items():
+        if len(fs) < math.ceil(n_runs.get(valve, len(fs)) / 2):
+            continue   # not systematic: in fewer than half the runs (the report lists every run)
+        vals = np.array([f.value for f in fs])
+        mean = float(np.mean(vals))
+        cnt = f"{len(fs)} of {n_runs.get(valve, len(fs))} runs"
+        unit, mul = {"seated": (" mm", 1e3), "peak": (" mm", 1e3), "delivery": (" %", 1.0)}.get(kind, (" deg", 1.0))
+        rng = "" if len(fs) == 1 else (
+            f", {np.min(np.abs(vals)) * mul:.2f}-{np.max(np.abs(vals)) * mul:.2f}{unit}")
+        wins = [f.window for f in fs if f.window is not None]
+        if kind == "seated":
+            w = _fmt_window(wins[0]) if wins else ""
+            where = stroke(_mid(wins[0])) if wins else "closed phase"
+            s = (f"{valve} valve sits {abs(mean) * 1e3:.2f} mm {'below' if sign < 0 else 'above'} its modelled "
+                 f"seated position during the {where} ({w}; {cnt}{rng})")
+            weight = abs(mean) / 2e-5
+        elif kind in ("opening", "closing"):
+            verb = "opens" if kind == "opening" else "closes"
+            at = wins[0][1] if wins else 0.0
+            s = (f"{valve} valve {verb} {abs(mean):.1f} deg {'late' if sign > 0 else 'early'} "
+                 f"(measured near crank {at:.0f} deg, {stroke(at)}; {cnt}{rng})")
+            weight = abs(mean) / 2.0
+        elif kind == "peak":
+            s = (f"{valve} valve opens {abs(mean) * 1e3:.2f} mm {'wider' if sign > 0 else 'less'} than modelled "
+                 f"at its peak ({cnt}{rng})")
+            weight = abs(mean) / 2e-5
+        else:  # delivery
+            s = (f"the pump delivers {abs(mean):.2f} % {'more' if sign > 0 else 'less'} than modelled "
+                 f"({cnt}{rng})")
+            weight = abs(mean) / 0.5
+        scored.append((weight * len(fs), s))
+    return [s for _, s in sorted(scored, key=lambda t: -t[0])]
+
+
+def window_sentences(found: list[Finding]) -> list[str]:
+    """Per-run residual windows in words (for the report)."""
+    out = []
+    for f in found:
+        if f.kind != "window":
+            continue
+        out.append(
+            f"{f.run}: {f.valve} valve reads up to {abs(f.value) * 1e3:.3f} mm "
+            f"{'above' if f.value > 0 else 'below'} the model at {_fmt_window(f.window)} ({stroke(_mid(f.window))})"
+        )
+    return out

@@ -1,0 +1,152 @@
+"""The discrepancy report folder: ranking table, disagreements in words, plots.
+
+Written into a folder valvelab owns (``studies/outputs.py``): ``summary.json`` (the
+command's JSON), ``ranking.csv`` and ``ranking.md`` (every candidate of every round),
+``disagreements.txt``, ``traces_<run>.png`` (measured vs baseline vs augmented
+position over crank angle, with the residuals below), ``residuals.png`` (all runs'
+residuals vs crank angle before and after) and ``gap_bars.png`` (position RMS and
+delivery error before/after, on fitted and held-out runs).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from studies.discrepancy.workflow import Outcome  # noqa: E402
+from studies.discrepancy.gap import fold, predict, summary, window_sentences  # noqa: E402
+from studies.outputs import prepare_output_dir  # noqa: E402
+
+
+def _ranking_frame(ranking: list[dict]) -> pd.DataFrame:
+    rows = []
+    for r in ranking:
+        row = {k: v for k, v in r.items() if k != "parameters"}
+        row["parameters"] = ", ".join(f"{k}={v:.4g}" for k, v in r["parameters"].items())
+        rows.append(row)
+    cols = ["round", "rank", "effect", "target", "parameters", "held_out_improvement_pct", "fit_improvement_pct",
+            "delta_bic", "plausible", "accepted", "held_out_cost", "fit_cost", "simulations", "why_not_plausible",
+            "failed"]
+    return pd.DataFrame(rows, columns=cols)
+
+
+def _markdown(df: pd.DataFrame) -> str:
+    def cell(v):
+        if v is None or (isinstance(v, float) and not np.isfinite(v)):
+            return "-"
+        if isinstance(v, float):
+            return f"{v:.3g}"
+        return str(v)
+
+    head = "| " + " | ".join(df.columns) + " |"
+    sep = "|" + "|".join("---" for _ in df.columns) + "|"
+    body = ["| " + " | ".join(cell(v) for v in row) + " |" for row in df.itertuples(index=False)]
+    return "\n".join([head, sep, *body]) + "\n"
+
+
+def _trace_plot(path: Path, run, outcome: Outcome):
+    f = fold(run)
+    valves = list(f.position)
+    fig, axes = plt.subplots(2, len(valves), figsize=(6.5 * len(valves), 6), sharex=True, squeeze=False,
+                             gridspec_kw={"height_ratios": [3, 1.4]})
+    for j, valve in enumerate(valves):
+        th, m = f.crank_deg[valve], f.position[valve]
+        base = predict(outcome.before.sims[run.name], valve, th, run.speed_rpm, outcome.before.nuisance)
+        aug = predict(outcome.after.sims[run.name], valve, th, run.speed_rpm, outcome.after.nuisance)
+        ax = axes[0, j]
+        ax.plot(th, m * 1e3, ".", ms=1.5, color="0.55", label="measured")
+        ax.plot(th, base * 1e3, "-", lw=1.2, color="tab:red", label="baseline")
+        if outcome.model:
+            ax.plot(th, aug * 1e3, "-", lw=1.2, color="tab:blue", label="augmented")
+        ax.set_ylabel(f"{valve} valve position [mm]")
+        ax.set_title(f"{run.name}: {valve} valve")
+        ax.axhline(0.0, color="k", lw=0.5)
+        ax.legend(loc="upper right", fontsize=8)
+        ax2 = axes[1, j]
+        ax2.plot(th, (m - base) * 1e3, "-", lw=0.8, color="tab:red", label="measured - baseline")
+        if outcome.model:
+            ax2.plot(th, (m - aug) * 1e3, "-", lw=0.8, color="tab:blue", label="measured - augmented")
+        ax2.axhline(0.0, color="k", lw=0.5)
+        ax2.set_xlabel("crank angle from TDC [deg]")
+        ax2.set_ylabel("residual [mm]")
+        ax2.set_xlim(0, 360)
+        ax2.set_xticks(range(0, 361, 45))
+        ax2.legend(loc="upper right", fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _residual_plot(path: Path, runs, outcome: Outcome):
+    fig, axes = plt.subplots(1, 2 if outcome.model else 1, figsize=(12 if outcome.model else 7, 4), squeeze=False,
+                             sharey=True)
+    panels = [("baseline", outcome.before)] + ([("augmented", outcome.after)] if outcome.model else [])
+    for ax, (label, ev) in zip(axes[0], panels):
+        for g in ev.gaps:
+            for v in g.valves:
+                ax.plot(v.crank_deg, v.residual_m * 1e3, lw=0.7, label=f"{g.run} ({v.valve})")
+        ax.axhline(0.0, color="k", lw=0.5)
+        ax.set_title(f"measured - {label}")
+        ax.set_xlabel("crank angle from TDC [deg]")
+        ax.set_xlim(0, 360)
+        ax.set_xticks(range(0, 361, 45))
+    axes[0, 0].set_ylabel("position residual [mm]")
+    axes[0, -1].legend(fontsize=6, loc="best")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _bars(path: Path, outcome: Outcome):
+    groups = [("fitted", [r.name for r in outcome.fit_runs])]
+    if outcome.held_runs:
+        groups.append(("held out", [r.name for r in outcome.held_runs]))
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.6))
+    x = np.arange(len(groups))
+    for ax, key, scale, unit in ((axes[0], "position_rms_m", 1e3, "position RMS [mm]"),
+                                 (axes[1], "delivery_error_pct", 1.0, "delivery error RMS [%]")):
+        b = [summary([g for g in outcome.before.gaps if g.run in names])[key] for _, names in groups]
+        a = [summary([g for g in outcome.after.gaps if g.run in names])[key] for _, names in groups]
+        b = [np.nan if v is None else v * scale for v in b]
+        a = [np.nan if v is None else v * scale for v in a]
+        ax.bar(x - 0.2, b, 0.4, color="tab:red", label="baseline")
+        ax.bar(x + 0.2, a, 0.4, color="tab:blue", label="augmented")
+        ax.set_xticks(x, [g for g, _ in groups])
+        ax.set_ylabel(unit)
+    axes[0].legend(fontsize=8)
+    added = ", ".join(a.key for a in outcome.model) or "nothing added"
+    fig.suptitle(f"gap before and after ({added})", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write_report(folder, outcome: Outcome, runs, result: dict, force: bool = False) -> Path:
+    """Write the report folder for a workflow outcome; returns its path."""
+    out = prepare_output_dir(folder, "--report", force=force)
+    (out / "summary.json").write_text(json.dumps(result, indent=2, allow_nan=False) + "\n")
+    df = _ranking_frame(outcome.ranking)
+    df.to_csv(out / "ranking.csv", index=False)
+    (out / "ranking.md").write_text("# Candidate effects, every round\n\n" + _markdown(df))
+    lines = ["Disagreements of the baseline model:"]
+    lines += [f"  - {s}" for s in outcome.disagreements_before] or ["  (none beyond the tolerances)"]
+    lines += ["", "Residual windows of the baseline, per run:"]
+    lines += [f"  - {s}" for s in window_sentences(outcome.findings_before)] or ["  (none)"]
+    lines += ["", "Effects added: " + (", ".join(a.key for a in outcome.model) or "none")]
+    lines += ["Disagreements left after adding them:"]
+    lines += [f"  - {s}" for s in outcome.disagreements_after] or ["  (none beyond the tolerances)"]
+    lines += ["", *[f"note: {n}" for n in outcome.notes]]
+    (out / "disagreements.txt").write_text("\n".join(lines) + "\n")
+    for run in runs:
+        if run.trace is not None and run.name in outcome.before.sims:
+            _trace_plot(out / f"traces_{run.name}.png", run, outcome)
+    _residual_plot(out / "residuals.png", runs, outcome)
+    _bars(out / "gap_bars.png", outcome)
+    return out

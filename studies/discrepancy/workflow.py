@@ -1,0 +1,649 @@
+"""The discrepancy workflow: which physics is the baseline model missing?
+
+Given measured runs (``studies/discrepancy/measured.py``), a simulator (run condition + applied
+effects -> one simulated revolution) and a library of candidate effects
+(``lumped/effects.py``), the workflow
+
+1. simulates the baseline for every run and measures the gap (``studies/discrepancy/gap.py``);
+2. splits the runs by operating condition into fitting and held-out runs;
+3. fits each candidate's parameters on the fitting runs (log space within bounds:
+   a grid then Brent's method for one parameter, ``least_squares`` for more), with
+   the position sensor's scale per valve and time offset profiled out (they are in
+   real data and must not pass for physics);
+4. scores every fit on the held-out runs, checks its parameters are physically
+   plausible and that it pays for its parameters (a BIC whose sample count is the
+   effective number of independent residuals, from their autocorrelation);
+5. adds the best candidate if it shrinks the held-out gap significantly (by a
+   fraction and by an absolute amount), refits the added effects jointly, and
+   repeats until no candidate helps.
+
+The result is a :class:`Outcome`; ``studies/cli/discrepancy.py`` turns it into the
+contract's JSON and ``studies/discrepancy/report.py`` into a report folder.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+from scipy.optimize import least_squares, minimize_scalar
+from tqdm import tqdm
+
+from geometry.errors import InputError
+from lumped.effects import Applied, Effect, Library
+
+from studies.discrepancy.gap import (
+    CycleTrace, Folded, GapScales, Nuisance, describe, findings, fit_nuisance, fold, predict, run_gap, summary,
+)
+from studies.discrepancy.measured import Run
+from geometry.errors import ModelFailure  # noqa: F401  (re-exported: raised when a run cannot be simulated)
+
+
+@dataclass(frozen=True)
+class RunCondition:
+    """What a simulator needs to know of a run (picklable and hashable: a cache key)."""
+
+    name: str
+    valve_type: str
+    speed_rpm: float
+    load_pressure_pa: float
+    air_content: float | None
+
+    @staticmethod
+    def of(run: Run) -> "RunCondition":
+        return RunCondition(run.name, run.valve_type, float(run.speed_rpm), float(run.load_pressure_pa),
+                            None if run.air_content is None else float(run.air_content))
+
+
+#: a simulator: (run condition, applied effects) -> one revolution of cyclic steady state
+Simulator = Callable[[RunCondition, tuple], CycleTrace]
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Knobs of the search (defaults are what the acceptance tests use)."""
+
+    scales: GapScales = GapScales()
+    min_rel_improvement: float = 0.3   # the held-out gap must shrink by this fraction ...
+    min_abs_improvement: float = 3.0   # ... and by this many gap units (GapScales): above what a
+                                       # 3 % discharge-coefficient error lets a wrong effect gain
+                                       # (2.4 units measured, docs/discrepancy.md)
+    max_bic_increase: float = 0.0      # an effect must not raise the fit BIC
+    n_grid: int = 6                    # coarse grid points of a one-parameter search (log bounds)
+    n_fine: int = 5                    # fine grid points between the best coarse point's neighbours
+    brent_xatol: float = 5e-4          # of the log-bounds range (~0.5 % for 4 decades)
+    brent_maxiter: int = 12
+    max_rounds: int = 3
+    holdout: tuple | None = None       # names of held-out runs (default: by condition)
+    workers: int = 1
+    offset_bounds_s: tuple = (-1e-3, 1e-3)
+    scale_bounds: tuple = (0.95, 1.05)
+
+
+@dataclass
+class CandidateFit:
+    """A candidate effect fitted on the fitting runs and scored on the held-out runs."""
+
+    effect: str
+    target: str
+    values: dict
+    reported: dict
+    fit_cost: float
+    held_cost: float | None
+    delta_bic: float
+    plausible_reason: str | None
+    n_sims: int
+    base_fit_cost: float
+    base_held_cost: float | None
+    nuisance: Nuisance = field(default_factory=Nuisance)
+    accepted: bool = False
+    failed: str | None = None
+    seconds: float = 0.0
+    model: tuple = ()                  # the augmented model: added effects (refitted) + this one
+
+    @property
+    def key(self) -> str:
+        return self.effect if self.target in ("both", "pump") else f"{self.effect}@{self.target}"
+
+    @property
+    def held_improvement(self) -> float | None:
+        """Fraction by which the held-out gap shrinks (None without held-out runs)."""
+        if self.held_cost is None or not self.base_held_cost:
+            return None
+        return 1.0 - self.held_cost / self.base_held_cost
+
+    @property
+    def fit_improvement(self) -> float:
+        return 1.0 - self.fit_cost / self.base_fit_cost if self.base_fit_cost else 0.0
+
+    def row(self, rank: int, round_: int) -> dict:
+        """One ranking-table row (JSON-safe: a failed fit's infinities become None)."""
+        return _json_safe({
+            "round": round_, "rank": rank, "effect": self.effect, "target": self.target,
+            "parameters": self.reported, "fit_cost": self.fit_cost, "held_out_cost": self.held_cost,
+            "held_out_improvement_pct": None if self.held_improvement is None else 100 * self.held_improvement,
+            "fit_improvement_pct": 100 * self.fit_improvement, "delta_bic": self.delta_bic,
+            "plausible": self.plausible_reason is None, "why_not_plausible": self.plausible_reason,
+            "simulations": self.n_sims, "seconds": self.seconds, "accepted": self.accepted,
+            "failed": self.failed,
+        })
+
+
+def _json_safe(obj):
+    """``obj`` with non-finite floats replaced by None (JSON has no infinity)."""
+    if isinstance(obj, dict):
+        return {k: _json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_json_safe(v) for v in obj]
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+@dataclass
+class Evaluation:
+    """A model evaluated on a set of runs: per-run gaps, dimensionless cost, the nuisances used."""
+
+    model: tuple
+    gaps: list
+    cost: float
+    fit_cost: float
+    held_cost: float | None
+    nuisance: Nuisance
+    sims: dict
+
+
+@dataclass
+class Outcome:
+    """Everything the workflow found (see :meth:`as_contract`)."""
+
+    model: tuple
+    library: Library
+    before: Evaluation
+    after: Evaluation
+    fit_runs: list
+    held_runs: list
+    ranking: list                   # rows over all rounds
+    disagreements_before: list
+    disagreements_after: list
+    findings_before: list
+    n_sims: int
+    seconds: float                  # wall-clock (simulations may run in worker processes)
+    excluded: dict
+    notes: list
+    valve_type: object = "disc"          # the context effects were fitted in (valve type or pump model)
+
+    def as_contract(self) -> dict:
+        """The contract's JSON keys plus the details behind them."""
+        names, params, targets = [], {}, {}
+        for a in self.model:
+            eff = self.library[a.name]
+            names.append(a.name)
+            params[a.name] = eff.report(a.value_dict, self.valve_type, a.target)
+            targets[a.name] = a.target
+
+        def gap_of(ev: Evaluation, runs) -> dict:
+            s = summary([g for g in ev.gaps if g.run in runs])
+            return {"position_rms_m": s["position_rms_m"], "delivery_error_pct": s["delivery_error_pct"],
+                    "position_excess_rms_m": s["position_excess_rms_m"]}
+
+        fit_names = [r.name for r in self.fit_runs]
+        held_names = [r.name for r in self.held_runs]
+        all_names = fit_names + held_names
+        held = None
+        if held_names:
+            hb, ha = gap_of(self.before, held_names), gap_of(self.after, held_names)
+            held = {
+                "runs": held_names,
+                "gap_before": hb,
+                "gap_after": ha,
+                "position_rms_reduction_pct": _reduction(hb["position_rms_m"], ha["position_rms_m"]),
+                "position_excess_reduction_pct": _reduction(hb["position_excess_rms_m"],
+                                                            ha["position_excess_rms_m"]),
+                "delivery_error_reduction_pct": _reduction(hb["delivery_error_pct"], ha["delivery_error_pct"]),
+                "cost_before": self.before.held_cost,
+                "cost_after": self.after.held_cost,
+            }
+        return {
+            "effects_added": names,
+            "parameters": params,
+            "targets": targets,
+            "gap_before": gap_of(self.before, all_names),
+            "gap_after": gap_of(self.after, all_names),
+            "disagreements": self.disagreements_before,
+            "disagreements_after": self.disagreements_after,
+            "held_out": held,
+            "fitted": {
+                "runs": fit_names,
+                "gap_before": gap_of(self.before, fit_names),
+                "gap_after": gap_of(self.after, fit_names),
+            },
+            "nuisance": {"before": self.before.nuisance.as_dict(), "after": self.after.nuisance.as_dict()},
+            "runs": [
+                {**gb.as_dict(), "held_out": gb.run in held_names,
+                 "after": {k: v for k, v in ga.as_dict().items() if k not in ("run", "speed_rpm", "load_pressure_pa")}}
+                for gb, ga in zip(self.before.gaps, self.after.gaps)
+            ],
+            "ranking": self.ranking,
+            "excluded_effects": self.excluded,
+            "simulations": self.n_sims,
+            "wall_seconds": self.seconds,
+            "notes": self.notes,
+        }
+
+
+def _reduction(before, after):
+    if before is None or after is None or before == 0:
+        return None
+    return 100.0 * (1.0 - after / before)
+
+
+# --------------------------------------------------------------------------- splitting
+
+
+def conditions(runs: list[Run], speed_tol=0.03, pressure_tol=0.15) -> list[list[Run]]:
+    """Group runs by operating condition (speed within 3 %, load pressure within 15 %), sorted."""
+    groups: list[list[Run]] = []
+    for r in sorted(runs, key=lambda r: (r.speed_rpm, r.load_pressure_pa, r.name)):
+        for g in groups:
+            g0 = g[0]
+            if (abs(r.speed_rpm - g0.speed_rpm) <= speed_tol * g0.speed_rpm
+                    and abs(r.load_pressure_pa - g0.load_pressure_pa) <= pressure_tol * g0.load_pressure_pa):
+                g.append(r)
+                break
+        else:
+            groups.append([r])
+    return groups
+
+
+def split(runs: list[Run], holdout: tuple | None = None) -> tuple[list[Run], list[Run]]:
+    """Fitting and held-out runs: every third operating condition (from the second) is held out.
+
+    ``holdout`` names the held-out runs explicitly. With one condition nothing is held out.
+    """
+    if holdout:
+        names = {r.name for r in runs}
+        for h in holdout:
+            if h not in names:
+                raise InputError("--holdout", f"no run named {h!r} in the dataset (runs: {', '.join(sorted(names))})")
+        held = [r for r in runs if r.name in holdout]
+        fit = [r for r in runs if r.name not in holdout]
+        if not fit:
+            raise InputError("--holdout", "every run is held out; leave at least one to fit on")
+        return fit, held
+    groups = conditions(runs)
+    if len(groups) < 2:
+        return list(runs), []
+    held = [r for i, g in enumerate(groups) if i % 3 == 1 for r in g]
+    fit = [r for r in runs if r not in held]
+    return fit, held
+
+
+# --------------------------------------------------------------------------- simulations
+
+
+class Simulations:
+    """Cached, optionally parallel simulations (one cache entry per run condition and model)."""
+
+    def __init__(self, simulator: Simulator, workers: int = 1):
+        self.simulator = simulator
+        self.workers = max(1, int(workers))
+        self.cache: dict = {}
+        self.count = 0
+        self._pool = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        if self._pool is not None:
+            self._pool.shutdown(cancel_futures=True)
+            self._pool = None
+
+    def many(self, jobs: list[tuple[RunCondition, tuple]]) -> list[CycleTrace | None]:
+        """Simulations of (condition, model) pairs; None where the model failed."""
+        todo = []
+        for job in jobs:
+            if job not in self.cache and job not in todo:
+                todo.append(job)
+        if todo:
+            if self.workers > 1 and len(todo) > 1:
+                if self._pool is None:
+                    self._pool = ProcessPoolExecutor(max_workers=self.workers)
+                results = list(self._pool.map(_safe_simulate, [self.simulator] * len(todo), todo))
+            else:
+                results = [_safe_simulate(self.simulator, j) for j in todo]
+            for job, res in zip(todo, results):
+                self.cache[job] = res
+            self.count += len(todo)
+        return [self.cache[j] for j in jobs]
+
+
+def _safe_simulate(simulator, job):
+    cond, model = job
+    try:
+        out = simulator(cond, model)
+    except (ArithmeticError, ValueError, RuntimeError) as exc:  # a model that fails is a bad fit, not a crash
+        return SimulationFailure(f"{type(exc).__name__}: {exc}")
+    if not all(np.all(np.isfinite(x)) for x in out.positions.values()) or not math.isfinite(out.delivery_m3_per_rev):
+        return SimulationFailure("non-finite result")
+    return out
+
+
+@dataclass(frozen=True)
+class SimulationFailure:
+    reason: str
+
+
+# --------------------------------------------------------------------------- the workflow
+
+
+class Workflow:
+    """The discrepancy search over one dataset (see the module docstring)."""
+
+    def __init__(self, runs: list[Run], simulator: Simulator, library: Library, settings: Settings = Settings(),
+                 progress: bool = True, context=None):
+        if not runs:
+            raise InputError("DATASET", "no runs")
+        usable = [r for r in runs if r.trace is not None or r.delivery_cc_per_rev is not None]
+        if not usable:
+            raise InputError("DATASET", "no run has a trace.csv or a measured delivery_cc_per_rev to compare with")
+        self.runs = usable
+        self.valve_type = usable[0].valve_type
+        # what effect priors are computed for: the pump model (its geometry, oil), or the valve type
+        self.context = context if context is not None else self.valve_type
+        self.library = library
+        self.settings = settings
+        self.progress = progress
+        self.folded = {r.name: fold(r) for r in usable if r.trace is not None}
+        self.fit_runs, self.held_runs = split(usable, settings.holdout)
+        self.conds = {r.name: RunCondition.of(r) for r in usable}
+        self.sims = Simulations(simulator, settings.workers)
+        self.notes: list[str] = []
+        self.last_failure: str | None = None
+
+    # -- evaluation -----------------------------------------------------------------
+
+    def _log(self, msg: str):
+        if self.progress:
+            tqdm.write(f"discrepancy: {msg}", file=sys.stderr)
+
+    def simulate(self, model: tuple, runs: list[Run]) -> dict:
+        res = self.sims.many([(self.conds[r.name], model) for r in runs])
+        return {r.name: s for r, s in zip(runs, res)}
+
+    def _nuisance(self, sims: dict) -> Nuisance:
+        fit = [r for r in self.fit_runs if r.trace is not None]
+        if not fit:
+            fit = [r for r in self.runs if r.trace is not None]
+        return fit_nuisance(fit, self.folded, sims, scale_bounds=self.settings.scale_bounds,
+                            offset_bounds_s=self.settings.offset_bounds_s)
+
+    def _fit_residuals(self, model: tuple) -> tuple[np.ndarray | None, Nuisance]:
+        """Scaled residuals on the fitting runs, nuisances profiled out (None if a simulation
+        failed): each position trace divided by the position tolerance and sqrt(samples), so
+        it weighs as its mean square; each delivery by the delivery tolerance."""
+        sims = self.simulate(model, self.fit_runs)
+        bad = [s for s in sims.values() if isinstance(s, SimulationFailure)]
+        if bad:
+            self.last_failure = bad[0].reason
+            return None, Nuisance()
+        nuis = self._nuisance(sims)
+        sc = self.settings.scales
+        parts = []
+        for r in self.fit_runs:
+            s = sims[r.name]
+            if r.name in self.folded:
+                f = self.folded[r.name]
+                for valve, th in f.crank_deg.items():
+                    res = f.position[valve] - predict(s, valve, th, r.speed_rpm, nuis)
+                    parts.append(res / (sc.position_m * math.sqrt(res.size)))
+            if r.delivery_m3_per_rev is not None:
+                parts.append(np.array([(s.delivery_m3_per_rev - r.delivery_m3_per_rev)
+                                       / r.delivery_m3_per_rev / sc.delivery_frac]))
+        return np.concatenate(parts), nuis
+
+    def fit_objective(self, model: tuple) -> tuple[float, Nuisance]:
+        """Cost on the fitting runs, nuisances profiled out (inf if a simulation failed)."""
+        res, nuis = self._fit_residuals(model)
+        return (math.inf, nuis) if res is None else (float(res @ res), nuis)
+
+    def residual_vector(self, model: tuple) -> np.ndarray | None:
+        """Residuals whose sum of squares is :meth:`fit_objective` (for least_squares)."""
+        return self._fit_residuals(model)[0]
+
+    def evaluate(self, model: tuple) -> Evaluation:
+        """Gaps of every run under ``model`` (nuisances fitted on the fitting runs)."""
+        sims = self.simulate(model, self.runs)
+        bad = [n for n, s in sims.items() if isinstance(s, SimulationFailure)]
+        if bad:
+            raise ModelFailure(f"the model failed for run {bad[0]}: {sims[bad[0]].reason}")
+        nuis = self._nuisance(sims)
+        gaps = []
+        for r in self.runs:
+            folded = self.folded.get(r.name)
+            if folded is None:
+                folded = Folded({}, {}, {})
+            gaps.append(run_gap(r, folded, sims[r.name], nuis))
+        sc = self.settings.scales
+        fit_names = {r.name for r in self.fit_runs}
+        held_names = {r.name for r in self.held_runs}
+        fit_cost = sum(g.cost(sc) for g in gaps if g.run in fit_names)
+        held_cost = sum(g.cost(sc) for g in gaps if g.run in held_names) if held_names else None
+        return Evaluation(model, gaps, fit_cost + (held_cost or 0.0), fit_cost, held_cost, nuis, sims)
+
+    def n_effective(self, ev: Evaluation) -> float:
+        """Effective number of independent residuals on the fitting runs.
+
+        Each position trace counts N (1 - rho) / (1 + rho) samples (rho: lag-1
+        autocorrelation of its residual, the AR(1) variance-inflation factor), each
+        measured delivery counts one.
+        """
+        n = 0.0
+        fit_names = {r.name for r in self.fit_runs}
+        for g in ev.gaps:
+            if g.run not in fit_names:
+                continue
+            for v in g.valves:
+                r = v.residual_m - np.mean(v.residual_m)
+                den = float(r @ r)
+                rho = float(r[1:] @ r[:-1]) / den if den > 0 else 0.0
+                rho = min(max(rho, 0.0), 0.999)
+                n += max(1.0, r.size * (1 - rho) / (1 + rho))
+            if g.delivery_error_pct is not None:
+                n += 1.0
+        return max(n, 2.0)
+
+    # -- fitting --------------------------------------------------------------------
+
+    def fit(self, base: tuple, effect: Effect, target: str, start: dict | None = None,
+            narrow: float | None = None) -> tuple[dict, float, Nuisance, int]:
+        """Fit ``effect`` at ``target`` on top of ``base``: (values, fit cost, nuisance, simulations used)."""
+        n0 = self.sims.count
+        params = effect.parameters_for(self.context, target)
+
+        def model_of(units) -> tuple:
+            vals = {p.name: p.from_unit(u) for p, u in zip(params, units)}
+            return base + (Applied.of(effect.name, target, vals),)
+
+        if not params:   # a pure switch: nothing to fit
+            units = []
+        elif len(params) == 1:
+            p = params[0]
+            if narrow is None:
+                grid = np.linspace(0.0, 1.0, self.settings.n_grid)
+            else:
+                u0 = p.to_unit(start[p.name])
+                grid = np.unique(np.clip(np.array([u0 - narrow, u0, u0 + narrow]), 0.0, 1.0))
+            # grids are simulated in one batch each (parallel), then evaluated from the cache;
+            # a finer grid around the best coarse point guards against the ripples an oscillating
+            # valve puts into the cost (a phase that slips by a cycle), Brent's method polishes
+            stages = [grid] if narrow is not None else [grid, None]
+            for stage in stages:
+                if stage is None:
+                    i = int(np.argmin(costs))
+                    a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+                    stage = np.linspace(a, b, self.settings.n_fine + 2)[1:-1]
+                    # an odd n_fine puts a fine point on the best coarse one: a duplicate would make
+                    # Brent's bracket below collapse to one side of the best point
+                    stage = stage[np.min(np.abs(stage[:, None] - grid[None, :]), axis=1) > 1e-9]
+                    grid = np.sort(np.concatenate([grid, stage]))
+                self.sims.many([(self.conds[r.name], model_of([u])) for u in stage for r in self.fit_runs])
+                costs = [self.fit_objective(model_of([u]))[0] for u in grid]
+            i = int(np.argmin(costs))
+            lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+            best_u, best_c = float(grid[i]), costs[i]
+            if hi > lo:
+                res = minimize_scalar(lambda u: self.fit_objective(model_of([u]))[0], bounds=(lo, hi),
+                                      method="bounded",
+                                      options={"xatol": self.settings.brent_xatol,
+                                               "maxiter": self.settings.brent_maxiter})
+                if res.fun < best_c:
+                    best_u, best_c = float(res.x), float(res.fun)
+            units = [best_u]
+        else:
+            x0 = np.array([p.to_unit((start or effect.prior_values(self.context, target))[p.name]) for p in params])
+
+            def fun(u):
+                r = self.residual_vector(model_of(u))
+                return np.full(self._nres, 1e3) if r is None else r
+
+            r0 = self.residual_vector(model_of(x0))
+            self._nres = r0.size if r0 is not None else 1
+            res = least_squares(fun, x0, bounds=(0.0, 1.0), diff_step=0.01, x_scale=0.1,
+                                max_nfev=15 * len(params), method="trf")
+            units = list(res.x)
+        cost, nuis = self.fit_objective(model_of(units))
+        vals = {p.name: p.from_unit(u) for p, u in zip(params, units)}
+        return vals, cost, nuis, self.sims.count - n0
+
+    def refine(self, model: tuple) -> tuple:
+        """Refit the added effects one at a time with the others fixed (one pass, narrow brackets)."""
+        model = list(model)
+        for i, a in enumerate(model):
+            others = tuple(model[:i] + model[i + 1:])
+            eff = self.library[a.name]
+            if not eff.parameters_for(self.context, a.target):
+                continue
+            vals, *_ = self.fit(others, eff, a.target, start=a.value_dict, narrow=0.1)
+            model[i] = Applied.of(a.name, a.target, vals)
+        return tuple(model)
+
+    # -- the search -----------------------------------------------------------------
+
+    def run(self) -> Outcome:
+        t0 = time.perf_counter()
+        st = self.settings
+        cands, excluded = self.library.candidates(self.context, self.runs)
+        if not self.held_runs:
+            self.notes.append("one operating condition only: nothing held out; significance from the fit runs "
+                              "and the information criterion alone")
+        self._log(f"{len(self.runs)} runs ({len(self.fit_runs)} fitted, {len(self.held_runs)} held out), "
+                  f"{len(cands)} candidate effects")
+        before = self.evaluate(())
+        current, cur = (), before
+        ranking: list[dict] = []
+        for rnd in range(1, st.max_rounds + 1):
+            added = {a.name for a in current}
+            todo = [(e, t) for e, t in cands if e.name not in added]
+            if not todo:
+                break
+            n_eff = self.n_effective(cur)
+            fits: list[CandidateFit] = []
+            bar = tqdm(todo, desc=f"discrepancy round {rnd}", unit="effect", file=sys.stderr,
+                       disable=not self.progress, leave=False)
+            for eff, target in bar:
+                bar.set_postfix_str(f"{eff.name}@{target} ({self.sims.count} simulations)")
+                t1 = time.perf_counter()
+                fits.append(self._candidate(current, cur, eff, target, n_eff))
+                fits[-1].seconds = time.perf_counter() - t1
+            bar.close()
+            order = sorted(fits, key=_rank_key)
+            winner = next((f for f in order if self._significant(f)), None)
+            if winner is not None:
+                winner.accepted = True
+            ranking += [f.row(i + 1, rnd) for i, f in enumerate(order)]
+            if winner is None:
+                self._log(f"round {rnd}: no candidate shrinks the held-out gap significantly; stop")
+                break
+            self._log(f"round {rnd}: adding {winner.key} {winner.reported} "
+                      f"(held-out gap -{100 * (winner.held_improvement or winner.fit_improvement):.0f} %)")
+            # refit the added effects once more without a new candidate, so the next round's
+            # candidates are compared with the best the current effects can do: a candidate must
+            # not take the credit for a better fit of the effects already added
+            current = self.refine(winner.model)
+            cur = self.evaluate(current)
+        after = cur
+        sc = st.scales
+        fb = [f for g in before.gaps for f in findings(g, sc)]
+        fa = [f for g in after.gaps for f in findings(g, sc)]
+        n_runs = {}
+        for r in self.runs:
+            for v in r.measured_valves:
+                n_runs[v] = n_runs.get(v, 0) + 1
+            if r.delivery_cc_per_rev is not None:
+                n_runs["pump"] = n_runs.get("pump", 0) + 1
+        self.sims.__exit__()
+        return Outcome(current, self.library, before, after, self.fit_runs, self.held_runs, ranking,
+                       describe(fb, n_runs), describe(fa, n_runs), fb, self.sims.count,
+                       time.perf_counter() - t0, excluded, self.notes, self.context)
+
+    def _candidate(self, current: tuple, cur: Evaluation, eff: Effect, target: str, n_eff: float) -> CandidateFit:
+        n0 = self.sims.count
+        vt = self.context
+        try:
+            vals, cost, nuis, _ = self.fit(current, eff, target, start=eff.prior_values(vt, target))
+        except (ArithmeticError, ValueError, RuntimeError) as exc:
+            return CandidateFit(eff.name, target, eff.prior_values(vt, target), {}, math.inf, None, math.inf,
+                                "fit failed", self.sims.count - n0, cur.fit_cost, cur.held_cost,
+                                failed=f"{type(exc).__name__}: {exc}")
+        if not math.isfinite(cost):
+            return CandidateFit(eff.name, target, vals, eff.report(vals, vt, target), math.inf, None, math.inf,
+                                "fit failed", self.sims.count - n0, cur.fit_cost, cur.held_cost,
+                                failed=f"the model failed for every value tried ({self.last_failure})")
+        model = current + (Applied.of(eff.name, target, vals),)
+        if current:
+            # the effects added before were fitted without this one: refit them with it, so the
+            # candidate is judged by the augmented model it would give, not against their bias
+            model = self.refine(model)
+            vals = model[-1].value_dict
+            cost, nuis = self.fit_objective(model)
+        held = None
+        if self.held_runs:
+            try:
+                held = self.evaluate(model).held_cost
+            except ModelFailure as exc:
+                return CandidateFit(eff.name, target, vals, eff.report(vals, vt, target), cost, None, math.inf,
+                                    "held-out simulation failed", self.sims.count - n0, cur.fit_cost,
+                                    cur.held_cost, failed=str(exc))
+        base_fit = self.fit_objective(current)[0]
+        k = max(1, len(eff.parameters_for(vt, target)))   # a pure switch still costs one degree of freedom
+        dbic = (n_eff * math.log(max(cost, 1e-12) / max(base_fit, 1e-12)) + k * math.log(n_eff)
+                if math.isfinite(cost) else math.inf)
+        why = eff.plausibility(vals, vt, target)
+        for a in model[:-1]:   # the refitted earlier effects must stay plausible too
+            why = why or self.library[a.name].plausibility(a.value_dict, vt, a.target)
+        return CandidateFit(eff.name, target, vals, eff.report(vals, vt, target), cost, held, dbic, why,
+                            self.sims.count - n0, base_fit, cur.held_cost, nuisance=nuis, model=model)
+
+    def _significant(self, f: CandidateFit) -> bool:
+        st = self.settings
+        if f.failed or f.plausible_reason is not None or not f.delta_bic < -st.max_bic_increase:
+            return False
+        if f.held_cost is not None and f.base_held_cost is not None:
+            gain = f.base_held_cost - f.held_cost
+            return gain >= st.min_abs_improvement and gain >= st.min_rel_improvement * f.base_held_cost
+        gain = f.base_fit_cost - f.fit_cost   # no held-out runs: the fit must improve clearly
+        return gain >= st.min_abs_improvement and gain >= st.min_rel_improvement * f.base_fit_cost
+
+
+def _rank_key(f: CandidateFit):
+    """Eligible (plausible, BIC-paying) candidates first, then by held-out cost, then fit cost."""
+    eligible = f.failed is None and f.plausible_reason is None and f.delta_bic < 0
+    score = f.held_cost if f.held_cost is not None else f.fit_cost
+    return (not eligible, score if math.isfinite(score) else math.inf, f.fit_cost)

@@ -1,0 +1,237 @@
+"""The piston pump as a sweep model (``model = "pump"`` or a pump model in a sweep file; protocol in studies/sweeps/sweep.py).
+
+Inputs, each a factor or a fixed value (SI units; names in CONTRACT.md, "Sweeps"):
+
+- the pump model: ``model`` (a shipped name or a model file; the sweep file's ``[sweep]
+  model`` when that names a pump model), or ``valve`` ("disc" | "reed": the thesis model
+  of that valve type);
+- operating point: ``speed_rpm``, ``load_pressure`` [Pa, absolute] (default: the model's
+  ``[operating]``), ``air_content`` (R of eq 4.11; default: the model's);
+- run settings: ``revolutions`` (default 5), ``method`` ("fast", the default, or
+  "reference"), ``rtol``, ``atol``, ``circuit``;
+- any key of the model file by its path (:func:`lumped.model_file.with_values`):
+  ``pump.dead_volume``, ``valves.delivery.spring.stiffness``, ``valves.spring.stiffness``
+  (both valves), ``valves.delivery.geometry.thickness`` (a reed's geometry),
+  ``effects.seat_compliance.delivery.k_seat``, ``effects.piston_leakage = true|false``.
+  The names of the first sweep files (``inlet.<field>``, ``delivery.<field>``,
+  ``valves.<field>`` with the Python field names, ``effect.<name>``) are translated.
+
+Outputs: delivery per revolution (eq 4.17), volumetric efficiency, per valve the peak
+opening, opening and closing crank angles (rad from TDC), stop contacts, the largest
+impact speeds on the seat and the stop, the pressure-drop energy per revolution, then the
+cylinder pressure extremes, cyclic steady state, mass balance error, CPU seconds.
+``status`` is "ok", or "not_cyclic" when the last two revolutions still differ by more
+than the steady tolerance (or than rtol, if larger).
+"""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+
+from geometry.declare import specs
+from geometry.errors import InputError
+
+OUTPUTS = {
+    "delivery_m3_per_rev": "float64",
+    "volumetric_efficiency": "float64",
+    "inlet_peak_opening_m": "float64",
+    "delivery_peak_opening_m": "float64",
+    "inlet_opening_angle_rad": "float64",
+    "inlet_closing_angle_rad": "float64",
+    "delivery_opening_angle_rad": "float64",
+    "delivery_closing_angle_rad": "float64",
+    "inlet_stop_contacts": "int64",
+    "delivery_stop_contacts": "int64",
+    "inlet_seat_impact_m_s": "float64",
+    "delivery_seat_impact_m_s": "float64",
+    "inlet_stop_impact_m_s": "float64",
+    "delivery_stop_impact_m_s": "float64",
+    "inlet_loss_j": "float64",
+    "delivery_loss_j": "float64",
+    "valve_loss_j": "float64",
+    "min_cylinder_pressure_pa": "float64",
+    "max_cylinder_pressure_pa": "float64",
+    "cyclic_steady": "bool",
+    "cycle_change": "float64",
+    "mass_balance_error": "float64",
+    "revolutions_run": "int64",
+    "cpu_seconds": "float64",
+}
+MAIN_RESPONSES = ("delivery_m3_per_rev", "volumetric_efficiency", "delivery_peak_opening_m")
+REQUIRED = ()
+OPERATING = ("model", "valve", "speed_rpm", "load_pressure", "air_content", "revolutions", "method", "rtol",
+             "atol", "circuit")
+
+
+# --------------------------------------------------------------------------- names of the first sweep files
+@lru_cache(maxsize=None)
+def _legacy_fields() -> dict:
+    """Python field name -> model-file key of the valve kinds, pump and oil (from the declarations)."""
+    from lumped.oil import Oil
+    from lumped.pump import Pump
+    from lumped.valve import KINDS
+
+    out = {"pump": {n: s.key for n, s in specs(Pump) if s.key}, "oil": {n: s.key for n, s in specs(Oil) if s.key},
+           "valve": {}}
+    for k in KINDS.values():
+        out["valve"].update({n: s.key for n, s in specs(k.params) if s.key})
+    out["oil"]["density_atm"] = "density"
+    return out
+
+
+def translate(name: str) -> str:
+    """A model key path for an input name (first-version names such as ``delivery.compliant_seat_stiffness``
+    or ``effect.piston_leakage`` become ``effects.seat_compliance.delivery.k_seat``, ``effects.piston_leakage``)."""
+    comp, _, attr = name.partition(".")
+    if comp == "effect":
+        return f"effects.{attr}"
+    fields = _legacy_fields()
+    if comp in ("inlet", "delivery", "valves") and attr and "." not in attr:
+        where = "valves" if comp == "valves" else f"valves.{comp}"
+        if attr in ("compliant_seat_stiffness",):
+            return f"effects.seat_compliance.{comp}.k_seat" if comp != "valves" else "effects.seat_compliance.k_seat"
+        if attr in fields["valve"]:
+            return f"{where}.{fields['valve'][attr]}"
+    if comp in ("pump", "oil") and attr in fields[comp] and fields[comp][attr] != attr:
+        return f"{comp}.{fields[comp][attr]}"
+    return name
+
+
+def _base_name(design: dict) -> str:
+    if "model" in design:
+        return str(design["model"])
+    if "valve" in design:
+        return f"thesis-{design['valve']}"
+    raise InputError("model", "missing: give the pump model (model = NAME|FILE, or valve = disc|reed) as a factor "
+                              "or in [fixed]")
+
+
+def _positive(name, v, integer=False):
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+        raise InputError(name, f"must be a positive number, got {v!r}")
+    if integer and int(v) != v:
+        raise InputError(name, f"must be an integer, got {v!r}")
+
+
+def check(name: str, value) -> None:
+    """Vet one operating input (name and value) before a sweep runs; model keys are checked by
+    :func:`check_inputs` against the base model."""
+    from geometry.declare import check_value
+    from lumped.model import Operating
+
+    if name == "valve":
+        if value not in ("disc", "reed"):
+            raise InputError(name, f"expected disc or reed, got {value!r}")
+    elif name == "model":
+        from lumped.model_file import load_model
+        if not isinstance(value, str):
+            raise InputError(name, f"expected a model name or file, got {value!r}")
+        load_model(value, field=name)
+    elif name == "speed_rpm":
+        check_value(value, Operating.__dataclass_fields__["speed_rpm"].metadata["valvelab"], name)
+    elif name == "load_pressure":
+        check_value(value, Operating.__dataclass_fields__["load_pressure"].metadata["valvelab"], name)
+    elif name == "air_content":
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < 0.5:
+            raise InputError(name, f"must be a volume fraction in [0, 0.5), got {value!r}")
+    elif name == "revolutions":
+        _positive(name, value, integer=True)
+        if not 2 <= value <= 100_000:
+            raise InputError(name, f"must be from 2 (cyclic steady state compares two) to 100000, got {value!r}")
+    elif name in ("rtol", "atol"):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value < 0.1:
+            raise InputError(name, f"must be in (0, 0.1), got {value!r}")
+    elif name == "method":
+        if value not in ("fast", "reference"):
+            raise InputError(name, f"expected 'fast' or 'reference', got {value!r}")
+    elif name == "circuit":
+        if value not in ("simplified", "complete"):
+            raise InputError(name, f"expected simplified or complete, got {value!r}")
+    elif "." not in name:
+        raise InputError(name, "unknown input; expected an operating input (" + ", ".join(OPERATING)
+                         + ") or a model key path such as pump.dead_volume, valves.delivery.spring.stiffness, "
+                           "effects.seat_compliance.delivery.k_seat")
+
+
+def check_inputs(fixed: dict, factors: dict) -> None:
+    """Every model key of the sweep (fixed values and each factor's values or range ends) applied to its base
+    model(s), before anything runs: an unknown key or an implausible value names the input."""
+    from lumped.model_file import load_model, with_values
+
+    bases = set()
+    for src in ("model", "valve"):
+        if src in fixed:
+            bases = {_base_name({src: fixed[src]})}
+            break
+        if src in factors:
+            bases = {_base_name({src: v}) for v in factors[src]}
+            break
+    if not bases:
+        raise InputError("model", "missing: give the pump model (model = NAME|FILE, or valve = disc|reed) as a "
+                                  "factor or in [fixed]")
+    keys = {k: [v] for k, v in fixed.items() if k not in OPERATING}
+    keys.update({k: list(v) for k, v in factors.items() if k not in OPERATING})
+    base_values = {translate(k): v[0] for k, v in keys.items()}
+    for name, vals in keys.items():
+        # a key must make sense for at least one base model (a reed key in a disc-and-reed sweep:
+        # the disc designs then fail one by one, recorded with their error)
+        first_error = None
+        for b in sorted(bases):
+            model = load_model(b, field="model")
+            try:
+                for v in vals:
+                    with_values(model, dict(base_values, **{translate(name): v}))
+                first_error = None
+                break
+            except InputError as exc:
+                first_error = first_error or exc
+        if first_error is not None:
+            exc = first_error
+            if exc.field in base_values or exc.field.startswith(translate(name)):
+                raise InputError(name, exc.message) from None
+            raise InputError(name, f"{exc.field}: {exc.message}") from None
+
+
+def build_model(design: dict):
+    """The PumpModel of a design: its base model with its key paths applied (validated)."""
+    from lumped.model_file import load_model, with_values
+
+    model = load_model(_base_name(design), field="model")
+    values = {translate(k): v for k, v in design.items() if k not in OPERATING}
+    return with_values(model, values)
+
+
+def evaluate(design: dict) -> dict:
+    """Simulate one design (fast path by default) and return the sweep outputs."""
+    from lumped.cycle import simulate
+
+    model = build_model(design)
+    kw = {k: design[k] for k in ("rtol", "atol") if k in design}
+    res = simulate(model, design.get("speed_rpm"), design.get("load_pressure"),
+                   air_content=design.get("air_content"), revolutions=int(design.get("revolutions", 5)),
+                   circuit=design.get("circuit"), method=design.get("method", "fast"), **kw)
+    return outputs_of(res)
+
+
+def outputs_of(res) -> dict:
+    """The sweep outputs of a PumpResult."""
+    out = {
+        "delivery_m3_per_rev": res.delivery_per_rev,
+        "volumetric_efficiency": res.volumetric_efficiency,
+        "min_cylinder_pressure_pa": res.min_cylinder_pressure,
+        "max_cylinder_pressure_pa": res.max_cylinder_pressure,
+        "cyclic_steady": res.cyclic_steady, "cycle_change": res.cycle_change,
+        "mass_balance_error": res.mass_balance_error, "revolutions_run": res.revolutions,
+        "cpu_seconds": res.cpu_seconds,
+        "status": "ok" if res.cyclic_steady else "not_cyclic",
+    }
+    for pos, v in res.valves.items():
+        out.update({
+            f"{pos}_peak_opening_m": v.peak_opening, f"{pos}_opening_angle_rad": v.opening_angle,
+            f"{pos}_closing_angle_rad": v.closing_angle, f"{pos}_stop_contacts": v.stop_contacts,
+            f"{pos}_seat_impact_m_s": v.seat_impact_velocity, f"{pos}_stop_impact_m_s": v.stop_impact_velocity,
+            f"{pos}_loss_j": v.energy_loss,
+        })
+    out["valve_loss_j"] = res.inlet.energy_loss + res.delivery.energy_loss
+    return out
