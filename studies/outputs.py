@@ -6,8 +6,10 @@ anything else that already exists is refused unless the user passes ``--force``.
 
 from __future__ import annotations
 
+import csv
 import os
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 from geometry.errors import InputError
@@ -97,3 +99,65 @@ def format_cell(v, missing: str = "-") -> str:
     if isinstance(v, float):
         return f"{v:.6g}"
     return str(v)
+
+
+@dataclass(frozen=True)
+class Table:
+    """A table of rows (dicts, SI values) with notes: what ``valvelab table``, ``validate`` and the
+    reports print and write. Columns are the keys in first-seen order."""
+
+    title: str
+    rows: tuple[dict, ...]
+    notes: tuple[str, ...] = ()
+    id: str | None = None
+
+    @staticmethod
+    def of(result, title: str, id: str | None = None) -> "Table":
+        """A Table from a table function's result: a list of rows or ``{"rows", "notes"}``."""
+        if isinstance(result, dict):
+            return Table(title, tuple(result["rows"]), tuple(result.get("notes", ())), id)
+        return Table(title, tuple(result), (), id)
+
+    @property
+    def columns(self) -> list[str]:
+        cols: list[str] = []
+        for row in self.rows:
+            cols += [k for k in row if k not in cols]
+        return cols
+
+    def to_frame(self):
+        """pandas DataFrame of the rows (missing cells NaN/None)."""
+        import pandas as pd
+
+        return pd.DataFrame(list(self.rows), columns=self.columns)
+
+    def to_markdown(self) -> str:
+        """A Markdown table under a ``#`` title, the notes as a list after it."""
+        cols = self.columns
+        lines = [f"# {self.title}", "", "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+        lines += ["| " + " | ".join(format_cell(r.get(k), missing="") for k in cols) + " |" for r in self.rows]
+        if self.notes:
+            lines += [""] + [f"- {n}" for n in self.notes]
+        return "\n".join(lines) + "\n"
+
+    def to_text(self) -> str:
+        """Aligned plain-text columns (the command line's readable output)."""
+        cols = self.columns
+        cells = [[format_cell(row.get(c)) for c in cols] for row in self.rows]
+        widths = [max(len(c), *(len(x[i]) for x in cells)) for i, c in enumerate(cols)]
+        out = [self.title, "  ".join(c.ljust(w) for c, w in zip(cols, widths)), "  ".join("-" * w for w in widths)]
+        out += ["  ".join(x.ljust(w) for x, w in zip(line, widths)) for line in cells]
+        out += [f"note: {n}" for n in self.notes]
+        return "\n".join(out)
+
+    def write(self, stem: Path) -> list[Path]:
+        """Write ``stem.csv`` and ``stem.md``; returns both paths."""
+        cols = self.columns
+        csv_path, md_path = Path(stem).with_suffix(".csv"), Path(stem).with_suffix(".md")
+        with open(csv_path, "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=cols)
+            w.writeheader()
+            for r in self.rows:
+                w.writerow({k: format_cell(r.get(k), missing="") for k in cols})
+        md_path.write_text(self.to_markdown())
+        return [csv_path, md_path]

@@ -3,8 +3,7 @@
 from __future__ import annotations
 
 from geometry.errors import InputError
-from studies.outputs import format_cell
-from studies.tables import registry
+from studies.tables import Table, registry
 
 HELP = "regenerate a table of the thesis (computed values beside the thesis's)"
 
@@ -39,14 +38,4 @@ def run(args) -> dict:
 
 
 def render(r: dict) -> str:
-    rows = r["rows"]
-    cols: list[str] = []
-    for row in rows:
-        cols += [k for k in row if k not in cols]
-    cells = [[format_cell(row.get(c)) for c in cols] for row in rows]
-    widths = [max(len(c), *(len(x[i]) for x in cells)) for i, c in enumerate(cols)]
-    out = [f"Table {r['id']}", "  ".join(c.ljust(w) for c, w in zip(cols, widths))]
-    out.append("  ".join("-" * w for w in widths))
-    out += ["  ".join(x.ljust(w) for x, w in zip(line, widths)) for line in cells]
-    out += [f"note: {n}" for n in r.get("notes", [])]
-    return "\n".join(out)
+    return Table.of(r, f"Table {r['id']}").to_text()

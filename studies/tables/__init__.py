@@ -13,6 +13,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
+from studies.outputs import Table
+
+__all__ = ["Table", "ThesisTable", "registry"]
+
 
 @dataclass(frozen=True)
 class ThesisTable:

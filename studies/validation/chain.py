@@ -8,7 +8,6 @@ one and with the thesis's modeled value.
 
 from __future__ import annotations
 
-import csv
 import os
 import sys
 from concurrent.futures import ProcessPoolExecutor
@@ -18,7 +17,7 @@ from pathlib import Path
 from lumped.cycle import PumpResult, simulate
 from lumped.model import PumpModel
 from lumped.model_file import load_model
-from studies.outputs import format_cell
+from studies.outputs import Table
 from studies.tables.thesis import experiments
 
 #: (valve, measured valve, condition) -> thesis figure of that valve's position trace
@@ -243,26 +242,8 @@ def reed_model_from(props) -> PumpModel:
 
 # ----------------------------------------------------------------- output files
 def write_table(rows: list[dict], stem: Path, title: str, notes: list[str] = ()) -> list[Path]:
-    """Write rows as ``stem.csv`` and ``stem.md`` (Markdown table with notes)."""
-    cols: list[str] = []
-    for r in rows:
-        cols += [k for k in r if k not in cols]
-    csv_path, md_path = stem.with_suffix(".csv"), stem.with_suffix(".md")
-    with open(csv_path, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=cols)
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: _cell(r.get(k)) for k in cols})
-    lines = [f"# {title}", "", "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
-    lines += ["| " + " | ".join(_cell(r.get(k)) for k in cols) + " |" for r in rows]
-    if notes:
-        lines += [""] + [f"- {n}" for n in notes]
-    md_path.write_text("\n".join(lines) + "\n")
-    return [csv_path, md_path]
-
-
-def _cell(v) -> str:
-    return format_cell(v, missing="")   # an empty CSV/Markdown cell, not "-"
+    """Write rows as ``stem.csv`` and ``stem.md`` (Markdown table with notes): a :class:`studies.outputs.Table`."""
+    return Table(title, tuple(rows), tuple(notes)).write(stem)
 
 
 def plot_case(case: dict, result: PumpResult, path: Path) -> Path:
