@@ -116,8 +116,7 @@ def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> BeamR
 def reed_properties(reed: Reed, mesh_size: float | None = None) -> ReedProperties:
     """omega_n [rad/s], kappa [Pa/m] and gamma1..3 (Table 3.4, static shape) of the E-B beam FE model."""
     r = solve(reed, mesh_size)
-    return ReedProperties.from_shape("beam", reed, r.omega_n, r.kappa, r.s, r.psi_static,
-                                     dofs=r.dofs, mesh_size=r.mesh_size)
+    return ReedProperties.from_solution("beam", reed, r)
 
 
 def modes(reed: Reed, n: int, mesh_size: float | None = None) -> BeamResult:
@@ -128,8 +127,7 @@ def modes(reed: Reed, n: int, mesh_size: float | None = None) -> BeamResult:
 def properties_and_modes(reed: Reed, n: int, mesh_size: float | None = None):
     """(ReedProperties, BeamResult with n modes) from one solution."""
     r = modes(reed, n, mesh_size)
-    props = ReedProperties.from_shape("beam", reed, r.omega_n, r.kappa, r.s, r.psi_static,
-                                      dofs=r.dofs, mesh_size=r.mesh_size)
+    props = ReedProperties.from_solution("beam", reed, r)
     return props, r
 
 

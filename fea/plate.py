@@ -174,8 +174,7 @@ def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> Plate
 def reed_properties(reed: Reed, mesh_size: float | None = None) -> ReedProperties:
     """omega_n [rad/s], kappa [Pa/m] and gamma1..3 (Table 3.4, static shape) of the Kirchhoff plate."""
     r = solve(reed, mesh_size)
-    return ReedProperties.from_shape("plate", reed, r.omega_n, r.kappa, r.s, r.psi_static,
-                                     dofs=r.dofs, mesh_size=r.mesh_size)
+    return ReedProperties.from_solution("plate", reed, r)
 
 
 def modes(reed: Reed, n: int, mesh_size: float | None = None) -> PlateResult:
@@ -186,8 +185,7 @@ def modes(reed: Reed, n: int, mesh_size: float | None = None) -> PlateResult:
 def properties_and_modes(reed: Reed, n: int, mesh_size: float | None = None):
     """(ReedProperties, PlateResult with at least n modes) from one solution."""
     r = modes(reed, n, mesh_size)
-    props = ReedProperties.from_shape("plate", reed, r.omega_n, r.kappa, r.s, r.psi_static,
-                                      dofs=r.dofs, mesh_size=r.mesh_size)
+    props = ReedProperties.from_solution("plate", reed, r)
     return props, r
 
 

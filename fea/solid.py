@@ -296,8 +296,7 @@ def reed_properties(reed: Reed, mesh_size: float | None = None) -> ReedPropertie
 @functools.lru_cache(maxsize=16)
 def _reed_properties(reed: Reed, mesh_size: float | None) -> ReedProperties:
     r = solve(reed, mesh_size)
-    return ReedProperties.from_shape("solid", reed, r.omega_n, r.kappa, r.s, r.psi_static,
-                                     dofs=r.dofs, mesh_size=r.mesh_size)
+    return ReedProperties.from_solution("solid", reed, r)
 
 
 def modes(reed: Reed, n: int, mesh_size: float | None = None) -> SolidResult:
@@ -312,8 +311,7 @@ def modes(reed: Reed, n: int, mesh_size: float | None = None) -> SolidResult:
 def properties_and_modes(reed: Reed, n: int, mesh_size: float | None = None):
     """(ReedProperties, SolidResult with at least n modes) from one solution of each half model."""
     r = modes(reed, n, mesh_size)
-    props = ReedProperties.from_shape("solid", reed, r.omega_n, r.kappa, r.s, r.psi_static,
-                                      dofs=r.dofs, mesh_size=r.mesh_size)
+    props = ReedProperties.from_solution("solid", reed, r)
     return props, r
 
 

@@ -90,6 +90,12 @@ class ReedProperties:
                    gamma3=g3, h_eff=effective_thickness(g1, kappa, reed.material.density, omega_n),
                    s=np.asarray(s), psi=np.asarray(psi), dofs=dofs, mesh_size=mesh_size)
 
+    @classmethod
+    def from_solution(cls, fidelity: str, reed, r) -> "ReedProperties":
+        """Properties of an FE solution ``r`` (``omega_n``, ``kappa``, ``s``, ``psi_static``, ``dofs``, ``mesh_size``)."""
+        return cls.from_shape(fidelity, reed, r.omega_n, r.kappa, r.s, r.psi_static, dofs=r.dofs,
+                              mesh_size=r.mesh_size)
+
     def as_contract(self, geometry: str) -> dict:
         """The JSON object of ``valvelab reed --json`` (CONTRACT.md)."""
         return {

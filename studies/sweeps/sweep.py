@@ -41,6 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from geometry import validate
+from geometry.declare import flatten
 from geometry.errors import InputError
 
 SAMPLERS = ("grid", "lhs", "sobol", "random")
@@ -188,17 +189,6 @@ def _parse_factor(name: str, d, sampler: str) -> Factor:
 _FACTOR_KEYS = {"low", "high", "scale", "levels", "values", "integer"}
 
 
-def _flatten(d: dict, prefix: str = "") -> dict:
-    """TOML dotted keys (inlet.f1 = 0.5 makes a nested table) back to dotted names."""
-    out = {}
-    for k, v in d.items():
-        if isinstance(v, dict):
-            out.update(_flatten(v, f"{prefix}{k}."))
-        else:
-            out[f"{prefix}{k}"] = v
-    return out
-
-
 def _flatten_factors(d: dict, prefix: str = "") -> dict:
     """[factors.inlet.f1] nests like a dotted key: a table without factor keys is a namespace."""
     out = {}
@@ -271,7 +261,7 @@ def parse_spec(doc: dict, text: str = "", base_dir: Path | None = None) -> Sweep
     fixed_doc = doc.get("fixed", {})
     if not isinstance(fixed_doc, dict):
         raise InputError("fixed", "must be a table of name = value")
-    fixed_doc = _flatten(fixed_doc)
+    fixed_doc = flatten(fixed_doc)
     fixed = tuple((k, _scalar(v, f"fixed.{k}")) for k, v in fixed_doc.items())
     pump_model = _pump_model_name(model, base_dir)
     if pump_model is not None:
