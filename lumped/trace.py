@@ -28,11 +28,43 @@ def unit_of(name: str) -> str:
 
 @dataclass(frozen=True)
 class Trace:
-    """Time series of pump signals (SI units); ``time`` increasing, 0 at TDC."""
+    """Time series of pump signals (SI units); ``time`` increasing, 0 at TDC.
+
+    ``speed_rpm`` may be None for a measured trace whose run states the speed (crank angles
+    then need it: :meth:`fold` and :attr:`crank_angle` raise).
+    """
 
     time: np.ndarray
-    speed_rpm: float
+    speed_rpm: float | None = None
     signals: dict = field(default_factory=dict)
+
+    @classmethod
+    def measured(cls, time_s, positions: dict, cylinder_pressure_pa=None, load_pressure_pa=None,
+                 speed_rpm: float | None = None) -> "Trace":
+        """A trace as the measured-data reader gives it: valve positions {"inlet"/"delivery": [m]},
+        optional cylinder and load pressures [Pa]."""
+        signals = {f"{valve}_position": np.asarray(x) for valve, x in positions.items()}
+        if cylinder_pressure_pa is not None:
+            signals["cylinder_pressure"] = np.asarray(cylinder_pressure_pa)
+        if load_pressure_pa is not None:
+            signals["load_pressure"] = np.asarray(load_pressure_pa)
+        return cls(np.asarray(time_s), speed_rpm, signals)
+
+    # the names of the measured-data format (CONTRACT.md trace.csv columns)
+    @property
+    def time_s(self) -> np.ndarray:
+        """Time from TDC [s] (``time``)."""
+        return self.time
+
+    @property
+    def cylinder_pressure_pa(self) -> np.ndarray | None:
+        """Cylinder pressure [Pa, absolute], None when the trace has none."""
+        return self.signals.get("cylinder_pressure")
+
+    @property
+    def load_pressure_pa(self) -> np.ndarray | None:
+        """Load pressure [Pa, absolute], None when the trace has none."""
+        return self.signals.get("load_pressure")
 
     def __getattr__(self, name):
         # signals read as attributes: trace.cylinder_pressure
@@ -44,6 +76,8 @@ class Trace:
     @property
     def crank_angle(self) -> np.ndarray:
         """Crank angle [rad] from TDC (not wrapped)."""
+        if self.speed_rpm is None:
+            raise ValueError("the trace has no speed_rpm: crank angles need one")
         return np.asarray(self.time) * self.speed_rpm * 2.0 * np.pi / 60.0
 
     @property
@@ -59,6 +93,8 @@ class Trace:
     def fold(self) -> "Trace":
         """The samples sorted by crank angle within one revolution: ``time`` becomes the time
         after TDC within the revolution (stable order, so repeated revolutions interleave)."""
+        if self.speed_rpm is None:
+            raise ValueError("the trace has no speed_rpm: folding needs one")
         period = 60.0 / self.speed_rpm
         t = np.mod(np.asarray(self.time, dtype=float), period)
         order = np.argsort(t, kind="stable")

@@ -27,7 +27,7 @@ def measured_run(x_of_theta, rpm=600.0, valve="delivery", noise=0.0, seed=0, del
     t = np.arange(n) / 1e4
     th = np.mod(t * rpm * 6, 360)
     x = x_of_theta(th) + np.random.default_rng(seed).normal(0, noise, n) if noise else x_of_theta(th)
-    return Run("r", "disc", rpm, 2.8e6, valve, delivery, None, Trace(t, {valve: x}))
+    return Run("r", "disc", rpm, 2.8e6, valve, delivery, None, Trace.measured(t, {valve: x}, speed_rpm=rpm))
 
 
 def sim_of(x_of_theta, valve="delivery", delivery=1.7e-6):

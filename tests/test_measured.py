@@ -18,7 +18,7 @@ def make_run(name="r1", valve="delivery", revs=1, **kw) -> Run:
     positions = {"inlet": x, "delivery": -x} if valve == "both" else {valve: x}
     fields = dict(valve_type="disc", speed_rpm=RPM, load_pressure_pa=2.79e6, measured_valve=valve,
                   delivery_cc_per_rev=1.79, air_content=0.013)
-    fields["trace"] = Trace(t, positions, p, p * 0 + 2.79e6)
+    fields["trace"] = Trace.measured(t, positions, p, p * 0 + 2.79e6)
     fields.update(kw)
     return Run(name=name, **fields)
 

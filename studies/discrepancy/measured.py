@@ -23,6 +23,7 @@ import tomli_w
 
 from geometry import validate
 from geometry.errors import InputError
+from lumped.trace import Trace
 
 from studies.outputs import check_new_file, prepare_output_dir
 
@@ -48,16 +49,6 @@ SPEED_RANGE_RPM = (10.0, 20000.0)
 MIN_SAMPLES_PER_REV = 90       # coarser than 4 crank degrees cannot time valve events
 WHOLE_REV_TOLERANCE = 0.02     # fraction of a revolution (plus one sample)
 UNIFORM_DT_TOLERANCE = 0.01    # relative deviation of a time step from the median
-
-
-@dataclass(frozen=True)
-class Trace:
-    """Time series of one run, SI units; ``time_s`` uniform and increasing, zero at TDC."""
-
-    time_s: np.ndarray
-    positions: dict = field(default_factory=dict)  # "inlet"/"delivery" -> position [m]
-    cylinder_pressure_pa: np.ndarray | None = None
-    load_pressure_pa: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -331,7 +322,8 @@ def read_trace(path: Path, measured_valve: str | None, speed_rpm: float) -> tupl
                 "(a gauge pressure? add the atmospheric pressure)",
             )
         pressures[col] = p
-    return Trace(t, positions, pressures["cylinder_pressure_pa"], pressures["load_pressure_pa"]), measured_valve
+    return Trace.measured(t, positions, pressures["cylinder_pressure_pa"], pressures["load_pressure_pa"],
+                         speed_rpm), measured_valve
 
 
 def read_run(folder: str | Path) -> Run:

@@ -93,7 +93,7 @@ def synthesize(simulator, valve_type: str, conditions: list[Condition], truth: t
             name=rc.name, valve_type=valve_type, speed_rpm=float(c.speed_rpm),
             load_pressure_pa=float(c.load_pressure_pa), measured_valve=c.measured_valve,
             delivery_cc_per_rev=float(delivery * 1e6), air_content=c.air_content,
-            trace=Trace(t, positions, pcyl, pload),
+            trace=Trace.measured(t, positions, pcyl, pload, c.speed_rpm),
         ))
     truth_doc = {
         "seed": int(seed),
