@@ -34,6 +34,8 @@ COMMANDS: dict[str, str] = {
     "sweep-plot": "studies.cmd_sweep_plot",
     "synth": "studies.cmd_synth",
     "discrepancy": "studies.cmd_discrepancy",
+    "sensitivity": "studies.cmd_sensitivity",
+    "optimize": "studies.cmd_optimize",
 }
 
 
