@@ -226,7 +226,7 @@ def test_disc_pump_total_indices_rank_like_one_at_a_time_differences(client, tmp
     (("speed_rpm = [593.0]", "speed_rpm = [593.0]\nload_pressure_mpa = [2.76]"), "operating.load_pressure_mpa"),
     (("speed_rpm = [593.0]", "speed_rpm = [5.0]"), "operating.speed_rpm[0]"),
     (('model = "thesis-disc"', 'model = "no-such-pump.toml"'), "model"),
-    (("[run]", "[run]\nobjectives = [\"max y\"]"), "run.objectives"),
+    (("[run]", "[run]\npopulation = 10"), "run.population"),   # an optimize key (objectives alone is shared)
     (('"valves.spring.stiffness" = [170.0, 260.0]', '"valves.spring.stiffness" = {low = 1.0, high = 2.0, '
                                                    'distribution = "normal"}'), 'variables."valves.spring.stiffness".mean'),
 ])

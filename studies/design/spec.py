@@ -56,6 +56,7 @@ RUN_KEYS = {
     "optimize": {"objectives", "aggregate", "algorithm", "population", "generations", "seed", "revolutions",
                  "max_revolutions", "integrator", "rtol", "atol", "max_evaluations"},
 }
+SHARED_RUN_KEYS = {"sensitivity": {"objectives"}, "optimize": {"outputs", "samples"}}
 TOP_KEYS = {
     "sensitivity": {"model", "description", "fixed", "operating", "variables", "derived", "run", "stress"},
     "optimize": {"model", "description", "fixed", "operating", "variables", "derived", "run", "constraints",
@@ -473,7 +474,9 @@ def _model_digest(name: str, kind: str) -> str:
 def _parse_run(run: dict, command: str) -> dict:
     if not isinstance(run, dict):
         raise InputError("run", "expected a table")
-    extra = set(run) - RUN_KEYS[command]
+    # one spec may serve both commands (CONTRACT's minimal spec lists outputs, objectives and samples): the
+    # other command's keys of that example are accepted and ignored
+    extra = set(run) - RUN_KEYS[command] - SHARED_RUN_KEYS[command]
     if extra:
         k = sorted(extra)[0]
         hint = " (an optimize key)" if k in RUN_KEYS["optimize"] else (

@@ -71,17 +71,18 @@ def check_variables(spec: DesignSpec, model) -> None:
         return
     from lumped.model_file import with_values
 
-    # each key path on its own (at its centre value): an unknown key names its variable
-    for v in spec.variables:
-        if v.role == "key":
-            try:
-                with_values(model, {v.name: centre[v.name]})
-            except InputError as exc:
-                raise InputError(f"variables.{_q(v.name)}", exc.message if exc.field.endswith(v.name) else
-                                 f"{exc.field}: {exc.message}") from None
     try:
         _apply(model, spec, centre)
     except InputError as exc:
+        # each key path on its own (at its centre value): an unknown key names its variable. Only when the
+        # centre design fails: alone, a key may break a constraint its [derived] partners restore.
+        for v in spec.variables:
+            if v.role == "key":
+                try:
+                    with_values(model, {v.name: centre[v.name]})
+                except InputError as exc1:
+                    raise InputError(f"variables.{_q(v.name)}", exc1.message if exc1.field.endswith(v.name) else
+                                     f"{exc1.field}: {exc1.message}") from None
         raise InputError("variables", f"the design at the centre of the ranges is invalid: {exc}") from None
     for v in spec.variables:
         pts = v.check_points()
