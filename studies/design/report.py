@@ -153,9 +153,10 @@ def plot_front(path: Path, objectives, catalogue, all_f: np.ndarray | None, fron
         fx = [d["objectives_fast"][oi.output] for d in front]
         fy = [d["objectives_fast"][oj.output] for d in front]
         ax.plot(fx, fy, "o", mfc="none", color="C0", label="front (fast, in the loop)")
-        rx = [d["objectives"][oi.output] for d in front]
-        ry = [d["objectives"][oj.output] for d in front]
-        flagged = [d.get("fea_flagged") for d in front]
+        checked = [d for d in front if d.get("rechecked", True)]   # recheck.max_designs: only those re-checked
+        rx = [d["objectives"][oi.output] for d in checked]
+        ry = [d["objectives"][oj.output] for d in checked]
+        flagged = [d.get("fea_flagged") for d in checked]
         ax.plot([a for a, f in zip(rx, flagged) if not f], [b for b, f in zip(ry, flagged) if not f], "x",
                 color="C1", label="front re-checked (reference integrator)")
         if any(flagged):
