@@ -135,8 +135,18 @@ def _complete_generations(out: Path) -> int:
     return sum(1 for g in (out / "generations").glob("gen-*") if (g / "results.parquet").is_file())
 
 
+def test_a_rerun_replays_without_recomputing(client, tmp_path):
+    """The same study run again in its folder: every generation is read back (nothing computed), same front."""
+    small = ZDT.replace("population = 40", "population = 8").replace("generations = 80", "generations = 4")
+    first = run_optimize(_spec(small), tmp_path / "o", client=client, progress=False)
+    again = run_optimize(_spec(small), tmp_path / "o", client=client, progress=False)
+    assert first["computed"] == 8 * 4 and again["computed"] == 0 and again["skipped"] == 8 * 4
+    assert [d["variables"] for d in again["designs"]] == [d["variables"] for d in first["designs"]]
+
+
+@pytest.mark.slow
 def test_killed_optimisation_replays_without_recomputing(client, tmp_path):
-    """SIGKILL the CLI a few generations in; the rerun replays the recorded generations (no evaluation twice) and
+    """(slow: a subprocess killed and rerun) SIGKILL the CLI a few generations in; the rerun replays the recorded generations (no evaluation twice) and
     ends with exactly the front of an uninterrupted run."""
     log = tmp_path / "evals.log"
     small = ZDT.replace(f'model = "{MODEL}"', 'model = "test_optimize"').replace("population = 40", "population = 12") \

@@ -275,7 +275,15 @@ def test_cli_on_an_existing_scheduler(client, tmp_path):
     assert res["computed"] == 16 * 5 and res["workers"] == 2
     assert any("evaluate_batch" in k for k in client.run_on_scheduler(
         lambda dask_scheduler: [str(t) for t in dask_scheduler.task_prefixes]))
-    bad = subprocess.run([*args[:6], str(tmp_path / "o2"), "--scheduler", "tcp://127.0.0.1:9", "--json"],
+
+
+@pytest.mark.slow
+def test_cli_refuses_an_unreachable_scheduler(tmp_path):
+    """(slow: dask retries for the 10 s connect timeout; the sweep's test covers the same path)"""
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC.replace(f'model = "{MODEL}"', 'model = "test_sensitivity"').replace("2048", "16"))
+    bad = subprocess.run([sys.executable, "-m", "studies", "sensitivity", str(spec), "--out", str(tmp_path / "o2"),
+                          "--scheduler", "tcp://127.0.0.1:9", "--json"],
                          cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=120)
     assert bad.returncode == 2 and "--scheduler" in bad.stderr and not (tmp_path / "o2").exists()
 
@@ -317,3 +325,23 @@ def test_killed_study_resumes_without_recomputing(tmp_path):
     assert len(second) == 640 - recorded
     done = pd.read_parquet(out / "runs" / "results.parquet")
     assert len(done) == 640 and done["status"].eq("ok").all()
+
+
+def test_a_valve_that_never_reseats_has_no_timing():
+    """With the squeeze film the disc is held off its seat all revolution (the raw simulation's open interval is
+    the whole revolution and it never lands on the seat): its opening and closing angles are missing, not 0 deg."""
+    from lumped.cycle import simulate
+    from lumped.model_file import load_model, with_values
+    from studies.design.evaluate import evaluate
+
+    model = with_values(load_model("thesis-disc"), {"effects.squeeze_film": True})
+    raw = simulate(model, 593.0, 2.76e6, rtol=1e-4, atol=1e-6)
+    for v in (raw.inlet, raw.delivery):
+        assert v.seat_impact_velocity == 0.0
+        assert abs(math.remainder(v.closing_angle - v.opening_angle, 2 * math.pi)) < 1e-9
+    point = {"model": "thesis-disc", "speed_rpm": 593.0, "load_pressure": 2.76e6, "rtol": 1e-4, "atol": 1e-6}
+    on = evaluate(dict(point, **{"effects.squeeze_film": True}))
+    off = evaluate(dict(point, **{"effects.squeeze_film": False}))
+    for pos in ("inlet", "delivery"):
+        assert on[f"{pos}_opening_angle_rad"] is None and on[f"{pos}_closing_angle_rad"] is None
+        assert 0.0 < off[f"{pos}_opening_angle_rad"] < 2 * math.pi and off[f"{pos}_closing_angle_rad"] > 0.0
