@@ -27,7 +27,7 @@ from geometry.errors import InputError
 HELPERS = frozenset({"flags"})
 #: the order commands are listed in ``valvelab --help`` (others follow alphabetically)
 ORDER = ("validate", "pump", "model", "reed", "modes", "check", "seat", "table", "lts", "sweep",
-         "sweep-plot", "synth", "discrepancy")
+         "sweep-plot", "sensitivity", "optimize", "synth", "discrepancy")
 
 
 def _discover() -> dict[str, str]:

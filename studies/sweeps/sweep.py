@@ -597,26 +597,28 @@ def _default_batch(n_todo: int, n_workers: int) -> int:
     return max(1, min(50, math.ceil(n_todo / (20 * n_workers))))
 
 
-def _prepare_folder(out: Path, spec: SweepSpec, fmt: str, force: bool):
-    """Create the sweep folder, or check that an existing one holds this very sweep."""
+def _prepare_folder(out: Path, spec: SweepSpec, fmt: str, force: bool, digest: str | None = None):
+    """Create the sweep folder, or check that an existing one holds this very sweep (``digest``: the spec's,
+    or that of the spec and its given designs)."""
     from studies.outputs import MARKER, prepare_output_dir
 
+    digest = digest or spec.digest
     stamp = out / ".sweep-digest"
     if out.exists() and (out / MARKER).exists() and stamp.is_file():
         old = stamp.read_text().split()
-        if old[0] != spec.digest and not force:
+        if old[0] != digest and not force:
             raise InputError(
                 "--out", f"{out} holds a different sweep (its {SPEC_FILE} differs); choose another folder or --force"
             )
         if len(old) > 1 and old[1] != fmt and not force:
             raise InputError("--format", f"{out} holds a {old[1]} sweep; resume it with --format {old[1]}")
-        if old[0] != spec.digest or (len(old) > 1 and old[1] != fmt):
+        if old[0] != digest or (len(old) > 1 and old[1] != fmt):
             for name in ("results.csv", "results.parquet", DESIGNS_FILE, SPEC_FILE):
                 (out / name).unlink(missing_ok=True)
             if (out / PARTS_DIR).is_dir():
                 shutil.rmtree(out / PARTS_DIR)
     prepare_output_dir(out, "--out", force)
-    stamp.write_text(f"{spec.digest} {fmt}\n")
+    stamp.write_text(f"{digest} {fmt}\n")
     (out / SPEC_FILE).write_text(spec.text or _spec_to_toml(spec))
 
 
@@ -640,19 +642,27 @@ def _spec_to_toml(spec: SweepSpec) -> str:
     return tomli_w.dumps(doc)
 
 
-def _designs(out: Path, spec: SweepSpec) -> list[dict]:
-    """The designs, sampled once and kept in the folder so a resume sees the very same list."""
+def _designs(out: Path, spec: SweepSpec, given: list[dict] | None = None) -> list[dict]:
+    """The designs, sampled once (or ``given``) and kept in the folder so a resume sees the very same list."""
     import pandas as pd
 
     path = out / DESIGNS_FILE
     if path.is_file():
         df = pd.read_parquet(path)
         return [{k: (v.item() if hasattr(v, "item") else v) for k, v in r.items()} for r in df.to_dict("records")]
-    designs = sample_designs(spec)
+    designs = sample_designs(spec) if given is None else [dict(d) for d in given]
     tmp = path.with_suffix(".tmp")
     pd.DataFrame(designs, columns=[f.name for f in spec.factors]).to_parquet(tmp, index=False)
     os.replace(tmp, path)
     return designs
+
+
+def designs_digest(spec: SweepSpec, designs: list[dict]) -> str:
+    """A hash of a spec and an explicit list of designs (resume safety of run_sweep(designs=...))."""
+    h = hashlib.sha256(spec.digest.encode())
+    for d in designs:
+        h.update(repr(sorted(d.items())).encode())
+    return h.hexdigest()[:16]
 
 
 def run_sweep(
@@ -667,12 +677,18 @@ def run_sweep(
     force: bool = False,
     retry_failed: bool = False,
     progress: bool = True,
+    designs: list[dict] | None = None,
+    desc: str = "sweep",
 ) -> dict:
     """Run (or resume) a sweep into folder ``out``; return a summary dict.
 
     ``client``: an existing ``distributed.Client`` to use; else ``scheduler`` (an address)
     to connect to; else a ``LocalCluster`` of ``n_workers`` single-threaded processes is
     started and closed again.
+
+    ``designs``: run these designs ({factor: value}, in order) instead of sampling the spec's
+    (the samplers of ``valvelab sensitivity`` and ``optimize``); the folder's digest then covers
+    them, so a rerun resumes only with the very same list. ``desc``: the progress bar's label.
     """
     model = load_model(spec.model)
     check_spec(spec, model)
@@ -681,9 +697,10 @@ def run_sweep(
     if batch_size is not None and batch_size < 1:
         raise InputError("--batch-size", f"must be a positive integer, got {batch_size}")
     out = Path(out)
-    _prepare_folder(out, spec, fmt, force)
+    digest = None if designs is None else designs_digest(spec, designs)
+    _prepare_folder(out, spec, fmt, force, digest)
     store = open_store(out, spec, model, fmt)
-    designs = _designs(out, spec)
+    designs = _designs(out, spec, designs)
     t_start = time.perf_counter()
 
     done = store.read()
@@ -719,7 +736,7 @@ def run_sweep(
         fixed = spec.fixed_dict
         from tqdm import tqdm
 
-        bar = tqdm(total=len(designs), initial=summary["skipped"], desc="sweep", unit="design",
+        bar = tqdm(total=len(designs), initial=summary["skipped"], desc=desc, unit="design",
                    file=sys.stderr, disable=not progress, smoothing=0.05)
         try:
             futures = client.map(evaluate_batch, [spec.model] * len(batches), [fixed] * len(batches), batches,

@@ -1,0 +1,74 @@
+"""``valvelab sensitivity SPEC.toml --out DIR``: Sobol indices or Morris screening of pump outputs (CONTRACT.md)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from geometry.errors import InputError
+
+HELP = ("global sensitivity of pump outputs to model parameters: Sobol indices with bootstrap intervals or Morris "
+        "screening (SALib), run on a dask cluster, resumable")
+
+
+def configure(p):
+    p.add_argument("spec", help="sensitivity spec TOML (model, operating points, variables, run.outputs)")
+    p.add_argument("--out", default=None, help="study folder (default: sensitivity-<spec name>); rerun to resume")
+    add_cluster_flags(p)
+    p.add_argument("--model", default=None, metavar="NAME|FILE", help="the base pump model, overriding the spec's")
+
+
+def add_cluster_flags(p):
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="dask scheduler address (e.g. tcp://host:8786); default: a local cluster")
+    p.add_argument("--workers", type=int, default=None, help="local cluster worker processes (default: one per core)")
+    p.add_argument("--batch-size", type=int, default=None, help="evaluations per dask task (default: automatic)")
+    p.add_argument("--force", action="store_true", help="start over in a folder that holds another study")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+
+
+def check_cluster_flags(args) -> None:
+    if args.scheduler is not None and args.workers is not None:
+        raise InputError("--workers", "applies to the local cluster only; the scheduler at --scheduler has its own")
+    if args.workers is not None and args.workers < 1:
+        raise InputError("--workers", f"must be a positive integer, got {args.workers}")
+    if args.batch_size is not None and args.batch_size < 1:
+        raise InputError("--batch-size", f"must be a positive integer, got {args.batch_size}")
+
+
+def run(args) -> dict:
+    from studies.sweeps.design.sensitivity import run_sensitivity
+    from studies.sweeps.design.spec import load_spec
+
+    check_cluster_flags(args)
+    spec = load_spec(args.spec, "sensitivity", model_override=args.model)
+    out = Path(args.out) if args.out else Path(f"sensitivity-{Path(args.spec).stem}")
+    try:
+        return run_sensitivity(spec, out, scheduler=args.scheduler, workers=args.workers, batch_size=args.batch_size,
+                               force=args.force, progress=not args.no_progress)
+    except KeyboardInterrupt:
+        sys.stderr.write(f"sensitivity interrupted: the evaluations finished so far are in {out}; "
+                         "rerun the same command to resume\n")
+        raise
+
+
+def render(r: dict) -> str:
+    from studies.sweeps.design.sensitivity import describe_index
+
+    lines = [f"{r['method']} sensitivity of {r['model']}: {len(r['variables'])} variables, {r['designs']} designs x "
+             f"{len(r['operating_points'])} operating points = {r['evaluations']} evaluations in {r['out']}",
+             f"  computed {r['computed']}, already done {r['skipped']}, failed {r['failed']}; "
+             f"{r['wall_seconds']:.1f} s wall"
+             + (f", {r['designs_per_hour']:.0f} evaluations/hour" if r["computed"] else "")]
+    keys = ("S1", "ST") if r["method"] == "sobol" else ("mu_star", "sigma")
+    by = {}
+    for x in r["indices"]:
+        by.setdefault((x["output"], x["operating_point"]), []).append(x)
+    for (o, pt), rows in by.items():
+        rows.sort(key=lambda x: -(x.get(keys[1] if r["method"] == "sobol" else keys[0]) or -1e300))
+        lines.append(f"  {o} at {pt}:")
+        for x in rows:
+            lines.append(f"    {x['variable']:45s} {keys[0]} {describe_index(x[keys[0]]):>8s}  "
+                         f"{keys[1]} {describe_index(x[keys[1]]):>8s}")
+    lines.append(f"  table: {r['files']['markdown']}")
+    return "\n".join(lines)

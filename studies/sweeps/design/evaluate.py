@@ -1,0 +1,107 @@
+"""One pump design at one operating point, as a sweep model (protocol in :mod:`studies.sweeps.sweep`).
+
+The inputs are those of :mod:`studies.sweeps.pump` (``model``, ``speed_rpm``, ``load_pressure`` [Pa],
+``revolutions``, ``method``, ``rtol``, ``atol`` and model-file key paths) plus:
+
+- ``max_revolutions``: continue past ``revolutions`` until cyclic steady state, at most this many;
+- ``stress_calibration_inlet`` / ``stress_calibration_delivery``: the calibration factor of that
+  reed valve's bending stress estimate (:mod:`studies.sweeps.design.stress`; 0 or absent: no stress).
+
+The outputs are the sweep's (:data:`studies.sweeps.pump.OUTPUTS`) plus per valve ``kappa_pa_m``,
+``omega_rad_s`` (reed valves), the estimated bending stress at maximum lift ``reed_stress_pa``,
+at the peak opening ``reed_stress_peak_pa``, the uncalibrated Euler-Bernoulli values
+``reed_stress_eb_pa`` (the largest along the reed, before the calibration factor).
+
+The designs of a study run each operating point as its own row; consecutive rows of one
+design reuse the model built for the first (:func:`_model_for`).
+"""
+
+from __future__ import annotations
+
+import math
+
+from studies.sweeps import pump as sweep_pump
+from studies.sweeps.pump import OPERATING, translate
+
+EXTRA = ("max_revolutions", "stress_calibration_inlet", "stress_calibration_delivery")
+_REED_KEYS = ("kappa_pa_m", "omega_rad_s", "reed_stress_pa", "reed_stress_peak_pa", "reed_stress_eb_pa")
+OUTPUTS = {**sweep_pump.OUTPUTS, **{f"{pos}_{k}": "float64" for pos in ("inlet", "delivery") for k in _REED_KEYS}}
+MAIN_RESPONSES = sweep_pump.MAIN_RESPONSES
+REQUIRED = ("model",)
+
+_cache: dict = {"key": None, "model": None}
+
+
+def check(name: str, value) -> None:
+    """Vet one input before a run (the key paths are checked by :mod:`studies.sweeps.design.spec` against the model)."""
+    from geometry.errors import InputError
+
+    if name == "max_revolutions":
+        if isinstance(value, bool) or not isinstance(value, int) or not 2 <= value <= 100_000:
+            raise InputError(name, f"must be an integer from 2 to 100000, got {value!r}")
+    elif name.startswith("stress_calibration_"):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or value < 0:
+            raise InputError(name, f"must be a non-negative number, got {value!r}")
+    else:
+        sweep_pump.check(name, value)
+
+
+def model_values(design: dict) -> dict:
+    """The model-file key paths of a design (every input that is not an operating or run input)."""
+    return {translate(k): v for k, v in design.items() if k not in OPERATING and k not in EXTRA}
+
+
+def _model_for(design: dict):
+    from lumped.model_file import load_model, with_values
+
+    values = model_values(design)
+    key = (design["model"], tuple((k, repr(v)) for k, v in values.items()))
+    if _cache["key"] != key:
+        if any(k.endswith("fidelity") and v in ("beam", "plate", "solid") for k, v in values.items()) or \
+                any(getattr(v, "fidelity", None) in ("beam", "plate", "solid")
+                    for v in (load_model(design["model"], field="model").valve(p) for p in ("inlet", "delivery"))):
+            from studies.sweeps.design.fea_tasks import ensure_gmsh
+
+            ensure_gmsh()
+        _cache["model"] = None
+        _cache["key"] = key
+        _cache["model"] = with_values(load_model(design["model"], field="model"), values)
+    if _cache["model"] is None:  # the build raised for this key before
+        _cache["key"] = None
+        return _model_for(design)
+    return _cache["model"]
+
+
+def evaluate(design: dict) -> dict:
+    """Simulate the design at its operating point and return the outputs (fast path unless ``method``)."""
+    from lumped.cycle import simulate
+
+    model = _model_for(design)
+    kw = {k: design[k] for k in ("rtol", "atol") if k in design}
+    res = simulate(model, design.get("speed_rpm"), design.get("load_pressure"),
+                   air_content=design.get("air_content"), revolutions=int(design.get("revolutions", 5)),
+                   max_revolutions=design.get("max_revolutions"), circuit=design.get("circuit"),
+                   method=design.get("method", "fast"), **kw)
+    out = sweep_pump.outputs_of(res)
+    for pos in ("inlet", "delivery"):
+        # a valve that never reseats (open through the whole revolution, e.g. held off its seat by the squeeze
+        # film's C2 u / x^3) has no opening or closing: lumped.cycle reports its open interval as the whole
+        # revolution (opening = closing); missing, not a timing of 0 deg
+        a, b = out.get(f"{pos}_opening_angle_rad"), out.get(f"{pos}_closing_angle_rad")
+        if a is not None and b is not None and abs(math.remainder(b - a, 2 * math.pi)) < 1e-9:
+            out[f"{pos}_opening_angle_rad"] = out[f"{pos}_closing_angle_rad"] = None
+    from studies.sweeps.design.stress import lift_deflection, reed_outputs
+
+    cal = {pos: float(design.get(f"stress_calibration_{pos}", 0.0) or 0.0) for pos in ("inlet", "delivery")}
+    skey = (_cache["key"], tuple(cal.items()))
+    if _cache.get("stress_key") != skey:   # design-level: once per design, not per operating point
+        _cache["stress_key"], _cache["stress"] = None, reed_outputs(model, cal)
+        _cache["stress_key"] = skey
+    row = dict(_cache["stress"])
+    for pos in ("inlet", "delivery"):
+        at_stop, peak = row[f"{pos}_reed_stress_pa"], getattr(res, pos).peak_opening
+        if at_stop is not None and peak is not None:
+            v = model.valve(pos)
+            row[f"{pos}_reed_stress_peak_pa"] = at_stop * lift_deflection(v, peak) / lift_deflection(v)
+    out.update(row)
+    return out

@@ -1,0 +1,188 @@
+"""Designs x operating points on dask, through the sweep machinery (:func:`studies.sweeps.sweep.run_sweep`).
+
+A study folder (``--out``) holds the spec (``spec.toml``), its digest and one sweep folder per
+batch of evaluations (``runs/`` for a sensitivity study, ``generations/gen-NNNN/`` for an
+optimisation, ``calibration/``, ``recheck-fea/``, ``recheck-reference/``). Each is a regular
+resumable sweep store: a rerun of the same command skips every evaluation already recorded,
+and a failed evaluation is recorded with its status and message.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from geometry.errors import InputError
+from studies.sweeps import sweep
+
+STAMP = ".design-digest"
+SPEC_COPY = "spec.toml"
+
+
+class Cluster:
+    """A dask client, started on first use: the scheduler at ``scheduler`` or a LocalCluster of ``workers``."""
+
+    def __init__(self, scheduler: str | None = None, workers: int | None = None, client=None):
+        if workers is not None and workers < 1:
+            raise InputError("--workers", f"must be a positive integer, got {workers}")
+        self.scheduler, self.n_workers, self.client = scheduler, workers, client
+        self._own = None
+        self._given = client is not None
+
+    def get(self):
+        if self.client is None:
+            from distributed import Client, LocalCluster
+
+            if self.scheduler:
+                try:
+                    self.client = Client(self.scheduler, timeout=sweep.CONNECT_TIMEOUT)
+                except OSError as exc:
+                    raise InputError("--scheduler", f"cannot connect to {self.scheduler} ({exc})") from None
+            else:
+                self._own = LocalCluster(n_workers=self.n_workers or sweep.default_workers(), threads_per_worker=1,
+                                         processes=True, dashboard_address=None, silence_logs=40)
+                self.client = Client(self._own)
+        return self.client
+
+    @property
+    def workers(self) -> int:
+        if self.client is None:
+            return self.n_workers or sweep.default_workers()
+        return max(1, len(self.client.scheduler_info().get("workers", {})))
+
+    def check_reachable(self) -> None:
+        """Connect now to a --scheduler (a bad address is an input error before any computation)."""
+        if self.scheduler:
+            self.get()
+
+    def close(self) -> None:
+        if not self._given and self.client is not None:
+            self.client.close()
+            self.client = None
+        if self._own is not None:
+            self._own.close()
+            self._own = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+# --------------------------------------------------------------------------- the study folder
+def prepare_study(out: Path, spec, force: bool, subfolders: tuple[str, ...]) -> Path:
+    """Create the study folder, or check that it holds this very study (else refuse, or start over with force)."""
+    from studies.outputs import MARKER, check_output_dir, prepare_output_dir
+
+    out = Path(out)
+    check_output_dir(out, "--out", force)
+    stamp = out / STAMP
+    if out.is_dir() and (out / MARKER).exists() and stamp.is_file():
+        old = stamp.read_text().split()
+        if old and old[0] != spec.digest:
+            if not force:
+                raise InputError("--out", f"{out} holds a different {spec.command} study (its spec differs); choose "
+                                          "another folder or pass --force to start over")
+            for name in subfolders:
+                if (out / name).is_dir():
+                    shutil.rmtree(out / name)
+    elif out.is_dir() and any(out.iterdir()) and (out / MARKER).exists() and not stamp.is_file():
+        # a valvelab folder of another kind (a sweep...): refuse unless forced
+        if not force:
+            raise InputError("--out", f"{out} holds other valvelab results; choose another folder or pass --force")
+    prepare_output_dir(out, "--out", force)
+    stamp.write_text(f"{spec.digest} {spec.command}\n")
+    if spec.text:
+        (out / SPEC_COPY).write_text(spec.text)
+    return out
+
+
+def _factor_of(name: str, values: list):
+    nums = [v for v in values if isinstance(v, (int, float)) and not isinstance(v, bool)]
+    if len(nums) == len(values):
+        if all(isinstance(v, int) for v in values):
+            return sweep.Factor(name, low=float(min(values)), high=float(max(values)), integer=True)
+        return sweep.Factor(name, low=float(min(nums)), high=float(max(nums)))
+    uniq = []
+    for v in values:
+        if v not in uniq:
+            uniq.append(v)
+    return sweep.Factor(name, values=tuple(uniq))
+
+
+def sweep_spec_of(model_module: str, rows: list[dict], fixed: dict) -> sweep.SweepSpec:
+    """A SweepSpec describing explicit rows (their columns) with fixed inputs ``fixed``."""
+    names: list[str] = []
+    for r in rows:
+        for k in r:
+            if k not in names:
+                names.append(k)
+    factors = tuple(_factor_of(n, [r[n] for r in rows if n in r]) for n in names)
+    return sweep.SweepSpec(model=model_module, sampler="given", factors=factors,
+                           fixed=tuple(fixed.items()), samples=len(rows))
+
+
+def evaluate_rows(cluster: Cluster, folder: Path, model_module: str, fixed: dict, rows: list[dict], *,
+                  group: int = 1, batch_size: int | None = None, progress: bool = True, desc: str = "designs"):
+    """Evaluate ``rows`` (inputs beyond ``fixed``) into the sweep folder ``folder`` (resumable); return
+    (DataFrame of every row in order, with a ``row`` column, the run_sweep summary).
+
+    ``group``: consecutive rows that belong together (a design's operating points) stay in one batch.
+    """
+    import pandas as pd
+
+    if not rows:
+        return pd.DataFrame(), {"computed": 0, "skipped": 0, "failed": 0}
+    for r in rows:
+        missing = [k for k in rows[0] if k not in r]
+        if missing or len(r) != len(rows[0]):
+            raise ValueError("evaluate_rows: every row needs the same inputs")
+    spec = sweep_spec_of(model_module, rows, fixed)
+    folder = Path(folder)
+    done = (folder / "results.parquet").is_file() and not (folder / sweep.PARTS_DIR).exists()
+    client = None if done else cluster.get()
+    if batch_size is None:
+        n_groups = math.ceil(len(rows) / group)
+        # a few tasks per worker balance the load; small batches (an optimiser generation) are not split finer
+        per = max(1, min(max(1, 50 // group), math.ceil(n_groups / (4 * cluster.workers))))
+        batch_size = per * group
+    else:
+        batch_size = max(group, (batch_size // group) * group)
+    summary = sweep.run_sweep(spec, folder, client=client, designs=rows, batch_size=batch_size,
+                              progress=progress, desc=desc)
+    mod = sweep.load_model(model_module)
+    df = sweep.open_store(folder, spec, mod, "parquet").read()
+    df = df.rename(columns={"design_id": "row"})
+    if len(df) != len(rows):
+        raise RuntimeError(f"{folder}: {len(df)} of {len(rows)} evaluations recorded (interrupted?)")
+    return df, summary
+
+
+def output_matrix(df, output, n_designs: int, n_points: int, ok_only: bool = True) -> np.ndarray:
+    """The values of ``output`` (an :class:`~studies.sweeps.design.outputs.Output`) as (designs, points); NaN where the
+    evaluation failed or the value is missing. Rows are design-major (row = design * n_points + point)."""
+    vals = np.full(n_designs * n_points, np.nan)
+    recs = df.to_dict("records")
+    for r in recs:
+        if ok_only and r.get("status") != "ok":
+            continue
+        v = output.value(r)
+        if v is not None:
+            vals[int(r["row"])] = v
+    return vals.reshape(n_designs, n_points)
+
+
+def status_counts(df) -> dict:
+    if df is None or not len(df):
+        return {}
+    return {str(k): int(v) for k, v in df["status"].value_counts().items()}
+
+
+def progress_note(msg: str, progress: bool = True) -> None:
+    if progress:
+        print(msg, file=sys.stderr, flush=True)

@@ -1,0 +1,225 @@
+"""Global sensitivity of pump outputs to model parameters: Sobol indices and Morris screening (SALib).
+
+Sobol (``method = "sobol"``, the default): the Saltelli scheme of SALib (``SALib.sample.sobol``,
+scrambled Sobol sequence, first-order and total indices, no second order: N (D + 2) samples for
+D variables) in the unit hypercube, mapped onto each variable (ranges, log ranges, levels or the
+inverse CDF of its distribution); the estimators of ``SALib.analyze.sobol`` (Saltelli 2010 for
+S1, Jansen for ST) with bootstrap confidence intervals (``num_resamples``, ``conf_level``).
+
+Morris (``method = "morris"``): ``samples`` trajectories of D + 1 points on a ``num_levels`` grid
+(``SALib.sample.morris``), analysed by ``SALib.analyze.morris`` in the unit hypercube: mu* and
+sigma are in the output's unit per full range of the variable.
+
+Each design runs at every operating point (one sweep row each, :mod:`studies.sweeps.design.runner`);
+indices are computed per operating point and, with several, for the mean over them. A failed
+evaluation (an error, or no cyclic steady state within ``max_revolutions``) or a missing output
+(a valve that never opens) removes its whole Saltelli block (the base sample and its D + 1
+companions) or Morris trajectory from that output's analysis: the estimators stay unbiased for
+the remaining blocks, which are independent draws; the number dropped is reported.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from studies.sweeps.design import runner, study
+from studies.sweeps.design.spec import DesignSpec, check_size
+
+SUBFOLDERS = ("runs", "calibration")
+
+
+def sample_unit(spec: DesignSpec) -> np.ndarray:
+    """The study's samples in the unit hypercube (rows: samples, columns: variables)."""
+    r = spec.run_dict
+    d = len(spec.variables)
+    problem = {"num_vars": d, "names": [v.name for v in spec.variables], "bounds": [[0.0, 1.0]] * d}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if r["method"] == "sobol":
+            from SALib.sample import sobol as sobol_sample
+
+            return sobol_sample.sample(problem, r["samples"], calc_second_order=False, scramble=True, seed=r["seed"])
+        from SALib.sample import morris as morris_sample
+
+        return morris_sample.sample(problem, r["samples"], num_levels=r["num_levels"], seed=r["seed"])
+
+
+def n_samples(spec: DesignSpec) -> int:
+    r = spec.run_dict
+    d = len(spec.variables)
+    return r["samples"] * (d + 2) if r["method"] == "sobol" else r["samples"] * (d + 1)
+
+
+def designs_of(spec: DesignSpec, u: np.ndarray) -> list[dict]:
+    cols = [v.from_unit(u[:, j]) for j, v in enumerate(spec.variables)]
+    names = [v.name for v in spec.variables]
+    return [dict(zip(names, row)) for row in zip(*cols)]
+
+
+def _problem(spec: DesignSpec) -> dict:
+    d = len(spec.variables)
+    return {"num_vars": d, "names": [v.name for v in spec.variables], "bounds": [[0.0, 1.0]] * d}
+
+
+def analyse_sobol(problem: dict, y: np.ndarray, num_resamples: int, conf_level: float, seed: int) -> dict:
+    """Sobol indices of one output y (N (D + 2) values, NaN where missing): blocks with a NaN are dropped."""
+    from SALib.analyze import sobol as sobol_analyze
+
+    d = problem["num_vars"]
+    blocks = y.reshape(-1, d + 2)
+    ok = np.isfinite(blocks).all(axis=1)
+    res = {"n_blocks": int(len(blocks)), "n_used": int(ok.sum()), "dropped": int((~ok).sum()), "constant": False}
+    if ok.sum() < 2:
+        res["note"] = "fewer than two complete Saltelli blocks"
+        return res
+    yv = blocks[ok].ravel()
+    if np.ptp(yv) <= 1e-12 * max(1.0, np.abs(yv).max()):
+        res.update(constant=True, note="the output does not vary", S1=[0.0] * d, S1_conf=[0.0] * d, ST=[0.0] * d,
+                   ST_conf=[0.0] * d)
+        return res
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore")
+        si = sobol_analyze.analyze(problem, yv, calc_second_order=False, num_resamples=num_resamples,
+                                   conf_level=conf_level, print_to_console=False, seed=seed)
+    for k in ("S1", "S1_conf", "ST", "ST_conf"):
+        res[k] = [float(x) for x in si[k]]
+    res["mean"], res["std"] = float(yv.mean()), float(yv.std())
+    return res
+
+
+def analyse_morris(problem: dict, u: np.ndarray, y: np.ndarray, num_levels: int, num_resamples: int,
+                   conf_level: float, seed: int) -> dict:
+    """Morris elementary effects of one output (trajectories with a NaN are dropped)."""
+    from SALib.analyze import morris as morris_analyze
+
+    d = problem["num_vars"]
+    traj = y.reshape(-1, d + 1)
+    ok = np.isfinite(traj).all(axis=1)
+    res = {"n_blocks": int(len(traj)), "n_used": int(ok.sum()), "dropped": int((~ok).sum()), "constant": False}
+    if ok.sum() < 2:
+        res["note"] = "fewer than two complete trajectories"
+        return res
+    uv = u.reshape(-1, d + 1, d)[ok].reshape(-1, d)
+    yv = traj[ok].ravel()
+    if np.ptp(yv) <= 1e-12 * max(1.0, np.abs(yv).max()):
+        res.update(constant=True, note="the output does not vary", mu=[0.0] * d, mu_star=[0.0] * d,
+                   mu_star_conf=[0.0] * d, sigma=[0.0] * d)
+        return res
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore")
+        si = morris_analyze.analyze(problem, uv, yv, num_resamples=num_resamples, conf_level=conf_level,
+                                    num_levels=num_levels, seed=seed)
+    for k in ("mu", "mu_star", "mu_star_conf", "sigma"):
+        res[k] = [float(x) for x in np.asarray(si[k], dtype=float)]
+    res["mean"], res["std"] = float(yv.mean()), float(yv.std())
+    return res
+
+
+def _clean(x):
+    return study.finite_or_none(x)
+
+
+def run_sensitivity(spec: DesignSpec, out, *, scheduler: str | None = None, workers: int | None = None,
+                    client=None, batch_size: int | None = None, force: bool = False, progress: bool = True) -> dict:
+    """Run (or resume) a sensitivity study into folder ``out``; return the summary (CONTRACT.md)."""
+    t_start = time.perf_counter()
+    out = Path(out)
+    r = spec.run_dict
+    # ---- every check before any computation
+    model = study.base_model(spec)
+    study.check_variables(spec, model)
+    n = n_samples(spec)
+    n_rows = n * len(spec.points)
+    check_size(n_rows, "run.samples", out, f"{r['samples']} samples x {len(spec.variables) + (2 if r['method'] == 'sobol' else 1)}"
+                                          f" x {len(spec.points)} operating points")
+    from studies.outputs import check_output_dir
+
+    check_output_dir(out, "--out", force)
+    catalogue = study.outputs_catalogue(spec)
+    outputs = [catalogue[o] for o in spec.outputs]
+    with runner.Cluster(scheduler, workers, client) as cluster:
+        cluster.check_reachable()
+        runner.prepare_study(out, spec, force, SUBFOLDERS)
+        base_path = study.write_base_model(out, model) if model is not None else None
+        cal = study.calibrate(spec, model, base_path, cluster, out, progress) if study.needs_stress(spec) else None
+        u = sample_unit(spec)
+        designs = designs_of(spec, u)
+        rows = study.rows_for(spec, designs, cal)
+        fixed = study.fixed_inputs(spec, base_path)
+        module = study.EVALUATE if spec.model_kind == "pump" else spec.model
+        t_eval = time.perf_counter()
+        df, summ = runner.evaluate_rows(cluster, out / "runs", module, fixed, rows, group=len(spec.points),
+                                        batch_size=batch_size, progress=progress, desc="sensitivity")
+        eval_wall = time.perf_counter() - t_eval
+        n_workers = cluster.workers if cluster.client is not None else None
+
+    # ---- analysis
+    problem = _problem(spec)
+    npts = len(spec.points)
+    labels = spec.point_labels
+    targets = [(j, labels[j]) for j in range(npts)] + ([(None, "mean")] if npts > 1 else [])
+    indices, analyses = [], []
+    for o in outputs:
+        mat = runner.output_matrix(df, o, n, npts)
+        for j, lab in targets:
+            y = mat[:, j] if j is not None else mat.mean(axis=1)
+            if r["method"] == "sobol":
+                res = analyse_sobol(problem, y, r["num_resamples"], r["conf_level"], r["seed"])
+            else:
+                res = analyse_morris(problem, u, y, r["num_levels"], r["num_resamples"], r["conf_level"], r["seed"])
+            res.update(output=o.name, unit=o.unit, operating_point=lab)
+            analyses.append(res)
+            for i, v in enumerate(spec.variables):
+                row = {"output": o.name, "output_unit": o.unit, "operating_point": lab, "variable": v.name,
+                       "variable_unit": v.unit, "method": r["method"]}
+                keys = ("S1", "S1_conf", "ST", "ST_conf") if r["method"] == "sobol" else \
+                    ("mu_star", "mu_star_conf", "sigma", "mu")
+                for k in keys:
+                    row[k] = _clean(res[k][i]) if k in res else None
+                row["samples_used"] = res["n_used"]
+                row["samples_dropped"] = res["dropped"]
+                indices.append(row)
+    from studies.sweeps.design import report
+
+    files = report.write_sensitivity(out, spec, indices, analyses, outputs)
+    wall = time.perf_counter() - t_start
+    computed = summ.get("computed", 0)
+    result = {
+        "command": "sensitivity", "method": r["method"], "model": spec.model, "out": str(out),
+        "variables": [v.describe() for v in spec.variables],
+        "outputs": [{"name": o.name, "unit": o.unit, "label": o.label} for o in outputs],
+        "operating_points": [dict(p, label=lab) for p, lab in zip(spec.points, labels)],
+        "samples": r["samples"], "designs": n, "evaluations": n_rows, "computed": computed,
+        "skipped": summ.get("skipped", 0), "status_counts": runner.status_counts(df),
+        "failed": int((df["status"] != "ok").sum()) if len(df) else 0,
+        "workers": n_workers, "indices": indices,
+        "analyses": [{k: a.get(k) for k in ("output", "operating_point", "n_used", "dropped", "constant", "note")}
+                     for a in analyses],
+        "stress_calibration": study.calibration_summary(cal), "files": files, "complete": True,
+        "wall_seconds": wall, "evaluation_wall_seconds": eval_wall,
+        "designs_per_hour": computed / eval_wall * 3600.0 if computed else 0.0,
+        "samples_per_hour": computed / npts / eval_wall * 3600.0 if computed else 0.0,
+    }
+    import json
+
+    (out / "summary.json").write_text(json.dumps(result, indent=1, allow_nan=False))
+    return result
+
+
+def top_variables(result: dict, output: str, key: str = "ST", point: str | None = None) -> list[tuple[str, float]]:
+    """The variables of an output sorted by an index (largest first), at one operating point (default: the mean,
+    or the only point)."""
+    rows = [r for r in result["indices"] if r["output"] == output]
+    pts = [r["operating_point"] for r in rows]
+    point = point or ("mean" if "mean" in pts else pts[0])
+    rows = [r for r in rows if r["operating_point"] == point and r.get(key) is not None]
+    return sorted(((r["variable"], r[key]) for r in rows), key=lambda t: -t[1])
+
+
+def describe_index(v) -> str:
+    return "-" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.3f}"
