@@ -32,12 +32,17 @@ def c1_coefficient(inner_radius: float, outer_radius: float) -> float:
     return (1.0 - q * q) / (2.0 * math.log(outer_radius / inner_radius))
 
 
-def c2_coefficient(inner_radius: float, outer_radius: float, bevel_angle: float, viscosity: float) -> float:
-    """Stiction coefficient C2 [N m^2 s] (eq 2.15; Reynolds equation 2.7-2.13)."""
+def squeeze_area_moment(inner_radius: float, outer_radius: float) -> float:
+    """G [m^4] with C2 = 3 mu G / sin^4(theta): (pi/2) R_i^4 (r^4 - 1)(1 - (r^2 - 1)/((r^2 + 1) ln r)), r = R_o/R_i
+    (eq 2.15 without the film's viscosity and bevel; the annulus integral of the squeeze pressure, eqs 2.11-2.12)."""
     r = outer_radius / inner_radius
     lr = math.log(r)
-    return (3.0 * math.pi * viscosity / (2.0 * math.sin(bevel_angle) ** 4) * inner_radius**4
-            * (r**4 - 1.0) * (1.0 - (r * r - 1.0) / ((r * r + 1.0) * lr)))
+    return 0.5 * math.pi * inner_radius**4 * (r**4 - 1.0) * (1.0 - (r * r - 1.0) / ((r * r + 1.0) * lr))
+
+
+def c2_coefficient(inner_radius: float, outer_radius: float, bevel_angle: float, viscosity: float) -> float:
+    """Stiction coefficient C2 [N m^2 s] (eq 2.15; Reynolds equation 2.7-2.13)."""
+    return 3.0 * viscosity / math.sin(bevel_angle) ** 4 * squeeze_area_moment(inner_radius, outer_radius)
 
 
 def helical_spring_stiffness(wire_diameter: float, coil_diameter: float, shear_modulus: float,
@@ -90,9 +95,14 @@ class DiscValve:
                                 bounds=(0.0, 1e3))
     inertial_drag: float = param("drag.inertial_coefficient", "-", "C_D,inf of eq 2.28 (section 2.4.4)",
                                  bounds=(0.0, 1e3))
-    squeeze_min_gap: float = param("squeeze.min_gap", "m", "film height floor of eq 2.13 (seat roughness, "
-                                   "valvelab's assumption; used with squeeze_film)", bounds=(1e-9, 1e-3),
-                                   positive=True, packed=True)
+    squeeze_min_gap: float = param("squeeze.min_gap", "m", "residual film at seat contact: the squeeze film of "
+                                   "eqs 2.7-2.13 is x + min_gap thick (opening-equivalent; the ground seat's "
+                                   "roughness, Ra ~ 1 um: valvelab's assumption, used with squeeze_film, docs/stiction.md)",
+                                   bounds=(1e-9, 1e-3), positive=True, packed=True)
+    squeeze_tensile_strength: float = param("squeeze.tensile_strength", "Pa", "tension the oil film holds below the "
+                                            "vapour pressure before it cavitates (Roemer et al. 2015; 0: the "
+                                            "thesis's eq 2.16, the film cavitates at the vapour pressure; used "
+                                            "with squeeze_film, docs/stiction.md)", bounds=(0.0, 1e8), packed=True)
     # may be left out: dimensions then come from the geometry, dampings are critical (eq 2.23)
     inner_radius: float = param("seat.inner_radius", "m", "R_i, where seat contact starts (section 2.4.2)",
                                 bounds=(1e-5, 1.0), positive=True, optional=True)
@@ -110,6 +120,12 @@ class DiscValve:
                                   bounds=(-0.1, 1.0), optional=True, packed=True)
     seat_damping: float = param("seat.damping", "N s/m", "c_seat; " + EQ_2_23, bounds=(0.0, 1e9), optional=True)
     stop_damping: float = param("stop.damping", "N s/m", "c_stop; " + EQ_2_23, bounds=(0.0, 1e9), optional=True)
+    jet_angle: float = param("flow.jet_angle", "rad", "theta_jet, angle of the jet leaving the orifice to the "
+                             "disc axis (eqs 2.30, 2.36; left out: the bevel angle, the thesis's assumption); "
+                             "fitted by the flow_force effect", bounds=(0.0, math.pi / 2), optional=True)
+    transient_length: float = param("flow.transient_length", "m", "length of the accelerated oil column of the "
+                                    "transient flow force (eq 2.37 with L_t + x; left out: the port length L, eq "
+                                    "2.31); fitted by the flow_force effect", bounds=(0.0, 1.0), optional=True)
     # set by candidate effects (lumped/effect_library.py); zero = the effect is off
     squeeze_c2: float = param(None, "N m^2 s", "C2 of eq 2.15", bounds=(0.0, 1.0), default=0.0,
                               effect="squeeze_film", packed=True)
@@ -219,25 +235,154 @@ class DiscValve:
             "contact_area": self.disc_area,
             "flow_in_acceleration": 1.0 if (self.flow_force_steady > 0 or self.flow_force_transient > 0) else 0.0,
             "c1": self.c1, "poiseuille": 1.0 if self.poiseuille_regime else 0.0, "port_area": self.port_area,
-            "disc_area": self.disc_area, "cos_bevel": math.cos(self.bevel_angle),
+            "disc_area": self.disc_area, "cos_jet": math.cos(self.jet_angle_value),
             "viscous_drag": self.viscous_drag if self.drag else 0.0,
             "inertial_drag": self.inertial_drag if self.drag else 0.0, "disc_diameter": 2.0 * self.outer_radius,
+            "transient_arm": self.transient_length_value,
+            "film_coefficient": self.squeeze_c2 / squeeze_area_moment(self.inner_radius, self.outer_radius),
+            "film_inner_radius": self.inner_radius, "film_outer_radius": self.outer_radius,
         }
+
+    @property
+    def jet_angle_value(self) -> float:
+        """theta_jet [rad] of eqs 2.30, 2.36: as given, else the bevel angle (the thesis's assumption)."""
+        return self.bevel_angle if self.jet_angle is None else self.jet_angle
+
+    @property
+    def transient_length_value(self) -> float:
+        """L_t [m] of the transient flow force (eq 2.37 with L_t + x): as given, else the port length L (eq 2.31)."""
+        return self.port_length if self.transient_length is None else self.transient_length
 
 
 #: offsets of the disc's packed quantities (common, packed fields, then these derived ones)
-DISC = kind_block(DiscValve, ("c1", "poiseuille", "port_area", "disc_area", "cos_bevel", "viscous_drag",
-                              "inertial_drag", "disc_diameter"))
+DISC_DERIVED = ("c1", "poiseuille", "port_area", "disc_area", "cos_jet", "viscous_drag", "inertial_drag",
+                "disc_diameter", "transient_arm", "film_coefficient", "film_inner_radius", "film_outer_radius")
+DISC = kind_block(DiscValve, DISC_DERIVED)
+
+
+# ----------------------------------------------------------------- squeeze film with cavitation
+#: below this argument the film functions are summed as series (their closed forms cancel)
+_SERIES = 0.05
+
+
+def _film_inner(t: float) -> tuple[float, float, float]:
+    """Inner liquid zone R_i..r_1 = R_i e^t of a cavitating film (dimensionless, exact):
+    (g, dg/dt, J) with g = 1 - e^(2t) (1 - 2t) = (P_up - P_lim) / (K R_i^2) and
+    J = e^(4t) - 1 - 4t e^(2t) = its pressure integral over (pi K R_i^4 / 2) (Reynolds eq 2.8, dP/dr = 0 at r_1)."""
+    if t < _SERIES:
+        g = 0.0
+        j = 0.0
+        a2 = 1.0       # (2t)^n / n!
+        a4 = 1.0       # (4t)^n / n!
+        for n in range(1, 16):
+            a2 *= 2.0 * t / n
+            a4 *= 4.0 * t / n
+            g += (n - 1) * a2
+            j += a4 - 2.0 * n * a2          # (4^n - n 2^(n+1)) t^n / n!
+        return g, 4.0 * t * math.exp(2.0 * t), j
+    e2 = math.exp(2.0 * t)
+    return 1.0 - e2 * (1.0 - 2.0 * t), 4.0 * t * e2, e2 * e2 - 1.0 - 4.0 * t * e2
+
+
+def _film_outer(s: float) -> tuple[float, float, float]:
+    """Outer liquid zone r_2 = R_o e^-s..R_o of a cavitating film (dimensionless, exact):
+    (g, dg/ds, J) with g = 1 - e^(-2s) (1 + 2s) = (P_down - P_lim) / (K R_o^2) and
+    J = 1 - e^(-4s) - 4s e^(-2s) = its pressure integral over (pi K R_o^4 / 2) (dP/dr = 0 at r_2)."""
+    if s < _SERIES:
+        g = 0.0
+        j = 0.0
+        a2 = 1.0       # (-2s)^n / n!
+        a4 = 1.0       # (-4s)^n / n!
+        for n in range(1, 16):
+            a2 *= -2.0 * s / n
+            a4 *= -4.0 * s / n
+            g += (n - 1) * a2
+            j += 2.0 * n * a2 - a4
+        return g, 4.0 * s * math.exp(-2.0 * s), j
+    e2 = math.exp(-2.0 * s)
+    return 1.0 - e2 * (1.0 + 2.0 * s), 4.0 * s * e2, 1.0 - e2 * e2 - 4.0 * s * e2
+
+
+def _film_root(c: float, top: float, inner: bool) -> float:
+    """The argument in [0, top] where the zone function g of :func:`_film_inner` (or :func:`_film_outer`)
+    equals c (g increases from 0): safeguarded Newton, to round-off (the Jacobian differences it)."""
+    if c <= 0.0:
+        return 0.0
+    g_top = _film_inner(top)[0] if inner else _film_outer(top)[0]
+    if c >= g_top:
+        return top
+    lo = 0.0
+    hi = top
+    t = math.sqrt(0.5 * c)            # g = 2 t^2 + O(t^3)
+    if not lo < t < hi:
+        t = 0.5 * (lo + hi)
+    for _ in range(200):
+        g, dg, _j = _film_inner(t) if inner else _film_outer(t)
+        f = g - c
+        if f > 0.0:
+            hi = t
+        else:
+            lo = t
+        new = t - f / dg if dg > 0.0 else 0.5 * (lo + hi)
+        if not lo < new < hi:
+            new = 0.5 * (lo + hi)
+        if abs(new - t) <= 4e-16 * (t + 1e-300) or hi - lo <= 4e-16 * hi:
+            return new
+        t = new
+    return t
+
+
+def film_force(p_up: float, p_down: float, p_lim: float, k: float, r_i: float, r_o: float) -> float:
+    """Axial force [N] of the fluid on the disc face over r <= R_o (Poiseuille regime) with a squeeze
+    film whose pressure cannot fall below p_lim: P_up inside R_i (eq 2.6), the Reynolds film of eq 2.8
+    on R_i..R_o, minus P_down on the back face (eq 2.12).
+
+    ``k`` = 3 mu u / (x^3 sin^4 theta) [Pa/m^2], the squeeze term of eq 2.11 in the projected radius r
+    (> 0 opening). Where the full film of eq 2.11 would fall below p_lim the film cavitates: a zone
+    r_1..r_2 at p_lim bounded by liquid zones in which eq 2.8 holds with the Reynolds (Swift-Stieber)
+    condition P = p_lim, dP/dr = 0 at the cavity edges, which conserves mass while the cavity grows
+    (the edge moves with the liquid; Jakobsson-Floberg-Olsson theory), as in the approximate
+    method of Scheidl & Gradl (2016) for separating plates. Closed form but for the edges (1-D
+    roots). Fully cavitated it is eq 2.16 (with A_port = pi R_i^2); without cavity eqs 2.13-2.15.
+    """
+    a = p_up - p_lim
+    b = p_down - p_lim
+    if a < 0.0:
+        a = 0.0
+    if b < 0.0:
+        b = 0.0
+    lnr = math.log(r_o / r_i)
+    ri2 = r_i * r_i
+    ro2 = r_o * r_o
+    full_c1 = (1.0 - ri2 / ro2) / (2.0 * lnr)                      # eq 2.14
+    # eq 2.13 with C2 u / x^3 = k G (G of squeeze_area_moment, eq 2.15)
+    q = ro2 / ri2
+    full = math.pi * ro2 * full_c1 * (p_up - p_down) - k * 0.5 * math.pi * ri2 * ri2 * (q * q - 1.0) * (
+        1.0 - (q - 1.0) / ((q + 1.0) * lnr))
+    if k <= 0.0:
+        return full
+    t1 = 0.0 if a <= 0.0 else _film_root(a / (k * ri2), lnr, True)
+    s2 = 0.0 if b <= 0.0 else _film_root(b / (k * ro2), lnr, False)
+    if t1 + s2 >= lnr:
+        return full                 # the full film stays above p_lim: no cavity
+    j1 = _film_inner(t1)[2]
+    j2 = _film_outer(s2)[2]
+    return math.pi * (ri2 * a - ro2 * b) + 0.5 * math.pi * k * (ri2 * ri2 * j1 + ro2 * ro2 * j2)
 
 
 # ----------------------------------------------------------------- forces
 def pressure_force(x: float, u: float, dp: float, p_down: float, p_vap: float, p, o: int,
-                   regime: int) -> float:
+                   regime: int, contact: int = -1) -> float:
     """Pressure force F_p [N] with the Poiseuille/orifice switch of eq 2.18.
 
-    Poiseuille regime: max(F_p,min, C1 dP A_disc - C2 u / x^3) (eqs 2.13, 2.16, 2.17), the
-    film floored at the roughness height; orifice regime: dP A_disc. C2 = 0 when the
-    squeeze_film effect is off; with the regime switch off the orifice form always applies.
+    Poiseuille regime: C1 dP A_disc (eq 2.13); with the squeeze_film effect the Reynolds film of
+    eqs 2.7-2.13 over the bevelled annulus, x + min_gap thick, its pressure bounded below at the
+    vapour pressure minus the oil's tensile strength (eq 2.17 applied to the film pressure, not
+    only the total: :func:`film_force`). Orifice regime: dP A_disc. With the regime switch off the
+    orifice form always applies. The film squeezes off the seat only (``contact`` free or stop; -1:
+    decided from x > 0): on the seat the disc moves with the seat's compliance, the film stays
+    min_gap thick, and a free disc inside the switch's hysteresis (x just below 0) keeps its film,
+    so the force has no jump inside a mode.
     """
     a_disc = p[o + DISC.disc_area]
     if p[o + DISC.poiseuille] < 0.5:
@@ -246,14 +391,12 @@ def pressure_force(x: float, u: float, dp: float, p_down: float, p_vap: float, p
         regime = 0 if x < p[o + DISC.regime_opening] else 1
     if regime == 1:
         return dp * a_disc
-    f = p[o + DISC.c1] * dp * a_disc
-    c2 = p[o + DISC.squeeze_c2]
-    if c2 > 0.0 and x > 0.0:
-        gap = x if x > p[o + DISC.squeeze_min_gap] else p[o + DISC.squeeze_min_gap]
-        f -= c2 * u / (gap * gap * gap)
-    a_port = p[o + DISC.port_area]
-    f_min = dp * a_port + (p_vap - p_down) * (a_disc - a_port)
-    return f if f > f_min else f_min
+    kf = p[o + DISC.film_coefficient]
+    h = x + p[o + DISC.squeeze_min_gap]
+    if kf > 0.0 and h > 0.0 and (contact > 0 or (contact < 0 and x > 0.0)):
+        return film_force(p_down + dp, p_down, p_vap - p[o + DISC.squeeze_tensile_strength], kf * u / (h * h * h),
+                          p[o + DISC.film_inner_radius], p[o + DISC.film_outer_radius])
+    return p[o + DISC.c1] * dp * a_disc
 
 
 def disc_acceleration(x: float, u: float, dp: float, p_down: float, p_vap: float, rho: float,
@@ -263,12 +406,13 @@ def disc_acceleration(x: float, u: float, dp: float, p_down: float, p_vap: float
 
     Forces: pressure (eq 2.18), spring with preload (eq 2.19), seat/stop contact
     (eq 2.20), drag opposing the motion (eq 2.28), and with the flow_force effect the
-    steady (eq 2.36) and transient (eq 2.37) flow forces, each times its coefficient.
-    The transient force holds rho (L + x) dQ/dt with dQ/dt = dQ/d(dp) d(dp)/dt + dQ/dx u +
-    A_Q du/dt; its du/dt part is moved to the left side as an added inertia rho (L + x) A_Q.
+    steady (eq 2.36, the jet leaving at theta_jet, eq 2.30) and transient (eq 2.37, an oil column
+    L_t + x long) flow forces, each times its multiplier. The transient force holds
+    rho (L_t + x) dQ/dt with dQ/dt = dQ/d(dp) d(dp)/dt + dQ/dx u + A_Q du/dt; its du/dt part is
+    moved to the left side as an added inertia rho (L_t + x) A_Q.
     """
     m = p[o + DISC.moving_mass]
-    f = pressure_force(x, u, dp, p_down, p_vap, p, o, regime)
+    f = pressure_force(x, u, dp, p_down, p_vap, p, o, regime, contact)
     f -= p[o + DISC.spring_stiffness] * (x + p[o + DISC.spring_preload])
     f += contact_reaction(x, u, p, o, contact)
     # drag (eq 2.28) opposes the motion
@@ -281,8 +425,8 @@ def disc_acceleration(x: float, u: float, dp: float, p_down: float, p_vap: float
         a_o = 0.0
         if contact != 0 and x > 0.0:
             a_o = p[o + DISC.area_per_opening] * x
-        f += ks * (rho * q * q / p[o + DISC.port_area] - 2.0 * cd * cd * a_o * abs(dp) * p[o + DISC.cos_bevel])
-        arm = p[o + DISC.port_length] + x
+        f += ks * (rho * q * q / p[o + DISC.port_area] - 2.0 * cd * cd * a_o * abs(dp) * p[o + DISC.cos_jet])
+        arm = p[o + DISC.transient_arm] + x
         f -= kt * rho * (q * u + arm * (dq_ddp * ddp_dt + dq_dx * u))
         m += kt * rho * arm * aq
     return f / m

@@ -113,22 +113,48 @@ def _c2_prior(model, target: str) -> float:
 
 register(Effect(
     name="squeeze_film",
-    summary="Reynolds-equation stiction C2 u / x^3 with the cavitation limiter (eqs 2.13-2.18)",
+    summary="Reynolds-equation squeeze film C2 u / x^3 (eqs 2.13-2.15) whose pressure cavitates at the vapour "
+            "pressure minus the oil's tensile strength (eqs 2.16-2.17 on the film pressure, docs/stiction.md)",
     parameters=(Parameter(
-        "C2", "N m^2 s", prior=float("nan"), bounds=(1.0 / 100.0, 100.0), plausible=(1.0 / 4.0, 4.0),
+        "C2", "N m^2 s", prior=float("nan"), bounds=(1.0 / 100.0, 100.0), plausible=(1.0 / 10.0, 10.0),
         field="squeeze_c2", prior_from=_c2_prior, relative=True,
-        source="eq 2.15 with the disc geometry and the oil viscosity; a factor 4 either way covers the "
-               "bevel angle (sin^4) and the film geometry"),),
+        source="eq 2.15 with the disc geometry and the oil viscosity; a factor 10 either way covers the bevel "
+               "angle (sin^4), a film that is not uniform (seat flatness) and the oil's temperature"),),
     apply=lambda m, v, t: set_fields(m, t, squeeze_c2=v["C2"]), valve_types=("disc",), targets=BOTH_VALVES,
 ))
 
 
 # --------------------------------------------------------------------------- flow_force
+def _jet_prior(model, target: str) -> float:
+    """theta_jet [rad]: the model's, else the seat bevel angle (eq 2.30, the thesis's assumption)."""
+    v, _ = _valve_of(model, target, "disc")
+    return v.jet_angle_value
+
+
+def _transient_prior(model, target: str) -> float:
+    """L_t [m]: the model's, else the port length L of eq 2.31 (Table 2.3)."""
+    v, _ = _valve_of(model, target, "disc")
+    return v.transient_length_value
+
+
+_FF = priors()["flow_force"]
 register(Effect(
     name="flow_force",
-    summary="steady and transient flow forces (eqs 2.36, 2.37); a switch: the model has no free coefficient",
-    parameters=(),
-    apply=lambda m, v, t: set_fields(m, t, flow_force_steady=1.0, flow_force_transient=1.0),
+    summary="steady and transient flow forces (eqs 2.36, 2.37) with a fitted jet angle and oil-column length",
+    parameters=(
+        Parameter("theta_jet", "rad", prior=math.radians(54.0), prior_from=_jet_prior, log=False,
+                  bounds=tuple(math.radians(a) for a in _FF["jet_angle_search_deg"]),
+                  plausible=tuple(math.radians(a) for a in _FF["jet_angle_plausible_deg"]), field="jet_angle",
+                  source="jet leaving along the seat bevel (eq 2.30, Knutson 2016); measured and CFD jet angles "
+                         "of poppet and disc valves (lumped/data/effect_priors.toml)"),
+        Parameter("L_t", "m", prior=float("nan"), prior_from=_transient_prior, relative=True,
+                  bounds=tuple(_FF["transient_length_search"]), plausible=tuple(_FF["transient_length_plausible"]),
+                  field="transient_length",
+                  source="the port length L of eq 2.31 (Table 2.3); transient flow forces of CFD differ from the "
+                         "control-volume estimate by several times (lumped/data/effect_priors.toml)"),
+    ),
+    apply=lambda m, v, t: set_fields(m, t, flow_force_steady=1.0, flow_force_transient=1.0,
+                                     jet_angle=v["theta_jet"], transient_length=v["L_t"]),
     valve_types=("disc",), targets=BOTH_VALVES,
 ))
 

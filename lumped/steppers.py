@@ -192,6 +192,8 @@ class RadauStepper(Stepper):
                     raise IntegrationError(f"valve chatter: {len(events)} switches near t = {te:.6g} s; "
                                        "loosen the contact model or the tolerances")
                 h = max(te - t_prev, 1e-12 * (t1 - t0))
+                if te < t1:
+                    h = min(h, t1 - te)       # a crossing near the end: the first step must fit
                 t = te
                 break
             nfev += solver.nfev

@@ -75,3 +75,17 @@ def test_synth_refuses_to_overwrite_and_checks_effects(cli, tmp_path):
 def test_discrepancy_flags_checked(cli, tmp_path, flag, value):
     rc, out, err = cli("discrepancy", "ds", flag, value, *MODEL)   # flags are checked before any data
     assert rc == 2 and flag in err
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", range(8))
+def test_readme_discrepancy_example_names_piston_leakage(cli, seed):
+    """The README's example with the real pump model, seeds 0-7: the data read (no pressure below the
+    vapour pressure), the workflow names piston_leakage and fits the clearance within 20 %."""
+    rc, out, err, obj = cli("synth", "my_data", "--effect", "piston_leakage:clearance=4e-5", "--seed", str(seed),
+                            "--json")
+    assert rc == 0, err
+    rc, out, err, res = cli("discrepancy", "my_data", "--no-report", "--json", timeout=1800)
+    assert rc == 0, err
+    assert res["effects_added"] == ["piston_leakage"]
+    assert res["parameters"]["piston_leakage"]["clearance"] == pytest.approx(4e-5, rel=0.2)

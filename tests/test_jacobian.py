@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from lumped import compiled
+from lumped import steppers  # noqa: F401  (compiled.cached digests its source: import it even when run alone)
 from lumped import jacobian as J
 from lumped import pump as P
 from lumped import switching as sw

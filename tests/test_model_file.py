@@ -18,6 +18,7 @@ from geometry.declare import param, specs
 from geometry.errors import InputError
 from lumped import valve as V
 from lumped.cycle import simulate
+from lumped import disc_valve as dv
 from lumped.disc_valve import DiscValve, disc_acceleration
 from lumped.effect_library import resolve
 from lumped.layout import pack
@@ -321,8 +322,7 @@ def _wobbly_acceleration(x, u, dp, p_down, p_vap, rho, mu, q_o, cd, aq, dq_ddp, 
     return a - p[o + WOBBLY.wobble_damping] * u / p[o + WOBBLY.moving_mass]
 
 
-WOBBLY = V.kind_block(WobblyDisc, ("c1", "poiseuille", "port_area", "disc_area", "cos_bevel", "viscous_drag",
-                                   "inertial_drag", "disc_diameter"))
+WOBBLY = V.kind_block(WobblyDisc, dv.DISC_DERIVED)
 
 
 @pytest.fixture

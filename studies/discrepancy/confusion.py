@@ -36,13 +36,24 @@ CASES = {
         "piston_leakage": [("piston_leakage", "pump", {"clearance": (3.5e-5, 4.5e-5)})],
         "entrained_air": [("entrained_air", "pump", {"R": (0.008, 0.02)})],
         "added_mass": [("added_mass", "both", {"m_f": (3.0e-3, 6.0e-3)})],
-        "flow_force": [("flow_force", "both", {})],
+        "piston_leakage (25 um)": [("piston_leakage", "pump", {"clearance": (2.5e-5, 2.5e-5)})],
+        # a jet leaving steeper than the 54 deg bevel (von Mises's free streamline: 69 deg) and an oil
+        # column 1.5-3 port lengths (L = 5.2 mm) long: inside the plausible ranges of the effect table
+        "flow_force": [("flow_force", "both", {"theta_jet": (math.radians(62.0), math.radians(80.0)),
+                                               "L_t": (7.8e-3, 1.56e-2)})],
+        # C2 of eq 2.15 is 7.39e-11 N m^2 s for the thesis disc: 0.5-2 times it
+        "squeeze_film": [("squeeze_film", "both", {"C2": (3.7e-11, 1.5e-10)})],
         "seat_compliance@delivery+piston_leakage": [
             ("seat_compliance", "delivery", {"k_seat": (1.0e6, 3.0e6)}),
             ("piston_leakage", "pump", {"clearance": (3.5e-5, 4.5e-5)})],
         "none": [],
         "cd+3%": [("discharge_scale", "both", {"scale": (1.03, 1.03)})],
         "cd-3%": [("discharge_scale", "both", {"scale": (0.97, 0.97)})],
+        # a small leak in data the baseline does not reproduce (its Cd 3 % off): issue 11's case
+        "piston_leakage (31-35 um) + cd-3%": [("piston_leakage", "pump", {"clearance": (3.1e-5, 3.5e-5)}),
+                                              ("discharge_scale", "both", {"scale": (0.97, 0.97)})],
+        "piston_leakage (31-35 um) + cd+3%": [("piston_leakage", "pump", {"clearance": (3.1e-5, 3.5e-5)}),
+                                              ("discharge_scale", "both", {"scale": (1.03, 1.03)})],
     },
     "reed": {
         "seat_compliance@delivery": [("seat_compliance", "delivery", {"k_seat": (5.0e9, 2.0e10)})],

@@ -9,7 +9,10 @@ periodically at the measured crank angles, after the position sensor's nuisances
 Metrics per run: position RMS [m] (and its excess over the measurement noise),
 opening / closing timing error [crank deg], peak-opening error [m], seated-position
 error [m], delivery error [%] (modelled - measured, the thesis's sign, Tables 5.4,
-5.6). :func:`findings` turns them into sentences a hydraulic engineer reads
+5.6), and, where the run has a cylinder-pressure trace, its RMS gap [Pa] and excess over
+the transducer noise: the pressure is what a piston leak changes (it lowers the pressure
+while both valves are shut, in proportion to the pressure difference and the time) and
+what a discharge coefficient does not mimic (it moves the pressure with the flow). :func:`findings` turns them into sentences a hydraulic engineer reads
 ("delivery valve sits 0.30 mm below its modelled seat position during the suction
 stroke (crank 12-171 deg)").
 """
@@ -36,6 +39,11 @@ class CycleTrace:
     cylinder_pressure_pa: np.ndarray | None = None
 
 
+#: default tolerance of the cylinder-pressure gap (GapScales.pressure_pa), from the leak/Cd study
+#: of docs/discrepancy.md ("Small leaks")
+PRESSURE_TOLERANCE_PA = 2.5e3
+
+
 @dataclass(frozen=True)
 class GapScales:
     """What counts as one unit of gap: a position RMS [m] and a relative delivery error [-].
@@ -47,6 +55,8 @@ class GapScales:
 
     position_m: float = 2.0e-5
     delivery_frac: float = 5.0e-3
+    #: cylinder-pressure RMS above the transducer noise [Pa] that weighs as one unit
+    pressure_pa: float = PRESSURE_TOLERANCE_PA
 
 
 @dataclass(frozen=True)
@@ -76,6 +86,9 @@ class Folded:
     crank_deg: dict       # valve -> crank angles [deg]
     position: dict        # valve -> measured position [m]
     noise_m: dict         # valve -> white-noise standard deviation [m]
+    pressure_crank_deg: np.ndarray | None = None   # crank angles of the cylinder-pressure samples [deg]
+    pressure_pa: np.ndarray | None = None          # measured cylinder pressure [Pa], absolute
+    pressure_noise_pa: float = 0.0                 # its white-noise standard deviation [Pa]
 
 
 def noise_std(x: np.ndarray) -> float:
@@ -101,7 +114,10 @@ def fold(run: Run) -> Folded:
         crank[valve] = th[order]
         pos[valve] = np.asarray(x, float)[order]
         noise[valve] = noise_std(x)
-    return Folded(crank, pos, noise)
+    if tr.cylinder_pressure_pa is None:
+        return Folded(crank, pos, noise)
+    pc = np.asarray(tr.cylinder_pressure_pa, float)
+    return Folded(crank, pos, noise, th[order], pc[order], noise_std(pc))
 
 
 def _periodic_table(crank: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -302,14 +318,30 @@ class ValveGap:
 
 
 @dataclass(frozen=True)
+class PressureGap:
+    """Gap of the cylinder pressure in one run (measured - modelled, absolute pressures)."""
+
+    rms_pa: float
+    noise_pa: float
+    residual_pa: np.ndarray             # at the measured crank angles
+    crank_deg: np.ndarray
+
+    @property
+    def excess_rms_pa(self) -> float:
+        """RMS gap above the white transducer noise [Pa]."""
+        return float(np.sqrt(max(self.rms_pa**2 - self.noise_pa**2, 0.0)))
+
+
+@dataclass(frozen=True)
 class RunGap:
-    """Gap of one run: its valves' position gaps and the delivery error."""
+    """Gap of one run: its valves' position gaps, the delivery error and the cylinder-pressure gap."""
 
     run: str
     speed_rpm: float
     load_pressure_pa: float
     valves: tuple
     delivery_error_pct: float | None     # (modelled - measured) / measured * 100
+    pressure: PressureGap | None = None
 
     @property
     def position_rms_m(self) -> float | None:
@@ -317,16 +349,24 @@ class RunGap:
             return None
         return float(np.sqrt(np.mean([v.rms_m**2 for v in self.valves])))
 
+    def cost_parts(self, scales: GapScales) -> dict:
+        """The dimensionless gap by kind of evidence: position (excess RMS / scale)^2 summed over
+        the measured valves, delivery (error / scale)^2, pressure (excess RMS / scale)^2."""
+        d = 0.0 if self.delivery_error_pct is None else (self.delivery_error_pct / 100.0 / scales.delivery_frac) ** 2
+        pr = 0.0 if self.pressure is None else (self.pressure.excess_rms_pa / scales.pressure_pa) ** 2
+        return {"position": float(sum(v.excess_rms_m**2 for v in self.valves) / scales.position_m**2),
+                "delivery": float(d), "pressure": float(pr)}
+
     def cost(self, scales: GapScales) -> float:
-        """Dimensionless gap: (excess position RMS / scale)^2 + (delivery error / scale)^2."""
-        c = sum(v.excess_rms_m**2 for v in self.valves) / scales.position_m**2
-        if self.delivery_error_pct is not None:
-            c += (self.delivery_error_pct / 100.0 / scales.delivery_frac) ** 2
-        return float(c)
+        """Dimensionless gap: (excess position RMS / scale)^2 + (delivery error / scale)^2
+        + (excess cylinder-pressure RMS / scale)^2."""
+        return float(sum(self.cost_parts(scales).values()))
 
     def as_dict(self) -> dict:
         d = {"run": self.run, "speed_rpm": self.speed_rpm, "load_pressure_pa": self.load_pressure_pa,
-             "position_rms_m": self.position_rms_m, "delivery_error_pct": self.delivery_error_pct}
+             "position_rms_m": self.position_rms_m, "delivery_error_pct": self.delivery_error_pct,
+             "pressure_rms_pa": None if self.pressure is None else self.pressure.rms_pa,
+             "pressure_excess_rms_pa": None if self.pressure is None else self.pressure.excess_rms_pa}
         for v in self.valves:
             d[v.valve] = {
                 "position_rms_m": v.rms_m, "noise_m": v.noise_m,
@@ -360,7 +400,22 @@ def run_gap(run: Run, folded: Folded, sim: CycleTrace, nuisance: Nuisance) -> Ru
     d = None
     if run.delivery_m3_per_rev is not None:
         d = 100.0 * (sim.delivery_m3_per_rev - run.delivery_m3_per_rev) / run.delivery_m3_per_rev
-    return RunGap(run.name, run.speed_rpm, run.load_pressure_pa, tuple(valves), d)
+    return RunGap(run.name, run.speed_rpm, run.load_pressure_pa, tuple(valves), d, pressure_gap(folded, sim))
+
+
+def pressure_residual(folded: Folded, sim: CycleTrace) -> np.ndarray | None:
+    """Measured - modelled cylinder pressure [Pa] at the measured crank angles (None without both)."""
+    if folded.pressure_pa is None or sim.cylinder_pressure_pa is None:
+        return None
+    return folded.pressure_pa - periodic_interp(folded.pressure_crank_deg, sim.crank_deg, sim.cylinder_pressure_pa)
+
+
+def pressure_gap(folded: Folded, sim: CycleTrace) -> PressureGap | None:
+    """The cylinder-pressure gap of one run (None where the run or the model has no pressure trace)."""
+    r = pressure_residual(folded, sim)
+    if r is None:
+        return None
+    return PressureGap(float(np.sqrt(np.mean(r**2))), folded.pressure_noise_pa, r, folded.pressure_crank_deg)
 
 
 def summary(gaps: list[RunGap]) -> dict:
@@ -369,10 +424,12 @@ def summary(gaps: list[RunGap]) -> dict:
     pos = [g.position_rms_m for g in gaps if g.position_rms_m is not None]
     exc = [v.excess_rms_m for g in gaps for v in g.valves]
     dele = [g.delivery_error_pct for g in gaps if g.delivery_error_pct is not None]
+    pres = [g.pressure.excess_rms_pa for g in gaps if g.pressure is not None]
     return {
         "position_rms_m": float(np.sqrt(np.mean(np.square(pos)))) if pos else None,
         "position_excess_rms_m": float(np.sqrt(np.mean(np.square(exc)))) if exc else None,
         "delivery_error_pct": float(np.sqrt(np.mean(np.square(dele)))) if dele else None,
+        "pressure_excess_rms_pa": float(np.sqrt(np.mean(np.square(pres)))) if pres else None,
         "runs": len(gaps),
     }
 

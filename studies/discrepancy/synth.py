@@ -6,7 +6,8 @@ the way the thesis's rig did (10 kHz, time zero at TDC, whole revolutions) and
 spoiled the way real data is: white position noise, a position-sensor scale error
 per valve (the laser triangulation scale factor is uncertain by +-1.12 %, thesis
 section 5.3.2), a time offset between the sensor and the crank angle, pressure noise
-and a delivery-measurement error. The truth (effects, nuisances, seed) goes to
+(cut at the oil's vapour pressure: an absolute transducer reads nothing lower, and no liquid is
+below it) and a delivery-measurement error. The truth (effects, nuisances, seed) goes to
 ``truth.toml`` at the dataset root, which the dataset reader ignores: the effect is
 hidden from the workflow.
 """
@@ -67,6 +68,7 @@ def synthesize(simulator, valve_type: str, conditions: list[Condition], truth: t
     offset = float(rng.uniform(-2e-4, 2e-4)) if noise.time_offset_s is None else float(noise.time_offset_s)
     conds = [RunCondition(run_name(i, c), valve_type, float(c.speed_rpm), float(c.load_pressure_pa),
                           c.air_content) for i, c in enumerate(conditions)]
+    floor = pressure_floor(simulator)
     with Simulations(simulator, workers) as sims:
         results = sims.many([(rc, tuple(truth)) for rc in conds])
     runs = []
@@ -87,6 +89,9 @@ def synthesize(simulator, valve_type: str, conditions: list[Condition], truth: t
         if sim.cylinder_pressure_pa is not None:
             pcyl = (periodic_interp(theta, sim.crank_deg, sim.cylinder_pressure_pa)
                     + rng.normal(0.0, noise.pressure_pa, n))
+            # an absolute transducer reads no lower than the bottom of its range: the noise is cut
+            # at the oil's vapour pressure, below which the liquid's pressure cannot fall
+            pcyl = np.maximum(pcyl, floor)
         pload = c.load_pressure_pa + rng.normal(0.0, noise.pressure_pa, n)
         delivery = sim.delivery_m3_per_rev * (1.0 + rng.normal(0.0, noise.delivery_frac))
         runs.append(Run(
@@ -106,6 +111,13 @@ def synthesize(simulator, valve_type: str, conditions: list[Condition], truth: t
                   "revolutions": noise.revolutions},
     }
     return runs, truth_doc
+
+
+def pressure_floor(simulator) -> float:
+    """Lowest absolute pressure a synthetic transducer reads [Pa]: the model oil's vapour pressure (0 for a
+    simulator without a pump model)."""
+    oil = getattr(getattr(simulator, "context", None), "oil", None)
+    return float(getattr(oil, "vapour_pressure", 0.0))
 
 
 def write_synthetic(folder, runs: list[Run], truth: dict, force: bool = False):

@@ -38,7 +38,8 @@ from geometry.errors import InputError
 from lumped.effects import Applied, Effect, Library
 
 from studies.discrepancy.gap import (
-    CycleTrace, Folded, GapScales, Nuisance, describe, findings, fit_nuisance, fold, predict, run_gap, summary,
+    CycleTrace, Folded, GapScales, Nuisance, describe, findings, fit_nuisance, fold, predict, pressure_residual, run_gap,
+    summary,
 )
 from studies.discrepancy.measured import Run
 from geometry.errors import ModelFailure  # noqa: F401  (re-exported: raised when a run cannot be simulated)
@@ -70,9 +71,13 @@ class Settings:
 
     scales: GapScales = GapScales()
     min_rel_improvement: float = 0.3   # the held-out gap must shrink by this fraction ...
-    min_abs_improvement: float = 3.0   # ... and by this many gap units (GapScales): above what a
-                                       # 3 % discharge-coefficient error lets a wrong effect gain
-                                       # (2.4 units measured, docs/discrepancy.md)
+    min_abs_improvement: float = 3.0   # ... and by this many gap units (GapScales): above what the
+                                       # noise lets a wrong effect gain (docs/discrepancy.md)
+    max_worse_units: float = 1.0       # no kind of evidence (positions, deliveries, cylinder pressures,
+                                       # over all runs) may get worse by more than this: an effect
+                                       # that is there explains every kind it touches, while one that
+                                       # stands in for another error (a leak for a higher Cd, a soft
+                                       # seat for a lower one) trades one kind against another
     max_bic_increase: float = 0.0      # an effect must not raise the fit BIC
     n_grid: int = 6                    # coarse grid points of a one-parameter search (log bounds)
     n_fine: int = 5                    # fine grid points between the best coarse point's neighbours
@@ -105,6 +110,11 @@ class CandidateFit:
     failed: str | None = None
     seconds: float = 0.0
     model: tuple = ()                  # the augmented model: added effects (refitted) + this one
+    why_not_added: str | None = None   # set by the decision (Workflow.verdict)
+    held_parts: dict | None = None     # held-out cost by kind of evidence, with the candidate ...
+    base_held_parts: dict | None = None  # ... and without it
+    fit_parts: dict | None = None      # the same on the fitting runs
+    base_fit_parts: dict | None = None
 
     @property
     def key(self) -> str:
@@ -121,6 +131,27 @@ class CandidateFit:
     def fit_improvement(self) -> float:
         return 1.0 - self.fit_cost / self.base_fit_cost if self.base_fit_cost else 0.0
 
+    def parts_change(self) -> dict | None:
+        """Change of the gap by kind of evidence over all runs (fitting and held out), in gap units."""
+        if self.fit_parts is None or self.base_fit_parts is None:
+            return None
+        out = {}
+        for k in self.fit_parts:
+            after = self.fit_parts[k] + (self.held_parts or {}).get(k, 0.0)
+            before = self.base_fit_parts[k] + (self.base_held_parts or {}).get(k, 0.0)
+            out[k] = after - before
+        return out
+
+    def contradiction(self, max_worse: float) -> str | None:
+        """None, or the kind of evidence the candidate makes worse by more than ``max_worse`` units."""
+        change = self.parts_change()
+        if not change:
+            return None
+        kind, worse = max(change.items(), key=lambda kv: kv[1])
+        if worse > max_worse:
+            return f"{kind} gap worse by {worse:.2f} units"
+        return None
+
     def row(self, rank: int, round_: int) -> dict:
         """One ranking-table row (JSON-safe: a failed fit's infinities become None)."""
         return _json_safe({
@@ -130,7 +161,9 @@ class CandidateFit:
             "fit_improvement_pct": 100 * self.fit_improvement, "delta_bic": self.delta_bic,
             "plausible": self.plausible_reason is None, "why_not_plausible": self.plausible_reason,
             "simulations": self.n_sims, "seconds": self.seconds, "accepted": self.accepted,
-            "failed": self.failed,
+            "failed": self.failed, "held_out_parts": self.held_parts, "held_out_parts_before": self.base_held_parts,
+            "fit_parts": self.fit_parts, "fit_parts_before": self.base_fit_parts,
+            "gap_change_by_kind": self.parts_change(), "why_not_added": self.why_not_added,
         })
 
 
@@ -156,6 +189,8 @@ class Evaluation:
     held_cost: float | None
     nuisance: Nuisance
     sims: dict
+    held_parts: dict | None = None      # held-out cost by kind of evidence (position, delivery, pressure)
+    fit_parts: dict | None = None       # the same on the fitting runs
 
 
 @dataclass
@@ -190,7 +225,8 @@ class Outcome:
         def gap_of(ev: Evaluation, runs) -> dict:
             s = summary([g for g in ev.gaps if g.run in runs])
             return {"position_rms_m": s["position_rms_m"], "delivery_error_pct": s["delivery_error_pct"],
-                    "position_excess_rms_m": s["position_excess_rms_m"]}
+                    "position_excess_rms_m": s["position_excess_rms_m"],
+                    "pressure_excess_rms_pa": s["pressure_excess_rms_pa"]}
 
         fit_names = [r.name for r in self.fit_runs]
         held_names = [r.name for r in self.held_runs]
@@ -206,6 +242,8 @@ class Outcome:
                 "position_excess_reduction_pct": _reduction(hb["position_excess_rms_m"],
                                                             ha["position_excess_rms_m"]),
                 "delivery_error_reduction_pct": _reduction(hb["delivery_error_pct"], ha["delivery_error_pct"]),
+                "pressure_excess_reduction_pct": _reduction(hb["pressure_excess_rms_pa"],
+                                                            ha["pressure_excess_rms_pa"]),
                 "cost_before": self.before.held_cost,
                 "cost_after": self.after.held_cost,
             }
@@ -235,6 +273,16 @@ class Outcome:
             "wall_seconds": self.seconds,
             "notes": self.notes,
         }
+
+
+def _parts(gaps, names, scales) -> dict:
+    """Cost of the runs ``names`` by kind of evidence (RunGap.cost_parts summed)."""
+    out = {"position": 0.0, "delivery": 0.0, "pressure": 0.0}
+    for g in gaps:
+        if g.run in names:
+            for k, v in g.cost_parts(scales).items():
+                out[k] += v
+    return out
 
 
 def _reduction(before, after):
@@ -387,7 +435,8 @@ class Workflow:
     def _fit_residuals(self, model: tuple) -> tuple[np.ndarray | None, Nuisance]:
         """Scaled residuals on the fitting runs, nuisances profiled out (None if a simulation
         failed): each position trace divided by the position tolerance and sqrt(samples), so
-        it weighs as its mean square; each delivery by the delivery tolerance."""
+        it weighs as its mean square; each delivery by the delivery tolerance; each
+        cylinder-pressure trace by the pressure tolerance and sqrt(samples)."""
         sims = self.simulate(model, self.fit_runs)
         bad = [s for s in sims.values() if isinstance(s, SimulationFailure)]
         if bad:
@@ -403,6 +452,9 @@ class Workflow:
                 for valve, th in f.crank_deg.items():
                     res = f.position[valve] - predict(s, valve, th, r.speed_rpm, nuis)
                     parts.append(res / (sc.position_m * math.sqrt(res.size)))
+                res = pressure_residual(f, s)
+                if res is not None:
+                    parts.append(res / (sc.pressure_pa * math.sqrt(res.size)))
             if r.delivery_m3_per_rev is not None:
                 parts.append(np.array([(s.delivery_m3_per_rev - r.delivery_m3_per_rev)
                                        / r.delivery_m3_per_rev / sc.delivery_frac]))
@@ -435,7 +487,8 @@ class Workflow:
         held_names = {r.name for r in self.held_runs}
         fit_cost = sum(g.cost(sc) for g in gaps if g.run in fit_names)
         held_cost = sum(g.cost(sc) for g in gaps if g.run in held_names) if held_names else None
-        return Evaluation(model, gaps, fit_cost + (held_cost or 0.0), fit_cost, held_cost, nuis, sims)
+        return Evaluation(model, gaps, fit_cost + (held_cost or 0.0), fit_cost, held_cost, nuis, sims,
+                          _parts(gaps, held_names, sc) if held_names else None, _parts(gaps, fit_names, sc))
 
     def n_effective(self, ev: Evaluation) -> float:
         """Effective number of independent residuals on the fitting runs.
@@ -449,8 +502,9 @@ class Workflow:
         for g in ev.gaps:
             if g.run not in fit_names:
                 continue
-            for v in g.valves:
-                r = v.residual_m - np.mean(v.residual_m)
+            traces = [v.residual_m for v in g.valves] + ([g.pressure.residual_pa] if g.pressure is not None else [])
+            for res in traces:
+                r = res - np.mean(res)
                 den = float(r @ r)
                 rho = float(r[1:] @ r[:-1]) / den if den > 0 else 0.0
                 rho = min(max(rho, 0.0), 0.999)
@@ -564,7 +618,8 @@ class Workflow:
                 fits[-1].seconds = time.perf_counter() - t1
             bar.close()
             order = sorted(fits, key=_rank_key)
-            winner = next((f for f in order if self._significant(f)), None)
+            verdicts = [self._significant(f) for f in order]          # every candidate gets its reason
+            winner = next((f for f, ok in zip(order, verdicts) if ok), None)
             if winner is not None:
                 winner.accepted = True
             ranking += [f.row(i + 1, rnd) for i, f in enumerate(order)]
@@ -613,14 +668,13 @@ class Workflow:
             model = self.refine(model)
             vals = model[-1].value_dict
             cost, nuis = self.fit_objective(model)
-        held = None
-        if self.held_runs:
-            try:
-                held = self.evaluate(model).held_cost
-            except ModelFailure as exc:
-                return CandidateFit(eff.name, target, vals, eff.report(vals, vt, target), cost, None, math.inf,
-                                    "held-out simulation failed", self.sims.count - n0, cur.fit_cost,
-                                    cur.held_cost, failed=str(exc))
+        try:
+            ev = self.evaluate(model)      # every run: the held-out score and the gap by kind of evidence
+        except ModelFailure as exc:
+            return CandidateFit(eff.name, target, vals, eff.report(vals, vt, target), cost, None, math.inf,
+                                "held-out simulation failed", self.sims.count - n0, cur.fit_cost,
+                                cur.held_cost, failed=str(exc))
+        held, held_parts, fit_parts = ev.held_cost, ev.held_parts, ev.fit_parts
         base_fit = self.fit_objective(current)[0]
         k = max(1, len(eff.parameters_for(vt, target)))   # a pure switch still costs one degree of freedom
         dbic = (n_eff * math.log(max(cost, 1e-12) / max(base_fit, 1e-12)) + k * math.log(n_eff)
@@ -629,17 +683,38 @@ class Workflow:
         for a in model[:-1]:   # the refitted earlier effects must stay plausible too
             why = why or self.library[a.name].plausibility(a.value_dict, vt, a.target)
         return CandidateFit(eff.name, target, vals, eff.report(vals, vt, target), cost, held, dbic, why,
-                            self.sims.count - n0, base_fit, cur.held_cost, nuisance=nuis, model=model)
+                            self.sims.count - n0, base_fit, cur.held_cost, nuisance=nuis, model=model,
+                            held_parts=held_parts, base_held_parts=cur.held_parts, fit_parts=fit_parts,
+                            base_fit_parts=cur.fit_parts)
 
     def _significant(self, f: CandidateFit) -> bool:
+        """Whether a candidate is added (see :meth:`verdict`)."""
+        f.why_not_added = self.verdict(f)
+        return f.why_not_added is None
+
+    def verdict(self, f: CandidateFit) -> str | None:
+        """None if the candidate qualifies, else why not: a failed or implausible fit, a BIC it does not
+        pay for, a kind of evidence it makes worse (Settings.max_worse_units), or a held-out gain (the
+        fit gain without held-out runs) below the relative and absolute thresholds."""
         st = self.settings
-        if f.failed or f.plausible_reason is not None or not f.delta_bic < -st.max_bic_increase:
-            return False
+        if f.failed:
+            return "fit failed"
+        if f.plausible_reason is not None:
+            return "not plausible"
+        if not f.delta_bic < -st.max_bic_increase:
+            return "does not pay for its parameters (BIC)"
+        why = f.contradiction(st.max_worse_units)
+        if why is not None:
+            return f"contradicts the data: {why}"
         if f.held_cost is not None and f.base_held_cost is not None:
-            gain = f.base_held_cost - f.held_cost
-            return gain >= st.min_abs_improvement and gain >= st.min_rel_improvement * f.base_held_cost
-        gain = f.base_fit_cost - f.fit_cost   # no held-out runs: the fit must improve clearly
-        return gain >= st.min_abs_improvement and gain >= st.min_rel_improvement * f.base_fit_cost
+            gain, base, where = f.base_held_cost - f.held_cost, f.base_held_cost, "held-out"
+        else:
+            gain, base, where = f.base_fit_cost - f.fit_cost, f.base_fit_cost, "fit"   # no held-out runs
+        if gain < st.min_rel_improvement * base:
+            return f"{where} gap shrinks by {100 * gain / base if base else 0:.0f} % < {100 * st.min_rel_improvement:.0f} %"
+        if gain < st.min_abs_improvement:
+            return f"{where} gap shrinks by {gain:.2f} units < {st.min_abs_improvement:g}"
+        return None
 
 
 def _rank_key(f: CandidateFit):
