@@ -70,6 +70,7 @@ def test_compliant_seat_sinks_by_the_pressure_force_over_k():
     assert float(np.min(sim.positions["delivery"])) == pytest.approx(-force / k, rel=0.03)
 
 
+@pytest.mark.slow  # the same story runs in the default suite as docs/examples/ex05_oring_story.py
 def test_thesis_oring_story():
     """Section 5.4.5: the delivery valve's O-ring compliance, found from the traces (k_seat 1.5e6 N/m)."""
     r = run_case("oring", [("seat_compliance", "delivery", {"k_seat": (1.5e6, 1.5e6)})], "disc", 0,

@@ -36,7 +36,8 @@ def _command_lines() -> list[str]:
 
 COMMANDS = _command_lines()
 #: what takes minutes or belongs to the benchmarks: run with -m slow
-SLOW = re.compile(r"^valvelab (validate|check|modes|seat|table [35]\.|discrepancy|synth)|--fidelity solid|"
+SLOW = re.compile(r"^valvelab (validate|check|modes|seat|table [35]\.|discrepancy|synth|sensitivity|optimize)|"
+                  r"--fidelity solid|"
                   r"^python benchmarks/|studies\.discrepancy\.confusion")
 
 
@@ -66,6 +67,7 @@ def test_there_are_examples_to_run():
 
 
 def _check(lines, tmp_path):
+    (tmp_path / "docs").symlink_to(ROOT / "docs")      # the README's examples name docs/examples/...
     for line in lines:
         r = _run(line, tmp_path)
         assert r.returncode == 0, f"{line!r} exited {r.returncode}:\n{r.stderr[-2000:]}"
