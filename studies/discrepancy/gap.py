@@ -24,19 +24,25 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from lumped.trace import Trace
 from studies.discrepancy.measured import Run
 
 VALVES = ("inlet", "delivery")
 
 
-@dataclass(frozen=True)
-class CycleTrace:
-    """One simulated revolution on crank angle: positions [m] of both valves, delivery [m^3/rev]."""
+class CycleTrace(Trace):
+    """One simulated revolution on crank angle: a :class:`lumped.trace.Trace` (positions [m] of both
+    valves, cylinder pressure [Pa] if known) with the delivery of that revolution [m^3/rev].
 
-    crank_deg: np.ndarray            # increasing, within [0, 360)
-    positions: dict                  # valve -> position [m]
-    delivery_m3_per_rev: float
-    cylinder_pressure_pa: np.ndarray | None = None
+    Built from crank angles [deg] within [0, 360): the trace's clock is one revolution per second
+    (``speed_rpm = 60``), so ``crank_deg`` gives the angles back.
+    """
+
+    def __init__(self, crank_deg, positions: dict, delivery_m3_per_rev: float, cylinder_pressure_pa=None):
+        base = Trace.measured(np.asarray(crank_deg, dtype=float) / 360.0, positions, cylinder_pressure_pa,
+                              speed_rpm=60.0)
+        super().__init__(base.time, base.speed_rpm, base.signals)
+        object.__setattr__(self, "delivery_m3_per_rev", float(delivery_m3_per_rev))
 
 
 #: default tolerance of the cylinder-pressure gap (GapScales.pressure_pa), from the leak/Cd study
