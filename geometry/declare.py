@@ -157,12 +157,16 @@ def check_field(obj_or_cls, name: str, value, where: str):
 
 
 # --------------------------------------------------------------------------- tables
-def flatten(table: dict, prefix: str = "") -> dict:
-    """Nested TOML tables to dotted keys: {"spring": {"stiffness": 1}} -> {"spring.stiffness": 1}."""
+def flatten(table: dict, prefix: str = "", leaf_keys: frozenset | set | None = None) -> dict:
+    """Nested TOML tables to dotted keys: {"spring": {"stiffness": 1}} -> {"spring.stiffness": 1}.
+
+    With ``leaf_keys``, a table holding any of them (or empty) is a value, not a namespace:
+    ``[factors.inlet.f1] low = 0.5`` stays ``{"inlet.f1": {"low": 0.5}}``.
+    """
     out = {}
     for k, v in table.items():
-        if isinstance(v, dict):
-            out.update(flatten(v, f"{prefix}{k}."))
+        if isinstance(v, dict) and (leaf_keys is None or (v and not set(v) & set(leaf_keys))):
+            out.update(flatten(v, f"{prefix}{k}.", leaf_keys))
         else:
             out[f"{prefix}{k}"] = v
     return out

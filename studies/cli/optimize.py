@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
-from studies.cli.sensitivity import add_cluster_flags, check_cluster_flags
+from studies.cli.sensitivity import add_cluster_flags, run_study
 
 HELP = ("optimise pump and valve parameters (NSGA-II for several objectives, differential evolution for one) over "
         "operating points with constraints; re-check the front with the solid FEA and the reference integrator; "
@@ -22,18 +20,8 @@ def configure(p):
 
 def run(args) -> dict:
     from studies.sweeps.design.optimize import run_optimize
-    from studies.sweeps.design.spec import load_spec
 
-    check_cluster_flags(args)
-    spec = load_spec(args.spec, "optimize", model_override=args.model)
-    out = Path(args.out) if args.out else Path(f"optimize-{Path(args.spec).stem}")
-    try:
-        return run_optimize(spec, out, scheduler=args.scheduler, workers=args.workers, batch_size=args.batch_size,
-                            force=args.force, progress=not args.no_progress)
-    except KeyboardInterrupt:
-        sys.stderr.write(f"optimize interrupted: the evaluations finished so far are in {out}; "
-                         "rerun the same command to resume (nothing finished is recomputed)\n")
-        raise
+    return run_study(args, "optimize", run_optimize)
 
 
 def _f(v) -> str:

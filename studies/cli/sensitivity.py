@@ -36,20 +36,26 @@ def check_cluster_flags(args) -> None:
         raise InputError("--batch-size", f"must be a positive integer, got {args.batch_size}")
 
 
-def run(args) -> dict:
-    from studies.sweeps.design.sensitivity import run_sensitivity
+def run_study(args, command: str, runner) -> dict:
+    """Check the flags, load the spec for ``command`` and run ``runner(spec, out, ...)`` (a design study)."""
     from studies.sweeps.design.spec import load_spec
 
     check_cluster_flags(args)
-    spec = load_spec(args.spec, "sensitivity", model_override=args.model)
-    out = Path(args.out) if args.out else Path(f"sensitivity-{Path(args.spec).stem}")
+    spec = load_spec(args.spec, command, model_override=args.model)
+    out = Path(args.out) if args.out else Path(f"{command}-{Path(args.spec).stem}")
     try:
-        return run_sensitivity(spec, out, scheduler=args.scheduler, workers=args.workers, batch_size=args.batch_size,
-                               force=args.force, progress=not args.no_progress)
+        return runner(spec, out, scheduler=args.scheduler, workers=args.workers, batch_size=args.batch_size,
+                      force=args.force, progress=not args.no_progress)
     except KeyboardInterrupt:
-        sys.stderr.write(f"sensitivity interrupted: the evaluations finished so far are in {out}; "
-                         "rerun the same command to resume\n")
+        sys.stderr.write(f"{command} interrupted: the evaluations finished so far are in {out}; "
+                         "rerun the same command to resume (nothing finished is recomputed)\n")
         raise
+
+
+def run(args) -> dict:
+    from studies.sweeps.design.sensitivity import run_sensitivity
+
+    return run_study(args, "sensitivity", run_sensitivity)
 
 
 def render(r: dict) -> str:

@@ -189,17 +189,6 @@ def _parse_factor(name: str, d, sampler: str) -> Factor:
 _FACTOR_KEYS = {"low", "high", "scale", "levels", "values", "integer"}
 
 
-def _flatten_factors(d: dict, prefix: str = "") -> dict:
-    """[factors.inlet.f1] nests like a dotted key: a table without factor keys is a namespace."""
-    out = {}
-    for k, v in d.items():
-        if isinstance(v, dict) and v and not (set(v) & _FACTOR_KEYS):
-            out.update(_flatten_factors(v, f"{prefix}{k}."))
-        else:
-            out[f"{prefix}{k}"] = v
-    return out
-
-
 def _pump_model_name(model: str, base_dir: Path | None) -> str | None:
     """The pump model a ``[sweep] model`` names (a shipped name, or a model file made absolute), or None."""
     from lumped.model_file import SHIPPED
@@ -257,7 +246,7 @@ def parse_spec(doc: dict, text: str = "", base_dir: Path | None = None) -> Sweep
     fdoc = doc.get("factors")
     if not isinstance(fdoc, dict) or not fdoc:
         raise InputError("factors", "need at least one [factors.NAME] table")
-    factors = tuple(_parse_factor(n, d, sampler) for n, d in _flatten_factors(fdoc).items())
+    factors = tuple(_parse_factor(n, d, sampler) for n, d in flatten(fdoc, leaf_keys=_FACTOR_KEYS).items())
     fixed_doc = doc.get("fixed", {})
     if not isinstance(fixed_doc, dict):
         raise InputError("fixed", "must be a table of name = value")

@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from geometry.declare import flatten
 from geometry.errors import InputError
 
 COMMANDS = ("sensitivity", "optimize")
@@ -262,28 +263,7 @@ def _q(name: str) -> str:
     return f'"{name}"' if "." in name else name
 
 
-def _flatten(d: dict, prefix: str = "") -> dict:
-    out = {}
-    for k, v in d.items():
-        if isinstance(v, dict):
-            out.update(_flatten(v, f"{prefix}{k}."))
-        else:
-            out[f"{prefix}{k}"] = v
-    return out
-
-
 _VAR_KEYS = {"low", "high", "scale", "values", "distribution", "mean", "std", "median", "sigma", "mode"}
-
-
-def _flatten_variables(d: dict, prefix: str = "") -> dict:
-    """[variables] with dotted keys written unquoted nests tables: a table without variable keys is a namespace."""
-    out = {}
-    for k, v in d.items():
-        if isinstance(v, dict) and v and not (set(v) & _VAR_KEYS):
-            out.update(_flatten_variables(v, f"{prefix}{k}."))
-        else:
-            out[f"{prefix}{k}"] = v
-    return out
 
 
 def _parse_variable(name: str, d, command: str, role: str, unit: str) -> Variable:
@@ -661,7 +641,7 @@ def parse_spec(doc: dict, command: str, text: str = "", base_dir: Path | None = 
     if not isinstance(fixed_doc, dict):
         raise InputError("fixed", "expected a table of key path = value")
     fixed = []
-    for k, v in _flatten(fixed_doc).items():
+    for k, v in flatten(fixed_doc).items():
         if isinstance(v, float) and not math.isfinite(v):
             raise InputError(f"fixed.{_q(k)}", f"must be finite, got {v}")
         if isinstance(v, list):
@@ -671,11 +651,11 @@ def parse_spec(doc: dict, command: str, text: str = "", base_dir: Path | None = 
     var_doc = doc.get("variables")
     if not isinstance(var_doc, dict) or not var_doc:
         raise InputError("variables", "need at least one variable: \"key.path\" = [low, high]")
-    var_doc = _flatten_variables(var_doc)
+    var_doc = flatten(var_doc, leaf_keys=_VAR_KEYS)
     der_doc = doc.get("derived", {})
     if not isinstance(der_doc, dict):
         raise InputError("derived", "expected a table of key path = \"expression\"")
-    der_doc = _flatten(der_doc)
+    der_doc = flatten(der_doc)
 
     model_obj = None
     if kind == "pump":
