@@ -362,6 +362,7 @@ def test_contract_example_sweep_file_is_valid():
     assert spec.fixed_dict["effect.piston_leakage"] is True and len(sweep.sample_designs(spec)) == 1024
 
 
+@pytest.mark.slow  # the address path is also run by test_sensitivity.py::test_cli_on_an_existing_scheduler
 def test_cli_sweep_on_an_existing_scheduler(client, tmp_path):
     """--scheduler ADDRESS: the CLI submits to a running cluster instead of starting one."""
     spec = tmp_path / "s.toml"
