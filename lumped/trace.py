@@ -6,7 +6,9 @@ reader reads one, and the discrepancy workflow folds both onto one revolution of
 angle (:meth:`Trace.fold`). Signal names: ``inlet_position``, ``delivery_position`` [m],
 ``cylinder_pressure``, ``load_pressure`` [Pa], ``inlet_mass_flow``,
 ``delivery_mass_flow`` [kg/s], ``inlet_velocity``, ``delivery_velocity`` [m/s],
-``vapour_volume`` [m^3].
+``vapour_volume`` [m^3]. The measured-data reader builds one with :meth:`Trace.measured`;
+the discrepancy workflow's model revolution (``studies.discrepancy.gap.CycleTrace``) is one
+with its delivery attached.
 """
 
 from __future__ import annotations
