@@ -568,7 +568,9 @@ def _valve_timing(span, period, y_start, omega, p):
                 start = None
         if start is not None:
             intervals.append((start, t0 + period))
-        if not intervals:
+        # never open, or never reseated (held off its seat, e.g. by a squeeze film): no timing
+        # to report; 0 deg would be a silent wrong number
+        if not intervals or intervals == [(t0, t0 + period)]:
             opening.append(None)
             closing.append(None)
             continue

@@ -278,3 +278,22 @@ def test_valve_losses_are_the_pressure_drop_work(disc_run):
     e = np.trapezoid(np.append((m.pump.tank_pressure - tr.cylinder_pressure) * q, 0.0), np.append(tr.time, period))
     assert disc_run.inlet.energy_loss == pytest.approx(e, rel=0.02)
     assert disc_run.inlet.energy_loss > 0 and disc_run.delivery.energy_loss > 0
+
+
+def test_a_valve_that_never_reseats_has_no_timing_not_zero_degrees():
+    """With the squeeze film (eq 2.15's C2) the discs hover micrometres above their seats all
+    revolution: there is no opening or closing angle to report, and 0 deg would be a wrong number."""
+    from dataclasses import replace as _replace
+
+    from lumped import LIBRARY
+    from lumped.effects import Applied
+
+    m = load_model("thesis-disc")
+    film = LIBRARY.effects["squeeze_film"]
+    c2 = {p.name: p.prior for p in film.parameters_for(m, "inlet")}
+    held = simulate(_replace(m, effects=m.effects + (Applied.of("squeeze_film", "both", c2),)), 593, 2.76e6)
+    free = simulate(m, 593, 2.76e6)
+    assert held.inlet.peak_opening > 1e-4                                  # it does open...
+    assert held.inlet.opening_angle is None and held.inlet.closing_angle is None   # ...but never reseats
+    assert held.to_dict()["opening_angle_deg"]["inlet"] is None
+    assert free.inlet.opening_angle is not None and 0.0 < free.inlet.closing_angle < 2 * math.pi

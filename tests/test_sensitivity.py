@@ -337,8 +337,8 @@ def test_a_valve_that_never_reseats_has_no_timing():
     model = with_values(load_model("thesis-disc"), {"effects.squeeze_film": True})
     raw = simulate(model, 593.0, 2.76e6, rtol=1e-4, atol=1e-6)
     for v in (raw.inlet, raw.delivery):
-        assert v.seat_impact_velocity == 0.0
-        assert abs(math.remainder(v.closing_angle - v.opening_angle, 2 * math.pi)) < 1e-9
+        assert v.seat_impact_velocity == 0.0                      # never lands on its seat...
+        assert v.opening_angle is None and v.closing_angle is None    # ...so no timing (not 0 deg)
     point = {"model": "thesis-disc", "speed_rpm": 593.0, "load_pressure": 2.76e6, "rtol": 1e-4, "atol": 1e-6}
     on = evaluate(dict(point, **{"effects.squeeze_film": True}))
     off = evaluate(dict(point, **{"effects.squeeze_film": False}))

@@ -18,7 +18,6 @@ design reuse the model built for the first (:func:`_model_for`).
 
 from __future__ import annotations
 
-import math
 
 from studies.sweeps import pump as sweep_pump
 from studies.sweeps.pump import OPERATING, translate
@@ -82,14 +81,9 @@ def evaluate(design: dict) -> dict:
                    air_content=design.get("air_content"), revolutions=int(design.get("revolutions", 5)),
                    max_revolutions=design.get("max_revolutions"), circuit=design.get("circuit"),
                    method=design.get("method", "fast"), **kw)
+    # a valve that never reseats (held off its seat by the squeeze film's C2 u / x^3) has no timing:
+    # lumped.cycle reports its angles as None, which the outputs keep as missing
     out = sweep_pump.outputs_of(res)
-    for pos in ("inlet", "delivery"):
-        # a valve that never reseats (open through the whole revolution, e.g. held off its seat by the squeeze
-        # film's C2 u / x^3) has no opening or closing: lumped.cycle reports its open interval as the whole
-        # revolution (opening = closing); missing, not a timing of 0 deg
-        a, b = out.get(f"{pos}_opening_angle_rad"), out.get(f"{pos}_closing_angle_rad")
-        if a is not None and b is not None and abs(math.remainder(b - a, 2 * math.pi)) < 1e-9:
-            out[f"{pos}_opening_angle_rad"] = out[f"{pos}_closing_angle_rad"] = None
     from studies.sweeps.design.stress import lift_deflection, reed_outputs
 
     cal = {pos: float(design.get(f"stress_calibration_{pos}", 0.0) or 0.0) for pos in ("inlet", "delivery")}
