@@ -37,6 +37,21 @@ def _sweep(d: dict) -> list[str]:
             f"{d.get('failed', 0)} failed |"]
 
 
+def _fea(d: dict) -> list[str]:
+    dofs = [r["dofs"] for r in d["reeds"].values()]
+    return [f"| Table 3.3, 3-D solid FEA of the four thesis reeds (`bench_fea.py`) | {d['seconds']:.1f} s "
+            f"({min(dofs):,}-{max(dofs):,} DOFs per reed), peak memory {d['peak_rss_mb']:.0f} MB |"]
+
+
+def _discrepancy(d: dict) -> list[str]:
+    k = d["parameters"].get("seat_compliance", {}).get("k_seat")
+    found = ", ".join(d["effects_added"]) or "nothing"
+    return [f"| discrepancy workflow, 6 disc runs, O-ring hidden (`bench_discrepancy.py`) | "
+            f"{d['workflow_wall_seconds']:.1f} s wall on {d['workers']} workers, {d['simulations']} simulations "
+            f"({d['simulations_per_second']:.0f}/s); found {found}" + (f", k_seat {k:.3g} N/m (truth 1.5e6)" if k else "")
+            + f"; held-out position RMS -{d['held_out_position_rms_reduction_pct']:.0f} % |"]
+
+
 def _generic(name: str, d: dict) -> list[str]:
     keys = [k for k in ("designs_per_hour", "wall_seconds", "seconds", "evaluations") if k in d]
     if not keys:
@@ -45,7 +60,7 @@ def _generic(name: str, d: dict) -> list[str]:
     return [f"| {name} (`bench_{name}.py`) | {text} |"]
 
 
-FORMATTERS = {"pump": _pump, "sweep": _sweep}
+FORMATTERS = {"pump": _pump, "sweep": _sweep, "fea": _fea, "discrepancy": _discrepancy}
 
 
 def render(folder: Path = HERE) -> str:
