@@ -122,10 +122,6 @@ def _kind_of(cls, name: str) -> str:
     return "float"
 
 
-# the checks themselves live in geometry.validate (one validation layer); kept importable here
-UNIT_SLIPS = _v.UNIT_SLIPS
-
-
 def describe_range(spec: Spec) -> str:
     """'a number in N/m from 1 to 1e+08' style text for messages."""
     return _v.describe(spec.unit, spec.bounds, spec.positive)

@@ -95,9 +95,8 @@ def number(value, where: str, *, unit: str = "-", bounds=None, positive: bool = 
     """
     text = describe(unit, bounds, positive, integer)
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        if not isinstance(value, (bool, str, bytes)) and type(value).__module__ == "numpy" \
-                and hasattr(value, "__float__") and not isinstance(value, np_bool()):
-            value = float(value)                   # a numpy scalar
+        if getattr(getattr(value, "dtype", None), "kind", "") in ("i", "u", "f") and not getattr(value, "shape", ()):
+            value = float(value)                   # a numpy integer or float scalar (not a bool, not an array)
         else:
             raise InputError(where, f"expected {text}, got {value!r}")
     if isinstance(value, float) and not math.isfinite(value):
@@ -113,20 +112,23 @@ def number(value, where: str, *, unit: str = "-", bounds=None, positive: bool = 
     return value
 
 
-def np_bool():
-    """numpy's bool type (numpy is imported only when a numpy scalar is checked)."""
-    import numpy as np
+def closest(value, options, cutoff: float = 0.6) -> str | None:
+    """The option closest to a misspelt ``value`` (difflib ratio at least ``cutoff``), or None."""
+    near = difflib.get_close_matches(str(value), tuple(options), n=1, cutoff=cutoff)
+    return near[0] if near else None
 
-    return np.bool_
+
+def _near(value, options) -> str:
+    """' (did you mean X?)' for the closest of ``options`` to a misspelt ``value``, else ''."""
+    near = closest(value, options)
+    return f" (did you mean {near}?)" if near else ""
 
 
 def choice(value, where: str, choices) -> str:
     """``value`` if it is one of ``choices`` (strings), else InputError with the closest suggested."""
     choices = tuple(choices)
     if not isinstance(value, str) or value not in choices:
-        near = difflib.get_close_matches(str(value), choices, n=1)
-        hint = f" (did you mean {near[0]}?)" if near else ""
-        raise InputError(where, f"expected one of {', '.join(choices)}, got {value!r}{hint}")
+        raise InputError(where, f"expected one of {', '.join(choices)}, got {value!r}{_near(value, choices)}")
     return value
 
 
@@ -138,9 +140,7 @@ def keys(table: dict, allowed, where: str, required=(), sep: str = ".") -> None:
     allowed = tuple(allowed)
     for k in table:
         if k not in allowed:
-            near = difflib.get_close_matches(str(k), allowed, n=1)
-            hint = f" (did you mean {near[0]}?)" if near else ""
-            raise InputError(f"{where}{sep}{k}", f"unknown key{hint}; expected one of {', '.join(allowed)}")
+            raise InputError(f"{where}{sep}{k}", f"unknown key{_near(k, allowed)}; expected one of {', '.join(allowed)}")
     for k in required:
         if k not in table:
             raise InputError(f"{where}{sep}{k}", "missing")
@@ -160,9 +160,8 @@ def columns(header, where: str, *, required=(), allowed=None) -> list[str]:
         allowed = tuple(allowed)
         for n in names:
             if n not in allowed:
-                near = difflib.get_close_matches(n, allowed, n=1)
-                hint = f" (did you mean {near[0]}?)" if near else ""
-                raise InputError(f"{where}, {n}", f"unknown column{hint}; expected some of {', '.join(allowed)}")
+                raise InputError(f"{where}, {n}", f"unknown column{_near(n, allowed)}; expected some of "
+                                                  f"{', '.join(allowed)}")
     for n in required:
         if n not in seen:
             raise InputError(f"{where}, {n}", "missing column")

@@ -185,15 +185,14 @@ def _check_header(text: str, where: str) -> None:
     """Refuse a duplicated column, and an extra column that is a near-miss of a known one (a typo
     would otherwise drop the data silently: CONTRACT.md ignores extra columns)."""
     import csv
-    import difflib
 
     first = next(csv.reader([text.splitlines()[0] if text.strip() else ""]), [])
     names = validate.columns(first, where) if first else []
     for n in names:
         if n not in TRACE_COLUMNS:
-            near = difflib.get_close_matches(n, TRACE_COLUMNS, n=1, cutoff=0.85)
-            if near and near[0] not in names:
-                raise InputError(f"{where}, {n}", f"unknown column (did you mean {near[0]}?); expected some of "
+            near = validate.closest(n, TRACE_COLUMNS, cutoff=0.85)
+            if near and near not in names:
+                raise InputError(f"{where}, {n}", f"unknown column (did you mean {near}?); expected some of "
                                                   + ", ".join(TRACE_COLUMNS))
 
 
