@@ -354,11 +354,8 @@ def film_force(p_up: float, p_down: float, p_lim: float, k: float, r_i: float, r
     lnr = math.log(r_o / r_i)
     ri2 = r_i * r_i
     ro2 = r_o * r_o
-    full_c1 = (1.0 - ri2 / ro2) / (2.0 * lnr)                      # eq 2.14
-    # eq 2.13 with C2 u / x^3 = k G (G of squeeze_area_moment, eq 2.15)
-    q = ro2 / ri2
-    full = math.pi * ro2 * full_c1 * (p_up - p_down) - k * 0.5 * math.pi * ri2 * ri2 * (q * q - 1.0) * (
-        1.0 - (q - 1.0) / ((q + 1.0) * lnr))
+    # eq 2.13 with C1 of eq 2.14 and C2 u / x^3 = k G (eq 2.15)
+    full = math.pi * ro2 * c1_coefficient(r_i, r_o) * (p_up - p_down) - k * squeeze_area_moment(r_i, r_o)
     if k <= 0.0:
         return full
     t1 = 0.0 if a <= 0.0 else _film_root(a / (k * ri2), lnr, True)

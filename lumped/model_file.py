@@ -26,13 +26,14 @@ import math
 import tomllib
 from dataclasses import replace
 from functools import lru_cache
-from importlib import resources
 from pathlib import Path
 
 import tomli_w
 
+from geometry.data_files import package_names, package_toml
 from geometry.declare import check_field, flatten, specs
 from geometry.errors import InputError
+from geometry.validate import read_toml
 from lumped import effect_library
 from lumped.effect_library import LIBRARY
 from lumped.effects import Applied
@@ -42,8 +43,7 @@ from lumped.pump import Circuit, Pump
 from lumped.valve import KINDS, kind_of
 
 #: shipped model name -> file in lumped/data/models (every TOML file there)
-SHIPPED = {p.name[:-5]: p.name for p in resources.files("lumped").joinpath("data/models").iterdir()
-           if p.name.endswith(".toml")}
+SHIPPED = {name: f"{name}.toml" for name in package_names("lumped", "models")}
 #: valve kind -> shipped model whose valves give that kind's defaults, where it is not the kind's
 #: own ``default_model`` (lumped.valve.ValveKind)
 KIND_DEFAULTS: dict = {}
@@ -103,25 +103,19 @@ def load_model(spec, field: str = "--model") -> PumpModel:
 @lru_cache(maxsize=64)
 def _load_file(path: str, mtime: int, field: str) -> PumpModel:
     p = Path(path)
-    try:
-        data = tomllib.loads(p.read_text())
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(field, f"{p.name} cannot be read as text ({exc.__class__.__name__})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(field, f"{p.name} is not valid TOML ({exc})") from None
+    data = read_toml(p, field)
     return parse_model(data, source=str(p), base_dir=p.parent, name=p.stem)
 
 
 @lru_cache(maxsize=None)
 def _shipped(name: str) -> PumpModel:
-    text = resources.files("lumped").joinpath(f"data/models/{SHIPPED[name]}").read_text()
-    return parse_model(tomllib.loads(text), source=f"lumped/data/models/{SHIPPED[name]}", name=name,
+    return parse_model(shipped_table(name), source=f"lumped/data/models/{SHIPPED[name]}", name=name,
                        defaults_from=None)
 
 
 def shipped_table(name: str) -> dict:
     """The shipped model file ``name`` as written (a nested dict)."""
-    return tomllib.loads(resources.files("lumped").joinpath(f"data/models/{SHIPPED[name]}").read_text())
+    return package_toml("lumped", f"models/{SHIPPED[name]}")
 
 
 def _merge(base: dict, over: dict) -> dict:

@@ -96,13 +96,12 @@ class RadauStepper(Stepper):
     name = "reference"
 
     def __init__(self, p: np.ndarray, rtol: float, atol: np.ndarray, n_dyn: int, scales: np.ndarray,
-                 method: str = "Radau", dense: bool = True, max_steps: int = 500_000):
+                 method: str = "Radau", max_steps: int = 500_000):
         self.p = p
         self.rtol = rtol
         self.atol = atol
         self.n_dyn = n_dyn
         self.method = method
-        self.dense = dense
         self.scale = scales
         self.max_steps = max_steps
 
@@ -413,7 +412,6 @@ def tolerance_table(atol: float, atol_v: np.ndarray, p: np.ndarray, contact_atol
             x_tol = x_free if k <= 0.0 else min(x_free, CONTACT_POSITION_ATOL * atol * p[G.load_pressure] * area / k)
             in_contact = kind.contact_velocity_atol if contact_atol is None else contact_atol
             u_tol = atol_v[xi + 1] * (FREE_VELOCITY_ATOL if c == FREE else in_contact)
-
             table[2 * (3 * v + c)] = x_tol
             table[2 * (3 * v + c) + 1] = u_tol
     return table

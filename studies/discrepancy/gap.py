@@ -20,7 +20,7 @@ stroke (crank 12-171 deg)").
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -80,11 +80,6 @@ class Nuisance:
 # --------------------------------------------------------------------------- folding
 
 
-def crank_angle_deg(time_s: np.ndarray, speed_rpm: float) -> np.ndarray:
-    """Crank angle [deg, 0-360) from time [s] with t = 0 at top dead centre."""
-    return np.mod(np.asarray(time_s) * speed_rpm * 6.0, 360.0)
-
-
 @dataclass(frozen=True)
 class Folded:
     """A measured run's trace folded onto crank angle, sorted, with its noise estimate."""
@@ -113,7 +108,7 @@ def noise_std(x: np.ndarray) -> float:
 def fold(run: Run) -> Folded:
     """Fold a measured run's trace onto one revolution of crank angle (noise estimated in time order)."""
     tr = run.trace
-    th = crank_angle_deg(tr.time_s, run.speed_rpm)
+    th = replace(tr, speed_rpm=run.speed_rpm).crank_deg     # the run's speed is the one measured
     order = np.argsort(th, kind="stable")
     crank, pos, noise = {}, {}, {}
     for valve, x in tr.positions.items():
