@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from geometry.declare import param
+from geometry.declare import Spec, param, spec_of
 from lumped.effects import Applied
 from lumped.oil import Oil
 from lumped.pump import Circuit, Pump
@@ -27,6 +27,13 @@ class Operating:
     speed_rpm: float = param("speed_rpm", "rpm", "crank speed", bounds=(10.0, 20000.0), positive=True, optional=True)
     load_pressure: float = param("load_pressure", "Pa", "(mean) load pressure, absolute", bounds=(1e4, 1e8),
                                  positive=True, optional=True)
+
+
+#: the operating point as command lines and spec files take it: speed [rpm], load pressure [MPa]
+#: (the ranges of the declarations above)
+SPEED = spec_of(Operating, "speed_rpm")
+LOAD_MPA = Spec(None, "MPa", "(mean) load pressure, absolute",
+                bounds=tuple(b * 1e-6 for b in spec_of(Operating, "load_pressure").bounds), positive=True)
 
 
 @dataclass(frozen=True)

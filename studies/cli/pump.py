@@ -4,18 +4,15 @@ from __future__ import annotations
 
 import csv
 
-from geometry.declare import Spec, spec_of
+from geometry.declare import spec_of
 from geometry.errors import InputError
+from lumped.model import LOAD_MPA, SPEED
 from lumped.oil import Oil
 from studies.cli import flags
 
 HELP = "simulate a pump (a shipped model or your model file) with its check valves to cyclic steady state"
 
-TRACE_COLUMNS = ("time_s", "valve_position_m", "cylinder_pressure_pa", "load_pressure_pa",
-                 "inlet_position_m", "delivery_position_m")
-#: plausible ranges of the engineering-unit flags (the model file's are in SI, lumped.model)
-SPEED = Spec(None, "rpm", "", bounds=(10.0, 20000.0), positive=True)
-LOAD_MPA = Spec(None, "MPa", "", bounds=(0.01, 100.0), positive=True)
+#: plausible ranges of the engineering-unit flags (speed and load: lumped.model, with the model's)
 AIR_BOUNDS = spec_of(Oil, "air_content").bounds       # declared once, with the oil
 TOL_BOUNDS = (1e-14, 0.1)
 MAX_REVOLUTIONS = 100_000
@@ -151,6 +148,8 @@ def _reed_source(model) -> str | None:
 
 def write_trace_csv(result, path, measured_valve: str = "delivery") -> None:
     """The trace with CONTRACT's measured-trace columns (valve_position_m = ``measured_valve``)."""
+    from studies.discrepancy.measured import TRACE_COLUMNS      # the measured-data format
+
     tr = result.trace
     pos = tr.signals[f"{measured_valve}_position"]
     with open(path, "w", newline="") as fh:

@@ -10,7 +10,8 @@ from geometry.errors import InputError
 from lumped.effects import Applied
 
 from studies.cli import flags
-from studies.cli.pump import AIR_BOUNDS, LOAD_MPA, SPEED
+from lumped.model import LOAD_MPA, SPEED
+from studies.cli.pump import AIR_BOUNDS
 from studies.discrepancy.measured import MEASURED_VALVES
 from studies.discrepancy.model_choice import choose
 from studies.discrepancy.synth import Condition, Noise, synthesize, thesis_conditions, write_synthetic

@@ -551,7 +551,7 @@ def _parse_operating(op, model_name: str, kind: str, var_names: set) -> tuple:
                                            "absolute) lists" + (" (load pressure in MPa: load_pressure_mpa)"
                                                                 if k == "load_pressure" else ""))
     from geometry.declare import check_value
-    from studies.cli.pump import LOAD_MPA, SPEED
+    from lumped.model import LOAD_MPA, SPEED
 
     lists = {}
     for k, spec in (("speed_rpm", SPEED), ("load_pressure_mpa", LOAD_MPA)):

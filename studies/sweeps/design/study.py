@@ -55,7 +55,7 @@ def check_variables(spec: DesignSpec, model) -> None:
     """Every variable's range ends (or distribution quantiles, or levels) on the base model, the others at their
     centre; and the centre design itself. InputError names the variable and the end."""
     from geometry.declare import check_value
-    from studies.cli.pump import LOAD_MPA, SPEED
+    from lumped.model import LOAD_MPA, SPEED
 
     centre = {v.name: v.centre() for v in spec.variables}
     if spec.model_kind == "module":
