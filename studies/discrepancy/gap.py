@@ -24,10 +24,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from lumped.model import POSITIONS
 from lumped.trace import Trace
 from studies.discrepancy.measured import Run
 
-VALVES = ("inlet", "delivery")
+VALVES = POSITIONS          # the valves a trace holds
 
 
 class CycleTrace(Trace):

@@ -15,7 +15,8 @@ Inputs: ``model`` (the base model file) and the design's model-file key paths, p
 
 from __future__ import annotations
 
-POSITIONS = ("inlet", "delivery")
+from lumped.model import POSITIONS
+
 TASK_INPUTS = ("task", "mesh_size", "tolerance_pct", "stress_tolerance_pct", "stress_calibration_inlet",
                "stress_calibration_delivery")
 _CAL = ("eb_pa", "solid_away_pa", "solid_max_pa", "ratio")

@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-POSITIONS = ("inlet", "delivery")
+from lumped.model import POSITIONS
 
 
 @dataclass(frozen=True)

@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from geometry.declare import flatten
+from geometry import validate
 from geometry.errors import InputError
 
 COMMANDS = ("sensitivity", "optimize")
@@ -245,17 +246,11 @@ def point_label(p: dict) -> str:
 
 # --------------------------------------------------------------------------- helpers
 def _num(v, where: str, positive: bool = False) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise InputError(where, f"must be a finite number, got {v!r}")
-    if positive and v <= 0:
-        raise InputError(where, f"must be positive, got {v!r}")
-    return float(v)
+    return validate.number(v, where, positive=positive)
 
 
 def _int(v, where: str, lo: int, hi: int) -> int:
-    if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
-        raise InputError(where, f"must be an integer from {lo} to {hi}, got {v!r}")
-    return int(v)
+    return validate.number(v, where, bounds=(lo, hi), integer=True)
 
 
 def _q(name: str) -> str:
@@ -432,13 +427,13 @@ def model_reference(model: str, base_dir: Path | None, field: str = "model") -> 
         if not p.is_file():
             raise InputError(field, f"{model!r}: no such model file")
         return str(p.resolve()), "pump"
-    import importlib
+    from lumped.plugins import import_object
 
     try:
-        mod = importlib.import_module(model)
-    except ImportError as exc:
+        mod = import_object(model, field)
+    except InputError as exc:
         raise InputError(field, f"{model!r} is not a shipped model ({', '.join(SHIPPED)}), a model file or an "
-                                f"importable module ({exc})") from None
+                                f"importable module ({exc.message})") from None
     for attr in ("OUTPUTS", "evaluate"):
         if not hasattr(mod, attr):
             raise InputError(field, f"module {model} has no {attr} (a sweep model, see studies/sweeps/sweep.py)")
@@ -780,9 +775,7 @@ def parse_spec(doc: dict, command: str, text: str = "", base_dir: Path | None = 
 def _parse_stress(d) -> dict:
     if not isinstance(d, dict):
         raise InputError("stress", "expected a table")
-    bad = set(d) - {"yield_stress_mpa", "calibration", "mesh_size"}
-    if bad:
-        raise InputError(f"stress.{sorted(bad)[0]}", "unknown key; expected yield_stress_mpa, calibration, mesh_size")
+    validate.keys(d, ("yield_stress_mpa", "calibration", "mesh_size"), "stress")
     from fea.reed_stress import YIELD_STRESS_DELRIN
 
     out = {"yield_stress_mpa": _num(d.get("yield_stress_mpa", YIELD_STRESS_DELRIN / 1e6), "stress.yield_stress_mpa",
@@ -801,10 +794,7 @@ def _parse_stress(d) -> dict:
 def _parse_recheck(d) -> dict:
     if not isinstance(d, dict):
         raise InputError("recheck", "expected a table")
-    keys = {"enabled", "tolerance_pct", "stress_tolerance_pct", "mesh_size", "max_designs"}
-    bad = set(d) - keys
-    if bad:
-        raise InputError(f"recheck.{sorted(bad)[0]}", f"unknown key; expected some of {', '.join(sorted(keys))}")
+    validate.keys(d, ("enabled", "max_designs", "mesh_size", "stress_tolerance_pct", "tolerance_pct"), "recheck")
     en = d.get("enabled", True)
     if not isinstance(en, bool):
         raise InputError("recheck.enabled", f"expected true or false, got {en!r}")
@@ -821,9 +811,7 @@ def _parse_recheck(d) -> dict:
 def load_spec(path, command: str, model_override: str | None = None) -> DesignSpec:
     """Read and check a spec file (a path)."""
     p = Path(path)
-    if not p.is_file():
-        raise InputError(str(path), "spec file not found")
-    text = p.read_text()
+    text = validate.read_text(p, str(path))
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
