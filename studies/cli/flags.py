@@ -21,17 +21,22 @@ from geometry import validate
 from geometry.errors import InputError
 
 
+def from_text(text: str, field: str, unit: str = "-", bounds=None, *, positive: bool = False,
+              integer: bool = False):
+    """``text`` (a flag or part of one) as a number checked by :func:`geometry.validate.number`; InputError."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise InputError(field, f"expected {validate.describe(unit, bounds, positive, integer)}, got {text!r}") from None
+    return validate.number(v, field, unit=unit, bounds=bounds, positive=positive, integer=integer)
+
+
 def number(unit: str = "-", bounds=None, *, positive: bool = False, integer: bool = False):
     """An argparse ``type``: the text as a number checked by :func:`geometry.validate.number`."""
 
     def parse(text: str):
         try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(
-                f"expected {validate.describe(unit, bounds, positive, integer)}, got {text!r}") from None
-        try:
-            return validate.number(v, "", unit=unit, bounds=bounds, positive=positive, integer=integer)
+            return from_text(text, "", unit, bounds, positive=positive, integer=integer)
         except InputError as exc:
             raise argparse.ArgumentTypeError(exc.message) from None
 

@@ -8,9 +8,8 @@ from pathlib import Path
 from geometry import validate
 from geometry.errors import InputError
 from lumped.effects import Applied
-
-from studies.cli import flags
 from lumped.model import LOAD_MPA, SPEED
+from studies.cli import flags
 from studies.cli.pump import AIR_BOUNDS
 from studies.discrepancy.measured import MEASURED_VALVES
 from studies.discrepancy.model_choice import choose
@@ -52,14 +51,6 @@ def configure(p):
     p.add_argument("--force", action="store_true", help="write into a folder valvelab did not create")
 
 
-def _number(text: str, field: str, unit: str = "-", bounds=None) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise InputError(field, f"expected a number, got {text!r}") from None
-    return validate.number(v, field, unit=unit, bounds=bounds)
-
-
 def parse_effect(spec: str, library, valve_type) -> Applied:
     """``NAME[@TARGET][:PARAM=VALUE,...]`` -> an applied effect (unset parameters at their prior)."""
     head, _, tail = spec.partition(":")
@@ -82,7 +73,7 @@ def parse_effect(spec: str, library, valve_type) -> Applied:
         if k not in values:
             raise InputError("--effect", f"{name}: unknown parameter {k!r}; expected "
                              + (", ".join(p.name for p in eff.parameters_for(valve_type, target)) or "none (a switch)"))
-        x = _number(v, f"--effect {name}:{k}")
+        x = flags.from_text(v, f"--effect {name}:{k}")
         par = eff.parameter(k, valve_type, target)
         if par.log and x <= 0:
             raise InputError(f"--effect {name}:{k}", f"must be positive ({par.unit}), got {x:g}")
@@ -99,8 +90,8 @@ def parse_condition(spec: str, air: float | None) -> Condition:
     parts = spec.split(":")
     if len(parts) not in (2, 3):
         raise InputError("--condition", f"expected RPM:MPA[:VALVE], got {spec!r}")
-    rpm = _number(parts[0], "--condition (speed)", "rpm", SPEED.bounds)
-    mpa = _number(parts[1], "--condition (load pressure)", "MPa", LOAD_MPA.bounds)
+    rpm = flags.from_text(parts[0], "--condition (speed)", "rpm", SPEED.bounds)
+    mpa = flags.from_text(parts[1], "--condition (load pressure)", "MPa", LOAD_MPA.bounds)
     valve = parts[2] if len(parts) == 3 else "delivery"
     if valve not in MEASURED_VALVES:
         raise InputError("--condition", f"measured valve {valve!r}; expected one of {', '.join(MEASURED_VALVES)}")
