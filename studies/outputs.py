@@ -7,6 +7,7 @@ anything else that already exists is refused unless the user passes ``--force``.
 from __future__ import annotations
 
 import csv
+import math
 import os
 import tempfile
 from dataclasses import dataclass
@@ -30,6 +31,17 @@ def _probe(folder: Path) -> str | None:
     except OSError:
         pass
     return None
+
+
+def finite_or_none(x) -> float | None:
+    """``x`` as a float for a table or JSON, None if it is missing, not a number or not finite."""
+    if x is None:
+        return None
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        return None
+    return x if math.isfinite(x) else None
 
 
 def check_new_file(path: str | Path, field: str, force: bool = False, writable: bool = True) -> Path:

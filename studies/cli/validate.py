@@ -9,13 +9,13 @@ plots (valve positions and pressures over three revolutions, the model's Figures
 from __future__ import annotations
 
 import json
-import math
 import sys
 import time
 from pathlib import Path
 
 from geometry.errors import InputError
 from studies.cli import flags
+from studies.outputs import finite_or_none
 
 HELP = "run the full validation (reed parameters, 12 pump cases) and write tables and plots to out/"
 
@@ -61,7 +61,7 @@ def run(args) -> dict:
     summary["steps"]["reed_parameters"] = {
         "status": chain["status"], "reason": chain["reason"], "fidelities": len(chain["rows"]),
         "flagged": list(chain.get("flagged", [])),
-        "selected": None if sel is None else {k: _num(getattr(sel, k)) for k in
+        "selected": None if sel is None else {k: finite_or_none(getattr(sel, k)) for k in
                                               ("fidelity", "omega_n", "kappa", "gamma1", "gamma2", "gamma3", "h_eff")},
     }
 
@@ -136,23 +136,13 @@ def run(args) -> dict:
     return summary
 
 
-def _num(v):
-    if isinstance(v, str):
-        return v
-    try:
-        f = float(v)
-    except (TypeError, ValueError):
-        return None
-    return f if math.isfinite(f) else None
-
-
 def _plain(row) -> dict:
     """A step-1 row as plain numbers/strings (rows may carry arrays or dataclasses)."""
     if hasattr(row, "as_contract"):
         row = row.as_contract("prototype")
     elif not isinstance(row, dict):
         row = dict(getattr(row, "__dict__", {}))
-    return {k: (v if isinstance(v, (str, bool)) or v is None else _num(v)) for k, v in row.items()
+    return {k: (v if isinstance(v, (str, bool)) or v is None else finite_or_none(v)) for k, v in row.items()
             if not hasattr(v, "__len__") or isinstance(v, str)}
 
 

@@ -120,10 +120,6 @@ def analyse_morris(problem: dict, u: np.ndarray, y: np.ndarray, num_levels: int,
     return res
 
 
-def _clean(x):
-    return study.finite_or_none(x)
-
-
 def run_sensitivity(spec: DesignSpec, out, *, scheduler: str | None = None, workers: int | None = None,
                     client=None, batch_size: int | None = None, force: bool = False, progress: bool = True) -> dict:
     """Run (or resume) a sensitivity study into folder ``out``; return the summary (CONTRACT.md)."""
@@ -180,7 +176,7 @@ def run_sensitivity(spec: DesignSpec, out, *, scheduler: str | None = None, work
                 keys = ("S1", "S1_conf", "ST", "ST_conf") if r["method"] == "sobol" else \
                     ("mu_star", "mu_star_conf", "sigma", "mu")
                 for k in keys:
-                    row[k] = _clean(res[k][i]) if k in res else None
+                    row[k] = study.finite_or_none(res[k][i]) if k in res else None
                 row["samples_used"] = res["n_used"]
                 row["samples_dropped"] = res["dropped"]
                 indices.append(row)

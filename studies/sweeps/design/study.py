@@ -4,12 +4,12 @@ the evaluation rows (designs x operating points), the reed stress calibration, t
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 
 import numpy as np
 
 from geometry.errors import InputError
+from studies.outputs import finite_or_none  # noqa: F401  (used as study.finite_or_none)
 from studies.sweeps.design import runner
 from studies.sweeps.design.spec import DesignSpec, _q, design_inputs
 
@@ -244,12 +244,3 @@ def aggregate(values: np.ndarray, how: str, sense: str = "min") -> np.ndarray:
         return values.mean(axis=1)
     return values.max(axis=1) if sense == "min" else values.min(axis=1)
 
-
-def finite_or_none(x):
-    if x is None:
-        return None
-    try:
-        x = float(x)
-    except (TypeError, ValueError):
-        return None
-    return x if math.isfinite(x) else None
