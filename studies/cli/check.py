@@ -63,14 +63,12 @@ def run(args) -> dict:
     if args.convergence:
         from fea.convergence import convergence_study, default_sizes, plot_convergence
 
-        from studies.cli.reed import reed_model
-
         studies = {}
         for fid in fids:
             if fid == "analytic":
                 continue
             sizes = default_sizes(args.mesh_size) if args.mesh_size else None
-            studies[fid] = convergence_study(reed, fid, sizes=sizes, model=reed_model(fid))
+            studies[fid] = convergence_study(reed, fid, sizes=sizes)
             if out_dir is not None:
                 plot_convergence(studies[fid], out_dir / f"convergence_{fid}.png")
         result["convergence"] = studies

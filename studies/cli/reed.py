@@ -8,19 +8,6 @@ from studies.cli import flags
 
 HELP = "first bending frequency, stiffness and mode-function parameters of a reed (and its first N modes)"
 
-def reed_model(fidelity: str):
-    """The ``reed_properties`` function of a fidelity (analytic, beam, plate, solid)."""
-    from fea.fidelities import get
-
-    return get(fidelity).reed_properties
-
-
-def modes_model(fidelity: str):
-    """The ``properties_and_modes`` function of a fidelity (fea.fidelities)."""
-    from fea.fidelities import get
-
-    return get(fidelity).properties_and_modes
-
 
 def check_modes_count(n, field: str = "--modes", allow_zero: bool = False) -> int | None:
     """The number of modes asked for, validated (InputError naming ``field``); None stays None."""
@@ -52,12 +39,15 @@ def run(args) -> dict:
         from studies.plots import check_plot_suffix
 
         plot = check_new_file(check_plot_suffix(plot), "--plot", args.force)
+    from fea.fidelities import get
+
+    fidelity = get(args.fidelity)
     n_modes = check_modes_count(getattr(args, "modes", None))
     if n_modes is None:
-        props = reed_model(args.fidelity)(reed, mesh_size=args.mesh_size)
+        props = fidelity.reed_properties(reed, mesh_size=args.mesh_size)
         out = props.as_contract(args.geometry)
     else:
-        props, result = modes_model(args.fidelity)(reed, n_modes, mesh_size=args.mesh_size)
+        props, result = fidelity.properties_and_modes(reed, n_modes, mesh_size=args.mesh_size)
         out = props.as_contract(args.geometry)
         freqs, kinds = result.first(n_modes)
         out["frequencies"] = freqs
@@ -71,9 +61,9 @@ def _plot(path, reed, fidelity, props, mesh_size):
     """Outline, static shape and (when the fidelity's module offers ``free_mode_shape``) the free mode."""
     from studies.plots import plot_reed_shapes
 
-    shapes = {"uniform pressure (static)": (props.s, props.psi)}
     from fea.fidelities import get
 
+    shapes = {"uniform pressure (static)": (props.s, props.psi)}
     free = get(fidelity).free_mode_shape
     if free is not None:
         shapes["first free-vibration mode"] = free(reed, mesh_size=mesh_size)
