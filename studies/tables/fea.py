@@ -5,17 +5,16 @@ All FEA values here come from the 3-D solid (:mod:`fea.solid`) at its default me
 discretisation error the convergence study puts at 0.005-0.22 % in omega_n and 0.01-0.42 %
 in kappa on the four reeds (docs/fea.md).
 E-B values come from the analytic model (``lumped.reed_beam``, exact E-B for the real
-profile) when it is installed, otherwise from the beam FE model, the same theory to
-1e-6 (tests/test_fea_beam.py).
+profile).
 """
 
 from __future__ import annotations
 
 import sys
 
-import numpy as np
 
 from geometry import load_reed
+from lumped import reed_beam as rb
 from lumped.mode_function import gamma1_alternative
 
 from studies.tables.thesis import thesis_values
@@ -24,13 +23,8 @@ REEDS = ("uniform", "stepped1", "stepped2", "prototype")
 
 
 def _eb_properties(reed):
-    """Exact E-B ReedProperties: the analytic model if present, else the beam FE (same theory)."""
-    try:
-        from lumped.reed_beam import reed_properties
-        return reed_properties(reed), "analytic (lumped.reed_beam)"
-    except ImportError:
-        from fea.beam import reed_properties
-        return reed_properties(reed), "beam FE (fea.beam; lumped.reed_beam not installed)"
+    """Exact E-B ReedProperties of the analytic model, and where they come from."""
+    return rb.reed_properties(reed), "analytic (lumped.reed_beam)"
 
 
 def _solid(reed, progress=True):
@@ -44,7 +38,7 @@ def _solid(reed, progress=True):
 def alpha_from_omega(omega: float, h: float, reed) -> float:
     """Natural frequency parameter alpha = L (omega / h)^(1/2) (12 rho / E)^(1/4) (eq 3.75)."""
     m = reed.material
-    return reed.length * np.sqrt(omega / h) * (12.0 * m.density / m.youngs_modulus) ** 0.25
+    return rb.frequency_parameter_from_omega(omega, h, reed.length, m.youngs_modulus, m.density)
 
 
 def table_3_3() -> dict:
@@ -92,22 +86,11 @@ def _fea_alternative_row(tv9) -> dict:
 
 def table_3_9() -> dict:
     """Table 3.9 (stepped reed #1): gamma1 by direct integration and by eq 3.48, E-B and FEA."""
+    from studies.tables.reed import table_3_9 as eb_table
+
     tv9 = thesis_values()["table_3_9"]
-    try:
-        from studies.tables.reed import table_3_9 as eb_table
-        base = eb_table()
-        rows, notes = list(base["rows"]), list(base.get("notes", []))
-    except ImportError:
-        reed = load_reed("stepped1")
-        eb, source = _eb_properties(reed)
-        g_alt = gamma1_alternative(reed.material.density, reed.thickness, eb.omega_n, eb.kappa)
-        rows = []
-        for method, g in (("eb_direct", eb.gamma1), ("eb_alternative", g_alt)):
-            t = tv9[method]
-            rows.append({"method": method, "omega": float(eb.omega_n), "kappa": float(eb.kappa),
-                         "gamma1": float(g), "thesis_omega": t["omega"], "thesis_kappa": t["kappa"],
-                         "thesis_gamma1": t["gamma1"]})
-        notes = [f"E-B rows from {source}: exact E-B omega and uniform-load kappa (eq 3.40 for this reed)."]
+    base = eb_table()
+    rows, notes = list(base["rows"]), list(base.get("notes", []))
     rows.append(_fea_alternative_row(tv9))
     notes.append("fea_alternative: eq 3.48 with the 3-D solid's omega_n and kappa, h_eff = h = 1.35 mm; "
                  "gamma1_fea_direct integrates the solid's uniform-load centre-line shape (Table 3.4).")
@@ -116,22 +99,11 @@ def table_3_9() -> dict:
 
 def table_3_11() -> dict:
     """Table 3.11: natural frequency parameter alpha (eq 3.75) from our solid FEA beside the thesis's."""
+    from studies.tables.reed import table_3_11 as eb_table
+
     tv = thesis_values()["table_3_11"]
-    try:
-        from studies.tables.reed import table_3_11 as eb_table
-        base = eb_table()
-        rows, notes = [dict(r) for r in base["rows"]], list(base.get("notes", []))
-    except ImportError:
-        rows, notes = [], []
-        for name in REEDS:
-            reed = load_reed(name)
-            eb, source = _eb_properties(reed)
-            h = eb.h_eff if reed.grooves else reed.thickness
-            rows.append({"case": name, "omega_analytic": float(eb.omega_n),
-                         "alpha_analytic": float(alpha_from_omega(eb.omega_n, h, reed)),
-                         "thesis_alpha_analytic": tv[name].get("alpha_analytic"),
-                         "thesis_alpha_fea": tv[name]["alpha_fea"]})
-        notes.append(f"alpha_analytic: eq 3.75 with the exact E-B omega_n from {source}.")
+    base = eb_table()
+    rows, notes = [dict(r) for r in base["rows"]], list(base.get("notes", []))
     for row in rows:
         reed = load_reed(row["case"])
         fea = _solid(reed)
@@ -158,7 +130,7 @@ def figure_3_12(path, reeds=REEDS, mesh_size=None, fidelity: str = "solid") -> d
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from lumped import reed_beam as rb
+    from fea.fidelities import get
 
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
     data = {}
@@ -167,9 +139,7 @@ def figure_3_12(path, reeds=REEDS, mesh_size=None, fidelity: str = "solid") -> d
         print(f"mode shapes: {reed.name} ({k + 1}/{len(reeds)})", file=sys.stderr, flush=True)
         c = f"C{k % 10}"
         if fidelity != "analytic":
-            import importlib
-
-            rs = importlib.import_module(f"fea.{fidelity}").solve(reed, mesh_size)
+            rs = get(fidelity).module.solve(reed, mesh_size)
             a1.plot(rs.s * 1e3, rs.psi_mode, color=c, label=f"{reed.name} {fidelity}")
             a2.plot(rs.s * 1e3, rs.psi_static, color=c, label=f"{reed.name} {fidelity}")
             data[reed.name] = {"s": rs.s, "psi_mode": rs.psi_mode, "psi_static": rs.psi_static}
