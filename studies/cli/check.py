@@ -7,7 +7,6 @@ import sys
 from geometry import load_reed
 from geometry.errors import InputError
 from studies.cli import flags
-
 from studies.validation.reed_check import (
     DEFAULT_TOLERANCE_PCT,
     check_as_json,
@@ -79,9 +78,9 @@ def run(args) -> dict:
 
 def _write_outputs(reed, fids, mesh_size, out_dir) -> list[str]:
     """Shapes of every FEA fidelity (static and free vibration) and VTU of the solid's modes."""
-    import importlib
-
     import matplotlib
+
+    from fea.fidelities import get
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -92,7 +91,7 @@ def _write_outputs(reed, fids, mesh_size, out_dir) -> list[str]:
         if fid == "analytic":
             continue
         print(f"check {reed.name}: shapes and modes of {fid}", file=sys.stderr, flush=True)
-        mod = importlib.import_module(f"fea.{fid}")
+        mod = get(fid).module
         kw = {"torsion": True} if fid == "solid" else {}
         r = mod.solve(reed, mesh_size, **kw)
         if fid == "plate":
