@@ -3,6 +3,7 @@ that must hold exactly, and the one-step form giving the same results as its sec
 
 import tomllib
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,24 +15,8 @@ from geometry import Material, load_reed, parse_reed
 from lumped import reed_beam as rb
 
 MATERIAL = "[reed.material]\nyoungs_modulus = 2.9e9\ndensity = 1410.0\npoisson_ratio = 0.35\n"
-SECTIONS = """
-[reed]
-length = 25.4e-3
-thickness = 1.0e-3
-tip_radius = 5.0e-3
-""" + MATERIAL + """
-[[reed.sections]]
-s_end = 6.0e-3
-width = 8.0e-3
-thickness = 1.5e-3
-[[reed.sections]]
-s_end = 15.0e-3
-width = 12.0e-3
-[[reed.sections]]
-s_end = 25.4e-3
-width = 16.0e-3
-taper_to = 12.0e-3
-"""
+# the shipped example reed: thickness step, width step, taper, rounded tip
+SECTIONS = (Path(__file__).resolve().parents[1] / "geometry" / "data" / "reed_three_section.toml").read_text()
 # constant width, two thickness steps, square tip
 THICKNESS_STEPS = """
 [reed]

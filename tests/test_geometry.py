@@ -2,6 +2,7 @@
 
 import math
 import tomllib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -136,27 +137,8 @@ def test_missing_file_is_named(tmp_path):
 
 # -- multi-section reeds ([[reed.sections]], CONTRACT "Multi-section reeds") ----------------
 
-SECTIONED = """
-[reed]
-length = 25.4e-3
-thickness = 1.0e-3
-tip_radius = 5.0e-3
-[reed.material]
-youngs_modulus = 2.9e9
-density = 1410.0
-poisson_ratio = 0.35
-[[reed.sections]]
-s_end = 6.0e-3
-width = 8.0e-3
-thickness = 1.5e-3
-[[reed.sections]]
-s_end = 15.0e-3
-width = 12.0e-3
-[[reed.sections]]
-s_end = 25.4e-3
-width = 16.0e-3
-taper_to = 12.0e-3
-"""
+# the shipped example reed: thickness step, width step, taper, rounded tip
+SECTIONED = (Path(__file__).resolve().parents[1] / "geometry" / "data" / "reed_three_section.toml").read_text()
 
 ONE_STEP_AS_SECTIONS = """
 [reed]

@@ -4,6 +4,7 @@ independent solutions written here: the Naguleswaran characteristic equation of 
 (EI w'')'' = m omega^2 w (and = q) integrated with scipy's solve_ivp through tapers."""
 
 import tomllib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -37,25 +38,7 @@ thickness = 0.8e-3
 """
 
 # three sections with a thickness step, a linear taper and a rounded tip
-THREE_TAPER = """
-[reed]
-name = "three_taper"
-length = 25.4e-3
-thickness = 1.0e-3
-tip_radius = 5.0e-3
-""" + MATERIAL + """
-[[reed.sections]]
-s_end = 6.0e-3
-width = 8.0e-3
-thickness = 1.5e-3
-[[reed.sections]]
-s_end = 15.0e-3
-width = 12.0e-3
-[[reed.sections]]
-s_end = 25.4e-3
-width = 16.0e-3
-taper_to = 12.0e-3
-"""
+THREE_TAPER = (Path(__file__).resolve().parents[1] / "geometry" / "data" / "reed_three_section.toml").read_text()
 
 
 def _reed(text):

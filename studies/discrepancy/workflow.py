@@ -34,15 +34,13 @@ import numpy as np
 from scipy.optimize import least_squares, minimize_scalar
 from tqdm import tqdm
 
-from geometry.errors import InputError
+from geometry.errors import InputError, ModelFailure  # noqa: F401  (ModelFailure re-exported)
 from lumped.effects import Applied, Effect, Library
-
 from studies.discrepancy.gap import (
     CycleTrace, Folded, GapScales, Nuisance, describe, findings, fit_nuisance, fold, predict, pressure_residual, run_gap,
     summary,
 )
 from studies.discrepancy.measured import Run
-from geometry.errors import ModelFailure  # noqa: F401  (re-exported: raised when a run cannot be simulated)
 
 
 @dataclass(frozen=True)
