@@ -35,3 +35,16 @@ def cli(tmp_path):
         return p.returncode, p.stdout, p.stderr
 
     return run
+
+
+@pytest.fixture(scope="module")
+def client():
+    """A dask LocalCluster of two single-threaded worker processes (one per module that asks)."""
+    from distributed import Client, LocalCluster
+
+    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                           silence_logs=40)
+    c = Client(cluster)
+    yield c
+    c.close()
+    cluster.close()

@@ -84,16 +84,6 @@ def _spec(text: str, command: str = "sensitivity", tmp_path: Path | None = None)
     return dspec.parse_spec(tomllib.loads(text), command, text, base_dir=tmp_path)
 
 
-@pytest.fixture(scope="module")
-def client():
-    from distributed import Client, LocalCluster
-
-    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                           silence_logs=40)
-    c = Client(cluster)
-    yield c
-    c.close()
-    cluster.close()
 
 
 def _by_variable(res, output="y", point=None):

@@ -156,16 +156,6 @@ def test_integer_factor_and_random_sampler():
 # ----------------------------------------------------------------- running on dask
 
 
-@pytest.fixture(scope="module")
-def client():
-    from distributed import Client, LocalCluster
-
-    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                           silence_logs=40)
-    c = Client(cluster)
-    yield c
-    c.close()
-    cluster.close()
 
 
 def test_grid_sweep_on_local_cluster_matches_the_formula(client, tmp_path):
