@@ -117,6 +117,7 @@ def run_case(case: str, spec: list, valve: str, seed: int, simulate, library, se
         "case": case, "seed": seed, "truth": truth_doc["effects"], "expected": want, "found": found,
         "targets": out["targets"], "correct": found == want and targets_ok,
         "parameters": out["parameters"], "relative_errors": errors,
+        "baseline_nuisances": {k: v["values"] for k, v in out.get("baseline_nuisances", {}).items()},
         "held_out_rms_reduction_pct": held.get("position_rms_reduction_pct"),
         "held_out_excess_reduction_pct": held.get("position_excess_reduction_pct"),
         "held_out_delivery_reduction_pct": held.get("delivery_error_reduction_pct"),
@@ -156,6 +157,8 @@ def main(argv=None) -> int:
     ap.add_argument("--sensitivity", action="store_true",
                     help="run the growing discharge-coefficient errors instead of the acceptance cases")
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--no-nuisance", action="store_true",
+                    help="fit no baseline nuisance (the discharge-coefficient factor): the workflow before issue 11 item 4")
     ap.add_argument("--model", default=None)
     args = ap.parse_args(argv)
     simulate, library = load_model(args.model)
@@ -164,7 +167,7 @@ def main(argv=None) -> int:
     for n in names:
         if n not in cases:
             ap.error(f"unknown case {n!r}; expected one of {', '.join(cases)}")
-    settings = Settings(workers=args.workers)
+    settings = Settings(workers=args.workers, **({"nuisance_effects": ()} if args.no_nuisance else {}))
     results = []
     total = len(names) * args.seeds
     for case in names:
