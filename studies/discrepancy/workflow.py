@@ -95,6 +95,8 @@ class Settings:
     nuisance_effects: tuple = ("discharge_scale",)
     nuisance_range: float = 0.10       # searched within prior x (1 -+ this): a Cd error beyond 10 % is
                                        # a wrong model, not a nuisance
+    polish_nfev: int = 8               # joint least-squares refit of a candidate with the nuisances:
+                                       # function evaluations per parameter (Workflow.polish)
     nuisance_prior_sd: float = 0.05    # Gaussian prior, as a fraction of the prior value: the fit cost
                                        # gains ((value - prior) / (sd prior))^2 units (4 at the bound)
 
@@ -651,16 +653,55 @@ class Workflow:
         return vals, cost, nuis, self.sims.count - n0
 
     def refine(self, model: tuple) -> tuple:
-        """Refit the added effects one at a time with the others fixed (one pass, narrow brackets)."""
+        """Refit the added effects one at a time with the others fixed (one pass, narrow brackets).
+
+        A baseline nuisance is refitted over its whole (narrow) range: fitted on the baseline alone
+        it may have absorbed part of the effect now added (a Cd factor standing in for a soft seat's
+        lost delivery), and a narrow bracket would leave it there.
+        """
         model = list(model)
         for i, a in enumerate(model):
             others = tuple(model[:i] + model[i + 1:])
             eff = self._eff(a.name)
             if not eff.parameters_for(self.context, a.target):
                 continue
-            vals, *_ = self.fit(others, eff, a.target, start=a.value_dict, narrow=0.1)
+            narrow = None if a.name in self.nuisance_effects else 0.1
+            vals, *_ = self.fit(others, eff, a.target, start=a.value_dict, narrow=narrow)
             model[i] = Applied.of(a.name, a.target, vals)
         return tuple(model)
+
+    def polish(self, model: tuple, names: set) -> tuple:
+        """Joint least-squares refit of the parameters of the applied effects named in ``names`` (the
+        others fixed), from their current values; ``model`` itself if that does not lower the fit cost.
+
+        One-at-a-time refits zigzag along a valley where two parameters trade (a stiffer seat and a
+        lower Cd both restore the delivery a soft seat loses); Gauss-Newton steps follow it.
+        """
+        idx = [(i, p) for i, a in enumerate(model) if a.name in names
+               for p in self._eff(a.name).parameters_for(self.context, a.target)]
+        if len(idx) < 2:
+            return model
+        base = list(model)
+
+        def model_of(u) -> tuple:
+            m = list(base)
+            for (i, p), ui in zip(idx, u):
+                m[i] = Applied.of(m[i].name, m[i].target, {**m[i].value_dict, p.name: p.from_unit(ui)})
+            return tuple(m)
+
+        r0 = self.residual_vector(model)
+        if r0 is None:
+            return model
+        x0 = np.clip([p.to_unit(model[i].value_dict[p.name]) for i, p in idx], 1e-6, 1 - 1e-6)
+
+        def fun(u):
+            r = self.residual_vector(model_of(u))
+            return np.full(r0.size, 1e3) if r is None else r
+
+        res = least_squares(fun, x0, bounds=(0.0, 1.0), diff_step=0.01, x_scale=0.1,
+                            max_nfev=self.settings.polish_nfev * len(idx), method="trf")
+        out = model_of(res.x)
+        return out if self.fit_objective(out)[0] < float(r0 @ r0) else model
 
     # -- the search -----------------------------------------------------------------
 
@@ -714,6 +755,8 @@ class Workflow:
             # candidates are compared with the best the current effects can do: a candidate must
             # not take the credit for a better fit of the effects already added
             current = self.refine(winner.model)
+            if self.nuisance_effects:
+                current = self.polish(current, {a.name for a in current})
             cur = self.evaluate(current)
         after = cur
         sc = st.scales
@@ -769,8 +812,11 @@ class Workflow:
         model = current + (Applied.of(eff.name, target, vals),)
         if current:
             # the effects added before were fitted without this one: refit them with it, so the
-            # candidate is judged by the augmented model it would give, not against their bias
+            # candidate is judged by the augmented model it would give, not against their bias;
+            # then the candidate and the baseline nuisances jointly (they may trade along a valley)
             model = self.refine(model)
+            if self.nuisance_effects:
+                model = self.polish(model, {eff.name, *self.nuisance_effects})
             vals = model[-1].value_dict
             cost, nuis = self.fit_objective(model)
         try:
