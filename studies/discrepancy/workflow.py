@@ -5,7 +5,9 @@ effects -> one simulated revolution) and a library of candidate effects
 (``lumped/effects.py``), the workflow
 
 1. simulates the baseline for every run and measures the gap (``studies/discrepancy/gap.py``);
-2. splits the runs by operating condition into fitting and held-out runs;
+2. splits the runs by operating condition into fitting and held-out runs, and fits the
+   baseline's own nuisances (the discharge-coefficient factor, ``Settings.nuisance_effects``),
+   which every later model carries and refits but which are never named;
 3. fits each candidate's parameters on the fitting runs (log space within bounds:
    a grid then Brent's method for one parameter, ``least_squares`` for more), with
    the position sensor's scale per valve and time offset profiled out (they are in
@@ -69,8 +71,11 @@ class Settings:
 
     scales: GapScales = GapScales()
     min_rel_improvement: float = 0.3   # the held-out gap must shrink by this fraction ...
-    min_abs_improvement: float = 3.0   # ... and by this many gap units (GapScales): above what the
-                                       # noise lets a wrong effect gain (docs/discrepancy.md)
+    min_abs_improvement: float | None = None  # ... and by this many gap units (GapScales), above what
+                                       # the noise lets a wrong effect gain; None: 1.5 when a Cd nuisance
+                                       # is fitted (clean or Cd +-3 % data: held-out gap 0.1-1.3 units
+                                       # after it, best wrong gain 0.2), 3 when none is (a 3 % Cd error
+                                       # then lets a wrong effect gain 2.4 units); docs/discrepancy.md
     max_worse_units: float = 1.0       # no kind of evidence (positions, deliveries, cylinder pressures,
                                        # over all runs) may get worse by more than this: an effect
                                        # that is there explains every kind it touches, while one that
@@ -476,6 +481,14 @@ class Workflow:
             out[name] = (replace(eff, parameters=tuple(params), variants={}), target)
         return out
 
+    @property
+    def min_gain_units(self) -> float:
+        """The absolute gain floor [gap units]: Settings.min_abs_improvement, or its default for whether
+        a Cd nuisance is fitted (1.5 with, 3 without)."""
+        if self.settings.min_abs_improvement is not None:
+            return float(self.settings.min_abs_improvement)
+        return 1.5 if self.nuisance_effects else 3.0
+
     def _eff(self, name: str) -> Effect:
         """The effect of an applied name: the bounded nuisance version for a nuisance, else the library's."""
         return self.nuisance_effects[name][0] if name in self.nuisance_effects else self.library[name]
@@ -864,8 +877,9 @@ class Workflow:
             gain, base, where = f.base_fit_cost - f.fit_cost, f.base_fit_cost, "fit"   # no held-out runs
         if gain < st.min_rel_improvement * base:
             return f"{where} gap shrinks by {100 * gain / base if base else 0:.0f} % < {100 * st.min_rel_improvement:.0f} %"
-        if gain < st.min_abs_improvement:
-            return f"{where} gap shrinks by {gain:.2f} units < {st.min_abs_improvement:g}"
+        floor = self.min_gain_units
+        if gain < floor:
+            return f"{where} gap shrinks by {gain:.2f} units < {floor:g}"
         return None
 
 
