@@ -100,6 +100,8 @@ class Settings:
     nuisance_effects: tuple = ("discharge_scale",)
     nuisance_range: float = 0.10       # searched within prior x (1 -+ this): a Cd error beyond 10 % is
                                        # a wrong model, not a nuisance
+    nuisance_step: float = 0.05        # forward-difference step of the nuisance profile, of its range
+                                       # (a Cd factor: 0.01), Workflow._profile
     polish_nfev: int = 8               # joint least-squares refit of a candidate with the nuisances:
                                        # function evaluations per parameter (Workflow.polish)
     nuisance_prior_sd: float = 0.05    # Gaussian prior, as a fraction of the prior value: the fit cost
@@ -604,11 +606,72 @@ class Workflow:
 
     # -- fitting --------------------------------------------------------------------
 
+    def _nuisance_index(self, model: tuple) -> list:
+        """(position in ``model``, parameter) of every baseline-nuisance parameter the model carries."""
+        return [(i, p) for i, a in enumerate(model) if a.name in self.nuisance_effects
+                for p in self.nuisance_effects[a.name][0].parameters]
+
+    def _profile(self, model: tuple) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """Fit residuals with the baseline nuisances of ``model`` profiled out to first order, and the
+        nuisance shift that does it: r0 + J d with d minimising it (J by a forward difference of
+        ``Settings.nuisance_step`` of the range, the shifted values kept inside the bounds).
+
+        A Cd factor moves the residuals almost linearly over a few per cent, so one extra simulation
+        per run gives the candidate's search the cost with the Cd factor at its best for every value
+        tried: the search then follows the candidate's own valley, not the one a Cd factor fitted
+        without it leaves (a soft seat, an added mass, a leak all trade with Cd).
+        """
+        r0 = self.residual_vector(model)
+        idx = self._nuisance_index(model)
+        if r0 is None or not idx:
+            return r0, None
+        cols = []
+        for i, p in idx:
+            h = self.settings.nuisance_step * (p.bounds[1] - p.bounds[0])
+            a = model[i]
+            shifted = model[:i] + (Applied.of(a.name, a.target, {**a.value_dict, p.name: a.value_dict[p.name] + h}),) \
+                + model[i + 1:]
+            r = self.residual_vector(shifted)
+            if r is None:
+                return r0, None
+            cols.append((r - r0) / h)
+        jac = np.column_stack(cols)
+        d = np.linalg.lstsq(jac, -r0, rcond=None)[0]
+        for k, (i, p) in enumerate(idx):
+            v = model[i].value_dict[p.name]
+            d[k] = float(np.clip(v + d[k], *p.bounds)) - v
+        return r0 + jac @ d, d
+
+    def _profiled_model(self, model: tuple) -> tuple:
+        """``model`` with its nuisances moved by the first-order profile shift (itself if none)."""
+        _, d = self._profile(model)
+        if d is None:
+            return model
+        out = list(model)
+        for k, (i, p) in enumerate(self._nuisance_index(model)):
+            a = out[i]
+            out[i] = Applied.of(a.name, a.target, {**a.value_dict, p.name: a.value_dict[p.name] + d[k]})
+        return tuple(out)
+
     def fit(self, base: tuple, effect: Effect, target: str, start: dict | None = None,
-            narrow: float | None = None) -> tuple[dict, float, Nuisance, int]:
-        """Fit ``effect`` at ``target`` on top of ``base``: (values, fit cost, nuisance, simulations used)."""
+            narrow: float | None = None, profile: bool = False) -> tuple[dict, float, Nuisance, int]:
+        """Fit ``effect`` at ``target`` on top of ``base``: (values, fit cost, nuisance, simulations used).
+
+        ``profile``: the baseline nuisances in ``base`` are profiled out at every value tried
+        (:meth:`_profile`); the cost returned is then the profiled one.
+        """
         n0 = self.sims.count
         params = effect.parameters_for(self.context, target)
+        profile = profile and bool(self._nuisance_index(base))
+
+        def objective(model) -> float:
+            if not profile:
+                return self.fit_objective(model)[0]
+            r, _ = self._profile(model)
+            return math.inf if r is None else float(r @ r)
+
+        def residuals(model):
+            return self._profile(model)[0] if profile else self.residual_vector(model)
 
         def model_of(units) -> tuple:
             vals = {p.name: p.from_unit(u) for p, u in zip(params, units)}
@@ -637,12 +700,12 @@ class Workflow:
                     stage = stage[np.min(np.abs(stage[:, None] - grid[None, :]), axis=1) > 1e-9]
                     grid = np.sort(np.concatenate([grid, stage]))
                 self.sims.many([(self.conds[r.name], model_of([u])) for u in stage for r in self.fit_runs])
-                costs = [self.fit_objective(model_of([u]))[0] for u in grid]
+                costs = [objective(model_of([u])) for u in grid]
             i = int(np.argmin(costs))
             lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
             best_u, best_c = float(grid[i]), costs[i]
             if hi > lo:
-                res = minimize_scalar(lambda u: self.fit_objective(model_of([u]))[0], bounds=(lo, hi),
+                res = minimize_scalar(lambda u: objective(model_of([u])), bounds=(lo, hi),
                                       method="bounded",
                                       options={"xatol": self.settings.brent_xatol,
                                                "maxiter": self.settings.brent_maxiter})
@@ -653,15 +716,17 @@ class Workflow:
             x0 = np.array([p.to_unit((start or effect.prior_values(self.context, target))[p.name]) for p in params])
 
             def fun(u):
-                r = self.residual_vector(model_of(u))
+                r = residuals(model_of(u))
                 return np.full(self._nres, 1e3) if r is None else r
 
-            r0 = self.residual_vector(model_of(x0))
+            r0 = residuals(model_of(x0))
             self._nres = r0.size if r0 is not None else 1
             res = least_squares(fun, x0, bounds=(0.0, 1.0), diff_step=0.01, x_scale=0.1,
                                 max_nfev=15 * len(params), method="trf")
             units = list(res.x)
         cost, nuis = self.fit_objective(model_of(units))
+        if profile:
+            cost = objective(model_of(units))
         vals = {p.name: p.from_unit(u) for p, u in zip(params, units)}
         return vals, cost, nuis, self.sims.count - n0
 
@@ -767,9 +832,10 @@ class Workflow:
             # refit the added effects once more without a new candidate, so the next round's
             # candidates are compared with the best the current effects can do: a candidate must
             # not take the credit for a better fit of the effects already added
-            current = self.refine(winner.model)
-            if self.nuisance_effects:
-                current = self.polish(current, {a.name for a in current})
+            # (with a nuisance the winner's model is already refitted with the candidate, refine and polish
+            # in _candidate: the model judged is the model kept; a joint refit of everything here moved
+            # a flow force's jet angle along its valley and lost on the held-out runs)
+            current = winner.model if self.nuisance_effects else self.refine(winner.model)
             cur = self.evaluate(current)
         after = cur
         sc = st.scales
@@ -813,7 +879,7 @@ class Workflow:
         n0 = self.sims.count
         vt = self.context
         try:
-            vals, cost, nuis, _ = self.fit(current, eff, target, start=eff.prior_values(vt, target))
+            vals, cost, nuis, _ = self.fit(current, eff, target, start=eff.prior_values(vt, target), profile=True)
         except (ArithmeticError, ValueError, RuntimeError) as exc:
             return CandidateFit(eff.name, target, eff.prior_values(vt, target), {}, math.inf, None, math.inf,
                                 "fit failed", self.sims.count - n0, cur.fit_cost, cur.held_cost,
@@ -823,6 +889,8 @@ class Workflow:
                                 "fit failed", self.sims.count - n0, cur.fit_cost, cur.held_cost,
                                 failed=f"the model failed for every value tried ({self.last_failure})")
         model = current + (Applied.of(eff.name, target, vals),)
+        if self.nuisance_effects:
+            model = self._profiled_model(model)     # the nuisances where the profile put them
         if current:
             # the effects added before were fitted without this one: refit them with it, so the
             # candidate is judged by the augmented model it would give, not against their bias;
@@ -840,6 +908,18 @@ class Workflow:
                                 cur.held_cost, failed=str(exc))
         held, held_parts, fit_parts = ev.held_cost, ev.held_parts, ev.fit_parts
         base_fit = self.fit_objective(current)[0]
+        base_ev = cur
+        if current:
+            # the credit is the candidate's, not its refits': the same model without it (the effects
+            # and nuisances as refitted with it) is a base too, and the better base counts
+            try:
+                wo = self.evaluate(model[:-1])
+            except ModelFailure:
+                wo = None
+            if wo is not None and wo.held_cost is not None and cur.held_cost is not None \
+                    and wo.held_cost < cur.held_cost:
+                base_ev = wo
+                base_fit = min(base_fit, self.fit_objective(model[:-1])[0])
         k = max(1, len(eff.parameters_for(vt, target)))   # a pure switch still costs one degree of freedom
         dbic = (n_eff * math.log(max(cost, 1e-12) / max(base_fit, 1e-12)) + k * math.log(n_eff)
                 if math.isfinite(cost) else math.inf)
@@ -848,9 +928,9 @@ class Workflow:
             if a.name not in self.nuisance_effects:
                 why = why or self.library[a.name].plausibility(a.value_dict, vt, a.target)
         return CandidateFit(eff.name, target, vals, eff.report(vals, vt, target), cost, held, dbic, why,
-                            self.sims.count - n0, base_fit, cur.held_cost, nuisance=nuis, model=model,
-                            held_parts=held_parts, base_held_parts=cur.held_parts, fit_parts=fit_parts,
-                            base_fit_parts=cur.fit_parts)
+                            self.sims.count - n0, base_fit, base_ev.held_cost, nuisance=nuis, model=model,
+                            held_parts=held_parts, base_held_parts=base_ev.held_parts, fit_parts=fit_parts,
+                            base_fit_parts=base_ev.fit_parts)
 
     def _significant(self, f: CandidateFit) -> bool:
         """Whether a candidate is added (see :meth:`verdict`)."""
