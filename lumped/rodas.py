@@ -273,7 +273,10 @@ class Options(NamedTuple):
     n_dyn states feed back, the rest are quadratures; ``t_record``: keep every accepted
     step from this time on; ``n_events``: switching functions of the model;
     ``max_events``: events before giving up (chatter); ``jac_reuse``: accepted steps per
-    Jacobian.
+    Jacobian; ``h_event``: read and written, a memory the caller keeps between calls: the first
+    step after an event whose ``apply_event`` code is c (0 <= c < len) starts no larger than
+    ``h_event[c]``, the size the error estimate of the last first step after such an event
+    asked for (empty: no memory).
     """
 
     rtol: float
@@ -286,6 +289,7 @@ class Options(NamedTuple):
     n_events: int
     max_events: int
     jac_reuse: int
+    h_event: np.ndarray = np.zeros(0)
 
 
 class Result(NamedTuple):
@@ -483,6 +487,11 @@ def solve(t0, y0, tstops, p, opts):
     f_fresh = False
     jac_age = opts.jac_reuse  # forces a Jacobian at the first step
     retries = 0               # steps redone to end at the located crossing of the pending event
+    # the event whose first step is being taken: an impact starts a stiff contact transient that a
+    # step sized on the flight before cannot follow (three rejections of 10x each, measured); the
+    # same kind of event recurs every revolution, so its last first step is remembered in opts.h_event
+    after_event = -1
+    h_event = opts.h_event
     while i_stop < n_stops:
         if n_steps >= opts.max_steps:
             status = MAX_STEPS
@@ -541,6 +550,9 @@ def solve(t0, y0, tstops, p, opts):
                 h = s_ev * h_try
                 event_values(t, y, p, g0)      # g0 served as scratch; y, f0 and J still hold
                 continue
+        if after_event >= 0:
+            h_event[after_event] = h_new
+            after_event = -1
         if not first:
             fg = (h_acc / h_try) * (err * err / err_acc) ** 0.25 / SAFE
             fg = max(1.0 / FAC_MAX, min(1.0 / FAC_MIN, fg))
@@ -604,6 +616,10 @@ def solve(t0, y0, tstops, p, opts):
             # the dynamics change here: restart the step-size history
             first = True
             h = max(min(h_new, h_try), 1e-6 * h_try)
+            if 0 <= code < h_event.shape[0]:
+                if h_event[code] > 0.0:
+                    h = min(h, h_event[code])
+                after_event = code
             continue
         if hit:
             while i_stop < n_stops and tstops[i_stop] <= t:
