@@ -222,11 +222,14 @@ def _locate_event(t, h, y0, y1, q2, q3, p, g0, g, ybuf, n_events):
     """(k, s): the event that fires first in this step and the step fraction where it does.
 
     An event k fires where g_k drops from >= 0 to < 0. The interpolant is checked at
-    N_SCAN points to bracket the first crossing, which bisection on the interpolant then
-    refines to ~1e-13 of the step. k = -1 if no event fires.
+    N_SCAN points to bracket the first crossing, which the Illinois method (regula falsi
+    that halves the stale end's value; Dowell & Jarratt 1971) on the interpolant then
+    refines to 1e-13 of the step, with a bisection whenever the bracket fails to halve
+    twice running: about 6-10 evaluations instead of bisection's 43. k = -1 if no event fires.
     """
     lo = 0.0
     hi = -1.0
+    g_lo = g0.copy()
     for j in range(1, N_SCAN + 1):
         sj = j / N_SCAN
         _dense_into(sj, y0, y1, q2, q3, ybuf)
@@ -237,6 +240,7 @@ def _locate_event(t, h, y0, y1, q2, q3, p, g0, g, ybuf, n_events):
         if hi > 0.0:
             break
         lo = sj
+        g_lo[:] = g
     if hi < 0.0:
         return -1, 2.0
     # which events are negative at hi (any already negative at the start fire at once)
@@ -245,23 +249,48 @@ def _locate_event(t, h, y0, y1, q2, q3, p, g0, g, ybuf, n_events):
     for kk in range(n_events):
         if g0[kk] < 0.0 and g[kk] < 0.0:
             return kk, 0.0
+    gs = np.empty(n_events)
     for kk in range(n_events):
         if g[kk] >= 0.0:
             continue
         a = lo
-        b = hi
+        b = min(hi, best_s)       # an event can only come first before the best so far
+        fa = g_lo[kk]
+        fb = g[kk]
+        if b < hi:
+            _dense_into(b, y0, y1, q2, q3, ybuf)
+            event_values(t + b * h, ybuf, p, gs)
+            if gs[kk] >= 0.0:
+                continue
+            fb = gs[kk]
+        side = 0
+        slow = 0
         while b - a > 1e-13:
-            mid = 0.5 * (a + b)
-            _dense_into(mid, y0, y1, q2, q3, ybuf)
-            event_values(t + mid * h, ybuf, p, g0)  # g0 as scratch: reset below
-            if g0[kk] < 0.0:
-                b = mid
+            width = b - a
+            m = (a * fb - b * fa) / (fb - fa) if slow < 2 else 0.5 * (a + b)
+            if not (a < m < b):
+                m = 0.5 * (a + b)
+            _dense_into(m, y0, y1, q2, q3, ybuf)
+            event_values(t + m * h, ybuf, p, gs)
+            fm = gs[kk]
+            if fm < 0.0:
+                b = m
+                fb = fm
+                if side == -1:
+                    fa *= 0.5
+                side = -1
             else:
-                a = mid
+                a = m
+                fa = fm
+                if side == 1:
+                    fb *= 0.5
+                side = 1
+            slow = slow + 1 if b - a > 0.5 * width else 0
+            if slow > 2:
+                slow = 0
         if b < best_s:
             best_s = b
             best_k = kk
-    # g0 served as scratch: the caller recomputes it at the start of the next step
     return best_k, best_s
 
 
