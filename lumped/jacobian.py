@@ -20,7 +20,6 @@ and both circuits.
 
 from __future__ import annotations
 
-from lumped import oil as oil_mod
 from lumped.pump import (
     G, M_CAV, M_CDEL, M_CIN, M_RDEL, M_RIN, OFF_DEL, OFF_IN, S_MCYL, S_MIN, S_MLEAK, S_MLOAD, S_MNV, S_MOUT,
     cylinder_pressure, cylinder_volume_at, evaluate, leakage_mass_flow, load_pressure, load_side_density,
@@ -57,15 +56,7 @@ def pump_jacobian(t: float, y, p, mode, pc_hint: float, jac, ft, fscratch, yscra
     if pc_hint == pc_hint:
         pc = pc_hint
         rho_c = m / vol
-        pc_m = 0.0
-        if cav != 1:
-            if p[G.pressure_start] == pc:      # the terms of eq 4.11 at pc, left by the pressure inversion
-                slope = oil_mod.density_slope_from_terms(pc, p[G.density], p[G.bulk_modulus],
-                                                         p[G.polytropic_exponent], p[G.pressure_air_term],
-                                                         p[G.pressure_liquid_term])
-            else:
-                slope = oil_density_slope(pc, p)
-            pc_m = 1.0 / (vol * slope)
+        pc_m = 0.0 if cav == 1 else 1.0 / (vol * oil_density_slope(pc, p))
     else:
         pc, pc_m, rho_c = cylinder_pressure(m, vol, p, cav)
     complete = p[G.complete] > 0.5
