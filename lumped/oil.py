@@ -92,13 +92,6 @@ def density_slope(p: float, rho0: float, p0: float, beta: float, gamma: float, a
     return -rho0 * dd / (d * d)
 
 
-def density_slope_from_terms(p: float, rho0: float, beta: float, gamma: float, ta: float, tl: float) -> float:
-    """d rho / d p [kg/m^3/Pa] of eq 4.11 at p from its air and liquid terms there (as
-    :func:`pressure_warm` returns them): :func:`density_slope` without its pow and exp."""
-    d = ta + tl
-    return rho0 * (tl / beta + ta / (gamma * p)) / (d * d)
-
-
 def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: float, air: float,
                         rtol: float = 1e-13, maxiter: int = 60, p_start: float = 0.0) -> tuple[float, int]:
     """(p [Pa], Newton iterations) solving eq 4.11 for pressure (eqs 4.12-4.16).
@@ -117,10 +110,9 @@ def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: 
     density change with the liquid frozen at its P0 volume.
     With R = 0 the liquid root is exact (and may be negative: no vapour model).
 
-    ``p_start`` > 0 replaces that start (the root of a nearby call: one or two Newton steps
-    remain; the result does not depend on the start beyond the tolerance, but from far left
-    of the root Newton gains only a factor 1 + gamma per step: :func:`pressure_warm` guards
-    against such starts).
+    ``p_start`` > 0 replaces that start (the root of a nearby call: an integrator evaluates the
+    cylinder at neighbouring states, so one or two Newton steps remain; the result does not
+    depend on the start beyond the tolerance, since Newton converges from any P > 0).
 
     It stops when the last step, or the error it leaves (quadratic convergence from the
     left: below f''(P) step^2 / (2 |f'|), f'' decreasing), is below rtol P + 4e-16 beta:
@@ -131,16 +123,8 @@ def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: 
         # air-free (or so little air that the pure-air root underflows): the liquid root, explicit
         return p0 - beta * math.log(e / (1.0 - air)), 0
     inv_g = 1.0 / gamma
-    if p_start <= 0.0:
-        p_start = _closed_form_start(e, p0, beta, gamma, air)
-    p, it, _, _ = _newton(p_start, air * (p0 / p_start) ** inv_g, (1.0 - air) * math.exp(-(p_start - p0) / beta),
-                          e, p0, beta, inv_g, air, rtol, maxiter)
-    return p, it
-
-
-def _closed_form_start(e: float, p0: float, beta: float, gamma: float, air: float) -> float:
-    """Start of the Newton iteration for rho0/rho = e (see :func:`pressure_iterations`) [Pa]."""
-    inv_g = 1.0 / gamma
+    if p_start > 0.0:
+        return _newton(p_start, e, p0, beta, inv_g, air, rtol, maxiter)
     # start: the root of the two-term model with the liquid term linear in P,
     # R (P0/P)^(1/gamma) = k (P - P_lin), k = (1 - R)/beta, P_lin its liquid-only root (a
     # lower bound of the true root), i.e. P^(1/gamma) (P - P_lin) = A
@@ -155,38 +139,15 @@ def _closed_form_start(e: float, p0: float, beta: float, gamma: float, air: floa
         p = p0 * (air / (e - (1.0 - air))) ** gamma
     if not p > p_lin:       # underflow or rounding: fall back on the lower bound
         p = p_lin if p_lin > 0.0 else p0 * (air / e) ** gamma
-    return p
+    return _newton(p, e, p0, beta, inv_g, air, rtol, maxiter)
 
 
-#: relative density difference within which a nearby root is a warm start (see :func:`pressure_warm`)
-WARM_LIMIT = 1e-2
-#: relative pressure change below which the two terms of eq 4.11 follow a Newton step by their series
-#: (8 terms: truncation below 1e-18 at the limit), so a warm start needs no pow or exp
-SERIES_LIMIT = 1e-2
-
-
-def _terms_after(ta: float, tl: float, p: float, p_new: float, p0: float, beta: float, inv_g: float,
-                 air: float) -> tuple[float, float]:
-    """The air and liquid terms of eq 4.11 at p_new from those at p: series for a short step, else afresh."""
-    d = (p_new - p) / p
-    x = (p_new - p) / beta
-    if -SERIES_LIMIT < d < SERIES_LIMIT and -SERIES_LIMIT < x < SERIES_LIMIT:
-        # (1 + d)^(-1/gamma) and e^(-x), Horner form of their binomial and exponential series
-        a = -inv_g
-        sa = 1.0
-        sl = 1.0
-        for k in range(8, 0, -1):
-            sa = 1.0 + (a - k + 1.0) / k * d * sa
-            sl = 1.0 - x / k * sl
-        return ta * sa, tl * sl
-    return air * (p0 / p_new) ** inv_g, (1.0 - air) * math.exp(-(p_new - p0) / beta)
-
-
-def _newton(p: float, ta: float, tl: float, e: float, p0: float, beta: float, inv_g: float, air: float,
-            rtol: float, maxiter: int) -> tuple[float, int, float, float]:
-    """(P [Pa], iterations, air and liquid terms of eq 4.11 at P): Newton on
-    f(P) = R (P0/P)^(1/gamma) + (1 - R) e^(-(P - P0)/beta) - e from P, whose terms are ta, tl
-    (see :func:`pressure_iterations` for the convergence and the stopping rule)."""
+def _newton(p: float, e: float, p0: float, beta: float, inv_g: float, air: float, rtol: float,
+            maxiter: int) -> tuple[float, int]:
+    """(P [Pa], iterations): Newton on f(P) = R (P0/P)^(1/gamma) + (1 - R) e^(-(P - P0)/beta) - e from P
+    (see :func:`pressure_iterations`)."""
+    ta = air * (p0 / p) ** inv_g
+    tl = (1.0 - air) * math.exp(-(p - p0) / beta)
     for it in range(1, maxiter + 1):
         f = ta + tl - e
         df = -ta * inv_g / p - tl / beta
@@ -195,50 +156,34 @@ def _newton(p: float, ta: float, tl: float, e: float, p0: float, beta: float, in
         if p_new <= 0.0:          # a step from far right of the root: stay positive
             p_new = 0.5 * p
         tol = rtol * p_new + 4.0e-16 * beta
-        done = abs(p_new - p) <= tol
-        if not done and f > 0.0:
+        if abs(p_new - p) <= tol:
+            return p_new, it
+        if f > 0.0:
             # from the left the error left by this step is at most f''(P) step^2 / (2 |f'(P_new)|)
             d2 = (ta * inv_g * (inv_g + 1.0) / p + tl / (beta * beta) * p) / p
-            done = d2 * step * step <= tol * (-df + d2 * step)     # step < 0 here: |f'(P_new)| >= -df + d2 step
-        ta, tl = _terms_after(ta, tl, p, p_new, p0, beta, inv_g, air)
+            if d2 * step * step <= tol * (-df + d2 * step):     # step < 0 here: |f'(P_new)| >= -df + d2 step
+                return p_new, it
+        # both terms at P_new: a short step updates them by their series (error < 1e-19,
+        # no pow or exp), a long one evaluates them afresh
+        dlt = (p_new - p) / p
+        x = (p_new - p) / beta
+        if -1e-4 < dlt < 1e-4 and -1e-4 < x < 1e-4:
+            n1 = inv_g
+            ta *= 1.0 - n1 * dlt * (1.0 - (n1 + 1.0) / 2.0 * dlt * (1.0 - (n1 + 2.0) / 3.0 * dlt
+                                                                   * (1.0 - (n1 + 3.0) / 4.0 * dlt)))
+            tl *= 1.0 - x * (1.0 - x / 2.0 * (1.0 - x / 3.0 * (1.0 - x / 4.0)))
+        else:
+            ta = air * (p0 / p_new) ** inv_g
+            tl = (1.0 - air) * math.exp(-(p_new - p0) / beta)
         p = p_new
-        if done:
-            return p, it, ta, tl
-    return p, maxiter, ta, tl
+    return p, maxiter
 
 
-def pressure_warm(rho: float, rho0: float, p0: float, beta: float, gamma: float, air: float, p_s: float,
-                  ta_s: float, tl_s: float) -> tuple[float, float, float]:
-    """(P [Pa], air term, liquid term at P) of eq 4.11 inverted from a nearby root p_s with its terms.
-
-    An integrator evaluates the cylinder at neighbouring states: from the previous root
-    p_s and its terms ta_s = R (P0/p_s)^(1/gamma), tl_s = (1 - R) e^(-(p_s - P0)/beta)
-    Newton's first step costs no pow or exp, and while the steps are short
-    (:data:`SERIES_LIMIT`) the terms follow by their series. ``ta_s <= 0``: the terms are
-    computed afresh at p_s; ``p_s <= 0``: the closed-form start. Same root as
-    :func:`pressure_iterations` (rtol 1e-13); air-free oil: the explicit root, terms (0, rho0/rho).
-    """
-    e = rho0 / rho
-    if air <= 1e-200:
-        return p0 - beta * math.log(e / (1.0 - air)), 0.0, e
-    inv_g = 1.0 / gamma
-    if p_s > 0.0 and ta_s <= 0.0:
-        ta_s = air * (p0 / p_s) ** inv_g
-        tl_s = (1.0 - air) * math.exp(-(p_s - p0) / beta)
-    # a start whose density is more than WARM_LIMIT away (a trial stage of a rejected step, a
-    # jump of state) is no start: from far left of the root Newton gains only a factor 1 + gamma
-    # per step, so the closed-form start is taken instead
-    if p_s <= 0.0 or abs(ta_s + tl_s - e) > WARM_LIMIT * e:
-        p_s = _closed_form_start(e, p0, beta, gamma, air)
-        ta_s = air * (p0 / p_s) ** inv_g
-        tl_s = (1.0 - air) * math.exp(-(p_s - p0) / beta)
-    p, _, ta, tl = _newton(p_s, ta_s, tl_s, e, p0, beta, inv_g, air, 1e-13, 60)
-    return p, ta, tl
-
-
-def pressure(rho: float, rho0: float, p0: float, beta: float, gamma: float, air: float) -> float:
-    """Absolute pressure [Pa] of oil with entrained air at density rho (inverse of eq 4.11)."""
-    return pressure_iterations(rho, rho0, p0, beta, gamma, air)[0]
+def pressure(rho: float, rho0: float, p0: float, beta: float, gamma: float, air: float,
+             p_start: float = 0.0) -> float:
+    """Absolute pressure [Pa] of oil with entrained air at density rho (inverse of eq 4.11); ``p_start``
+    > 0: Newton starts there (see :func:`pressure_iterations`)."""
+    return pressure_iterations(rho, rho0, p0, beta, gamma, air, p_start=p_start)[0]
 
 
 @dataclass(frozen=True)

@@ -118,7 +118,7 @@ def _global_block():
     from geometry.declare import specs
 
     derived = ("omega", "load_pressure", "piston_area", "leak", "complete", "needle_cda", "rho_vapour", "rho_tank",
-               "rho_load", "pressure_start", "pressure_air_term", "pressure_liquid_term", "pressure_chain")
+               "rho_load", "pressure_start")
     packed = [n for cls in (Pump, Oil, Circuit) for n, s in specs(cls) if s.packed]
     names = derived + tuple(packed)
     assert len(set(names)) == len(names), names
@@ -170,11 +170,6 @@ def oil_density_slope(pressure: float, p) -> float:
                                  p[G.polytropic_exponent], p[G.air_content])
 
 
-#: calls of cylinder_pressure between fresh evaluations of the terms of eq 4.11 (series rounding
-#: grows ~1e-16 per call: 64 keep the pressure well inside its 1e-13 tolerance)
-CHAIN_REFRESH = 64.0
-
-
 def cylinder_pressure(m: float, vol: float, p, cavitating: int) -> tuple[float, float, float]:
     """(P_cyl [Pa], dP_cyl/dm_cyl [Pa/kg], rho_cyl [kg/m^3]) of oil mass m in volume vol.
 
@@ -186,23 +181,12 @@ def cylinder_pressure(m: float, vol: float, p, cavitating: int) -> tuple[float, 
     rho = m / vol
     if cavitating == CAVITATING:
         return p[G.vapour_pressure], 0.0, rho
-    # warm start from the last root and its two terms (scratch slots, not parameters): an
-    # integrator's stages are neighbouring states, so Newton needs no pow or exp; the terms are
-    # refreshed every CHAIN_REFRESH calls so that the rounding of their series cannot pile up
-    chain = p[G.pressure_chain] + 1.0
-    ta = p[G.pressure_air_term]
-    if chain > CHAIN_REFRESH:
-        chain = 0.0
-        ta = 0.0
-    pc, ta, tl = oil_mod.pressure_warm(rho, p[G.density], p[G.atmospheric_pressure], p[G.bulk_modulus],
-                                       p[G.polytropic_exponent], p[G.air_content], p[G.pressure_start], ta,
-                                       p[G.pressure_liquid_term])
+    pc = oil_mod.pressure(rho, p[G.density], p[G.atmospheric_pressure], p[G.bulk_modulus],
+                          p[G.polytropic_exponent], p[G.air_content], p[G.pressure_start])
+    # the root starts the next inversion (an integrator's stages are neighbouring states: ~1-2
+    # Newton steps instead of a fresh start); scratch, not a parameter
     p[G.pressure_start] = pc
-    p[G.pressure_air_term] = ta
-    p[G.pressure_liquid_term] = tl
-    p[G.pressure_chain] = chain
-    slope = oil_mod.density_slope_from_terms(pc, p[G.density], p[G.bulk_modulus], p[G.polytropic_exponent], ta, tl)
-    return pc, 1.0 / (vol * slope), rho
+    return pc, 1.0 / (vol * oil_density_slope(pc, p)), rho
 
 
 def load_mass(pl: float, p) -> tuple[float, float]:
