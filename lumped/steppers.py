@@ -329,16 +329,10 @@ def compiled_solver():
     return _SOLVER["solver"]
 
 
-#: free-flight opening tolerance: atol x stop gap (the reference's); free-flight velocity: this x atol x 1 m/s
-#: (the velocity of a free valve hardly matters to the delivery; x10 looser cost 1.2x the reed's steps)
-FREE_VELOCITY_ATOL = 100.0
 #: accepted steps per Jacobian (a Rosenbrock method wants a fresh one)
 JAC_REUSE = 1
 #: free-flight opening tolerance, in units of atol x the stop gap
 FREE_POSITION_ATOL = 1.0
-#: opening in contact: this x atol x the contact deflection P_load A / k (when a valve resting on
-#: its seat or stop lets go is decided by nanometres)
-CONTACT_POSITION_ATOL = 30.0
 
 
 class RodasStepper(Stepper):
@@ -418,14 +412,14 @@ def _peaks(rec_y, rec_q2, rec_q3) -> tuple[float, float]:
 def tolerance_table(atol: float, atol_v: np.ndarray, p: np.ndarray, contact_atol: float | None = None) -> np.ndarray:
     """atol of (x, u) of each valve on its seat, free, on its stop (the order of the stepper's table).
 
-    Free flight: the reference's scales (atol times the stop gap; FREE_VELOCITY_ATOL times
-    atol times 1 m/s). In contact the valve sits a deflection F/k into its seat or stop,
-    nanometres for a rigid seat, and crosses back out of it when the pressure force lets
-    go: the opening or closing time is the time x needs to cover that deflection. So x in
-    contact is measured against its own scale, atol times the deflection a load-pressure
-    force would cause (P_load A / k; A = the kind's contact area), and u against atol
-    times 1 m/s times the kind's contact velocity tolerance (``ValveKind.contact_velocity_atol``)
-    or ``contact_atol``.
+    Free flight: the reference's scales (atol times the stop gap times FREE_POSITION_ATOL;
+    the kind's ``free_velocity_atol`` times atol times 1 m/s). In contact the valve sits a
+    deflection F/k into its seat or stop, nanometres for a rigid seat, and crosses back out
+    of it when the pressure force lets go: the opening or closing time is the time x needs
+    to cover that deflection. So x in contact is measured against its own scale, the kind's
+    ``contact_position_atol`` times atol times the deflection a load-pressure force would
+    cause (P_load A / k; A = the kind's contact area), and u against atol times 1 m/s times
+    the kind's ``contact_velocity_atol`` (or ``contact_atol``).
     """
     by_id = {float(k.id): k for k in KINDS.values()}
     table = np.empty(12)
@@ -434,9 +428,10 @@ def tolerance_table(atol: float, atol_v: np.ndarray, p: np.ndarray, contact_atol
         kind = by_id[p[o + VALVE.kind_id]]
         for c, k in ((SEAT, p[o + VALVE.seat_k]), (FREE, 0.0), (STOP, p[o + VALVE.stop_k])):
             x_free = atol_v[xi] * FREE_POSITION_ATOL
-            x_tol = x_free if k <= 0.0 else min(x_free, CONTACT_POSITION_ATOL * atol * p[G.load_pressure] * area / k)
+            deflection = p[G.load_pressure] * area / k if k > 0.0 else 0.0
+            x_tol = x_free if k <= 0.0 else min(x_free, kind.contact_position_atol * atol * deflection)
             in_contact = kind.contact_velocity_atol if contact_atol is None else contact_atol
-            u_tol = atol_v[xi + 1] * (FREE_VELOCITY_ATOL if c == FREE else in_contact)
+            u_tol = atol_v[xi + 1] * (kind.free_velocity_atol if c == FREE else in_contact)
             table[2 * (3 * v + c)] = x_tol
             table[2 * (3 * v + c) + 1] = u_tol
     return table
