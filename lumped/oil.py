@@ -112,7 +112,9 @@ def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: 
 
     ``p_start`` > 0 replaces that start (the root of a nearby call: an integrator evaluates the
     cylinder at neighbouring states, so one or two Newton steps remain; the result does not
-    depend on the start beyond the tolerance, since Newton converges from any P > 0).
+    depend on the start beyond the tolerance, since Newton converges from any P > 0, though
+    from far left of the root it gains only a factor 1 + gamma per step: 10 Pa to 100 MPa in
+    about 20 of the 60 allowed).
 
     It stops when the last step, or the error it leaves (quadratic convergence from the
     left: below f''(P) step^2 / (2 |f'|), f'' decreasing), is below rtol P + 4e-16 beta:

@@ -285,9 +285,7 @@ def _locate_event(t, h, y0, y1, q2, q3, p, g0, g, ybuf, n_events):
                 if side == 1:
                     fb *= 0.5
                 side = 1
-            slow = slow + 1 if b - a > 0.5 * width else 0
-            if slow > 2:
-                slow = 0
+            slow = slow + 1 if b - a > 0.5 * width else 0      # two slow ones: the next is a bisection
         if b < best_s:
             best_s = b
             best_k = kk
