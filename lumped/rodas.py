@@ -229,7 +229,6 @@ def _locate_event(t, h, y0, y1, q2, q3, p, g0, g, ybuf, n_events):
     """
     lo = 0.0
     hi = -1.0
-    g_lo = g0.copy()
     for j in range(1, N_SCAN + 1):
         sj = j / N_SCAN
         _dense_into(sj, y0, y1, q2, q3, ybuf)
@@ -240,7 +239,6 @@ def _locate_event(t, h, y0, y1, q2, q3, p, g0, g, ybuf, n_events):
         if hi > 0.0:
             break
         lo = sj
-        g_lo[:] = g
     if hi < 0.0:
         return -1, 2.0
     # which events are negative at hi (any already negative at the start fire at once)
@@ -250,6 +248,11 @@ def _locate_event(t, h, y0, y1, q2, q3, p, g0, g, ybuf, n_events):
         if g0[kk] < 0.0 and g[kk] < 0.0:
             return kk, 0.0
     gs = np.empty(n_events)
+    g_lo = g0                     # the event values at the bracket's start (the step's, unless scanned past)
+    if lo > 0.0:
+        g_lo = np.empty(n_events)
+        _dense_into(lo, y0, y1, q2, q3, ybuf)
+        event_values(t + lo * h, ybuf, p, g_lo)
     for kk in range(n_events):
         if g[kk] >= 0.0:
             continue

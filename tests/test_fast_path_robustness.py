@@ -11,6 +11,8 @@ the code before and after it none.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -21,21 +23,8 @@ from lumped.model_file import load_model
 from studies.discrepancy.pump_sim import PumpSimulator
 from studies.discrepancy.synth import Condition
 
-#: a pump that is not the thesis's (tests/test_discrepancy_model_file.py)
-BENCH = """
-name = "bench-pump"
-[pump]
-piston_diameter = 18e-3
-crank_radius = 6.5e-3
-rod_length = 95e-3
-dead_volume = 2.6e-5
-[oil]
-air_content = 0.01
-[valves]
-kind = "disc"
-mass.disc = 3.2e-3
-spring.stiffness = 300.0
-"""
+#: a pump that is not the thesis's (shared with tests/test_discrepancy_model_file.py)
+BENCH = Path(__file__).parent / "data" / "bench-pump.toml"
 
 
 def _candidates(kind: str) -> list[tuple]:
@@ -54,11 +43,9 @@ def _candidates(kind: str) -> list[tuple]:
 
 
 @pytest.mark.parametrize("model", ["bench", "thesis-disc", "thesis-reed"])
-def test_every_candidate_model_integrates_on_the_fast_path(model, tmp_path):
+def test_every_candidate_model_integrates_on_the_fast_path(model):
     if model == "bench":
-        f = tmp_path / "bench.toml"
-        f.write_text(BENCH)
-        model = str(f)
+        model = str(BENCH)
     sim = PumpSimulator(load_model(model))
     kind = "reed" if model == "thesis-reed" else "disc"
     conditions = [Condition(600, 2.5e6, "inlet", 0.01), Condition(900, 3.5e6, "delivery", 0.0)]
