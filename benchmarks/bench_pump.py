@@ -45,9 +45,9 @@ def run(quick: bool = False, revolutions: int = 5, repeat: int = 3) -> dict:
         "python": platform.python_version(), "revolutions": revolutions, "fast_repeats": repeat,
         "thesis_cpu_per_simulated_second": 23.0,
         "fast_compile_or_cache_load_seconds": round(compile_s, 3),
-        "fast_tolerances": {"rtol": rtol, "atol": atol, "free_velocity_atol": steppers.FREE_VELOCITY_ATOL,
+        "fast_tolerances": {"rtol": rtol, "atol": atol, "free_velocity_atol": {k.name: k.free_velocity_atol for k in KINDS.values()},
                             "free_position_atol": steppers.FREE_POSITION_ATOL,
-                            "contact_position_atol": steppers.CONTACT_POSITION_ATOL,
+                            "contact_position_atol": {k.name: k.contact_position_atol for k in KINDS.values()},
                             "contact_velocity_atol": {k.name: k.contact_velocity_atol for k in KINDS.values()}},
         "load_average_before": [round(x, 2) for x in load_before], "valves": {},
     }

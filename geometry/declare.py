@@ -29,6 +29,7 @@ geometry.errors.InputError: spring.stiffnes: unknown key (did you mean stiffness
 from __future__ import annotations
 
 import dataclasses
+import functools
 from dataclasses import MISSING, dataclass
 from typing import Any
 
@@ -82,12 +83,13 @@ def param(key: str | None, unit: str, source: str, *, default: Any = MISSING, bo
 
 def specs(cls_or_obj) -> list[tuple[str, Spec]]:
     """(field name, Spec) of every declared field of a dataclass, in declaration order."""
-    out = []
-    for f in dataclasses.fields(cls_or_obj):
-        s = f.metadata.get(META)
-        if s is not None:
-            out.append((f.name, s))
-    return out
+    return list(_specs(cls_or_obj if isinstance(cls_or_obj, type) else type(cls_or_obj)))
+
+
+@functools.lru_cache(maxsize=None)
+def _specs(cls: type) -> tuple[tuple[str, Spec], ...]:
+    # a class's fields never change: read once (the pump driver packs a model per simulation)
+    return tuple((f.name, f.metadata[META]) for f in dataclasses.fields(cls) if META in f.metadata)
 
 
 def spec_of(cls_or_obj, name: str) -> Spec:

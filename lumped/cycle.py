@@ -335,7 +335,7 @@ def simulate(model="thesis-disc", speed_rpm: float | None = None, load_pressure:
         y, mode = span.y_end.copy(), span.mode_end.copy()
         n_rhs += span.n_rhs
         n_steps += span.n_steps
-        n_events += len(span.events)
+        n_events += span.n_events
         d = {q: y[q] - y_start[q] for q in (S_MIN, S_MOUT, S_MLEAK, S_MCYL)}
         mass_err = abs(d[S_MCYL] - (d[S_MIN] - d[S_MOUT] - d[S_MLEAK])) / max(abs(d[S_MIN]), abs(d[S_MOUT]), 1e-300)
         deliveries.append(d[S_MOUT] / rho0)                      # eq 4.17 at atmospheric density

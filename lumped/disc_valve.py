@@ -265,50 +265,36 @@ DISC = kind_block(DiscValve, DISC_DERIVED)
 _SERIES = 0.05
 
 
-def _film_inner(t: float) -> tuple[float, float, float]:
-    """Inner liquid zone R_i..r_1 = R_i e^t of a cavitating film (dimensionless, exact):
-    (g, dg/dt, J) with g = 1 - e^(2t) (1 - 2t) = (P_up - P_lim) / (K R_i^2) and
-    J = e^(4t) - 1 - 4t e^(2t) = its pressure integral over (pi K R_i^4 / 2) (Reynolds eq 2.8, dP/dr = 0 at r_1)."""
-    if t < _SERIES:
+def _film_zone(t: float, side: float) -> tuple[float, float, float]:
+    """A liquid zone of a cavitating film (dimensionless, exact), inner (side +1) or outer (side -1).
+
+    Inner zone R_i..r_1 = R_i e^t: g = 1 - e^(2t) (1 - 2t) = (P_up - P_lim) / (K R_i^2) and
+    J = e^(4t) - 1 - 4t e^(2t), its pressure integral over (pi K R_i^4 / 2) (Reynolds eq 2.8,
+    dP/dr = 0 at r_1). Outer zone r_2 = R_o e^-t..R_o: the same functions mirrored, g(-t) =
+    (P_down - P_lim) / (K R_o^2) and -J(-t) over (pi K R_o^4 / 2). Returns (g, dg/dt, J).
+    """
+    u = side * t
+    if abs(u) < _SERIES:
         g = 0.0
         j = 0.0
-        a2 = 1.0       # (2t)^n / n!
-        a4 = 1.0       # (4t)^n / n!
+        a2 = 1.0       # (2u)^n / n!
+        a4 = 1.0       # (4u)^n / n!
         for n in range(1, 16):
-            a2 *= 2.0 * t / n
-            a4 *= 4.0 * t / n
+            a2 *= 2.0 * u / n
+            a4 *= 4.0 * u / n
             g += (n - 1) * a2
-            j += a4 - 2.0 * n * a2          # (4^n - n 2^(n+1)) t^n / n!
-        return g, 4.0 * t * math.exp(2.0 * t), j
-    e2 = math.exp(2.0 * t)
-    return 1.0 - e2 * (1.0 - 2.0 * t), 4.0 * t * e2, e2 * e2 - 1.0 - 4.0 * t * e2
+            j += a4 - 2.0 * n * a2          # (4^n - n 2^(n+1)) u^n / n!
+        return g, 4.0 * t * math.exp(2.0 * u), side * j
+    e2 = math.exp(2.0 * u)
+    return 1.0 - e2 * (1.0 - 2.0 * u), 4.0 * t * e2, side * (e2 * e2 - 1.0 - 4.0 * u * e2)
 
 
-def _film_outer(s: float) -> tuple[float, float, float]:
-    """Outer liquid zone r_2 = R_o e^-s..R_o of a cavitating film (dimensionless, exact):
-    (g, dg/ds, J) with g = 1 - e^(-2s) (1 + 2s) = (P_down - P_lim) / (K R_o^2) and
-    J = 1 - e^(-4s) - 4s e^(-2s) = its pressure integral over (pi K R_o^4 / 2) (dP/dr = 0 at r_2)."""
-    if s < _SERIES:
-        g = 0.0
-        j = 0.0
-        a2 = 1.0       # (-2s)^n / n!
-        a4 = 1.0       # (-4s)^n / n!
-        for n in range(1, 16):
-            a2 *= -2.0 * s / n
-            a4 *= -4.0 * s / n
-            g += (n - 1) * a2
-            j += 2.0 * n * a2 - a4
-        return g, 4.0 * s * math.exp(-2.0 * s), j
-    e2 = math.exp(-2.0 * s)
-    return 1.0 - e2 * (1.0 + 2.0 * s), 4.0 * s * e2, 1.0 - e2 * e2 - 4.0 * s * e2
-
-
-def _film_root(c: float, top: float, inner: bool) -> float:
-    """The argument in [0, top] where the zone function g of :func:`_film_inner` (or :func:`_film_outer`)
-    equals c (g increases from 0): safeguarded Newton, to round-off (the Jacobian differences it)."""
+def _film_root(c: float, top: float, side: float) -> float:
+    """The argument in [0, top] where the zone function g of :func:`_film_zone` equals c (g increases
+    from 0): safeguarded Newton, to round-off (the Jacobian differences it)."""
     if c <= 0.0:
         return 0.0
-    g_top = _film_inner(top)[0] if inner else _film_outer(top)[0]
+    g_top = _film_zone(top, side)[0]
     if c >= g_top:
         return top
     lo = 0.0
@@ -317,7 +303,7 @@ def _film_root(c: float, top: float, inner: bool) -> float:
     if not lo < t < hi:
         t = 0.5 * (lo + hi)
     for _ in range(200):
-        g, dg, _j = _film_inner(t) if inner else _film_outer(t)
+        g, dg, _j = _film_zone(t, side)
         f = g - c
         if f > 0.0:
             hi = t
@@ -358,12 +344,12 @@ def film_force(p_up: float, p_down: float, p_lim: float, k: float, r_i: float, r
     full = math.pi * ro2 * c1_coefficient(r_i, r_o) * (p_up - p_down) - k * squeeze_area_moment(r_i, r_o)
     if k <= 0.0:
         return full
-    t1 = 0.0 if a <= 0.0 else _film_root(a / (k * ri2), lnr, True)
-    s2 = 0.0 if b <= 0.0 else _film_root(b / (k * ro2), lnr, False)
+    t1 = 0.0 if a <= 0.0 else _film_root(a / (k * ri2), lnr, 1.0)
+    s2 = 0.0 if b <= 0.0 else _film_root(b / (k * ro2), lnr, -1.0)
     if t1 + s2 >= lnr:
         return full                 # the full film stays above p_lim: no cavity
-    j1 = _film_inner(t1)[2]
-    j2 = _film_outer(s2)[2]
+    j1 = _film_zone(t1, 1.0)[2]
+    j2 = _film_zone(s2, -1.0)[2]
     return math.pi * (ri2 * a - ro2 * b) + 0.5 * math.pi * k * (ri2 * ri2 * j1 + ro2 * ro2 * j2)
 
 
@@ -437,5 +423,10 @@ KIND = register(ValveKind(
     # departures this tolerance lets through are not counted as rebounds
     # (benchmarks/pump_tolerance_study.py).
     contact_velocity_atol=30.0,
+    # x300 (x30 default): the deflection of a disc on its seat or stop is followed to 0.3 % of
+    # it, which still places its lift-off far inside the 0.5 deg asked: 6 % fewer steps (243 ->
+    # 227 per revolution), worst angle 0.041 deg and delivery 0.019 % against the reference
+    # over the 12 cases and 20 random designs (benchmarks/pump_tolerance_study.py)
+    contact_position_atol=300.0,
     summary="spring-loaded disc on a bevelled seat (thesis chapter 2)",
 ))

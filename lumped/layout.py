@@ -72,6 +72,7 @@ def pack(model: PumpModel, speed_rpm: float, load_pressure: float, circuit: str 
     p[G.rho_vapour] = oil.density_at(oil.vapour_pressure) if cavitates else 0.0
     p[G.rho_tank] = oil.density_at(pump.tank_pressure)       # constant: packed, not recomputed per call
     p[G.rho_load] = oil.density_at(load_pressure)
+    p[G.pressure_start] = 0.0           # scratch of the cylinder pressure inversion, not a parameter
     assert len(G) <= NG
     pack_valve(m.inlet, oil, p, OFF_IN)
     pack_valve(m.delivery, oil, p, OFF_DEL)

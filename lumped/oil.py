@@ -93,7 +93,7 @@ def density_slope(p: float, rho0: float, p0: float, beta: float, gamma: float, a
 
 
 def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: float, air: float,
-                        rtol: float = 1e-13, maxiter: int = 60) -> tuple[float, int]:
+                        rtol: float = 1e-13, maxiter: int = 60, p_start: float = 0.0) -> tuple[float, int]:
     """(p [Pa], Newton iterations) solving eq 4.11 for pressure (eqs 4.12-4.16).
 
     f(P) = A P^B + C e^(DP) - E with A = R P0^(1/gamma), B = -1/gamma,
@@ -110,6 +110,12 @@ def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: 
     density change with the liquid frozen at its P0 volume.
     With R = 0 the liquid root is exact (and may be negative: no vapour model).
 
+    ``p_start`` > 0 replaces that start (the root of a nearby call: an integrator evaluates the
+    cylinder at neighbouring states, so one or two Newton steps remain; the result does not
+    depend on the start beyond the tolerance, since Newton converges from any P > 0, though
+    from far left of the root it gains only a factor 1 + gamma per step: 10 Pa to 100 MPa in
+    about 20 of the 60 allowed).
+
     It stops when the last step, or the error it leaves (quadratic convergence from the
     left: below f''(P) step^2 / (2 |f'|), f'' decreasing), is below rtol P + 4e-16 beta:
     the liquid term fixes P only to ~ beta * eps in absolute terms (conditioning).
@@ -119,6 +125,8 @@ def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: 
         # air-free (or so little air that the pure-air root underflows): the liquid root, explicit
         return p0 - beta * math.log(e / (1.0 - air)), 0
     inv_g = 1.0 / gamma
+    if p_start > 0.0:
+        return _newton(p_start, e, p0, beta, inv_g, air, rtol, maxiter)
     # start: the root of the two-term model with the liquid term linear in P,
     # R (P0/P)^(1/gamma) = k (P - P_lin), k = (1 - R)/beta, P_lin its liquid-only root (a
     # lower bound of the true root), i.e. P^(1/gamma) (P - P_lin) = A
@@ -133,6 +141,13 @@ def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: 
         p = p0 * (air / (e - (1.0 - air))) ** gamma
     if not p > p_lin:       # underflow or rounding: fall back on the lower bound
         p = p_lin if p_lin > 0.0 else p0 * (air / e) ** gamma
+    return _newton(p, e, p0, beta, inv_g, air, rtol, maxiter)
+
+
+def _newton(p: float, e: float, p0: float, beta: float, inv_g: float, air: float, rtol: float,
+            maxiter: int) -> tuple[float, int]:
+    """(P [Pa], iterations): Newton on f(P) = R (P0/P)^(1/gamma) + (1 - R) e^(-(P - P0)/beta) - e from P
+    (see :func:`pressure_iterations`)."""
     ta = air * (p0 / p) ** inv_g
     tl = (1.0 - air) * math.exp(-(p - p0) / beta)
     for it in range(1, maxiter + 1):
@@ -166,9 +181,11 @@ def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: 
     return p, maxiter
 
 
-def pressure(rho: float, rho0: float, p0: float, beta: float, gamma: float, air: float) -> float:
-    """Absolute pressure [Pa] of oil with entrained air at density rho (inverse of eq 4.11)."""
-    return pressure_iterations(rho, rho0, p0, beta, gamma, air)[0]
+def pressure(rho: float, rho0: float, p0: float, beta: float, gamma: float, air: float,
+             p_start: float = 0.0) -> float:
+    """Absolute pressure [Pa] of oil with entrained air at density rho (inverse of eq 4.11); ``p_start``
+    > 0: Newton starts there (see :func:`pressure_iterations`)."""
+    return pressure_iterations(rho, rho0, p0, beta, gamma, air, p_start=p_start)[0]
 
 
 @dataclass(frozen=True)

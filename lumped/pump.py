@@ -118,7 +118,7 @@ def _global_block():
     from geometry.declare import specs
 
     derived = ("omega", "load_pressure", "piston_area", "leak", "complete", "needle_cda", "rho_vapour", "rho_tank",
-               "rho_load")
+               "rho_load", "pressure_start")
     packed = [n for cls in (Pump, Oil, Circuit) for n, s in specs(cls) if s.packed]
     names = derived + tuple(packed)
     assert len(set(names)) == len(names), names
@@ -182,7 +182,10 @@ def cylinder_pressure(m: float, vol: float, p, cavitating: int) -> tuple[float, 
     if cavitating == CAVITATING:
         return p[G.vapour_pressure], 0.0, rho
     pc = oil_mod.pressure(rho, p[G.density], p[G.atmospheric_pressure], p[G.bulk_modulus],
-                          p[G.polytropic_exponent], p[G.air_content])
+                          p[G.polytropic_exponent], p[G.air_content], p[G.pressure_start])
+    # the root starts the next inversion (an integrator's stages are neighbouring states: ~1-2
+    # Newton steps instead of a fresh start); scratch, not a parameter
+    p[G.pressure_start] = pc
     return pc, 1.0 / (vol * oil_density_slope(pc, p)), rho
 
 

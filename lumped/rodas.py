@@ -222,8 +222,10 @@ def _locate_event(t, h, y0, y1, q2, q3, p, g0, g, ybuf, n_events):
     """(k, s): the event that fires first in this step and the step fraction where it does.
 
     An event k fires where g_k drops from >= 0 to < 0. The interpolant is checked at
-    N_SCAN points to bracket the first crossing, which bisection on the interpolant then
-    refines to ~1e-13 of the step. k = -1 if no event fires.
+    N_SCAN points to bracket the first crossing, which the Illinois method (regula falsi
+    that halves the stale end's value; Dowell & Jarratt 1971) on the interpolant then
+    refines to 1e-13 of the step, with a bisection whenever the bracket fails to halve
+    twice running: about 6-10 evaluations instead of bisection's 43. k = -1 if no event fires.
     """
     lo = 0.0
     hi = -1.0
@@ -245,23 +247,51 @@ def _locate_event(t, h, y0, y1, q2, q3, p, g0, g, ybuf, n_events):
     for kk in range(n_events):
         if g0[kk] < 0.0 and g[kk] < 0.0:
             return kk, 0.0
+    gs = np.empty(n_events)
+    g_lo = g0                     # the event values at the bracket's start (the step's, unless scanned past)
+    if lo > 0.0:
+        g_lo = np.empty(n_events)
+        _dense_into(lo, y0, y1, q2, q3, ybuf)
+        event_values(t + lo * h, ybuf, p, g_lo)
     for kk in range(n_events):
         if g[kk] >= 0.0:
             continue
         a = lo
-        b = hi
+        b = min(hi, best_s)       # an event can only come first before the best so far
+        fa = g_lo[kk]
+        fb = g[kk]
+        if b < hi:
+            _dense_into(b, y0, y1, q2, q3, ybuf)
+            event_values(t + b * h, ybuf, p, gs)
+            if gs[kk] >= 0.0:
+                continue
+            fb = gs[kk]
+        side = 0
+        slow = 0
         while b - a > 1e-13:
-            mid = 0.5 * (a + b)
-            _dense_into(mid, y0, y1, q2, q3, ybuf)
-            event_values(t + mid * h, ybuf, p, g0)  # g0 as scratch: reset below
-            if g0[kk] < 0.0:
-                b = mid
+            width = b - a
+            m = (a * fb - b * fa) / (fb - fa) if slow < 2 else 0.5 * (a + b)
+            if not (a < m < b):
+                m = 0.5 * (a + b)
+            _dense_into(m, y0, y1, q2, q3, ybuf)
+            event_values(t + m * h, ybuf, p, gs)
+            fm = gs[kk]
+            if fm < 0.0:
+                b = m
+                fb = fm
+                if side == -1:
+                    fa *= 0.5
+                side = -1
             else:
-                a = mid
+                a = m
+                fa = fm
+                if side == 1:
+                    fb *= 0.5
+                side = 1
+            slow = slow + 1 if b - a > 0.5 * width else 0      # two slow ones: the next is a bisection
         if b < best_s:
             best_s = b
             best_k = kk
-    # g0 served as scratch: the caller recomputes it at the start of the next step
     return best_k, best_s
 
 
@@ -273,7 +303,10 @@ class Options(NamedTuple):
     n_dyn states feed back, the rest are quadratures; ``t_record``: keep every accepted
     step from this time on; ``n_events``: switching functions of the model;
     ``max_events``: events before giving up (chatter); ``jac_reuse``: accepted steps per
-    Jacobian.
+    Jacobian; ``h_event``: read and written, a memory the caller keeps between calls: the first
+    step after an event whose ``apply_event`` code is c (0 <= c < len) starts no larger than
+    ``h_event[c]``, the size the error estimate of the last first step after such an event
+    asked for (empty: no memory).
     """
 
     rtol: float
@@ -286,6 +319,7 @@ class Options(NamedTuple):
     n_events: int
     max_events: int
     jac_reuse: int
+    h_event: np.ndarray = np.zeros(0)
 
 
 class Result(NamedTuple):
@@ -483,6 +517,11 @@ def solve(t0, y0, tstops, p, opts):
     f_fresh = False
     jac_age = opts.jac_reuse  # forces a Jacobian at the first step
     retries = 0               # steps redone to end at the located crossing of the pending event
+    # the event whose first step is being taken: an impact starts a stiff contact transient that a
+    # step sized on the flight before cannot follow (three rejections of 10x each, measured); the
+    # same kind of event recurs every revolution, so its last first step is remembered in opts.h_event
+    after_event = -1
+    h_event = opts.h_event
     while i_stop < n_stops:
         if n_steps >= opts.max_steps:
             status = MAX_STEPS
@@ -541,6 +580,9 @@ def solve(t0, y0, tstops, p, opts):
                 h = s_ev * h_try
                 event_values(t, y, p, g0)      # g0 served as scratch; y, f0 and J still hold
                 continue
+        if after_event >= 0:
+            h_event[after_event] = h_new
+            after_event = -1
         if not first:
             fg = (h_acc / h_try) * (err * err / err_acc) ** 0.25 / SAFE
             fg = max(1.0 / FAC_MAX, min(1.0 / FAC_MIN, fg))
@@ -604,6 +646,10 @@ def solve(t0, y0, tstops, p, opts):
             # the dynamics change here: restart the step-size history
             first = True
             h = max(min(h_new, h_try), 1e-6 * h_try)
+            if 0 <= code < h_event.shape[0]:
+                if h_event[code] > 0.0:
+                    h = min(h, h_event[code])
+                after_event = code
             continue
         if hit:
             while i_stop < n_stops and tstops[i_stop] <= t:

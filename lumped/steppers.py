@@ -22,6 +22,7 @@ import math
 import sys
 import time as _time
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -46,19 +47,37 @@ class Span:
     """What a stepper returns for [t0, t1]: end state and mode, events, dense output.
 
     ``events``: (t, slot, old, new) per mode change (slot as in lumped.pump's mode); ``event_states``:
-    the state just before each; ``sample(ts)`` -> (states, modes) at sorted times in the span.
+    the state just before each; ``peaks``: the largest opening of each valve; ``sample(ts)`` ->
+    (states, modes) at sorted times in the span. The driver reads events and peaks of the last
+    revolution only, so a stepper may hand them over as ``details()`` -> (events, event_states,
+    peaks), computed on first access.
     """
 
     t0: float
     t1: float
     y_end: np.ndarray
     mode_end: np.ndarray
-    events: list
-    event_states: list
-    peaks: tuple
+    n_events: int
     n_rhs: int
     n_steps: int
     sampler: object = field(repr=False, default=None)
+    details: object = field(repr=False, default=None)
+
+    @cached_property
+    def _details(self) -> tuple:
+        return self.details()
+
+    @property
+    def events(self) -> list:
+        return self._details[0]
+
+    @property
+    def event_states(self) -> list:
+        return self._details[1]
+
+    @property
+    def peaks(self) -> tuple:
+        return self._details[2]
 
     def sample(self, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return self.sampler(np.asarray(ts, dtype=float))
@@ -207,7 +226,8 @@ class RadauStepper(Stepper):
                 modes[i] = pc[3]
             return ys, modes
 
-        return Span(t0, t1, y, mode, events, states, tuple(peaks), nfev, steps, sampler)
+        details = (events, states, tuple(peaks))
+        return Span(t0, t1, y, mode, len(events), nfev, steps, sampler, lambda: details)
 
 
 # --------------------------------------------------------------------------- fast: compiled Rodas4P
@@ -309,16 +329,10 @@ def compiled_solver():
     return _SOLVER["solver"]
 
 
-#: free-flight opening tolerance: atol x stop gap (the reference's); free-flight velocity: this x atol x 1 m/s
-#: (the velocity of a free valve hardly matters to the delivery; x10 looser cost 1.2x the reed's steps)
-FREE_VELOCITY_ATOL = 100.0
 #: accepted steps per Jacobian (a Rosenbrock method wants a fresh one)
 JAC_REUSE = 1
 #: free-flight opening tolerance, in units of atol x the stop gap
 FREE_POSITION_ATOL = 1.0
-#: opening in contact: this x atol x the contact deflection P_load A / k (when a valve resting on
-#: its seat or stop lets go is decided by nanometres)
-CONTACT_POSITION_ATOL = 30.0
 
 
 class RodasStepper(Stepper):
@@ -339,6 +353,8 @@ class RodasStepper(Stepper):
         self.q[NP_EXT_TOL:NP_EXT_TOL + 12] = tolerance_table(atol_scalar, atol, p, contact_atol)
         self.h = None
         self.max_steps = max_steps
+        # first step after each kind of mode change (apply_switch code), carried between revolutions
+        self.h_event = np.zeros(N_MODE * 100)
 
     def advance(self, t0, t1, y, mode):
         from lumped import rodas
@@ -349,15 +365,18 @@ class RodasStepper(Stepper):
         if self.h is None:
             self.h = 1e-4 * (t1 - t0)
         opts = rodas.Options(self.rtol, self.atol.copy(), self.h, t1 - t0, self.max_steps, self.n_dyn,
-                             t0 if self.record else np.inf, sw.N_SWITCHES, MAX_EVENTS_PER_REV, JAC_REUSE)
+                             t0 if self.record else np.inf, sw.N_SWITCHES, MAX_EVENTS_PER_REV, JAC_REUSE,
+                             self.h_event)
         r = self.solver(t0, np.asarray(y, dtype=float), np.array([t1]), q, opts)
         if r.status != rodas.OK:
             raise IntegrationError(f"fast integrator failed ({rodas.STATUS_TEXT[int(r.status)]}, "
                                f"t = {r.rec_t[-1] if len(r.rec_t) else t0:.6g} s)")
         self.h = r.h_next
-        events = [(float(t),) + sw.decode(int(c)) for t, c in zip(r.ev_t, r.ev_code)]
-        peaks = _peaks(r.rec_y, r.rec_q2, r.rec_q3)
         rec = (r.rec_t, r.rec_y, r.rec_q2, r.rec_q3, r.rec_tag)
+
+        def details():
+            events = [(float(t),) + sw.decode(int(c)) for t, c in zip(r.ev_t, r.ev_code)]
+            return events, list(r.ev_y), _peaks(r.rec_y, r.rec_q2, r.rec_q3)
 
         def sampler(ts):
             rec_t, rec_y, rec_q2, rec_q3, rec_tag = rec
@@ -371,7 +390,7 @@ class RodasStepper(Stepper):
 
         y_end = r.y_stops[-1].copy()
         mode_end = q[NP_EXT_MODE:NP_EXT_MODE + N_MODE].copy()
-        return Span(t0, t1, y_end, mode_end, events, list(r.ev_y), peaks, int(r.n_rhs), int(r.n_steps), sampler)
+        return Span(t0, t1, y_end, mode_end, len(r.ev_t), int(r.n_rhs), int(r.n_steps), sampler, details)
 
 
 def _peaks(rec_y, rec_q2, rec_q3) -> tuple[float, float]:
@@ -393,14 +412,14 @@ def _peaks(rec_y, rec_q2, rec_q3) -> tuple[float, float]:
 def tolerance_table(atol: float, atol_v: np.ndarray, p: np.ndarray, contact_atol: float | None = None) -> np.ndarray:
     """atol of (x, u) of each valve on its seat, free, on its stop (the order of the stepper's table).
 
-    Free flight: the reference's scales (atol times the stop gap; FREE_VELOCITY_ATOL times
-    atol times 1 m/s). In contact the valve sits a deflection F/k into its seat or stop,
-    nanometres for a rigid seat, and crosses back out of it when the pressure force lets
-    go: the opening or closing time is the time x needs to cover that deflection. So x in
-    contact is measured against its own scale, atol times the deflection a load-pressure
-    force would cause (P_load A / k; A = the kind's contact area), and u against atol
-    times 1 m/s times the kind's contact velocity tolerance (``ValveKind.contact_velocity_atol``)
-    or ``contact_atol``.
+    Free flight: the reference's scales (atol times the stop gap times FREE_POSITION_ATOL;
+    the kind's ``free_velocity_atol`` times atol times 1 m/s). In contact the valve sits a
+    deflection F/k into its seat or stop, nanometres for a rigid seat, and crosses back out
+    of it when the pressure force lets go: the opening or closing time is the time x needs
+    to cover that deflection. So x in contact is measured against its own scale, the kind's
+    ``contact_position_atol`` times atol times the deflection a load-pressure force would
+    cause (P_load A / k; A = the kind's contact area), and u against atol times 1 m/s times
+    the kind's ``contact_velocity_atol`` (or ``contact_atol``).
     """
     by_id = {float(k.id): k for k in KINDS.values()}
     table = np.empty(12)
@@ -409,9 +428,10 @@ def tolerance_table(atol: float, atol_v: np.ndarray, p: np.ndarray, contact_atol
         kind = by_id[p[o + VALVE.kind_id]]
         for c, k in ((SEAT, p[o + VALVE.seat_k]), (FREE, 0.0), (STOP, p[o + VALVE.stop_k])):
             x_free = atol_v[xi] * FREE_POSITION_ATOL
-            x_tol = x_free if k <= 0.0 else min(x_free, CONTACT_POSITION_ATOL * atol * p[G.load_pressure] * area / k)
+            deflection = p[G.load_pressure] * area / k if k > 0.0 else 0.0
+            x_tol = x_free if k <= 0.0 else min(x_free, kind.contact_position_atol * atol * deflection)
             in_contact = kind.contact_velocity_atol if contact_atol is None else contact_atol
-            u_tol = atol_v[xi + 1] * (FREE_VELOCITY_ATOL if c == FREE else in_contact)
+            u_tol = atol_v[xi + 1] * (kind.free_velocity_atol if c == FREE else in_contact)
             table[2 * (3 * v + c)] = x_tol
             table[2 * (3 * v + c) + 1] = u_tol
     return table

@@ -71,6 +71,11 @@ class ValveKind:
     signature of :func:`lumped.disc_valve.disc_acceleration` (numba-compilable);
     ``block``: the offsets of its packed quantities (:func:`kind_block`); ``default_model``:
     the shipped model whose valves give the keys a model file leaves out for this kind;
+    ``contact_position_atol``: the fast path's opening tolerance in contact, in units of atol
+    x the contact deflection (lumped.steppers.tolerance_table; how closely the integrator
+    follows the deflection decides when the valve lets go);
+    ``free_velocity_atol``: the fast path's velocity tolerance in free flight, in units of
+    atol x 1 m/s (the velocity of a free element hardly matters to the delivery);
     ``contact_velocity_atol``: the fast path's velocity tolerance in contact, in units of
     atol x 1 m/s (how still the valve sits on its seat decides when it lets go);
     ``flow_area_unit``: "N" if the contact force is a force (disc) or "Pa" (per unit area).
@@ -82,6 +87,8 @@ class ValveKind:
     block: tuple
     default_model: str = ""
     contact_velocity_atol: float = 1.0
+    contact_position_atol: float = 30.0
+    free_velocity_atol: float = 100.0
     summary: str = ""
     id: int = -1
 

@@ -136,3 +136,22 @@ def test_a_candidate_the_model_cannot_simulate_is_reported_not_fatal(monkeypatch
     row = next(r for r in out["ranking"] if r["effect"] == "broken")
     assert row["failed"] and not row["accepted"]
     json.dumps(out, allow_nan=False)   # no infinities leak into the JSON
+
+
+def test_confusion_tool_synthesises_and_fits_with_the_valves_asked_for(monkeypatch, capsys):
+    """`python -m studies.discrepancy.confusion --valve reed` must build and fit reed datasets with the
+    reed pump (it once used the disc pump for every --valve, so reed effects did nothing)."""
+    from studies.discrepancy import confusion
+
+    seen = []
+
+    def fake_run_case(case, spec, valve, seed, simulate, library, settings):
+        seen.append((valve, simulate.model.label))
+        return {"case": case, "seed": seed, "found": [], "expected": [], "correct": True}
+
+    monkeypatch.setattr(confusion, "run_case", fake_run_case)
+    for valve in ("reed", "disc"):
+        case = next(iter(confusion.CASES[valve]))
+        assert confusion.main(["--valve", valve, "--seeds", "1", "--cases", case]) == 0
+    capsys.readouterr()
+    assert seen == [("reed", "reed"), ("disc", "disc")]

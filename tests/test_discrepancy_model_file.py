@@ -10,26 +10,12 @@ candidate effect off) and must find the hidden seat compliance, with its paramet
 from __future__ import annotations
 
 
+from pathlib import Path
+
 import pytest
 
 #: a bigger, faster pump with a heavier, stiffer-sprung disc valve pair: not the thesis rig
-MODEL = """
-name = "bench-pump"
-[pump]
-piston_diameter = 18e-3
-crank_radius = 6.5e-3
-rod_length = 95e-3
-dead_volume = 2.6e-5
-[oil]
-air_content = 0.01
-[valves]
-kind = "disc"
-mass.disc = 3.2e-3
-spring.stiffness = 300.0
-[operating]
-speed_rpm = 700
-load_pressure = 3e6
-"""
+MODEL = (Path(__file__).parent / "data" / "bench-pump.toml").read_text()
 CONDITIONS = ("600:2.5:inlet", "600:2.5:delivery", "800:2.8:inlet", "800:2.8:delivery", "650:3.5:inlet",
               "650:3.5:delivery")
 

@@ -146,3 +146,20 @@ def test_pressure_start_far_right_of_the_root_still_converges_from_below():
     seen = [oil.pressure_iterations(rho, RHO0, P0, BETA, gamma, air, rtol=0.0, maxiter=n)[0] for n in range(1, 7)]
     assert all(q <= p_true * (1 + 1e-12) for q in seen)
     assert all(b >= a - 1e-9 * p_true for a, b in zip(seen, seen[1:]))
+
+
+@pytest.mark.parametrize("air", [0.008, 0.013, 0.05])
+def test_warm_start_gives_the_same_root_in_fewer_iterations(air):
+    """A start at a neighbouring state's pressure (as an integrator's stages give it) returns the pressure
+    that made the density to the same 1e-13, in no more Newton steps than the closed-form start and in at
+    most 3 when the start is within 0.1 % (2 within 1 ppm); a start anywhere in (0, 100 MPa] still converges (convexity)."""
+    for p_true in np.geomspace(2e3, 5e6, 25):
+        rho = oil.density(p_true, RHO0, P0, BETA, 1.4, air)
+        cold, it_cold = oil.pressure_iterations(rho, RHO0, P0, BETA, 1.4, air)
+        for start in (p_true * (1 + 1e-3), p_true * (1 - 1e-3), p_true * (1 + 1e-6)):
+            warm, it_warm = oil.pressure_iterations(rho, RHO0, P0, BETA, 1.4, air, p_start=start)
+            assert abs(warm - p_true) <= 1e-13 * p_true + 4e-16 * BETA
+            assert it_warm <= min(it_cold, 3 if abs(start / p_true - 1) > 1e-5 else 2)
+        for start in (1.0, 1e3, 1e8):
+            far, _ = oil.pressure_iterations(rho, RHO0, P0, BETA, 1.4, air, p_start=start)
+            assert abs(far - p_true) <= 1e-13 * p_true + 4e-16 * BETA

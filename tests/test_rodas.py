@@ -61,7 +61,29 @@ def _ball_tag(p):
     return int(p[2])
 
 
+@numba.njit(cache=True)
+def _floor(t, y, p, dy):
+    # a ball under gravity on a stiff spring-dashpot floor (the seat model of eq 2.20) while p[3] = 1
+    dy[0] = y[1]
+    dy[1] = -p[0]
+    if p[3] > 0.5:
+        dy[1] += (-p[1] * y[0] - p[2] * y[1])
+
+
+@numba.njit(cache=True)
+def _floor_events(t, y, p, g):
+    g[0] = y[0] if p[3] < 0.5 else 1.0     # lands: contact starts
+    g[1] = -y[0] if p[3] > 0.5 else 1.0    # lifts off
+
+
+@numba.njit(cache=True)
+def _floor_switch(k, t, y, p):
+    p[3] = 1.0 if k == 0 else 0.0
+    return 1 + k
+
+
 vdp = rodas.specialize(_vdp, "test_vdp")
+floor = rodas.specialize(_floor, "test_floor", events=_floor_events, apply=_floor_switch)
 ball = rodas.specialize(_ball, "test_ball", events=_ball_events, apply=_ball_bounce, tagger=_ball_tag)
 forced = rodas.specialize(_forced, "test_forced")
 impact = rodas.specialize(_impact, "test_impact")
@@ -161,3 +183,28 @@ def test_events_are_located_on_the_dense_output():
     tau = T - exact[-1]
     vn = v0 * e ** len(exact)
     assert ys[-1, 0] == pytest.approx(vn * tau - g * tau**2 / 2, abs=1e-9)
+
+
+def test_first_step_after_an_event_is_remembered_between_calls():
+    """An impact on a stiff floor (k/m = 1e8 1/s^2): the step sized on the flight before cannot follow the
+    contact transient, so each landing rejects steps there; the size the error estimate asked for is
+    kept in opts.h_event (between calls too) and later landings start their contact with it: fewer
+    rejections, the same solution (to the tolerance) as without memory."""
+    y0, T = np.array([0.2, 0.0]), 0.6
+    p = np.array([9.81, 1e8, 2e3, 0.0])
+
+    def run(memory):
+        q = p.copy()
+        opts = rodas.Options(1e-6, np.array([1e-9, 1e-8]), 1e-3, np.inf, 10**6, 2, np.inf, 2, 100, 1, memory)
+        return floor(0.0, y0, np.array([T]), q, opts)
+
+    plain = run(np.zeros(0))
+    memory = np.zeros(4)
+    first, second = run(memory), run(memory)
+    assert plain.status == first.status == second.status == rodas.OK
+    assert len(plain.ev_t) == len(second.ev_t) >= 2                   # landed and lifted off
+    assert memory[1] > 0.0                                           # contact (code 1) remembered
+    # the ball lands several times in a call: memory helps from the second landing on
+    assert second.n_rejected <= first.n_rejected < plain.n_rejected
+    assert np.allclose(second.ev_t, plain.ev_t, rtol=0, atol=1e-6)
+    assert np.allclose(second.y_stops, plain.y_stops, rtol=1e-4, atol=1e-6)
