@@ -458,6 +458,7 @@ class Workflow:
         self.sims = Simulations(simulator, settings.workers)
         self.notes: list[str] = []
         self.last_failure: str | None = None
+        self.last_jacobian: np.ndarray | None = None   # the nuisance Jacobian of the last profiled fit
         self.nuisance_effects = self._nuisance_effects()
 
     def _nuisance_effects(self) -> dict:
@@ -611,20 +612,22 @@ class Workflow:
         return [(i, p) for i, a in enumerate(model) if a.name in self.nuisance_effects
                 for p in self.nuisance_effects[a.name][0].parameters]
 
-    def _profile(self, model: tuple) -> tuple[np.ndarray | None, np.ndarray | None]:
-        """Fit residuals with the baseline nuisances of ``model`` profiled out to first order, and the
-        nuisance shift that does it: r0 + J d with d minimising it (J by a forward difference of
-        ``Settings.nuisance_step`` of the range, the shifted values kept inside the bounds).
+    def _at_prior(self, model: tuple) -> tuple:
+        """``model`` with its baseline nuisances at their prior values (the point the profile is taken at)."""
+        out = []
+        for a in model:
+            if a.name in self.nuisance_effects:
+                a = Applied.of(a.name, a.target, {p.name: p.prior for p in self.nuisance_effects[a.name][0].parameters})
+            out.append(a)
+        return tuple(out)
 
-        A Cd factor moves the residuals almost linearly over a few per cent, so one extra simulation
-        per run gives the candidate's search the cost with the Cd factor at its best for every value
-        tried: the search then follows the candidate's own valley, not the one a Cd factor fitted
-        without it leaves (a soft seat, an added mass, a leak all trade with Cd).
-        """
-        r0 = self.residual_vector(model)
+    def _nuisance_jacobian(self, model: tuple) -> np.ndarray | None:
+        """d(fit residuals)/d(nuisance values) of ``model`` by forward differences of
+        ``Settings.nuisance_step`` of each range (one simulation per fitting run and parameter)."""
         idx = self._nuisance_index(model)
+        r0 = self.residual_vector(model)
         if r0 is None or not idx:
-            return r0, None
+            return None
         cols = []
         for i, p in idx:
             h = self.settings.nuisance_step * (p.bounds[1] - p.bounds[0])
@@ -633,18 +636,35 @@ class Workflow:
                 + model[i + 1:]
             r = self.residual_vector(shifted)
             if r is None:
-                return r0, None
+                return None
             cols.append((r - r0) / h)
-        jac = np.column_stack(cols)
+        return np.column_stack(cols)
+
+    def _profile(self, model: tuple, jac: np.ndarray | None) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """Fit residuals with the baseline nuisances of ``model`` profiled out to first order, and the
+        nuisance shift that does it: r0 + J d with d minimising it (kept inside the bounds).
+
+        ``jac`` (:meth:`_nuisance_jacobian`) is taken once per candidate, at its start and with the
+        nuisances at their prior: a Cd factor moves the residuals almost linearly over a few per cent
+        and almost independently of the candidate's value, so the search costs no more simulations
+        than without the nuisance while following the candidate's own valley with the Cd factor at its
+        best, not the one a Cd factor fitted without the candidate leaves (a soft seat, an added mass,
+        a leak all trade with Cd; the baseline alone put a bench pump's Cd at its 0.9 bound for a soft
+        seat, and a profile taken there lost the seat).
+        """
+        r0 = self.residual_vector(model)
+        idx = self._nuisance_index(model)
+        if r0 is None or not idx or jac is None or jac.shape[0] != r0.size:
+            return r0, None
         d = np.linalg.lstsq(jac, -r0, rcond=None)[0]
         for k, (i, p) in enumerate(idx):
             v = model[i].value_dict[p.name]
             d[k] = float(np.clip(v + d[k], *p.bounds)) - v
         return r0 + jac @ d, d
 
-    def _profiled_model(self, model: tuple) -> tuple:
+    def _profiled_model(self, model: tuple, jac: np.ndarray | None) -> tuple:
         """``model`` with its nuisances moved by the first-order profile shift (itself if none)."""
-        _, d = self._profile(model)
+        _, d = self._profile(model, jac)
         if d is None:
             return model
         out = list(model)
@@ -663,15 +683,21 @@ class Workflow:
         n0 = self.sims.count
         params = effect.parameters_for(self.context, target)
         profile = profile and bool(self._nuisance_index(base))
+        jac = None
+        if profile:   # linearised at the nuisances' prior and the candidate's start (see _profile)
+            base = self._at_prior(base)
+            s0 = start or effect.prior_values(self.context, target)
+            jac = self._nuisance_jacobian(base + (Applied.of(effect.name, target, s0),))
+        self.last_jacobian = jac
 
         def objective(model) -> float:
             if not profile:
                 return self.fit_objective(model)[0]
-            r, _ = self._profile(model)
+            r, _ = self._profile(model, jac)
             return math.inf if r is None else float(r @ r)
 
         def residuals(model):
-            return self._profile(model)[0] if profile else self.residual_vector(model)
+            return self._profile(model, jac)[0] if profile else self.residual_vector(model)
 
         def model_of(units) -> tuple:
             vals = {p.name: p.from_unit(u) for p, u in zip(params, units)}
@@ -730,8 +756,9 @@ class Workflow:
         vals = {p.name: p.from_unit(u) for p, u in zip(params, units)}
         return vals, cost, nuis, self.sims.count - n0
 
-    def refine(self, model: tuple) -> tuple:
-        """Refit the added effects one at a time with the others fixed (one pass, narrow brackets).
+    def refine(self, model: tuple, skip: frozenset = frozenset()) -> tuple:
+        """Refit the added effects one at a time with the others fixed (one pass, narrow brackets);
+        the effects named in ``skip`` are left as they are.
 
         A baseline nuisance is refitted over its whole (narrow) range: fitted on the baseline alone
         it may have absorbed part of the effect now added (a Cd factor standing in for a soft seat's
@@ -739,6 +766,8 @@ class Workflow:
         """
         model = list(model)
         for i, a in enumerate(model):
+            if a.name in skip:
+                continue
             others = tuple(model[:i] + model[i + 1:])
             eff = self._eff(a.name)
             if not eff.parameters_for(self.context, a.target):
@@ -889,15 +918,21 @@ class Workflow:
                                 "fit failed", self.sims.count - n0, cur.fit_cost, cur.held_cost,
                                 failed=f"the model failed for every value tried ({self.last_failure})")
         model = current + (Applied.of(eff.name, target, vals),)
-        if self.nuisance_effects:
-            model = self._profiled_model(model)     # the nuisances where the profile put them
+        if self.nuisance_effects:                   # the nuisances where the profile put them
+            model = self._profiled_model(self._at_prior(current) + model[-1:], self.last_jacobian)
         if current:
             # the effects added before were fitted without this one: refit them with it, so the
             # candidate is judged by the augmented model it would give, not against their bias;
             # then the candidate and the baseline nuisances jointly (they may trade along a valley)
-            model = self.refine(model)
             if self.nuisance_effects:
-                model = self.polish(model, {eff.name, *self.nuisance_effects})
+                # the earlier effects one at a time; the candidate and the nuisances jointly (they may
+                # trade along a valley), and only where the profiled fit leaves the candidate a chance
+                # of the gain floor (the rest are judged as the profile left them: half the simulations)
+                model = self.refine(model, skip=frozenset({eff.name, *self.nuisance_effects}))
+                if cost < self.fit_objective(current)[0] - self.min_gain_units:
+                    model = self.polish(model, {eff.name, *self.nuisance_effects})
+            else:
+                model = self.refine(model)
             vals = model[-1].value_dict
             cost, nuis = self.fit_objective(model)
         try:
@@ -908,7 +943,7 @@ class Workflow:
                                 cur.held_cost, failed=str(exc))
         held, held_parts, fit_parts = ev.held_cost, ev.held_parts, ev.fit_parts
         base_fit = self.fit_objective(current)[0]
-        base_ev = cur
+        base_ev = kind_ev = cur
         if current:
             # the credit is the candidate's, not its refits': the same model without it (the effects
             # and nuisances as refitted with it) is a base too, and the better base counts
@@ -920,6 +955,11 @@ class Workflow:
                     and wo.held_cost < cur.held_cost:
                 base_ev = wo
                 base_fit = min(base_fit, self.fit_objective(model[:-1])[0])
+            if wo is not None and self.nuisance_effects:
+                # evidence by kind is compared at the same nuisance values: the baseline's Cd factor,
+                # fitted without the candidate, may have bought one kind with the others (a bench
+                # pump's soft seat: Cd at its 0.9 bound matched the delivery, not the traces)
+                kind_ev = wo
         k = max(1, len(eff.parameters_for(vt, target)))   # a pure switch still costs one degree of freedom
         dbic = (n_eff * math.log(max(cost, 1e-12) / max(base_fit, 1e-12)) + k * math.log(n_eff)
                 if math.isfinite(cost) else math.inf)
@@ -929,8 +969,8 @@ class Workflow:
                 why = why or self.library[a.name].plausibility(a.value_dict, vt, a.target)
         return CandidateFit(eff.name, target, vals, eff.report(vals, vt, target), cost, held, dbic, why,
                             self.sims.count - n0, base_fit, base_ev.held_cost, nuisance=nuis, model=model,
-                            held_parts=held_parts, base_held_parts=base_ev.held_parts, fit_parts=fit_parts,
-                            base_fit_parts=base_ev.fit_parts)
+                            held_parts=held_parts, base_held_parts=kind_ev.held_parts, fit_parts=fit_parts,
+                            base_fit_parts=kind_ev.fit_parts)
 
     def _significant(self, f: CandidateFit) -> bool:
         """Whether a candidate is added (see :meth:`verdict`)."""
