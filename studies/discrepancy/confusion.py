@@ -60,10 +60,14 @@ CASES = {
         "fluid_damping": [("fluid_damping", "both", {"c_f": (4000.0, 10000.0)})],
         "fluid_damping (strong)": [("fluid_damping", "both", {"c_f": (12000.0, 16000.0)})],
         "piston_leakage": [("piston_leakage", "pump", {"clearance": (3.5e-5, 4.5e-5)})],
+        "piston_leakage (25 um)": [("piston_leakage", "pump", {"clearance": (2.5e-5, 2.5e-5)})],
         "entrained_air": [("entrained_air", "pump", {"R": (0.005, 0.015)})],
         "added_mass": [("added_mass", "both", {"Gamma_f": (2.0, 5.0)})],
         "none": [],
         "cd+3%": [("discharge_scale", "both", {"scale": (1.03, 1.03)})],
+        "cd-3%": [("discharge_scale", "both", {"scale": (0.97, 0.97)})],
+        "piston_leakage (31-35 um) + cd-3%": [("piston_leakage", "pump", {"clearance": (3.1e-5, 3.5e-5)}),
+                                              ("discharge_scale", "both", {"scale": (0.97, 0.97)})],
     },
 }
 

@@ -11,7 +11,9 @@ effects -> one simulated revolution) and a library of candidate effects
 3. fits each candidate's parameters on the fitting runs (log space within bounds:
    a grid then Brent's method for one parameter, ``least_squares`` for more), with
    the position sensor's scale per valve and time offset profiled out (they are in
-   real data and must not pass for physics);
+   real data and must not pass for physics) and the baseline nuisances profiled out to
+   first order (one Jacobian per candidate, taken at their prior), then refits the candidate
+   and the nuisances jointly where it could pass;
 4. scores every fit on the held-out runs, checks its parameters are physically
    plausible and that it pays for its parameters (a BIC whose sample count is the
    effective number of independent residuals, from their autocorrelation);
@@ -101,7 +103,7 @@ class Settings:
     nuisance_range: float = 0.10       # searched within prior x (1 -+ this): a Cd error beyond 10 % is
                                        # a wrong model, not a nuisance
     nuisance_step: float = 0.05        # forward-difference step of the nuisance profile, of its range
-                                       # (a Cd factor: 0.01), Workflow._profile
+                                       # (a Cd factor: 0.01), Workflow._nuisance_jacobian
     polish_nfev: int = 8               # joint least-squares refit of a candidate with the nuisances:
                                        # function evaluations per parameter (Workflow.polish)
     nuisance_prior_sd: float = 0.05    # Gaussian prior, as a fraction of the prior value: the fit cost
@@ -758,22 +760,17 @@ class Workflow:
 
     def refine(self, model: tuple, skip: frozenset = frozenset()) -> tuple:
         """Refit the added effects one at a time with the others fixed (one pass, narrow brackets);
-        the effects named in ``skip`` are left as they are.
-
-        A baseline nuisance is refitted over its whole (narrow) range: fitted on the baseline alone
-        it may have absorbed part of the effect now added (a Cd factor standing in for a soft seat's
-        lost delivery), and a narrow bracket would leave it there.
-        """
+        the effects named in ``skip`` (with a nuisance: the candidate and the nuisances, which
+        :meth:`polish` refits jointly) are left as they are."""
         model = list(model)
         for i, a in enumerate(model):
             if a.name in skip:
                 continue
             others = tuple(model[:i] + model[i + 1:])
-            eff = self._eff(a.name)
+            eff = self.library[a.name]
             if not eff.parameters_for(self.context, a.target):
                 continue
-            narrow = None if a.name in self.nuisance_effects else 0.1
-            vals, *_ = self.fit(others, eff, a.target, start=a.value_dict, narrow=narrow)
+            vals, *_ = self.fit(others, eff, a.target, start=a.value_dict, narrow=0.1)
             model[i] = Applied.of(a.name, a.target, vals)
         return tuple(model)
 
@@ -922,8 +919,7 @@ class Workflow:
             model = self._profiled_model(self._at_prior(current) + model[-1:], self.last_jacobian)
         if current:
             # the effects added before were fitted without this one: refit them with it, so the
-            # candidate is judged by the augmented model it would give, not against their bias;
-            # then the candidate and the baseline nuisances jointly (they may trade along a valley)
+            # candidate is judged by the augmented model it would give, not against their bias
             if self.nuisance_effects:
                 # the earlier effects one at a time; the candidate and the nuisances jointly (they may
                 # trade along a valley), and only where the profiled fit leaves the candidate a chance
