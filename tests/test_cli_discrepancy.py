@@ -20,12 +20,16 @@ def test_synth_then_discrepancy_json_and_report(cli, tmp_path):
         assert {"position_rms_m", "delivery_error_pct"} <= set(res[g])
     assert res["effects_added"] == ["seat_compliance"]
     assert set(res["parameters"]["seat_compliance"]) == {"k_seat", "c_seat"}
+    # the discharge-coefficient factor is a fitted baseline nuisance, reported apart from the effects
+    cd = res["baseline_nuisances"]["discharge_scale"]
+    assert "discharge_scale" not in res["effects_added"] and 0.9 <= cd["values"]["scale"] <= 1.1
     assert "discrepancy round" in err or "discrepancy:" in err   # progress on stderr
     rep = tmp_path / "ds_discrepancy"
     for f in ("ranking.csv", "ranking.md", "disagreements.txt", "gap_bars.png", "residuals.png", "summary.json"):
         assert (rep / f).is_file(), f
     assert len(list(rep.glob("traces_*.png"))) == 6
     assert json.loads((rep / "summary.json").read_text())["effects_added"] == ["seat_compliance"]
+    assert "Baseline nuisance: discharge_scale" in (rep / "disagreements.txt").read_text()
     # a second run may replace the report valvelab wrote, and prints readable text without --json;
     # the first versions' --model MODULE still names a simulator module, with a note
     rc, out, err = cli("discrepancy", "ds", "--workers", "1", "--model", "tests.standin")

@@ -53,7 +53,12 @@ def test_one_parameter_fit_brackets_both_sides_of_the_best_grid_point():
 def test_nothing_hidden_nothing_added():
     out = find((), seed=3)
     assert out["effects_added"] == []
-    assert out["gap_after"] == out["gap_before"]
+    # the discharge-coefficient nuisance stays near 1 (the data have no Cd error) ...
+    assert out["baseline_nuisances"]["discharge_scale"]["values"]["scale"] == pytest.approx(1.0, abs=0.01)
+    # ... and without nuisances the final model is the baseline itself
+    plain = find((), seed=3, nuisance_effects=())
+    assert plain["effects_added"] == [] and plain["baseline_nuisances"] == {}
+    assert plain["gap_after"] == plain["gap_before"]
 
 
 def test_two_hidden_effects_both_named():

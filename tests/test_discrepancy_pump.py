@@ -31,6 +31,10 @@ def check_found(r: dict):
     assert r["found"] == r["expected"], r
     for name, err in r["relative_errors"].items():
         assert abs(err) <= 0.2, (name, err, r["parameters"])
+    for a in r["truth"]:
+        # a discharge coefficient off in the data is recovered as the baseline nuisance, not named
+        if a["name"] == "discharge_scale":
+            assert r["baseline_nuisances"]["discharge_scale"]["scale"] == pytest.approx(a["scale"], abs=0.01), r
     if r["expected"]:
         # the gap a model can close: position RMS above the measurement noise, or the delivery error
         assert r["held_out_excess_reduction_pct"] >= 70 or r["held_out_delivery_reduction_pct"] >= 70, r

@@ -140,6 +140,7 @@ def write_report(folder, outcome: Outcome, runs, result: dict, force: bool = Fal
     lines += ["", "Residual windows of the baseline, per run:"]
     lines += [f"  - {s}" for s in window_sentences(outcome.findings_before)] or ["  (none)"]
     lines += ["", "Effects added: " + (", ".join(a.key for a in outcome.model) or "none")]
+    lines += [f"Baseline nuisance: {s}" for s in outcome.nuisance_sentences()]
     lines += ["Disagreements left after adding them:"]
     lines += [f"  - {s}" for s in outcome.disagreements_after] or ["  (none beyond the tolerances)"]
     lines += ["", *[f"note: {n}" for n in outcome.notes]]
