@@ -36,8 +36,13 @@ def check_found(r: dict):
         if a["name"] == "discharge_scale":
             assert r["baseline_nuisances"]["discharge_scale"]["scale"] == pytest.approx(a["scale"], abs=0.01), r
     if r["expected"]:
-        # the gap a model can close: position RMS above the measurement noise, or the delivery error
-        assert r["held_out_excess_reduction_pct"] >= 70 or r["held_out_delivery_reduction_pct"] >= 70, r
+        # the gap a model can close: position RMS above the measurement noise, or the delivery error,
+        # or the held-out cost with the pressure evidence (a 25 um reed leak: positions at the noise,
+        # None, delivery 0.2-0.4 % off; it shows in the cylinder pressure)
+        c0, c1 = r["held_out_cost"]
+        reductions = (r["held_out_excess_reduction_pct"], r["held_out_delivery_reduction_pct"],
+                      100 * (1 - c1 / c0) if c0 else None)
+        assert any(x is not None and x >= 70 for x in reductions), r
 
 
 def test_cyclic_steady_after_the_revolutions_simulated():
