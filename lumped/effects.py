@@ -198,6 +198,10 @@ class Applied:
     def value_dict(self) -> dict:
         return dict(self.values)
 
+    def with_values(self, values: dict) -> "Applied":
+        """The same effect and target with the parameters in ``values`` replaced."""
+        return Applied.of(self.name, self.target, {**self.value_dict, **values})
+
     @property
     def key(self) -> str:
         return self.name if self.target in ("both", "pump") else f"{self.name}@{self.target}"

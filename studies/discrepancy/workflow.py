@@ -321,6 +321,11 @@ class Outcome:
         return out
 
 
+def _with_value(model: tuple, i: int, name: str, value: float) -> tuple:
+    """``model`` with parameter ``name`` of its ``i``-th applied effect set to ``value``."""
+    return model[:i] + (model[i].with_values({name: value}),) + model[i + 1:]
+
+
 def _parts(gaps, names, scales) -> dict:
     """Cost of the runs ``names`` by kind of evidence (RunGap.cost_parts summed)."""
     out = {"position": 0.0, "delivery": 0.0, "pressure": 0.0}
@@ -619,7 +624,7 @@ class Workflow:
         out = []
         for a in model:
             if a.name in self.nuisance_effects:
-                a = Applied.of(a.name, a.target, {p.name: p.prior for p in self.nuisance_effects[a.name][0].parameters})
+                a = a.with_values({p.name: p.prior for p in self.nuisance_effects[a.name][0].parameters})
             out.append(a)
         return tuple(out)
 
@@ -633,10 +638,7 @@ class Workflow:
         cols = []
         for i, p in idx:
             h = self.settings.nuisance_step * (p.bounds[1] - p.bounds[0])
-            a = model[i]
-            shifted = model[:i] + (Applied.of(a.name, a.target, {**a.value_dict, p.name: a.value_dict[p.name] + h}),) \
-                + model[i + 1:]
-            r = self.residual_vector(shifted)
+            r = self.residual_vector(_with_value(model, i, p.name, model[i].value_dict[p.name] + h))
             if r is None:
                 return None
             cols.append((r - r0) / h)
@@ -669,11 +671,9 @@ class Workflow:
         _, d = self._profile(model, jac)
         if d is None:
             return model
-        out = list(model)
         for k, (i, p) in enumerate(self._nuisance_index(model)):
-            a = out[i]
-            out[i] = Applied.of(a.name, a.target, {**a.value_dict, p.name: a.value_dict[p.name] + d[k]})
-        return tuple(out)
+            model = _with_value(model, i, p.name, model[i].value_dict[p.name] + d[k])
+        return model
 
     def fit(self, base: tuple, effect: Effect, target: str, start: dict | None = None,
             narrow: float | None = None, profile: bool = False) -> tuple[dict, float, Nuisance, int]:
@@ -785,13 +785,11 @@ class Workflow:
                for p in self._eff(a.name).parameters_for(self.context, a.target)]
         if len(idx) < 2:
             return model
-        base = list(model)
-
         def model_of(u) -> tuple:
-            m = list(base)
+            m = model
             for (i, p), ui in zip(idx, u):
-                m[i] = Applied.of(m[i].name, m[i].target, {**m[i].value_dict, p.name: p.from_unit(ui)})
-            return tuple(m)
+                m = _with_value(m, i, p.name, p.from_unit(ui))
+            return m
 
         r0 = self.residual_vector(model)
         if r0 is None:
@@ -892,11 +890,7 @@ class Workflow:
             for p in self.nuisance_effects[a.name][0].parameters:
                 v = a.value_dict[p.name]
                 h = 0.01 * (p.bounds[1] - p.bounds[0])
-                cs = []
-                for dv in (-h, h):
-                    m = list(model)
-                    m[i] = Applied.of(a.name, a.target, {**a.value_dict, p.name: v + dv})
-                    cs.append(self.fit_objective(tuple(m))[0])
+                cs = [self.fit_objective(_with_value(model, i, p.name, v + dv))[0] for dv in (-h, h)]
                 curv = (cs[0] - 2 * c0 + cs[1]) / h**2        # d2C/dv2 = 2 a for C = c0 + a (v - v0)^2
                 out[f"{a.name}.{p.name}"] = math.sqrt(2.0 / curv) if curv > 0 and math.isfinite(curv) else None
         return out
@@ -917,6 +911,7 @@ class Workflow:
         model = current + (Applied.of(eff.name, target, vals),)
         if self.nuisance_effects:                   # the nuisances where the profile put them
             model = self._profiled_model(self._at_prior(current) + model[-1:], self.last_jacobian)
+        base_fit = self.fit_objective(current)[0]
         if current:
             # the effects added before were fitted without this one: refit them with it, so the
             # candidate is judged by the augmented model it would give, not against their bias
@@ -925,7 +920,7 @@ class Workflow:
                 # trade along a valley), and only where the profiled fit leaves the candidate a chance
                 # of the gain floor (the rest are judged as the profile left them: half the simulations)
                 model = self.refine(model, skip=frozenset({eff.name, *self.nuisance_effects}))
-                if cost < self.fit_objective(current)[0] - self.min_gain_units:
+                if cost < base_fit - self.min_gain_units:
                     model = self.polish(model, {eff.name, *self.nuisance_effects})
             else:
                 model = self.refine(model)
@@ -938,7 +933,6 @@ class Workflow:
                                 "held-out simulation failed", self.sims.count - n0, cur.fit_cost,
                                 cur.held_cost, failed=str(exc))
         held, held_parts, fit_parts = ev.held_cost, ev.held_parts, ev.fit_parts
-        base_fit = self.fit_objective(current)[0]
         base_ev = kind_ev = cur
         if current:
             # the credit is the candidate's, not its refits': the same model without it (the effects
