@@ -1,11 +1,13 @@
 """Tolerance study of the fast path: accuracy against the reference vs work, per setting.
 
 Run on demand from the repository root: ``python benchmarks/pump_tolerance_study.py
-[--random N] [--quick]``; prints one JSON object (progress on stderr). The reference
+[--random N] [--quick] [--effects]``; prints one JSON object (progress on stderr). The reference
 (the scipy Radau stepper at its defaults, rtol = atol = 1e-6) is run once per case:
 the 12 validation cases of Tables 5.4 and 5.6 (five revolutions) and N random designs
 (three revolutions; operating point, air, seat stiffness, spring, reed kappa and f1/f2
-drawn by studies.sweeps.random_designs, as in tests/test_pump_fast.py). Then the fast path runs every case under each
+drawn by studies.sweeps.random_designs, as in tests/test_pump_fast.py); with ``--effects``
+also the discrepancy workflow's models (its baseline with each hidden effect of its
+confusion cases at the thesis's three operating conditions, three revolutions). Then the fast path runs every case under each
 setting below, and the study reports per setting and valve type: Rosenbrock step
 attempts per revolution (the machine-independent measure of work), CPU ms per
 simulated second (median of two runs), the worst delivery deviation and the worst
@@ -44,7 +46,10 @@ SETTINGS = [
     ("rtol 3e-3", {}, {"rtol": 3e-3}),
     ("contact velocity x30 (both)", {}, {"contact_atol": 30.0}),
     ("contact velocity x100 (both)", {}, {"contact_atol": 100.0}),
+    ("rtol 1e-4", {}, {"rtol": 1e-4}),
     ("contact opening x30 (disc, before)", {"disc.contact_position_atol": 30.0}, {}),
+    ("contact opening and velocity x1 (disc)", {"disc.contact_position_atol": 1.0, "disc.contact_velocity_atol": 1.0},
+     {}),
     ("contact opening x1000 (disc)", {"disc.contact_position_atol": 1000.0}, {}),
     ("contact opening x100 (reed)", {"reed.contact_position_atol": 100.0}, {}),
     ("free velocity x1000 (reed)", {"reed.free_velocity_atol": 1000.0}, {}),
@@ -57,6 +62,26 @@ SETTINGS = [
 def _random_case(rng, valve):
     speed, load, air, model = random_design(rng, valve)
     return dict(model=model, kind=model.label, speed_rpm=speed, load_pressure=load, air_content=air, revolutions=3)
+
+
+def _effect_cases():
+    """The discrepancy workflow's models: the baseline with each hidden effect of
+    studies.discrepancy.confusion (values of seed 1) at the thesis's three inlet-measured runs."""
+    from studies.discrepancy import confusion
+    from studies.discrepancy.pump_sim import for_valve_type
+    from studies.discrepancy.synth import thesis_conditions
+    from studies.discrepancy.workflow import RunCondition
+    out = []
+    for valve in ("disc", "reed"):
+        sim = for_valve_type(valve)
+        for spec in confusion.CASES[valve].values():
+            truth = tuple(confusion.draw_truth(spec, np.random.default_rng(10_001)))
+            air = None if any(a.name == "entrained_air" for a in truth) else confusion.STATED_AIR[valve]
+            for c in thesis_conditions(valve, air)[:3]:
+                cond = RunCondition("r", valve, c.speed_rpm, c.load_pressure_pa, c.air_content)
+                out.append(dict(model=sim.model_for(cond, truth), kind=f"{valve} + effects", speed_rpm=c.speed_rpm,
+                                load_pressure=c.load_pressure_pa, revolutions=3))
+    return out
 
 
 def _angles(r):
@@ -78,6 +103,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--random", type=int, default=10, help="random designs (half disc, half reed)")
     ap.add_argument("--quick", action="store_true", help="first validation case of each valve, 2 random designs")
+    ap.add_argument("--effects", action="store_true",
+                    help="also the discrepancy workflow's models (every hidden effect of its confusion cases)")
     args = ap.parse_args()
     cases = [dict(model=f"thesis-{c['valve']}", kind=c["valve"], speed_rpm=c["speed_rpm"],
                   load_pressure=c["load_pressure"], air_content=c["air_content"], revolutions=5) for c in experiments()]
@@ -86,6 +113,8 @@ def main() -> None:
         cases = [cases[0], cases[6]]
     rng = np.random.default_rng(2026)
     cases += [_random_case(rng, ("disc", "reed", "mixed")[i % 3]) for i in range(n_random)]
+    if args.effects:
+        cases += _effect_cases()
 
     def run(c, **kw):
         args_ = {k: v for k, v in c.items() if k != "kind"}

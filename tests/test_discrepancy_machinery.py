@@ -8,6 +8,7 @@ stopping logic in a fraction of a second per simulation.
 import math
 from dataclasses import replace
 
+import numpy as np
 import pytest
 
 import standin
@@ -48,6 +49,30 @@ def test_one_parameter_fit_brackets_both_sides_of_the_best_grid_point():
     out = find((Applied.of("seat_compliance", "delivery", {"k_seat": 1.2e6}),), seed=0)
     assert out["effects_added"] == ["seat_compliance"]
     assert out["parameters"]["seat_compliance"]["k_seat"] == pytest.approx(1.2e6, rel=0.08)
+
+
+def test_several_parameter_fit_is_not_stalled_by_a_rippled_cost():
+    # the cost of a rebounding valve is rippled: ~2 gap units for a change of 1e-5 of a range
+    # (a rebound comes or goes). A two-parameter valley with such ripple: least squares from the
+    # start stalls where it is (the flow force's jet angle and oil-column length did); the grid over
+    # the plausible box and the pattern search around its best point must reach the valley
+    runs, _ = synthesize(standin.simulate, "disc", THESIS_DISC, (), Noise(), seed=0)
+    wf = Workflow(runs, standin.simulate, standin.LIB, Settings(), progress=False)
+    wf.sims.many = lambda jobs: []            # the cost below needs no simulation
+    params = [Parameter("a", "-", 1.0, (1e-2, 1e2), (1e-1, 1e1), "test"),
+              Parameter("b", "-", 1.0, (1e-2, 1e2), (1e-1, 1e1), "test")]
+    best = (0.41, 0.63)                        # units: inside the plausible box (0.25-0.75)
+
+    def cost(model):
+        u = model[0]
+        ripple = 4.0 * ((1e6 * u[0] + 3e6 * u[1]) % 1.0)               # 0-4 units, a sawtooth
+        return 60.0 + 20.0 * (u[0] - best[0]) ** 2 + 1700.0 * (u[1] - best[1]) ** 2 + ripple
+
+    calls = []
+    u = wf._box_search(params, np.array([0.5, 0.5]), lambda x: (tuple(x),), lambda m: calls.append(m) or cost(m))
+    assert abs(u[1] - best[1]) < 0.03 and abs(u[0] - best[0]) < 0.2   # least squares from (0.5, 0.5): 0.038
+    assert cost((tuple(u),)) < 62.0
+    assert len(calls) <= 1 + 25 + 3 * 8                               # grid, then three pattern levels
 
 
 def test_nothing_hidden_nothing_added():
