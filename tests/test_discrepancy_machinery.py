@@ -52,10 +52,10 @@ def test_one_parameter_fit_brackets_both_sides_of_the_best_grid_point():
 
 
 def test_several_parameter_fit_is_not_stalled_by_a_rippled_cost():
-    # the cost of a rebounding valve is rippled: ~2 gap units for a change of 1e-5 of a range
-    # (a rebound comes or goes). A two-parameter valley with such ripple: least squares from the
-    # start stalls where it is (the flow force's jet angle and oil-column length did); the grid over
-    # the plausible box and the pattern search around its best point must reach the valley
+    # the pump's cost is rippled: ~2 gap units for a change of 1e-5 of a range (the fast path's
+    # disc lift-off jitters by degrees, README "Pump speed"). A two-parameter valley with such
+    # ripple: least squares from the start stalls short of it (the flow force's jet angle and
+    # oil-column length did); the grid over the plausible box and the pattern search must reach it
     runs, _ = synthesize(standin.simulate, "disc", THESIS_DISC, (), Noise(), seed=0)
     wf = Workflow(runs, standin.simulate, standin.LIB, Settings(), progress=False)
     wf.sims.many = lambda jobs: []            # the cost below needs no simulation

@@ -703,9 +703,6 @@ class Workflow:
             r, _ = self._profile(model, jac)
             return math.inf if r is None else float(r @ r)
 
-        def residuals(model):
-            return self._profile(model, jac)[0] if profile else self.residual_vector(model)
-
         def model_of(units) -> tuple:
             vals = {p.name: p.from_unit(u) for p, u in zip(params, units)}
             return base + (Applied.of(effect.name, target, vals),)
@@ -772,7 +769,7 @@ class Workflow:
         hi = np.clip([p.to_unit(p.plausible[1]) for p in params], 0.0, 1.0)
         if k <= 2:
             grid = np.array(list(itertools.product(*[np.linspace(a, b, st.n_grid_box) for a, b in zip(lo, hi)])))
-        else:   # a full grid grows as n^k: a scrambled Sobol sample of the same density per pair
+        else:   # a full grid grows as n^k: as many scrambled Sobol points as a two-parameter grid (32)
             n = 2 ** math.ceil(math.log2(st.n_grid_box ** 2))
             grid = lo + (hi - lo) * qmc.Sobol(k, scramble=True, seed=0).random(n)
         step = (hi - lo) / (2 * (st.n_grid_box - 1))
