@@ -69,15 +69,13 @@ def _effect_cases():
     studies.discrepancy.confusion (values of seed 1) at the thesis's three inlet-measured runs."""
     from studies.discrepancy import confusion
     from studies.discrepancy.pump_sim import for_valve_type
-    from studies.discrepancy.synth import thesis_conditions
     from studies.discrepancy.workflow import RunCondition
     out = []
     for valve in ("disc", "reed"):
         sim = for_valve_type(valve)
         for spec in confusion.CASES[valve].values():
-            truth = tuple(confusion.draw_truth(spec, np.random.default_rng(10_001)))
-            air = None if any(a.name == "entrained_air" for a in truth) else confusion.STATED_AIR[valve]
-            for c in thesis_conditions(valve, air)[:3]:
+            truth, conds = confusion.case_truth(spec, valve, 1)
+            for c in conds[:3]:
                 cond = RunCondition("r", valve, c.speed_rpm, c.load_pressure_pa, c.air_content)
                 out.append(dict(model=sim.model_for(cond, truth), kind=f"{valve} + effects", speed_rpm=c.speed_rpm,
                                 load_pressure=c.load_pressure_pa, revolutions=3))

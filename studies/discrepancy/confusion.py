@@ -92,6 +92,14 @@ def draw_truth(spec: list, rng: np.random.Generator) -> tuple[Applied, ...]:
     return tuple(out)
 
 
+def case_truth(spec: list, valve: str, seed: int) -> tuple[tuple[Applied, ...], list]:
+    """The hidden effects of a case for a seed and the thesis runs they are synthesised at (the
+    run.toml states the air content unless air is what is hidden)."""
+    truth = draw_truth(spec, np.random.default_rng(10_000 + seed))
+    air = None if any(a.name == "entrained_air" for a in truth) else STATED_AIR[valve]
+    return truth, thesis_conditions(valve, air)
+
+
 def expected_names(truth: tuple[Applied, ...], library) -> list[str]:
     """What the workflow should name: the hidden candidate effects (model errors are not candidates)."""
     return sorted(a.name for a in truth if library[a.name].candidate)
@@ -100,10 +108,7 @@ def expected_names(truth: tuple[Applied, ...], library) -> list[str]:
 def run_case(case: str, spec: list, valve: str, seed: int, simulate, library, settings: Settings,
              noise: Noise = Noise()) -> dict:
     """Synthesise one dataset and run the workflow on it; what was hidden, what was found."""
-    rng = np.random.default_rng(10_000 + seed)
-    truth = draw_truth(spec, rng)
-    air = None if any(a.name == "entrained_air" for a in truth) else STATED_AIR[valve]
-    conds = thesis_conditions(valve, air)
+    truth, conds = case_truth(spec, valve, seed)
     t0 = time.time()
     runs, truth_doc = synthesize(simulate, valve, conds, truth, noise, seed=seed, workers=settings.workers)
     out = Workflow(runs, simulate, library, settings, progress=False).run().as_contract()
