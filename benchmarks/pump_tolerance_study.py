@@ -73,11 +73,12 @@ def _effect_cases():
     out = []
     for valve in ("disc", "reed"):
         sim = for_valve_type(valve)
-        for spec in confusion.CASES[valve].values():
+        for name, spec in confusion.CASES[valve].items():
             truth, conds = confusion.case_truth(spec, valve, 1)
             for c in conds[:3]:
                 cond = RunCondition("r", valve, c.speed_rpm, c.load_pressure_pa, c.air_content)
-                out.append(dict(model=sim.model_for(cond, truth), kind=f"{valve} + effects", speed_rpm=c.speed_rpm,
+                out.append(dict(model=sim.model_for(cond, truth), kind=f"{valve} + effects", label=f"{valve} {name}",
+                                speed_rpm=c.speed_rpm,
                                 load_pressure=c.load_pressure_pa, revolutions=3))
     return out
 
@@ -97,13 +98,24 @@ def _angle_error(a, b):
     return worst
 
 
+def _reference(c: dict):
+    """The reference run of one case (a process of its own with --workers)."""
+    print(f"reference: {c.get('label', c['kind'])} {c['speed_rpm']:.0f} rpm", file=sys.stderr, flush=True)
+    return simulate(**{k: v for k, v in c.items() if k not in ("kind", "label")}, method="reference")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--random", type=int, default=10, help="random designs (half disc, half reed)")
     ap.add_argument("--quick", action="store_true", help="first validation case of each valve, 2 random designs")
     ap.add_argument("--effects", action="store_true",
                     help="also the discrepancy workflow's models (every hidden effect of its confusion cases)")
+    ap.add_argument("--settings", default="", help="only the settings whose names contain one of these "
+                    "comma-separated strings (default: all)")
+    ap.add_argument("--workers", type=int, default=1, help="processes for the reference runs")
+    ap.add_argument("--worst", action="store_true", help="name the worst case of each setting and valve type")
     args = ap.parse_args()
+    chosen = [s for s in SETTINGS if not args.settings or any(w in s[0] for w in args.settings.split(","))]
     cases = [dict(model=f"thesis-{c['valve']}", kind=c["valve"], speed_rpm=c["speed_rpm"],
                   load_pressure=c["load_pressure"], air_content=c["air_content"], revolutions=5) for c in experiments()]
     n_random = 2 if args.quick else args.random
@@ -115,13 +127,16 @@ def main() -> None:
         cases += _effect_cases()
 
     def run(c, **kw):
-        args_ = {k: v for k, v in c.items() if k != "kind"}
+        args_ = {k: v for k, v in c.items() if k not in ("kind", "label")}
         return simulate(**args_, **kw)
 
-    refs = []
-    for i, c in enumerate(cases):
-        print(f"reference {i + 1}/{len(cases)}", file=sys.stderr, flush=True)
-        refs.append(run(c, method="reference"))
+    if args.workers > 1:
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(args.workers) as ex:
+            refs = list(ex.map(_reference, cases))
+    else:
+        refs = [_reference(c) for c in cases]
     simulate("thesis-disc", 593.0, 2.76e6, revolutions=2)  # compile or load the cache first
     out = {"benchmark": "pump_tolerance_study", "cases": len(cases), "random_designs": n_random, "settings": []}
     def get(key):
@@ -135,7 +150,7 @@ def main() -> None:
         else:
             setattr(fast, attr, value)
 
-    for name, attrs, kw in SETTINGS:
+    for name, attrs, kw in chosen:
         saved = {k: get(k) for k in attrs}
         for k, v in attrs.items():
             put(k, v)
@@ -147,7 +162,8 @@ def main() -> None:
                 steps_per_rev=f.steps / f.revolutions,
                 ms=statistics.median(x.cpu_seconds / x.simulated_seconds for x in runs) * 1e3,
                 delivery=abs(f.delivery_per_rev / r.delivery_per_rev - 1), angle=_angle_error(f, r),
-                counts=[v.stop_contacts for v in f.valves.values()] != [v.stop_contacts for v in r.valves.values()]))
+                counts=[v.stop_contacts for v in f.valves.values()] != [v.stop_contacts for v in r.valves.values()],
+                case={k: v for k, v in c.items() if k != "model" or isinstance(v, str)}))
         for k, v in saved.items():
             put(k, v)
         row = {"setting": name}
@@ -157,6 +173,9 @@ def main() -> None:
                           "worst_delivery_deviation": float(f"{max(x['delivery'] for x in rows):.3g}"),
                           "worst_angle_deviation_deg": round(max(x["angle"] for x in rows), 4),
                           "cases_with_other_contact_counts": sum(x["counts"] for x in rows)}
+            if args.worst:
+                w = max(rows, key=lambda x: x["angle"])
+                row[valve]["worst_angle_case"] = {k: v for k, v in w["case"].items() if isinstance(v, (str, int, float))}
         print(json.dumps(row), file=sys.stderr, flush=True)
         out["settings"].append(row)
     print(json.dumps(out, indent=2))

@@ -517,6 +517,7 @@ def solve(t0, y0, tstops, p, opts):
     f_fresh = False
     jac_age = opts.jac_reuse  # forces a Jacobian at the first step
     retries = 0               # steps redone to end at the located crossing of the pending event
+    g_fresh = False           # g0 holds the event values at (t, y): the last step's end, scanned already
     # the event whose first step is being taken: an impact starts a stiff contact transient that a
     # step sized on the flight before cannot follow (three rejections of 10x each, measured); the
     # same kind of event recurs every revolution, so its last first step is remembered in opts.h_event
@@ -540,7 +541,7 @@ def solve(t0, y0, tstops, p, opts):
         if not f_fresh:
             rhs(t, y, p, f0)
             n_rhs += 1
-            if n_events > 0:
+            if n_events > 0 and not g_fresh:
                 event_values(t, y, p, g0)
             f_fresh = True
         if jac_age >= opts.jac_reuse or (reject and jac_age > 0):
@@ -624,6 +625,10 @@ def solve(t0, y0, tstops, p, opts):
             m += 1
         y[:] = ynew
         f_fresh = False
+        # the scan evaluated the events at the step's end (s = 1 is y_new exactly): the next start's values
+        g_fresh = k_ev < 0 and n_events > 0
+        if g_fresh:
+            g0[:n_events] = g1[:n_events]
         jac_age += 1
         if k_ev >= 0:
             jac_age = opts.jac_reuse

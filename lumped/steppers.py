@@ -163,10 +163,22 @@ class RadauStepper(Stepper):
         h = None
         while t < t1:
             m_now = mode.copy()
+            g_old = self._g(t, y, m_now)
+            first = next((k for k in range(sw.N_SWITCHES) if g_old[k] < 0.0), -1)
+            if first >= 0:
+                # a switching function already below zero where the mode starts (a valve arriving
+                # on a contact while the force already pulls it away) switches at once
+                before = y.copy()
+                code = sw.apply_switch(first, y, self.plist, mode)
+                events.append((t,) + sw.decode(code))
+                states.append(before)
+                if len(events) > MAX_EVENTS_PER_REV:
+                    raise IntegrationError(f"valve chatter: {len(events)} switches near t = {t:.6g} s; "
+                                           "loosen the contact model or the tolerances")
+                continue
             kw = {} if self.method == "LSODA" else {"jac": lambda tt, yy: self._jac(tt, yy, m_now)}
             solver = solver_class(lambda tt, yy: self._rhs(tt, yy, m_now), t, y, t1, rtol=self.rtol,
                                   atol=self.atol, first_step=h, **kw)
-            g_old = self._g(t, y, m_now)
             while True:
                 msg = solver.step()
                 steps += 1

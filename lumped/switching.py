@@ -6,7 +6,17 @@ free, stop), its pressure regime (Poiseuille, orifice: eq 2.18) and the cylinder
 change only where a switching function crosses zero. :func:`switch_values` gives those
 functions for the current mode (each >= 0 while the mode holds; the crossing to < 0 is
 the switch, direction "falling" in scipy's terms) and :func:`apply_switch` makes the
-change at a located crossing, putting a valve exactly onto its surface. The compiled
+change at a located crossing, putting a valve exactly onto its surface.
+
+A valve pressed on its seat or stop leaves it where the net force of everything but the
+contact lets go, not where its deflection x crosses back (the two agree to the contact's
+damping lag, c/k: 0.03 deg in the thesis pump). Settled in contact, x is a stiff variable
+slaved to that force, nanometres deep and shrinking by fractions of a nanometre per crank
+degree, so an integrator's error of a tolerance on x moved the lift-off by degrees (21.5 deg
+on the fast path, benchmarks/pump_tolerance_study.py --effects); the force comes from the
+pressures, which are integrated to the tolerance. While the valve still moves through its
+impact transient (speed above :func:`settled_speed`) the kinematic surface decides, so
+rebounds stay. The compiled
 stepper (``lumped.steppers.RodasStepper``) calls the compiled copies of these very
 functions inside its loop; the scipy stepper (``RadauStepper``) builds its terminal
 events from them. Plain floats and arrays, so numba compiles the same source.
@@ -14,8 +24,11 @@ events from them. Plain floats and arrays, so numba compiles the same source.
 
 from __future__ import annotations
 
+import math
+
 from lumped.pump import (
-    CAVITATING, G, LIQUID, M_CAV, OFF_DEL, OFF_IN, S_MCYL, S_XDEL, S_XIN, cylinder_volume_at,
+    CAVITATING, G, LIQUID, M_CAV, OFF_DEL, OFF_IN, S_MCYL, S_UDEL, S_UIN, S_XDEL, S_XIN, cylinder_volume_at,
+    evaluate,
 )
 from lumped.valve import FREE, ORIFICE, POISEUILLE, SEAT, STOP, VALVE
 
@@ -27,38 +40,99 @@ N_SWITCHES = 7
 HYSTERESIS = 1e-10
 #: the same for the cavitation surface, relative to the density there
 DENSITY_HYSTERESIS = 1e-12
+#: a valve in contact counts as settled below this fraction of :func:`settled_speed`'s scale
+SETTLED_FRACTION = 1e-3
+
+
+def settled_speed(p, o: int, k: float) -> float:
+    """Speed [m/s] below which a valve on a contact of stiffness k (seat or stop) has settled.
+
+    eps P_load A / sqrt(k m) = eps omega delta: a contact oscillation (omega = sqrt(k/m)) at this
+    speed spans eps = SETTLED_FRACTION of the deflection delta = P_load A / k a load-pressure force
+    causes (the scale of lumped.steppers.tolerance_table). Scale-free: 0.14 mm/s for the thesis
+    disc on its seat, mm/s for a soft seat whose deflection moves quasi-statically at tenths of one.
+    """
+    km = k * p[o + VALVE.moving_mass]
+    if km <= 0.0:
+        return math.inf
+    return SETTLED_FRACTION * p[G.load_pressure] * p[o + VALVE.contact_area] / math.sqrt(km)
+
+
+def free_accelerations(t: float, y, p, mode) -> tuple[float, float]:
+    """(inlet, delivery) accelerations [m/s^2] without the seat and stop reactions: the net
+    non-contact force over the moving mass, in the current mode (lumped.pump.evaluate with
+    the contact stiffness and damping zeroed for the call; p is restored)."""
+    ki, ci, si, di = p[OFF_IN + VALVE.seat_k], p[OFF_IN + VALVE.seat_c], p[OFF_IN + VALVE.stop_k], \
+        p[OFF_IN + VALVE.stop_c]
+    kd, cd, sd, dd = p[OFF_DEL + VALVE.seat_k], p[OFF_DEL + VALVE.seat_c], p[OFF_DEL + VALVE.stop_k], \
+        p[OFF_DEL + VALVE.stop_c]
+    for o in (OFF_IN, OFF_DEL):
+        p[o + VALVE.seat_k] = 0.0
+        p[o + VALVE.seat_c] = 0.0
+        p[o + VALVE.stop_k] = 0.0
+        p[o + VALVE.stop_c] = 0.0
+    r = evaluate(t, y, p, mode)
+    p[OFF_IN + VALVE.seat_k] = ki
+    p[OFF_IN + VALVE.seat_c] = ci
+    p[OFF_IN + VALVE.stop_k] = si
+    p[OFF_IN + VALVE.stop_c] = di
+    p[OFF_DEL + VALVE.seat_k] = kd
+    p[OFF_DEL + VALVE.seat_c] = cd
+    p[OFF_DEL + VALVE.stop_k] = sd
+    p[OFF_DEL + VALVE.stop_c] = dd
+    return r.a_in, r.a_del
 
 
 def switch_values(t: float, y, p, mode, g) -> None:
     """Fill g[0:N_SWITCHES] with the switching functions of the current mode (fire below 0).
 
-    Valve v (0 inlet, 1 delivery), entries 3 v .. 3 v + 2: on its seat, -x (lifts off at
-    x > 0); free, x + h (lands at x < -h) and x_stop - x (reaches the stop); on its stop,
-    x - (x_stop - h) (leaves it); the regime, x_t - x in the Poiseuille regime and
-    x - (x_t - h) in the orifice one. Entry 6, the cylinder: liquid, rho - rho(P_vap)
-    (cavitates when the density falls below the liquid's at the vapour pressure);
-    cavitating, rho(P_vap) (1 + e) - rho (refilled). An entry with no surface is 1.
+    Valve v (0 inlet, 1 delivery), entries 3 v .. 3 v + 2: on its seat, -x while it moves
+    faster than :func:`settled_speed` (lifts off at x > 0, a rebound), else -a_f m / k_seat,
+    the quasi-static deflection of the net non-contact force m a_f (lifts off when that force
+    turns away from the seat); free, x + h (lands at x < -h) and x_stop - x (reaches the stop);
+    on its stop, x - (x_stop - h) while moving, else a_f m / k_stop (leaves when the force turns
+    away from the stop); the regime, x_t - x in the Poiseuille regime and x - (x_t - h) in the
+    orifice one. Entry 6, the cylinder: liquid, rho - rho(P_vap) (cavitates when the density
+    falls below the liquid's at the vapour pressure); cavitating, rho(P_vap) (1 + e) - rho
+    (refilled). An entry with no surface is 1.
     """
     hy = HYSTERESIS
+    need = False
     for v in range(2):
         o = OFF_IN if v == 0 else OFF_DEL
         x = y[S_XIN] if v == 0 else y[S_XDEL]
+        u = y[S_UIN] if v == 0 else y[S_UDEL]
         c = int(mode[2 * v])
         r = int(mode[2 * v + 1])
         xstop = p[o + VALVE.stop_gap]
         if c == SEAT:
             g[3 * v] = -x
             g[3 * v + 1] = 1.0
+            if abs(u) <= settled_speed(p, o, p[o + VALVE.seat_k]):
+                need = True
+                g[3 * v] = math.nan          # the force's, below
         elif c == FREE:
             g[3 * v] = x + hy
             g[3 * v + 1] = xstop - x
         else:
             g[3 * v] = 1.0
             g[3 * v + 1] = x - (xstop - hy)
+            if abs(u) <= settled_speed(p, o, p[o + VALVE.stop_k]):
+                need = True
+                g[3 * v + 1] = math.nan
         g[3 * v + 2] = 1.0
         xt = p[o + VALVE.regime_opening]
         if xt > 0.0:
             g[3 * v + 2] = xt - x if r == POISEUILLE else x - (xt - hy)
+    if need:
+        a = free_accelerations(t, y, p, mode)
+        for v in range(2):
+            o = OFF_IN if v == 0 else OFF_DEL
+            m = p[o + VALVE.moving_mass]
+            if math.isnan(g[3 * v]):
+                g[3 * v] = -a[v] * m / p[o + VALVE.seat_k]
+            if math.isnan(g[3 * v + 1]):
+                g[3 * v + 1] = a[v] * m / p[o + VALVE.stop_k]
     g[6] = 1.0
     rho_v = p[G.rho_vapour]
     if rho_v > 0.0:
@@ -73,8 +147,11 @@ def apply_switch(k: int, y, p, mode) -> int:
     """Make the mode change of switching function k at its crossing; returns slot*100 + old*10 + new.
 
     A valve is put exactly onto its surface (x = 0, -h, x_stop, x_stop - h, x_t, x_t - h),
-    so the new mode starts on the right side of it; the cylinder switch moves no state
-    (the mass is the state: it stays exactly conserved).
+    so the new mode starts on the right side of it; a valve leaving a contact does not move
+    into it (u >= 0 off the seat, <= 0 off the stop: a settled valve leaves with the contact
+    surface, which is at rest, and a speed of the integrator's error into the contact would
+    land it again at once); the cylinder switch moves no state (the mass is the state: it
+    stays exactly conserved).
     """
     if k == 6:
         old = int(mode[M_CAV])
@@ -98,6 +175,9 @@ def apply_switch(k: int, y, p, mode) -> int:
         level = p[o + VALVE.regime_opening] - (0.0 if r == POISEUILLE else hy)
     mode[slot] = new
     y[xi] = level
+    if slot == 2 * v and new == FREE:
+        ui = S_UIN if v == 0 else S_UDEL
+        y[ui] = max(y[ui], 0.0) if old == SEAT else min(y[ui], 0.0)
     return slot * 100 + old * 10 + new
 
 

@@ -14,6 +14,7 @@ from lumped import switching as sw
 from lumped.cycle import simulate
 from lumped.layout import pack
 from lumped.model_file import load_model, with_values
+from studies.discrepancy import confusion
 from studies.sweeps.random_designs import mixed_model, random_design
 from studies.tables.thesis import experiments
 
@@ -50,13 +51,14 @@ def _angles(res):
     return [res.inlet.opening_angle, res.delivery.opening_angle, res.inlet.closing_angle, res.delivery.closing_angle]
 
 
-def _compare(model, speed, load, air, revolutions=3, counts=False):
+def _compare(model, speed, load, air, revolutions=3, counts=False, every=True):
     r = simulate(model, speed, load, air_content=air, revolutions=revolutions, method="reference")
     f = simulate(model, speed, load, air_content=air, revolutions=revolutions, method="fast")
     assert f.method == "fast" and r.method == "reference" and f.revolutions == r.revolutions
     assert f.delivery_per_rev == pytest.approx(r.delivery_per_rev, rel=DELIVERY_RTOL)
-    # every revolution, not just the last, follows the reference
-    assert np.allclose(f.deliveries, r.deliveries, rtol=DELIVERY_RTOL)
+    # every revolution, not just the last, follows the reference (every=False: from the second)
+    first = 0 if every else 1
+    assert np.allclose(f.deliveries[first:], r.deliveries[first:], rtol=DELIVERY_RTOL)
     assert f.mass_balance_error < 1e-9
     for pos in ("inlet", "delivery"):
         assert f.valves[pos].peak_opening == pytest.approx(r.valves[pos].peak_opening, rel=0.01)
@@ -177,3 +179,52 @@ def test_a_stop_contact_needs_a_real_excursion():
 
     assert _stop_arrivals(span(1e-9), 1, S_XDEL, gap) == 1           # a nanometre: one contact
     assert _stop_arrivals(span(3 * CONTACT_EXCURSION * gap), 1, S_XDEL, gap) == 2   # a rebound: two
+
+
+def _flow_force_model():
+    """The discrepancy workflow's disc model with a flow force (jet 54 deg, L_t 12.5 mm) and Cd x 0.998 at
+    593 rpm / 2.76 MPa: where the fast path lifted the inlet disc off 1.2 deg late while its opening
+    decided the lift-off (a jet angle 2e-5 rad larger: 4.7 deg)."""
+    from lumped.effects import Applied
+    from studies.discrepancy.pump_sim import for_valve_type
+    from studies.discrepancy.workflow import RunCondition
+
+    effects = (Applied.of("discharge_scale", "both", {"scale": 0.998}),
+               Applied.of("flow_force", "both", {"theta_jet": math.radians(54), "L_t": 0.0125}))
+    return for_valve_type("disc").model_for(RunCondition("r", "disc", 593.0, 2.76e6, 0.013), effects)
+
+
+def test_lift_off_follows_the_reference_on_a_flow_force_model():
+    _compare(_flow_force_model(), 593.0, 2.76e6, None, revolutions=2)
+
+
+@pytest.mark.parametrize("method", ["fast", "reference"])
+def test_disc_lifts_off_where_the_pressure_balances_the_spring(method):
+    """A seated disc has no flow and no speed, so it lifts off where C1 (P_tank - P_cyl) A_disc = k_spr x_pre
+    (eqs 2.13, 2.14, 2.19): the cylinder pressure at the located inlet opening, read off a 0.01 deg trace,
+    matches that closed form to the pressure change of 0.02 deg."""
+    model = _flow_force_model()
+    r = simulate(model, 593.0, 2.76e6, revolutions=2, trace=True, trace_points=36_000, method=method)
+    tr = r.trace
+    deg = tr.crank_deg
+    v = model.inlet
+    dp_star = v.spring_stiffness * v.spring_preload / (v.c1 * v.disc_area)
+    pc = np.interp(math.degrees(r.inlet.opening_angle), deg, tr.cylinder_pressure)
+    rate = np.interp(math.degrees(r.inlet.opening_angle), deg[1:], np.diff(tr.cylinder_pressure) / np.diff(deg))
+    assert abs((model.pump.tank_pressure - pc) - dp_star) < 0.02 * abs(rate)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("valve, case", [(v, c) for v in ("disc", "reed") for c in confusion.CASES[v]])
+def test_fast_matches_reference_on_the_discrepancy_models(valve, case):
+    """Every hidden effect of the discrepancy workflow's confusion cases (seed 1), at the thesis's three runs:
+    delivery within 0.1 %, angles within 0.5 deg (benchmarks/pump_tolerance_study.py --effects), from the
+    second revolution on (the workflow reads the second; the start from rest of a sticking or heavy valve
+    differs by 1-2 % in the first)."""
+    from studies.discrepancy.pump_sim import for_valve_type
+    from studies.discrepancy.workflow import RunCondition
+
+    truth, conds = confusion.case_truth(confusion.CASES[valve][case], valve, 1)
+    for c in conds[:3]:
+        cond = RunCondition("r", valve, c.speed_rpm, c.load_pressure_pa, c.air_content)
+        _compare(for_valve_type(valve).model_for(cond, truth), c.speed_rpm, c.load_pressure_pa, None, every=False)
