@@ -50,7 +50,8 @@ def settled_speed(p, o: int, k: float) -> float:
     eps P_load A / sqrt(k m) = eps omega delta: a contact oscillation (omega = sqrt(k/m)) at this
     speed spans eps = SETTLED_FRACTION of the deflection delta = P_load A / k a load-pressure force
     causes (the scale of lumped.steppers.tolerance_table). Scale-free: 0.14 mm/s for the thesis
-    disc on its seat, mm/s for a soft seat whose deflection moves quasi-statically at tenths of one.
+    disc on its seat, 4 mm/s on the bench pump's soft seat (k = 1.5e6 N/m), whose deflection moves
+    at ~1 mm/s near lift-off.
     """
     km = k * p[o + VALVE.moving_mass]
     if km <= 0.0:
@@ -88,8 +89,8 @@ def switch_values(t: float, y, p, mode, g) -> None:
 
     Valve v (0 inlet, 1 delivery), entries 3 v .. 3 v + 2: on its seat, -x while it moves
     faster than :func:`settled_speed` (lifts off at x > 0, a rebound), else -a_f m / k_seat,
-    the quasi-static deflection of the net non-contact force m a_f (lifts off when that force
-    turns away from the seat); free, x + h (lands at x < -h) and x_stop - x (reaches the stop);
+    about the quasi-static deflection of the net non-contact force (its sign is what counts: the
+    valve lifts off when that force turns away from the seat); free, x + h (lands at x < -h) and x_stop - x (reaches the stop);
     on its stop, x - (x_stop - h) while moving, else a_f m / k_stop (leaves when the force turns
     away from the stop); the regime, x_t - x in the Poiseuille regime and x - (x_t - h) in the
     orifice one. Entry 6, the cylinder: liquid, rho - rho(P_vap) (cavitates when the density
