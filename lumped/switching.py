@@ -90,7 +90,9 @@ def switch_values(t: float, y, p, mode, g) -> None:
     Valve v (0 inlet, 1 delivery), entries 3 v .. 3 v + 2: on its seat, -x while it moves
     faster than :func:`settled_speed` (lifts off at x > 0, a rebound), else -a_f m / k_seat,
     about the quasi-static deflection of the net non-contact force (its sign is what counts: the
-    valve lifts off when that force turns away from the seat); free, x + h (lands at x < -h) and x_stop - x (reaches the stop);
+    valve lifts off when that force turns away from the seat; only while the deflection is below
+    SETTLED_FRACTION of the stop gap: a soft contact's deflection is followed to the tolerance, and
+    putting it back on the surface at the switch would jump it); free, x + h (lands at x < -h) and x_stop - x (reaches the stop);
     on its stop, x - (x_stop - h) while moving, else a_f m / k_stop (leaves when the force turns
     away from the stop); the regime, x_t - x in the Poiseuille regime and x - (x_t - h) in the
     orifice one. Entry 6, the cylinder: liquid, rho - rho(P_vap) (cavitates when the density
@@ -109,7 +111,7 @@ def switch_values(t: float, y, p, mode, g) -> None:
         if c == SEAT:
             g[3 * v] = -x
             g[3 * v + 1] = 1.0
-            if abs(u) <= settled_speed(p, o, p[o + VALVE.seat_k]):
+            if abs(u) <= settled_speed(p, o, p[o + VALVE.seat_k]) and -x <= SETTLED_FRACTION * xstop:
                 need = True
                 g[3 * v] = math.nan          # the force's, below
         elif c == FREE:
@@ -118,7 +120,7 @@ def switch_values(t: float, y, p, mode, g) -> None:
         else:
             g[3 * v] = 1.0
             g[3 * v + 1] = x - (xstop - hy)
-            if abs(u) <= settled_speed(p, o, p[o + VALVE.stop_k]):
+            if abs(u) <= settled_speed(p, o, p[o + VALVE.stop_k]) and x - xstop <= SETTLED_FRACTION * xstop:
                 need = True
                 g[3 * v + 1] = math.nan
         g[3 * v + 2] = 1.0
