@@ -98,10 +98,15 @@ def _angle_error(a, b):
     return worst
 
 
+def _run(c: dict, **kw):
+    """lumped.cycle.simulate of one case (its keys but the study's own "kind" and "label")."""
+    return simulate(**{k: v for k, v in c.items() if k not in ("kind", "label")}, **kw)
+
+
 def _reference(c: dict):
     """The reference run of one case (a process of its own with --workers)."""
     print(f"reference: {c.get('label', c['kind'])} {c['speed_rpm']:.0f} rpm", file=sys.stderr, flush=True)
-    return simulate(**{k: v for k, v in c.items() if k not in ("kind", "label")}, method="reference")
+    return _run(c, method="reference")
 
 
 def main() -> None:
@@ -125,10 +130,6 @@ def main() -> None:
     cases += [_random_case(rng, ("disc", "reed", "mixed")[i % 3]) for i in range(n_random)]
     if args.effects:
         cases += _effect_cases()
-
-    def run(c, **kw):
-        args_ = {k: v for k, v in c.items() if k not in ("kind", "label")}
-        return simulate(**args_, **kw)
 
     if args.workers > 1:
         from concurrent.futures import ProcessPoolExecutor
@@ -156,14 +157,14 @@ def main() -> None:
             put(k, v)
         per: dict = {}
         for c, r in zip(cases, refs):
-            runs = [run(c, method="fast", **kw) for _ in range(2)]
+            runs = [_run(c, method="fast", **kw) for _ in range(2)]
             f = runs[0]
             per.setdefault(c["kind"], []).append(dict(
                 steps_per_rev=f.steps / f.revolutions,
                 ms=statistics.median(x.cpu_seconds / x.simulated_seconds for x in runs) * 1e3,
                 delivery=abs(f.delivery_per_rev / r.delivery_per_rev - 1), angle=_angle_error(f, r),
                 counts=[v.stop_contacts for v in f.valves.values()] != [v.stop_contacts for v in r.valves.values()],
-                case={k: v for k, v in c.items() if k != "model" or isinstance(v, str)}))
+                case=c))
         for k, v in saved.items():
             put(k, v)
         row = {"setting": name}

@@ -161,6 +161,19 @@ class RadauStepper(Stepper):
         peaks = [max(y[S_XIN], 0.0), max(y[S_XDEL], 0.0)]
         nfev = steps = 0
         h = None
+
+        def switch(k, te, y):
+            """Mode change k at time te (y is moved onto the surface), logged with the state before it."""
+            before = y.copy()
+            code = sw.apply_switch(k, y, self.plist, mode)
+            events.append((te,) + sw.decode(code))
+            states.append(before)
+
+        def chatter(te):
+            if len(events) > MAX_EVENTS_PER_REV:
+                raise IntegrationError(f"valve chatter: {len(events)} switches near t = {te:.6g} s; "
+                                       "loosen the contact model or the tolerances")
+
         while t < t1:
             m_now = mode.copy()
             g_old = self._g(t, y, m_now)
@@ -168,13 +181,8 @@ class RadauStepper(Stepper):
             if first >= 0:
                 # a switching function already below zero where the mode starts (a valve arriving
                 # on a contact while the force already pulls it away) switches at once
-                before = y.copy()
-                code = sw.apply_switch(first, y, self.plist, mode)
-                events.append((t,) + sw.decode(code))
-                states.append(before)
-                if len(events) > MAX_EVENTS_PER_REV:
-                    raise IntegrationError(f"valve chatter: {len(events)} switches near t = {t:.6g} s; "
-                                           "loosen the contact model or the tolerances")
+                switch(first, t, y)
+                chatter(t)
                 continue
             kw = {} if self.method == "LSODA" else {"jac": lambda tt, yy: self._jac(tt, yy, m_now)}
             solver = solver_class(lambda tt, yy: self._rhs(tt, yy, m_now), t, y, t1, rtol=self.rtol,
@@ -212,15 +220,9 @@ class RadauStepper(Stepper):
                 peaks[0] = max(peaks[0], float(y[S_XIN]))
                 peaks[1] = max(peaks[1], float(y[S_XDEL]))
                 for r, k in sorted(roots):
-                    if r > te + 4 * np.finfo(float).eps * abs(te):
-                        continue
-                    before = y.copy()
-                    code = sw.apply_switch(k, y, self.plist, mode)
-                    events.append((te,) + sw.decode(code))
-                    states.append(before)
-                if len(events) > MAX_EVENTS_PER_REV:
-                    raise IntegrationError(f"valve chatter: {len(events)} switches near t = {te:.6g} s; "
-                                       "loosen the contact model or the tolerances")
+                    if r <= te + 4 * np.finfo(float).eps * abs(te):
+                        switch(k, te, y)
+                chatter(te)
                 h = max(te - t_prev, 1e-12 * (t1 - t0))
                 if te < t1:
                     h = min(h, t1 - te)       # a crossing near the end: the first step must fit

@@ -15,6 +15,8 @@ from lumped.cycle import simulate
 from lumped.layout import pack
 from lumped.model_file import load_model, with_values
 from studies.discrepancy import confusion
+from studies.discrepancy.pump_sim import for_valve_type
+from studies.discrepancy.workflow import RunCondition
 from studies.sweeps.random_designs import mixed_model, random_design
 from studies.tables.thesis import experiments
 
@@ -186,8 +188,6 @@ def _flow_force_model():
     593 rpm / 2.76 MPa: where the fast path lifted the inlet disc off 1.2 deg late while its opening
     decided the lift-off (a jet angle 2e-5 rad larger: 4.7 deg)."""
     from lumped.effects import Applied
-    from studies.discrepancy.pump_sim import for_valve_type
-    from studies.discrepancy.workflow import RunCondition
 
     effects = (Applied.of("discharge_scale", "both", {"scale": 0.998}),
                Applied.of("flow_force", "both", {"theta_jet": math.radians(54), "L_t": 0.0125}))
@@ -221,9 +221,6 @@ def test_fast_matches_reference_on_the_discrepancy_models(valve, case):
     delivery within 0.1 %, angles within 0.5 deg (benchmarks/pump_tolerance_study.py --effects), from the
     second revolution on (the workflow reads the second; the start from rest of a sticking or heavy valve
     differs by 1-2 % in the first)."""
-    from studies.discrepancy.pump_sim import for_valve_type
-    from studies.discrepancy.workflow import RunCondition
-
     truth, conds = confusion.case_truth(confusion.CASES[valve][case], valve, 1)
     for c in conds[:3]:
         cond = RunCondition("r", valve, c.speed_rpm, c.load_pressure_pa, c.air_content)
