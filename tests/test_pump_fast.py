@@ -225,3 +225,25 @@ def test_fast_matches_reference_on_the_discrepancy_models(valve, case):
     for c in conds[:3]:
         cond = RunCondition("r", valve, c.speed_rpm, c.load_pressure_pa, c.air_content)
         _compare(for_valve_type(valve).model_for(cond, truth), c.speed_rpm, c.load_pressure_pa, None, every=False)
+
+
+def test_only_a_valve_near_lift_off_has_its_force_evaluated():
+    """A settled seated valve's switching function is its deflection -x while it sits deeper than
+    DEEP_FRACTION of the load-pressure deflection (held for sure: no force evaluation), and the
+    force's -a_f m / k_seat nearer lift-off; the two measure the same deflection, so they agree
+    where a valve's deflection is its quasi-static one."""
+    p = pack(load_model("thesis-disc"), 593.0, 2.76e6)
+    o = P.OFF_IN
+    k, area = p[o + P.VALVE.seat_k], p[o + P.VALVE.contact_area]
+    delta = p[P.G.load_pressure] * area / k
+    mode = np.zeros(P.N_MODE)                  # both valves on their seats, liquid cylinder
+    g = np.empty(sw.N_SWITCHES)
+    y = np.zeros(P.N_STATES)
+    y[P.S_MCYL] = 1e-3
+    for depth, force in ((0.5 * delta, False), (0.01 * delta, True)):
+        assert sw.force_decides(depth, 0.0, p, o, k) == force
+        y[P.S_XIN] = -depth
+        sw.switch_values(0.0, y, p, mode, g)
+        a_f = sw.free_accelerations(0.0, y, p, mode)[0]
+        assert g[0] == (-a_f * p[o + P.VALVE.moving_mass] / k if force else depth)
+    assert not sw.force_decides(0.01 * delta, 1.0, p, o, k)      # moving: the deflection decides
