@@ -48,6 +48,8 @@ SETTLED_FRACTION = 1e-3
 #: its deflection decides (the same quantity; saves a pump evaluation per event check, ~5 % of the
 #: fast path's time)
 DEEP_FRACTION = 0.1
+#: a valve block's contact stiffness and damping, zeroed by :func:`free_accelerations`
+CONTACT_FIELDS = (VALVE.seat_k, VALVE.seat_c, VALVE.stop_k, VALVE.stop_c)
 
 
 def settled_speed(p, o: int, k: float) -> float:
@@ -80,38 +82,28 @@ def free_accelerations(t: float, y, p, mode) -> tuple[float, float]:
     """(inlet, delivery) accelerations [m/s^2] without the seat and stop reactions: the net
     non-contact force over the moving mass, in the current mode (lumped.pump.evaluate with
     the contact stiffness and damping zeroed for the call; p is restored)."""
-    ki, ci, si, di = p[OFF_IN + VALVE.seat_k], p[OFF_IN + VALVE.seat_c], p[OFF_IN + VALVE.stop_k], \
-        p[OFF_IN + VALVE.stop_c]
-    kd, cd, sd, dd = p[OFF_DEL + VALVE.seat_k], p[OFF_DEL + VALVE.seat_c], p[OFF_DEL + VALVE.stop_k], \
-        p[OFF_DEL + VALVE.stop_c]
+    saved = [p[o + f] for o in (OFF_IN, OFF_DEL) for f in CONTACT_FIELDS]
     for o in (OFF_IN, OFF_DEL):
-        p[o + VALVE.seat_k] = 0.0
-        p[o + VALVE.seat_c] = 0.0
-        p[o + VALVE.stop_k] = 0.0
-        p[o + VALVE.stop_c] = 0.0
+        for f in CONTACT_FIELDS:
+            p[o + f] = 0.0
     r = evaluate(t, y, p, mode)
-    p[OFF_IN + VALVE.seat_k] = ki
-    p[OFF_IN + VALVE.seat_c] = ci
-    p[OFF_IN + VALVE.stop_k] = si
-    p[OFF_IN + VALVE.stop_c] = di
-    p[OFF_DEL + VALVE.seat_k] = kd
-    p[OFF_DEL + VALVE.seat_c] = cd
-    p[OFF_DEL + VALVE.stop_k] = sd
-    p[OFF_DEL + VALVE.stop_c] = dd
+    i = 0
+    for o in (OFF_IN, OFF_DEL):
+        for f in CONTACT_FIELDS:
+            p[o + f] = saved[i]
+            i += 1
     return r.a_in, r.a_del
 
 
 def switch_values(t: float, y, p, mode, g) -> None:
     """Fill g[0:N_SWITCHES] with the switching functions of the current mode (fire below 0).
 
-    Valve v (0 inlet, 1 delivery), entries 3 v .. 3 v + 2: on its seat, -x while it moves
-    faster than :func:`settled_speed` (lifts off at x > 0, a rebound), else -a_f m / k_seat,
-    about the quasi-static deflection of the net non-contact force (its sign is what counts: the
-    valve lifts off when that force turns away from the seat; only while the deflection is below
-    SETTLED_FRACTION of the stop gap: a soft contact's deflection is followed to the tolerance, and
-    putting it back on the surface at the switch would jump it); free, x + h (lands at x < -h) and x_stop - x (reaches the stop);
-    on its stop, x - (x_stop - h) while moving, else a_f m / k_stop (leaves when the force turns
-    away from the stop); the regime, x_t - x in the Poiseuille regime and x - (x_t - h) in the
+    Valve v (0 inlet, 1 delivery), entries 3 v .. 3 v + 2: on its seat, -x (lifts off at x > 0),
+    or where :func:`force_decides`, -a_f m / k_seat, about the quasi-static deflection of the net
+    non-contact force (its sign is what counts: the valve lifts off when that force turns away from
+    the seat); free, x + h (lands at x < -h) and x_stop - x (reaches the stop);
+    on its stop, x - (x_stop - h), or where the force decides, a_f m / k_stop (leaves when the
+    force turns away from the stop); the regime, x_t - x in the Poiseuille regime and x - (x_t - h) in the
     orifice one. Entry 6, the cylinder: liquid, rho - rho(P_vap) (cavitates when the density
     falls below the liquid's at the vapour pressure); cavitating, rho(P_vap) (1 + e) - rho
     (refilled). An entry with no surface is 1.

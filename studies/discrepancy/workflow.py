@@ -702,17 +702,17 @@ class Workflow:
         n0 = self.sims.count
         params = effect.parameters_for(self.context, target)
         profile = profile and bool(self._nuisance_index(base))
-        lin = {"jac": None}
+        jac = None
         if profile:   # linearised at the nuisances' prior and the candidate's start (see _profile)
             base = self._at_prior(base)
             s0 = start or effect.prior_values(self.context, target)
-            lin["jac"] = self._nuisance_jacobian(base + (Applied.of(effect.name, target, s0),))
-        self.last_jacobian = lin["jac"]
+            jac = self._nuisance_jacobian(base + (Applied.of(effect.name, target, s0),))
+        self.last_jacobian = jac
 
         def objective(model) -> float:
             if not profile:
                 return self.fit_objective(model)[0]
-            r, _ = self._profile(model, lin["jac"])
+            r, _ = self._profile(model, jac)
             return math.inf if r is None else float(r @ r)
 
         def model_of(units) -> tuple:
@@ -725,12 +725,13 @@ class Workflow:
             Cd factor then moves other residuals), the start's linearisation biased the search (the
             reed's hidden added mass: the profiled cost's minimum at Gamma_f 4.6, 760 units, where
             the truth, 3.6, costs 66 with the Cd factor at 1)."""
+            nonlocal jac
             if not profile or narrow is not None:
                 return False
-            jac = self._nuisance_jacobian(model_of(units))
-            if jac is None:
+            new = self._nuisance_jacobian(model_of(units))
+            if new is None:
                 return False
-            lin["jac"] = self.last_jacobian = jac
+            jac = self.last_jacobian = new
             return True
 
         if not params:   # a pure switch: nothing to fit
