@@ -215,6 +215,28 @@ def test_failed_design_is_recorded_not_fatal_csv_resume(client, tmp_path):
     assert retry["computed"] == 10
 
 
+def test_a_part_cut_off_mid_write_is_invisible(tmp_path, monkeypatch):
+    """A kill while a part is written leaves no file the store or pandas would read as a part."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    schema = pa.schema([("design_id", pa.int64()), ("y", pa.float64())])
+    store = sweep.ParquetStore(tmp_path, schema)
+    store.append([{"design_id": 0, "y": 1.5}])
+
+    def cut_off(table, where, **kw):  # what SIGKILL half way through pq.write_table leaves
+        Path(where).write_bytes(b"PAR1")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(pq, "write_table", cut_off)
+    with pytest.raises(KeyboardInterrupt):
+        store.append([{"design_id": 1, "y": 2.5}])
+    monkeypatch.undo()
+    assert len(list((tmp_path / "parts").iterdir())) == 2  # the stub is there ...
+    assert list(pd.read_parquet(tmp_path / "parts")["design_id"]) == [0]  # ... and skipped
+    assert list(store.read()["design_id"]) == [0]
+
+
 # ----------------------------------------------------------------- the command line, killed and resumed
 
 

@@ -480,9 +480,11 @@ class ParquetStore:
         self.parts.mkdir(exist_ok=True)
         table = pa.Table.from_pylist(rows, schema=self.schema)
         name = f"part-{time.time_ns():020d}-{uuid.uuid4().hex[:8]}"
-        tmp = self.parts / f"{name}.tmp"
+        # hidden while written: a kill leaves at most a dot-file, which pyarrow's folder reading
+        # (pd.read_parquet("parts")) skips, and the rename makes the part appear whole
+        tmp = self.parts / f".{name}.tmp"
         pq.write_table(table, tmp)
-        os.replace(tmp, self.parts / f"{name}.parquet")  # atomic: a kill never leaves half a part
+        os.replace(tmp, self.parts / f"{name}.parquet")
 
     def finish(self) -> Path:
         """Merge the parts into ``results.parquet`` (atomically) and remove them."""
