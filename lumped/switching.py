@@ -48,8 +48,7 @@ SETTLED_FRACTION = 1e-3
 #: its deflection decides (the same quantity; saves a pump evaluation per event check, ~5 % of the
 #: fast path's time)
 DEEP_FRACTION = 0.1
-#: a valve block's contact stiffness and damping, zeroed by :func:`free_accelerations`
-CONTACT_FIELDS = (VALVE.seat_k, VALVE.seat_c, VALVE.stop_k, VALVE.stop_c)
+
 
 
 def settled_speed(p, o: int, k: float) -> float:
@@ -78,20 +77,27 @@ def force_decides(depth: float, u: float, p, o: int, k: float) -> bool:
         depth * k <= DEEP_FRACTION * p[G.load_pressure] * p[o + VALVE.contact_area]
 
 
+def _contact(p, o: int) -> tuple[float, float, float, float]:
+    """A valve block's contact stiffness and damping (seat k, c; stop k, c), as a tuple (no
+    allocation: this runs in every force-decided switching check)."""
+    return p[o + VALVE.seat_k], p[o + VALVE.seat_c], p[o + VALVE.stop_k], p[o + VALVE.stop_c]
+
+
+def _set_contact(p, o: int, c) -> None:
+    """Write a tuple of :func:`_contact`'s order into a valve block."""
+    p[o + VALVE.seat_k], p[o + VALVE.seat_c], p[o + VALVE.stop_k], p[o + VALVE.stop_c] = c
+
+
 def free_accelerations(t: float, y, p, mode) -> tuple[float, float]:
     """(inlet, delivery) accelerations [m/s^2] without the seat and stop reactions: the net
     non-contact force over the moving mass, in the current mode (lumped.pump.evaluate with
     the contact stiffness and damping zeroed for the call; p is restored)."""
-    saved = [p[o + f] for o in (OFF_IN, OFF_DEL) for f in CONTACT_FIELDS]
-    for o in (OFF_IN, OFF_DEL):
-        for f in CONTACT_FIELDS:
-            p[o + f] = 0.0
+    c_in, c_del = _contact(p, OFF_IN), _contact(p, OFF_DEL)
+    _set_contact(p, OFF_IN, (0.0, 0.0, 0.0, 0.0))
+    _set_contact(p, OFF_DEL, (0.0, 0.0, 0.0, 0.0))
     r = evaluate(t, y, p, mode)
-    i = 0
-    for o in (OFF_IN, OFF_DEL):
-        for f in CONTACT_FIELDS:
-            p[o + f] = saved[i]
-            i += 1
+    _set_contact(p, OFF_IN, c_in)
+    _set_contact(p, OFF_DEL, c_del)
     return r.a_in, r.a_del
 
 
