@@ -1,0 +1,255 @@
+"""Where a revolution's Rosenbrock steps go, and whether another Rosenbrock method would take fewer.
+
+Run on demand from the repository root: ``python benchmarks/pump_step_anatomy.py [--valve
+disc|reed] [--speed-rpm N] [--load-pressure-mpa P]``; prints one JSON object (progress on
+stderr). Default: the first validation case of each valve kind (Tables 5.4 and 5.6).
+
+The fast path runs three revolutions; the last one is cut at its mode changes (the events of
+the compiled solver) into segments of one mode each, and every segment is integrated again,
+from the first state the compiled run recorded in it to its end, by a plain numpy driver with
+the model's own compiled right-hand side, Jacobian and tolerances and the compiled solver's
+step-size controller (Gustafsson's, safety 0.9, step ratio 0.2-6), once with Rodas4P (the fast
+path's tableau, :mod:`lumped.rodas`) and once with Rodas5P (Steinebach 2023, 8 stages, order 5
+with an embedded order-4 estimate; controller exponent 1/5). Events are not located inside a
+segment, so the counts leave out the event steps and their retries: they compare the methods
+on the smooth stretches, where the step size is the integrator's choice.
+
+Per segment and in total it reports accepted and rejected steps and right-hand sides, and the
+estimated cost from the measured per-call costs of the README (a right-hand side with its
+stage solve ~0.43 us, the rest of a step ~2.3 us). For every rejected Rodas4P step it also
+measures how the error estimate grows with the step there (err at h and at 0.7 h: the local
+exponent, which the controller takes as 4).
+
+Reference: S. Steinebach, "Construction of Rosenbrock-Wanner method Rodas5P and numerical
+benchmarks within the Julia Differential Equations package", BIT Numer. Math. 63 (2023) 27
+(coefficients as published there, transformed form W k_i = f(.) + sum C_ij/h k_j + h d_i f_t).
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from lumped import rodas  # noqa: E402
+from lumped import steppers  # noqa: E402
+from lumped.cycle import ensure_compiled, simulate  # noqa: E402
+from studies.tables.thesis import experiments  # noqa: E402
+
+RHS_US, STEP_US = 0.43, 2.3   # README: per right-hand side with its stage solve; the rest of a step
+
+
+def rodas4p() -> tuple:
+    """(gamma, a, C, d, c, order) of Rodas4P in the transformed form of lumped.rodas (6 stages)."""
+    r = rodas
+    a, cm, d, c = np.zeros((6, 6)), np.zeros((6, 6)), np.zeros(6), np.zeros(6)
+    a[1, 0] = r.A21
+    a[2, :2] = r.A31, r.A32
+    a[3, :3] = r.A41, r.A42, r.A43
+    a[4, :4] = r.A51, r.A52, r.A53, r.A54
+    a[5, :4], a[5, 4] = a[4, :4], 1.0            # stage 6 at y + ... + k5, the step's y1 = that + k6
+    cm[1, 0] = r.C21
+    cm[2, :2] = r.C31, r.C32
+    cm[3, :3] = r.C41, r.C42, r.C43
+    cm[4, :4] = r.C51, r.C52, r.C53, r.C54
+    cm[5, :5] = r.C61, r.C62, r.C63, r.C64, r.C65
+    d[:4] = r.D1, r.D2, r.D3, r.D4
+    c[:] = 0.0, r.C2, r.C3, r.C4, 1.0, 1.0
+    return r.GAMMA, a, cm, d, c, 4
+
+
+def rodas5p() -> tuple:
+    """(gamma, a, C, d, c, order) of Rodas5P (Steinebach 2023), 8 stages, same form."""
+    a, cm, d, c = np.zeros((8, 8)), np.zeros((8, 8)), np.zeros(8), np.zeros(8)
+    a[1, 0] = 3.0
+    a[2, :2] = 2.849394379747939, 0.45842242204463923
+    a[3, :3] = -6.954028509809101, 2.489845061869568, -10.358996098473584
+    a[4, :4] = 2.8029986275628964, 0.5072464736228206, -0.3988312541770524, -0.04721187230404641
+    a[5, :5] = (-7.502846399306121, 2.561846144803919, -11.627539656261098, -0.18268767659942256,
+                0.030198172008377946)
+    a[6, :5], a[6, 5] = a[5, :5], 1.0
+    a[7, :6], a[7, 6] = a[6, :6], 1.0
+    cm[1, 0] = -14.155112264123755
+    cm[2, :2] = -17.97296035885952, -2.859693295451294
+    cm[3, :3] = 147.12150275711716, -1.41221402718213, 71.68940251302358
+    cm[4, :4] = 165.43517024871676, -0.4592823456491126, 42.90938336958603, -5.961986721573306
+    cm[5, :5] = (24.854864614690072, -3.0009227002832186, 47.4931110020768, 5.5814197821558125,
+                 -0.6610691825249471)
+    cm[6, :6] = (30.91273214028599, -3.1208243349937974, 77.79954646070892, 34.28646028294783,
+                 -19.097331116725623, -28.087943162872662)
+    cm[7, :7] = (37.80277123390563, -3.2571969029072276, 112.26918849496327, 66.9347231244047,
+                 -40.06618937091002, -54.66780262877968, -9.48861652309627)
+    d[:5] = (0.21193756319429014, -0.42387512638858027, -0.3384627126235924, 1.8046452872882734,
+             2.325825639765069)
+    c[:] = 0.0, 0.6358126895828704, 0.4095798393397535, 0.9769306725060716, 0.4288403609558664, 1.0, 1.0, 1.0
+    return 0.21193756319429014, a, cm, d, c, 5
+
+
+class Segment:
+    """One mode's stretch of the revolution: the model's compiled hooks at that mode."""
+
+    def __init__(self, solver_globals, p, atol, rtol, n_dyn):
+        self.rhs, self.jac = solver_globals["rhs"], solver_globals["jacobian"]
+        self.p, self.rtol, self.n_dyn = p, rtol, n_dyn
+        self.atol = atol.copy()
+        solver_globals["update_tolerances"](p, self.atol)
+
+    def f(self, t, y):
+        out = np.empty(y.shape[0])
+        self.rhs(t, y, self.p, out)
+        return out
+
+    def step(self, tab, t, y, h):
+        """One Rosenbrock step: (y1, err), err the compiled solver's RMS norm of the embedded estimate."""
+        gamma, a, cm, d, c, _ = tab
+        n, s = y.shape[0], d.shape[0]
+        f0 = self.f(t, y)
+        jac, ft = np.empty((n, n)), np.empty(n)
+        nj = self.jac(t, y, self.p, f0, jac, ft, np.empty(n), np.empty(n), self.atol, self.rtol, self.n_dyn, h)
+        if nj < 0:  # the pump always brings its analytic Jacobian
+            raise RuntimeError("model without an analytic Jacobian")
+        w = np.eye(n) / (h * gamma) - jac
+        k = np.zeros((s, n))
+        for i in range(s):
+            fi = f0 if i == 0 else self.f(t + c[i] * h, y + a[i, :i] @ k[:i])
+            k[i] = np.linalg.solve(w, fi + h * d[i] * ft + (cm[i, :i] / h) @ k[:i])
+        y1 = y + a[-1, :s - 1] @ k[:s - 1] + k[-1]
+        sk = self.atol + self.rtol * np.maximum(np.abs(y), np.abs(y1))
+        return y1, float(np.sqrt(np.mean((k[-1] / sk) ** 2)))
+
+    def integrate(self, tab, t0, t1, y0, h0, exponents: list | None = None) -> dict:
+        """Integrate [t0, t1] with the compiled solver's controller; counts of steps and rhs calls.
+
+        ``exponents``: if a list, for each rejected step log(err(h) / err(0.7 h)) / log(1 / 0.7) is
+        appended, the power of h the error estimate grows with there.
+        """
+        order = tab[-1]
+        stages = tab[3].shape[0]
+        t, y, h = t0, y0.copy(), h0
+        acc = rej = n_rhs = 0
+        first, reject, h_acc, err_acc = True, False, 0.0, 1.0
+        while t < t1 - 1e-15 * abs(t1):
+            hit = t + h >= t1
+            h_try = t1 - t if hit else h
+            y1, err = self.step(tab, t, y, h_try)
+            n_rhs += stages
+            fac = max(1 / rodas.FAC_MAX, min(1 / rodas.FAC_MIN, err ** (1 / order) / rodas.SAFE))
+            h_new = h_try / fac
+            if not math.isfinite(err) or err > 1.0:
+                rej += 1
+                if exponents is not None and math.isfinite(err):
+                    e07 = self.step(tab, t, y, 0.7 * h_try)[1]
+                    if e07 > 0.0:
+                        exponents.append(math.log(err / e07) / math.log(1 / 0.7))
+                h = 0.1 * h_try if first or not math.isfinite(err) else h_new
+                reject = True
+                continue
+            if not first:
+                fg = (h_acc / h_try) * (err * err / err_acc) ** (1 / order) / rodas.SAFE
+                h_new = h_try / max(fac, max(1 / rodas.FAC_MAX, min(1 / rodas.FAC_MIN, fg)))
+            h_acc, err_acc, first = h_try, max(1e-2, err), False
+            if reject:
+                h_new = min(h_new, h_try)
+            reject = False
+            acc += 1
+            t += h_try
+            y = y1
+            h = max(h_new, h) if hit else h_new
+        return {"accepted": acc, "rejected": rej, "rhs": n_rhs,
+                "cost_us": round((acc + rej) * (stages * RHS_US + STEP_US), 1)}
+
+
+def last_revolution(model: str, speed_rpm: float, load_pressure: float, air_content: float | None):
+    """The compiled stepper's inputs for the third revolution (t0, t1, y, mode, q, atol, n_dyn, rtol, h_event, h)."""
+    seen = {}
+    advance = steppers.RodasStepper.advance
+
+    def capture(self, t0, t1, y, mode):
+        seen["call"] = (t0, t1, np.array(y, float), np.array(mode, float), self.q.copy(), self.atol.copy(),
+                        self.n_dyn, self.rtol, self.h_event.copy(), self.h)
+        return advance(self, t0, t1, y, mode)
+
+    steppers.RodasStepper.advance = capture
+    try:
+        simulate(model, speed_rpm, load_pressure, revolutions=3, max_revolutions=3, method="fast",
+                 air_content=air_content)
+    finally:
+        steppers.RodasStepper.advance = advance
+    return seen["call"]
+
+
+def anatomy(valve: str, speed_rpm: float, load_pressure: float, air_content: float | None = None) -> dict:
+    t0, t1, y0, mode, q, atol, n_dyn, rtol, h_event, h = last_revolution(f"thesis-{valve}", speed_rpm, load_pressure,
+                                                                          air_content)
+    solver = steppers.compiled_solver()
+    g = solver.py_func.__globals__
+    mo, nm = steppers.NP_EXT_MODE, steppers.N_MODE
+    qq = q.copy()
+    qq[mo:mo + nm] = mode
+    opts = rodas.Options(rtol, atol.copy(), h, t1 - t0, 10**6, n_dyn, t0, steppers.sw.N_SWITCHES,
+                         steppers.MAX_EVENTS_PER_REV, steppers.JAC_REUSE, h_event.copy())
+    r = solver(t0, y0.copy(), np.array([t1]), qq, opts)
+    period = t1 - t0
+
+    def deg(t):
+        return round(float((t - t0) / period * 360.0), 2)
+
+    bounds = [t0] + [float(t) for t in r.ev_t] + [t1]
+    segments, totals, exponents = [], {"rodas4p": {}, "rodas5p": {}}, []
+    for a, b in itertools.pairwise(bounds):
+        j = int(np.searchsorted(r.rec_t, a, side="right"))   # the first step end inside the segment
+        if j >= len(r.rec_t) - 1 or r.rec_t[j] >= b:
+            continue
+        tag = int(r.rec_tag[j + 1])
+        p = q.copy()
+        p[mo:mo + nm] = [(tag // 3**i) % 3 for i in range(nm)]
+        seg = Segment(g, p, atol, rtol, n_dyn)
+        row = {"from_deg": deg(r.rec_t[j]), "to_deg": deg(b), "mode": [int(x) for x in p[mo:mo + nm]]}
+        for name, tab in (("rodas4p", rodas4p()), ("rodas5p", rodas5p())):
+            res = seg.integrate(tab, r.rec_t[j], b, r.rec_y[j], r.rec_t[j + 1] - r.rec_t[j],
+                                exponents if name == "rodas4p" else None)
+            row[name] = res
+            for k, v in res.items():
+                totals[name][k] = round(totals[name].get(k, 0) + v, 1)
+        segments.append(row)
+        print(json.dumps(row), file=sys.stderr, flush=True)
+    return {"valve": valve, "speed_rpm": speed_rpm, "load_pressure_mpa": load_pressure / 1e6,
+            "compiled_solver": {"step_attempts": int(r.n_steps), "rejected": int(r.n_rejected), "rhs": int(r.n_rhs),
+                                "events": len(r.ev_t)},
+            "segments": segments, "totals": totals,
+            "rodas5p_cost_change": round(totals["rodas5p"]["cost_us"] / totals["rodas4p"]["cost_us"] - 1.0, 3),
+            "rejected_step_error_exponent": {
+                "n": len(exponents),
+                "median": round(float(np.median(exponents)), 2) if exponents else None,
+                "range": [round(float(min(exponents)), 2), round(float(max(exponents)), 2)] if exponents else None,
+                "controller_assumes": 4}}
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--valve", choices=("disc", "reed"), action="append",
+                    help="valve kind (repeatable; default both)")
+    ap.add_argument("--speed-rpm", type=float, help="default: the kind's first validation case")
+    ap.add_argument("--load-pressure-mpa", type=float, help="default: the kind's first validation case")
+    a = ap.parse_args(argv)
+    ensure_compiled()
+    out = {"benchmark": "pump_step_anatomy", "cases": []}
+    for valve in a.valve or ["disc", "reed"]:
+        case = next(c for c in experiments() if c["valve"] == valve)
+        speed = a.speed_rpm if a.speed_rpm is not None else case["speed_rpm"]
+        load = a.load_pressure_mpa * 1e6 if a.load_pressure_mpa is not None else case["load_pressure"]
+        print(f"{valve}: {speed:.0f} rpm, {load / 1e6:.2f} MPa", file=sys.stderr, flush=True)
+        air = case["air_content"] if a.speed_rpm is None and a.load_pressure_mpa is None else None
+        out["cases"].append(anatomy(valve, speed, load, air))
+    print(json.dumps(out, indent=2))
+
+
+if __name__ == "__main__":
+    main()
