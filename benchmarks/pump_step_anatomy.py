@@ -167,35 +167,30 @@ class Segment:
 
 
 def last_revolution(model: str, speed_rpm: float, load_pressure: float, air_content: float | None):
-    """The compiled stepper's inputs for the third revolution (t0, t1, y, mode, q, atol, n_dyn, rtol, h_event, h)."""
+    """The compiled solver's call for the third revolution of a fast run: (t0, t1, q, opts, result),
+    the parameter array and options as the stepper passed them (before the call changed them)."""
+    solver = steppers.compiled_solver()
     seen = {}
-    advance = steppers.RodasStepper.advance
 
-    def capture(self, t0, t1, y, mode):
-        seen["call"] = (t0, t1, np.array(y, float), np.array(mode, float), self.q.copy(), self.atol.copy(),
-                        self.n_dyn, self.rtol, self.h_event.copy(), self.h)
-        return advance(self, t0, t1, y, mode)
+    def capture(t0, y0, tstops, q, opts):
+        q0, atol0 = q.copy(), opts.atol.copy()
+        r = solver(t0, y0, tstops, q, opts)
+        seen["call"] = (t0, float(tstops[-1]), q0, opts._replace(atol=atol0), r)
+        return r
 
-    steppers.RodasStepper.advance = capture
+    steppers._SOLVER["solver"] = capture     # the stepper of the run below takes the solver from here
     try:
         simulate(model, speed_rpm, load_pressure, revolutions=3, max_revolutions=3, method="fast",
                  air_content=air_content)
     finally:
-        steppers.RodasStepper.advance = advance
+        steppers._SOLVER["solver"] = solver
     return seen["call"]
 
 
 def anatomy(valve: str, speed_rpm: float, load_pressure: float, air_content: float | None = None) -> dict:
-    t0, t1, y0, mode, q, atol, n_dyn, rtol, h_event, h = last_revolution(f"thesis-{valve}", speed_rpm, load_pressure,
-                                                                          air_content)
-    solver = steppers.compiled_solver()
-    g = solver.py_func.__globals__
+    t0, t1, q, opts, r = last_revolution(f"thesis-{valve}", speed_rpm, load_pressure, air_content)
+    g = steppers.compiled_solver().py_func.__globals__
     mo, nm = steppers.NP_EXT_MODE, steppers.N_MODE
-    qq = q.copy()
-    qq[mo:mo + nm] = mode
-    opts = rodas.Options(rtol, atol.copy(), h, t1 - t0, 10**6, n_dyn, t0, steppers.sw.N_SWITCHES,
-                         steppers.MAX_EVENTS_PER_REV, steppers.JAC_REUSE, h_event.copy())
-    r = solver(t0, y0.copy(), np.array([t1]), qq, opts)
     period = t1 - t0
 
     def deg(t):
@@ -203,6 +198,7 @@ def anatomy(valve: str, speed_rpm: float, load_pressure: float, air_content: flo
 
     bounds = [t0] + [float(t) for t in r.ev_t] + [t1]
     segments, totals, exponents = [], {"rodas4p": {}, "rodas5p": {}}, []
+    tableaus = (("rodas4p", rodas4p()), ("rodas5p", rodas5p()))
     for a, b in itertools.pairwise(bounds):
         j = int(np.searchsorted(r.rec_t, a, side="right"))   # the first step end inside the segment
         if j >= len(r.rec_t) - 1 or r.rec_t[j] >= b:
@@ -210,9 +206,9 @@ def anatomy(valve: str, speed_rpm: float, load_pressure: float, air_content: flo
         tag = int(r.rec_tag[j + 1])
         p = q.copy()
         p[mo:mo + nm] = [(tag // 3**i) % 3 for i in range(nm)]
-        seg = Segment(g, p, atol, rtol, n_dyn)
+        seg = Segment(g, p, opts.atol, opts.rtol, opts.n_dyn)
         row = {"from_deg": deg(r.rec_t[j]), "to_deg": deg(b), "mode": [int(x) for x in p[mo:mo + nm]]}
-        for name, tab in (("rodas4p", rodas4p()), ("rodas5p", rodas5p())):
+        for name, tab in tableaus:
             res = seg.integrate(tab, r.rec_t[j], b, r.rec_y[j], r.rec_t[j + 1] - r.rec_t[j],
                                 exponents if name == "rodas4p" else None)
             row[name] = res

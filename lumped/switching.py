@@ -50,7 +50,6 @@ SETTLED_FRACTION = 1e-3
 DEEP_FRACTION = 0.1
 
 
-
 def settled_speed(p, o: int, k: float) -> float:
     """Speed [m/s] below which a valve on a contact of stiffness k (seat or stop) has settled.
 
