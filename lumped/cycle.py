@@ -1,50 +1,40 @@
-"""The pump driver: one revolution loop for both steppers, its bookkeeping and the result.
+"""The pump driver: :func:`simulate`, the result it returns and the invariants a result keeps.
 
-:func:`simulate` checks the inputs, packs the model, and runs revolutions from top dead
-centre with a stepper (:mod:`lumped.steppers`: the compiled Rodas4P "fast" path, the
-default, or the scipy Radau "reference"), until cyclic steady state when asked. This is
-the only revolution loop: delivery per revolution (eq 4.17 at atmospheric density),
-the mass balance of the quadrature states, the cyclic-steady-state test, valve timing,
-impacts and losses, the needle valve setting of the complete circuit, progress on
-stderr, and the invariants a result must keep (:class:`InvariantError`) are all here.
+:func:`simulate` has the shape of scipy's ``solve_ivp``: it checks the inputs, builds the
+problem (:class:`lumped.problem.PumpProblem`: the resolved model, packed), makes the
+stepper its ``method`` names (:data:`lumped.steppers.METHODS`: the compiled Rodas4P "fast"
+path, the default, or the scipy "reference"), runs revolutions from top dead centre until
+the stop rule is met (:mod:`lumped.revolutions`) and hands the last revolution to the
+post-processors (:mod:`lumped.postprocess`: timing, impacts, losses, the trace). A result
+that breaks its own invariants is an :class:`InvariantError`, not an output.
 """
 
 from __future__ import annotations
 
 import math
-import sys
 import time as _time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from geometry.declare import check_field, check_value, Spec
+from geometry.declare import Spec, check_field, check_value
 from geometry.errors import InputError, ModelFailure
+from lumped import postprocess as post
 from lumped import switching as sw
-from lumped.effect_library import resolve
-from lumped.layout import pack
-from lumped.model import POSITIONS, Operating, PumpModel
+from lumped.layout import CAVITATION_SLOT, N_MODE, POSITIONS
+from lumped.model import Operating, PumpModel
 from lumped.model_file import load_model
-from lumped.pump import (
-    G, M_CAV, N_MODE, N_STATES, OFF_DEL, OFF_IN, RATES_FIELDS, S_MCYL, S_MIN, S_MLEAK, S_MLOAD, S_MNV, S_MOUT, S_UDEL, S_UIN,
-    S_XDEL, S_XIN,
-)
-from lumped.steppers import RadauStepper, RodasStepper, state_scales
+from lumped.problem import PumpProblem
+from lumped.revolutions import StopRule, run
+from lumped.steppers import DEFAULT_TOLERANCES, METHODS as STEPPERS, family
 from lumped.trace import Trace
-from lumped.valve import FREE, SEAT, STOP, VALVE, kind_of
+from lumped.valve import kind_of
 
-METHODS = ("fast", "reference", "Radau", "BDF", "LSODA")
-#: default tolerances (rtol, atol in units of each state's scale): the fast path's from
-#: benchmarks/pump_tolerance_study.py, the reference's from the convergence study (README.md)
-DEFAULT_TOLERANCES = {"fast": (1e-3, 1e-5), "reference": (1e-6, 1e-6)}
+METHODS = tuple(STEPPERS)
 #: a result's own invariants (checked unless simulate(..., check=False))
 MASS_BALANCE_LIMIT = 1e-6
 DELIVERY_LIMITS = (-0.01, 1.01)      # x the swept volume (times rho(P_tank)/rho_0: a supercharged inlet)
 MAX_REVOLUTIONS = 100_000
-ENERGY_SAMPLES = 1440                # per revolution, for the valve losses and the pressure extremes
-#: a stop contact counts when the element arrives after being this fraction of its stop gap clear
-CONTACT_EXCURSION = 1e-3
-EXCURSION_SAMPLES = 33               # dense-output samples between leaving the stop and returning
 
 
 class InvariantError(ModelFailure):
@@ -283,126 +273,67 @@ def simulate(model="thesis-disc", speed_rpm: float | None = None, load_pressure:
         raise InputError("load_pressure", f"missing: the model {m.name!r} has no [operating] load_pressure")
     speed, load, revs = _check(speed_rpm, load_pressure, revolutions, max_revolutions, circuit, method,
                                trace_revolutions, trace_points, steady_tol, contact_atol)
-    stepper_kind = "fast" if method == "fast" else "reference"
-    r_def, a_def = DEFAULT_TOLERANCES[stepper_kind]
+    kind = family(method)
+    r_def, a_def = DEFAULT_TOLERANCES[kind]
     rtol = r_def if rtol is None else _tol("rtol", rtol)
     atol = a_def if atol is None else _tol("atol", atol)
     if needle_area is not None:
         check_field(m.circuit, "needle_area", needle_area, "needle_area")
-    if stepper_kind == "fast":
-        ensure_compiled()                 # compiling (or loading numba's cache) is never counted
-    cpu0 = _time.process_time()
-    resolved = resolve(m)
-    circ = circuit or resolved.circuit.kind
-    complete = circ == "complete"
-    p = pack(resolved, speed, load, circ, needle_area)
-    tune = complete and p[G.needle_cda] <= 0.0
-    if tune:
-        p[G.needle_cda] = _needle_cda_estimate(resolved, p)
-    n_dyn = 6 if complete else 5
-    period = 2.0 * math.pi / p[G.omega]
-    rho0 = resolved.oil.density
-    m_rev = rho0 * resolved.pump.displacement
-    scales = state_scales(p, m_rev)
-    atol_v = atol * scales
     if max_steps is not None:
         _int("max_steps", max_steps, 10, 100_000_000)
-    if stepper_kind == "fast":
-        stepper = RodasStepper(p, rtol, atol_v, n_dyn, atol, contact_atol, record=True,
-                               max_steps=max_steps or 2_000_000)
-    else:
-        stepper = RadauStepper(p, rtol, atol_v, n_dyn, scales, "Radau" if method == "reference" else method,
-                               max_steps=max_steps or 500_000)
-    physics = _physics(stepper_kind)
-
-    y = _initial_state(resolved, p, complete, physics)
+    if kind == "fast":
+        ensure_compiled()                 # compiling (or loading numba's cache) is never counted
+    cpu0 = _time.process_time()
+    problem = PumpProblem.build(m, speed, load, circuit, needle_area)
+    stepper = STEPPERS[method](problem, rtol, atol, contact_atol=contact_atol, record=True, max_steps=max_steps)
+    physics = _physics(kind + ("1" if kind == "fast" and problem.layout.one_dof else ""))
+    y = problem.initial_state(physics.load_mass)
     mode = np.zeros(N_MODE)
-    sw.initial_mode(0.0, y, p, mode)
-    limit = max_revolutions or revs
-    deliveries, tdc_states = [], [y.copy()]
-    kept: list = []
-    n_rhs = n_steps = n_events = 0
-    tuned_at = None if tune else 0
-    bar = _progress_bar(progress, limit, f"{m.name} {speed:.0f} rpm ({stepper_kind})")
-    steady = False
-    change = math.inf
-    last = None
-    k = 0
-    while k < limit:
-        t0, t1 = k * period, (k + 1) * period
-        y_start = y.copy()
-        span = stepper.advance(t0, t1, y, mode)
-        y, mode = span.y_end.copy(), span.mode_end.copy()
-        n_rhs += span.n_rhs
-        n_steps += span.n_steps
-        n_events += span.n_events
-        d = {q: y[q] - y_start[q] for q in (S_MIN, S_MOUT, S_MLEAK, S_MCYL)}
-        mass_err = abs(d[S_MCYL] - (d[S_MIN] - d[S_MOUT] - d[S_MLEAK])) / max(abs(d[S_MIN]), abs(d[S_MOUT]), 1e-300)
-        deliveries.append(d[S_MOUT] / rho0)                      # eq 4.17 at atmospheric density
-        pl_mean = _mean_load_pressure(span, p, complete, physics)
-        if tune and tuned_at is None:
-            # start-up procedure, like the experimenter's needle-valve setting (section 5.5.2):
-            # match the needle flow to the delivery at the requested mean pressure and move
-            # the load-side mass to it; the cylinder and its mass balance are not touched
-            d_nv = y[S_MNV] - y_start[S_MNV]
-            a_old = p[G.needle_cda]
-            a_new = a_old * (d[S_MOUT] / d_nv) * math.sqrt((pl_mean - p[G.tank_pressure])
-                                                           / (load - p[G.tank_pressure]))
-            if abs(a_new / a_old - 1.0) < 2e-4 and abs(pl_mean / load - 1.0) < 2e-4:
-                tuned_at = k + 1                                  # needle valve frozen from here on
-            else:
-                p[G.needle_cda] = a_new
-                y[S_MLOAD] += physics.load_mass(load, p)[0] - physics.load_mass(pl_mean, p)[0]
-        tdc_states.append(y.copy())
-        if k >= 1:
-            change = _cycle_change(deliveries, tdc_states, p, m_rev, complete)
-            settled = tuned_at is not None and k + 1 - tuned_at >= 2
-            steady = change < max(steady_tol, rtol) and (not complete or settled)
-        last = dict(span=span, mass_err=mass_err, pl_mean=pl_mean, leak=d[S_MLEAK] / rho0, y_start=y_start)
-        if trace:
-            kept = (kept + [span])[-trace_revolutions:]
-        k += 1
-        if bar is not None:
-            bar.update(1)
-            bar.set_postfix_str(f"{deliveries[-1] * 1e6:.4f} cc/rev")
-        if k >= revs and steady:
-            break
-    if bar is not None:
-        bar.close()
+    sw.initial_mode(0.0, y, problem.p, mode)
+    rule = StopRule(revs, max_revolutions, steady_tol)
+    done = run(problem, stepper, y, mode, rule, physics, rtol=rtol, keep=trace_revolutions if trace else 0,
+               progress=progress, label=f"{m.name} {speed:.0f} rpm ({kind})")
     cpu = _time.process_time() - cpu0
+    res = _result(m, problem, done, physics, method, rtol, atol, cpu, trace_points if trace else 0)
+    if check:
+        check_invariants(res, problem.model)
+    return res
 
-    span = last["span"]
-    omega = p[G.omega]
-    timing = _valve_timing(span, period, last["y_start"], omega, p)
-    impacts = _impacts(span)
-    ts = span.t0 + period * np.arange(ENERGY_SAMPLES) / ENERGY_SAMPLES
-    ys, modes = span.sample(ts)
-    rt = physics.rates_table(ts, ys, modes, p)
-    col = {n: i for i, n in enumerate(RATES_FIELDS)}
-    losses = _losses(rt, col, p, period / ENERGY_SAMPLES)
-    cav = float(np.mean(modes[:, M_CAV] > 0.5)) * 2.0 * math.pi
+
+def _result(m: PumpModel, problem: PumpProblem, done, physics, method: str, rtol: float, atol: float,
+            cpu: float, trace_points: int) -> "PumpResult":
+    """The :class:`PumpResult` of a finished run: the last revolution post-processed."""
+    last = done.last
+    span = last.span
+    openings, closings, stops = post.valve_timing(span, problem, last.y_start)
+    impacts = post.impacts(span, problem)
+    rt, modes = post.rates(span, problem, physics)
+    losses = post.losses(rt, problem, problem.period / post.ENERGY_SAMPLES)
+    cav = float(np.mean(modes[:, CAVITATION_SLOT] > 0.5)) * 2.0 * math.pi
+    resolved = problem.model
     valves = {}
     for v, pos in enumerate(POSITIONS):
         valves[pos] = ValveResult(
             kind=kind_of(resolved.valve(pos)).name, peak_opening=float(span.peaks[v]),
-            opening_angle=timing[0][v], closing_angle=timing[1][v], stop_contacts=timing[2][v],
+            opening_angle=openings[v], closing_angle=closings[v], stop_contacts=stops[v],
             seat_impact_velocity=impacts[v][0], stop_impact_velocity=impacts[v][1], energy_loss=losses[v])
-    tr = _trace(kept, period, trace_points, p, speed, physics) if trace else None
-    res = PumpResult(
-        model=m.name, valve=resolved.label, circuit=circ, speed_rpm=speed, load_pressure=load,
-        air_content=resolved.oil.air_content, delivery_per_rev=deliveries[-1],
-        swept_volume=resolved.pump.displacement, deliveries=tuple(deliveries), revolutions=k,
-        cyclic_steady=bool(steady), cycle_change=float(change), cpu_seconds=cpu, simulated_seconds=k * period,
-        mass_balance_error=float(last["mass_err"]), inlet=valves["inlet"], delivery=valves["delivery"],
-        mean_load_pressure=float(last["pl_mean"]), leakage_per_rev=float(last["leak"]),
-        needle_area=(p[G.needle_cda] / resolved.circuit.needle_discharge) if complete else None,
-        min_cylinder_pressure=float(rt[:, col["p_cyl"]].min()), max_cylinder_pressure=float(rt[:, col["p_cyl"]].max()),
-        cavitation_angle=cav, rhs_evaluations=int(n_rhs), steps=int(n_steps), events=int(n_events),
-        method="fast" if stepper_kind == "fast" else ("reference" if method == "reference" else method),
+    tr = post.trace(done.kept, problem, trace_points, physics) if trace_points else None
+    p_cyl = rt[:, post.COL["p_cyl"]]
+    from lumped.layout import G
+
+    return PumpResult(
+        model=m.name, valve=resolved.label, circuit=problem.circuit, speed_rpm=problem.speed_rpm,
+        load_pressure=problem.load_pressure, air_content=resolved.oil.air_content, delivery_per_rev=last.delivery,
+        swept_volume=resolved.pump.displacement, deliveries=done.deliveries, revolutions=len(done.revolutions),
+        cyclic_steady=bool(done.steady), cycle_change=float(done.change), cpu_seconds=cpu,
+        simulated_seconds=len(done.revolutions) * problem.period, mass_balance_error=float(last.mass_error),
+        inlet=valves["inlet"], delivery=valves["delivery"], mean_load_pressure=float(last.mean_load_pressure),
+        leakage_per_rev=float(last.leakage),
+        needle_area=(problem.p[G.needle_cda] / resolved.circuit.needle_discharge) if problem.complete else None,
+        min_cylinder_pressure=float(p_cyl.min()), max_cylinder_pressure=float(p_cyl.max()),
+        cavitation_angle=cav, rhs_evaluations=int(done.n_rhs), steps=int(done.n_steps), events=int(done.n_events),
+        method="fast" if method == "fast" else ("reference" if method == "reference" else method),
         rtol=rtol, atol=atol, trace=tr)
-    if check:
-        check_invariants(res, resolved)
-    return res
 
 
 def check_invariants(res: PumpResult, model: PumpModel) -> None:
@@ -430,21 +361,23 @@ def check_invariants(res: PumpResult, model: PumpModel) -> None:
 
 # --------------------------------------------------------------------------- helpers
 class _Physics:
-    """The pump functions the driver calls between spans: compiled (fast) or Python (reference)."""
+    """The pump functions the driver calls between spans: compiled (fast; "fast1" the one-DOF flavour,
+    lumped.compiled.physics) or Python (reference)."""
 
     def __init__(self, kind: str):
-        if kind == "fast":
+        if kind.startswith("fast"):
             from lumped import compiled
-            self.rates_table = compiled.cached("lumped.pump", "rates_table")
-            self.load_pressure = compiled.cached("lumped.pump", "load_pressure")
-            self.load_mass = compiled.cached("lumped.pump", "load_mass")
-            self.oil_density = compiled.cached("lumped.pump", "oil_density")
+            one = kind == "fast1"
+            self.rates_table = compiled.cached("lumped.rhs", "rates_table", one)
+            self.load_pressure = compiled.cached("lumped.rhs", "load_pressure", one)
+            self.load_mass = compiled.cached("lumped.rhs", "load_mass", one)
+            self.oil_density = compiled.cached("lumped.rhs", "oil_density", one)
         else:
-            from lumped import pump
-            self.rates_table = pump.rates_table
-            self.load_pressure = pump.load_pressure
-            self.load_mass = pump.load_mass
-            self.oil_density = pump.oil_density
+            from lumped import rhs
+            self.rates_table = rhs.rates_table
+            self.load_pressure = rhs.load_pressure
+            self.load_mass = rhs.load_mass
+            self.oil_density = rhs.oil_density
 
 
 _PHYSICS: dict = {}
@@ -456,21 +389,19 @@ def ensure_compiled() -> float:
     if _COMPILE["seconds"] is None:
         t0 = _time.perf_counter()
         model = load_model("thesis-disc")
+        ph = _physics("fast1")
         for circ in ("simplified", "complete"):
-            p = pack(model, 600.0, 2.8e6, circ, needle_area=1e-7)
-            n_dyn = 6 if circ == "complete" else 5
-            scales = state_scales(p, model.oil.density * model.pump.displacement)
-            st = RodasStepper(p, 1e-3, 1e-5 * scales, n_dyn, 1e-5)
-            y = _initial_state(model, p, circ == "complete", _physics("fast"))
+            problem = PumpProblem.build(model, 600.0, 2.8e6, circ, needle_area=1e-7)
+            st = STEPPERS["fast"](problem, 1e-3, 1e-5)
+            y = problem.initial_state(ph.load_mass)
             mode = np.zeros(N_MODE)
-            sw.initial_mode(0.0, y, p, mode)
+            sw.initial_mode(0.0, y, problem.p, mode)
             span = st.advance(0.0, 1e-5, y, mode)
             ts = np.array([0.0, 5e-6])
             ys, modes = span.sample(ts)
-            ph = _physics("fast")
-            ph.rates_table(ts, ys, modes, p)
-            ph.load_pressure(float(y[S_MLOAD]) or 1e-3, p)
-            ph.load_mass(2e6, p)
+            ph.rates_table(ts, ys, modes, problem.p)
+            ph.load_pressure(float(y[problem.layout.index("m_load")]) or 1e-3, problem.p)
+            ph.load_mass(2e6, problem.p)
         _COMPILE["seconds"] = _time.perf_counter() - t0
     return _COMPILE["seconds"]
 
@@ -479,163 +410,3 @@ def _physics(kind: str) -> _Physics:
     if kind not in _PHYSICS:
         _PHYSICS[kind] = _Physics(kind)
     return _PHYSICS[kind]
-
-
-def _initial_state(model: PumpModel, p, complete: bool, physics) -> np.ndarray:
-    """At TDC: cylinder full at load pressure, both valves at rest on their seats."""
-    y = np.zeros(N_STATES)
-    pl = p[G.load_pressure]
-    y[S_MCYL] = model.oil.density_at(pl) * model.pump.dead_volume
-    if complete:
-        y[S_MLOAD] = physics.load_mass(pl, p)[0]
-    return y
-
-
-def _needle_cda_estimate(model: PumpModel, p) -> float:
-    """First guess of Cd A of the needle valve: pass 85 % of the ideal delivery at the load pressure."""
-    pl, pt = p[G.load_pressure], p[G.tank_pressure]
-    oil = model.oil
-    ideal = model.pump.displacement - (oil.density_at(pl) / oil.density_at(pt) - 1.0) * model.pump.dead_volume
-    mdot = 0.85 * ideal * oil.density * p[G.omega] / (2 * math.pi)
-    return mdot / math.sqrt(2.0 * oil.density_at(pl) * (pl - pt))
-
-
-def _mean_load_pressure(span, p, complete: bool, physics) -> float:
-    if not complete:
-        return float(p[G.load_pressure])
-    ts = np.linspace(span.t0, span.t1, 121)
-    ys, _ = span.sample(ts)
-    vals = [physics.load_pressure(float(yy[S_MLOAD]), p)[0] for yy in ys]
-    return float(np.trapezoid(vals, ts) / (span.t1 - span.t0))
-
-
-def _cycle_change(deliveries, states, p, m_rev: float, complete: bool) -> float:
-    """Largest relative change between the last two revolutions: delivery and state at TDC."""
-
-    d1, d0 = deliveries[-1], deliveries[-2]
-    a, b = states[-1], states[-2]
-    ch = [abs(d1 - d0) / max(abs(d1), 1e-300),
-          abs(a[S_MCYL] - b[S_MCYL]) / m_rev,
-          abs(a[S_XIN] - b[S_XIN]) / p[OFF_IN + VALVE.stop_gap],
-          abs(a[S_XDEL] - b[S_XDEL]) / p[OFF_DEL + VALVE.stop_gap]]
-    if complete:
-        ch.append(abs(a[S_MLOAD] - b[S_MLOAD]) / m_rev)
-    return float(max(ch))
-
-
-def _stop_arrivals(span, v: int, xi: int, gap: float) -> int:
-    """Arrivals of valve v on its stop in the span that follow a real excursion (see CONTACT_EXCURSION).
-
-    A contact is counted when the element arrives on the stop after having been at least
-    CONTACT_EXCURSION x the stop gap clear of it since it last left it; a departure and
-    return of a few nanometres while pressed on a compliant stop is the step-size control
-    crossing x_stop, not a rebound anyone could measure, and counting it would make the
-    count depend on the tolerance (the two steppers then disagree).
-    """
-    n, left_at = 0, None
-    for t, slot, old, new in span.events:
-        if slot != 2 * v:
-            continue
-        if old == STOP and new != STOP:
-            left_at = t
-        elif new == STOP:
-            if left_at is None or t <= left_at:
-                n += 1
-            else:
-                ts = np.linspace(left_at, t, EXCURSION_SAMPLES)
-                ys, _ = span.sample(ts)
-                if gap - float(np.min(ys[:, xi])) >= CONTACT_EXCURSION * gap:
-                    n += 1
-            left_at = None
-    return n
-
-
-def _valve_timing(span, period, y_start, omega, p):
-    """Crank angles of the main opening and closing of each valve and its stop contacts in a revolution."""
-    events, t0 = span.events, span.t0
-    opening, closing, stops = [], [], []
-    for v, (xi, off) in enumerate(((S_XIN, OFF_IN), (S_XDEL, OFF_DEL))):
-        ev = [(t, new) for (t, slot, old, new) in events if slot == 2 * v]
-        stops.append(_stop_arrivals(span, v, xi, float(p[off + VALVE.stop_gap])))
-        # open intervals [start, end) of x > 0 within the periodic revolution
-        was_open = y_start[xi] > 0.0
-        intervals, start = [], (t0 if was_open else None)
-        for t, new in ev:
-            if new == FREE and start is None:
-                start = t
-            elif new == SEAT and start is not None:
-                intervals.append((start, t))
-                start = None
-        if start is not None:
-            intervals.append((start, t0 + period))
-        # never open, or never reseated (held off its seat, e.g. by a squeeze film): no timing
-        # to report; 0 deg would be a silent wrong number
-        if not intervals or intervals == [(t0, t0 + period)]:
-            opening.append(None)
-            closing.append(None)
-            continue
-        # join an interval running into the end with one starting the revolution (periodicity)
-        if len(intervals) > 1 and intervals[0][0] == t0 and intervals[-1][1] == t0 + period:
-            first = intervals.pop(0)
-            a, b = intervals.pop()
-            intervals.append((a, b + (first[1] - first[0])))
-        a, b = max(intervals, key=lambda iv: iv[1] - iv[0])
-        opening.append(float(((a - t0) * omega) % (2 * math.pi)))
-        closing.append(float(((b - t0) * omega) % (2 * math.pi)))
-    return tuple(opening), tuple(closing), tuple(stops)
-
-
-def _impacts(span) -> list[tuple[float, float]]:
-    """Largest speeds [m/s] at which each valve arrives on its seat and on its stop in the span."""
-    out = []
-    for v, ui in enumerate((S_UIN, S_UDEL)):
-        seat = stop = 0.0
-        for (t, slot, old, new), y in zip(span.events, span.event_states):
-            if slot != 2 * v or old != FREE:
-                continue
-            if new == SEAT:
-                seat = max(seat, abs(float(y[ui])))
-            elif new == STOP:
-                stop = max(stop, abs(float(y[ui])))
-        out.append((seat, stop))
-    return out
-
-
-def _losses(rt, col, p, dt: float) -> tuple[float, float]:
-    """Pressure-drop energy of each valve over the revolution, sum of dP Q dt [J] (Q = mdot / rho_orifice)."""
-    pc, pl = rt[:, col["p_cyl"]], rt[:, col["p_load"]]
-    q_in = rt[:, col["mdot_in"]] / rt[:, col["rho_in"]]
-    q_del = rt[:, col["mdot_del"]] / rt[:, col["rho_del"]]
-    e_in = float(np.sum((p[G.tank_pressure] - pc) * q_in) * dt)
-    e_del = float(np.sum((pc - pl) * q_del) * dt)
-    return e_in, e_del
-
-
-def _trace(spans, period, npts, p, speed, physics) -> Trace:
-    """The kept revolutions sampled at npts points each from the dense output."""
-    ts_all, ys_all, rows = [], [], []
-    for span in spans:
-        ts = span.t0 + period * np.arange(npts) / npts
-        ys, modes = span.sample(ts)
-        rows.append(physics.rates_table(ts, ys, modes, p))
-        ts_all.append(ts)
-        ys_all.append(ys)
-    t = np.concatenate(ts_all)
-    y = np.concatenate(ys_all)
-    rt = np.concatenate(rows)
-    col = {n: i for i, n in enumerate(RATES_FIELDS)}
-    signals = {
-        "inlet_position": y[:, S_XIN], "delivery_position": y[:, S_XDEL],
-        "cylinder_pressure": rt[:, col["p_cyl"]], "load_pressure": rt[:, col["p_load"]],
-        "inlet_mass_flow": rt[:, col["mdot_in"]], "delivery_mass_flow": rt[:, col["mdot_del"]],
-        "inlet_velocity": y[:, S_UIN], "delivery_velocity": y[:, S_UDEL],
-        "vapour_volume": rt[:, col["vapour_volume"]],
-    }
-    return Trace(t - spans[0].t0, speed, signals)
-
-
-def _progress_bar(progress: bool, total: int, desc: str):
-    if not progress:
-        return None
-    from tqdm import tqdm
-    return tqdm(total=total, desc=desc, unit="rev", file=sys.stderr, leave=False)

@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 from geometry.declare import param, read_table
 from geometry.disc import load_disc_geometry
 from geometry.errors import InputError
-from lumped.valve import ValveKind, check_discharge, contact_reaction, kind_block, register
+from lumped.valve import Common, ValveKind, ValveParams, check_discharge, contact_reaction, kind_block, register
 
 EQ_2_23 = "critical damping 2 sqrt(k m) of eq 2.23 with the contact mass (derived when left out)"
 
@@ -58,7 +58,7 @@ def critical_damping(stiffness: float, mass: float) -> float:
 
 # ----------------------------------------------------------------- parameters
 @dataclass(frozen=True)
-class DiscValve:
+class DiscValve(ValveParams):
     """Disc check valve of chapter 2 (Tables 2.1-2.3); one per position (inlet, delivery)."""
 
     position: str
@@ -138,6 +138,9 @@ class DiscValve:
     #: keys a geometry supplies (dropped from inherited defaults when a file names another geometry)
     FROM_GEOMETRY = ("seat.inner_radius", "seat.outer_radius", "seat.bevel_angle", "port.diameter", "port.length",
                      "stop.gap", "spring.preload")
+    #: the disc's own derived packed quantities (:meth:`packed_extra`)
+    DERIVED = ("c1", "poiseuille", "port_area", "disc_area", "cos_jet", "viscous_drag", "inertial_drag",
+               "disc_diameter", "transient_arm", "film_coefficient", "film_inner_radius", "film_outer_radius")
 
     # ---- construction
     @classmethod
@@ -222,18 +225,23 @@ class DiscValve:
         return {"seat": self.seat_damping_value / critical_damping(self.seat_stiffness, m),
                 "stop": self.stop_damping_value / critical_damping(self.stop_stiffness, m)}
 
-    def derived(self, oil) -> dict:
-        """The packed quantities that are not plain fields (lumped.layout)."""
+    def common(self, oil=None) -> Common:
+        """The quantities every kind shares (lumped.valve.Common): eqs 2.3, 2.20, 2.40-2.42, 2.47, 2.18."""
+        return Common(
+            moving_mass=self.moving_mass, stop_gap=self.stop_gap, seat_k=self.seat_stiffness,
+            seat_c=self.seat_damping_value, stop_k=self.stop_stiffness, stop_c=self.stop_damping_value,
+            area_1=self.port_area, area_2=self.disc_area, f_closing=self.f1, f_opening=self.f2,
+            cd_inf=self.cd_inf, cd_a=self.cd_a, cd_b=self.cd_b, cd_c=self.cd_c,
+            perimeter=self.perimeter_factor * math.pi * self.port_diameter,
+            average_density=self.orifice_density == "average",
+            area_per_opening=math.pi * self.port_diameter * math.sin(self.bevel_angle),   # eq 2.40: A_o / x
+            regime_opening=self.transition_opening if self.poiseuille_regime else None,
+            contact_area=self.disc_area,
+            flow_in_acceleration=self.flow_force_steady > 0 or self.flow_force_transient > 0)
+
+    def packed_extra(self, oil=None) -> dict:
+        """The disc's own derived packed quantities (DERIVED)."""
         return {
-            "moving_mass": self.moving_mass, "seat_k": self.seat_stiffness, "seat_c": self.seat_damping_value,
-            "stop_k": self.stop_stiffness, "stop_c": self.stop_damping_value,
-            "area_1": self.port_area, "area_2": self.disc_area, "f_closing": self.f1, "f_opening": self.f2,
-            "perimeter": self.perimeter_factor * math.pi * self.port_diameter,
-            "average_density": 1.0 if self.orifice_density == "average" else 0.0,
-            "area_per_opening": math.pi * self.port_diameter * math.sin(self.bevel_angle),   # eq 2.40: A_o / x
-            "regime_opening": self.transition_opening if self.poiseuille_regime else -1.0,
-            "contact_area": self.disc_area,
-            "flow_in_acceleration": 1.0 if (self.flow_force_steady > 0 or self.flow_force_transient > 0) else 0.0,
             "c1": self.c1, "poiseuille": 1.0 if self.poiseuille_regime else 0.0, "port_area": self.port_area,
             "disc_area": self.disc_area, "cos_jet": math.cos(self.jet_angle_value),
             "viscous_drag": self.viscous_drag if self.drag else 0.0,
@@ -242,6 +250,20 @@ class DiscValve:
             "film_coefficient": self.squeeze_c2 / squeeze_area_moment(self.inner_radius, self.outer_radius),
             "film_inner_radius": self.inner_radius, "film_outer_radius": self.outer_radius,
         }
+
+    def geometry_supplied(self) -> set:
+        """Keys whose value equals what the disc geometry preset or file supplies (``model show``)."""
+        try:
+            g = load_disc_geometry(self.geometry)
+        except InputError:
+            return set()
+        fill = {"seat.inner_radius": g.inner_radius, "seat.outer_radius": g.outer_radius,
+                "seat.bevel_angle": g.bevel_angle, "port.diameter": g.port_diameter, "port.length": g.port_length,
+                "stop.gap": g.stop_inlet if self.position == "inlet" else g.stop_delivery,
+                "spring.preload": g.spring_preload}
+        from geometry.declare import specs
+
+        return {s.key for n, s in specs(self) if s.key in fill and getattr(self, n) == fill[s.key]}
 
     @property
     def jet_angle_value(self) -> float:
@@ -254,10 +276,8 @@ class DiscValve:
         return self.port_length if self.transient_length is None else self.transient_length
 
 
-#: offsets of the disc's packed quantities (common, packed fields, then these derived ones)
-DISC_DERIVED = ("c1", "poiseuille", "port_area", "disc_area", "cos_jet", "viscous_drag", "inertial_drag",
-                "disc_diameter", "transient_arm", "film_coefficient", "film_inner_radius", "film_outer_radius")
-DISC = kind_block(DiscValve, DISC_DERIVED)
+#: offsets of the disc's packed quantities (common, packed fields, then its derived ones)
+DISC = kind_block(DiscValve)
 
 
 # ----------------------------------------------------------------- squeeze film with cavitation
@@ -382,9 +402,7 @@ def pressure_force(x: float, u: float, dp: float, p_down: float, p_vap: float, p
     return p[o + DISC.c1] * dp * a_disc
 
 
-def disc_acceleration(x: float, u: float, dp: float, p_down: float, p_vap: float, rho: float,
-                      mu: float, q_o: float, cd: float, aq: float, dq_ddp: float, dq_dx: float,
-                      ddp_dt: float, p, o: int, contact: int, regime: int) -> float:
+def disc_acceleration(x: float, u: float, f, p, o: int, contact: int, regime: int) -> float:
     """du/dt [m/s^2] of the disc: F / (m_disc + m_s/3 + m_f) with F of eq 2.4 (eqs 2.1-2.4).
 
     Forces: pressure (eq 2.18), spring with preload (eq 2.19), seat/stop contact
@@ -394,25 +412,26 @@ def disc_acceleration(x: float, u: float, dp: float, p_down: float, p_vap: float
     rho (L_t + x) dQ/dt with dQ/dt = dQ/d(dp) d(dp)/dt + dQ/dx u + A_Q du/dt; its du/dt part is
     moved to the left side as an added inertia rho (L_t + x) A_Q.
     """
+    dp, rho = f.dp, f.rho
     m = p[o + DISC.moving_mass]
-    f = pressure_force(x, u, dp, p_down, p_vap, p, o, regime, contact)
-    f -= p[o + DISC.spring_stiffness] * (x + p[o + DISC.spring_preload])
-    f += contact_reaction(x, u, p, o, contact)
+    force = pressure_force(x, u, dp, f.p_down, f.p_vap, p, o, regime, contact)
+    force -= p[o + DISC.spring_stiffness] * (x + p[o + DISC.spring_preload])
+    force += contact_reaction(x, u, p, o, contact)
     # drag (eq 2.28) opposes the motion
-    f -= p[o + DISC.viscous_drag] * mu * u * p[o + DISC.disc_diameter] \
+    force -= p[o + DISC.viscous_drag] * f.mu * u * p[o + DISC.disc_diameter] \
         + 0.5 * rho * abs(u) * u * p[o + DISC.inertial_drag] * p[o + DISC.disc_area]
     ks = p[o + DISC.flow_force_steady]
     kt = p[o + DISC.flow_force_transient]
     if ks > 0.0 or kt > 0.0:
-        q = q_o + aq * u
+        q = f.q_o + f.aq * u
         a_o = 0.0
         if contact != 0 and x > 0.0:
             a_o = p[o + DISC.area_per_opening] * x
-        f += ks * (rho * q * q / p[o + DISC.port_area] - 2.0 * cd * cd * a_o * abs(dp) * p[o + DISC.cos_jet])
+        force += ks * (rho * q * q / p[o + DISC.port_area] - 2.0 * f.cd * f.cd * a_o * abs(dp) * p[o + DISC.cos_jet])
         arm = p[o + DISC.transient_arm] + x
-        f -= kt * rho * (q * u + arm * (dq_ddp * ddp_dt + dq_dx * u))
-        m += kt * rho * arm * aq
-    return f / m
+        force -= kt * rho * (q * u + arm * (f.dq_ddp * f.ddp_dt + f.dq_dx * u))
+        m += kt * rho * arm * f.aq
+    return force / m
 
 
 KIND = register(ValveKind(
@@ -426,5 +445,9 @@ KIND = register(ValveKind(
     # contacts are counted after a real excursion (lumped.cycle.CONTACT_EXCURSION).
     contact_velocity_atol=100.0,
     contact_position_atol=1000.0,
+    # designs the fast path is checked on (studies.sweeps.random_designs): the O-ring compliance of
+    # the delivery seat (section 2.4.3.2), its displacement factors and the inlet spring
+    design_ranges={"effects.seat_compliance.delivery.k_seat": (10**5.5, 1e7), "delivery.flow.f1": (0.6, 1.0),
+                   "delivery.flow.f2": (0.6, 1.0), "inlet.spring.stiffness": (150.0, 300.0)},
     summary="spring-loaded disc on a bevelled seat (thesis chapter 2)",
 ))

@@ -121,6 +121,7 @@ register(Effect(
         source="eq 2.15 with the disc geometry and the oil viscosity; a factor 10 either way covers the bevel "
                "angle (sin^4), a film that is not uniform (seat flatness) and the oil's temperature"),),
     apply=lambda m, v, t: set_fields(m, t, squeeze_c2=v["C2"]), valve_types=("disc",), targets=BOTH_VALVES,
+    tight_tolerance=True,
 ))
 
 
@@ -166,6 +167,12 @@ def _disc_added_mass_prior(model, target: str) -> float:
     return priors()["added_mass"]["disc"]["coefficient"] * m.oil.density * v.outer_radius**3
 
 
+def _ball_added_mass_prior(model, target: str) -> float:
+    """m_f = rho pi d_b^3 / 12 [kg]: half the fluid a sphere displaces (Lamb 1932, section 92; eq 2.3 m_f)."""
+    v, m = _valve_of(model, target, "ball")
+    return m.oil.density * math.pi * v.ball_diameter**3 / 12.0
+
+
 register(Effect(
     name="added_mass",
     summary="added fluid mass on the moving element (eq 2.3 m_f; eq 3.17 for the reed)",
@@ -177,10 +184,15 @@ register(Effect(
         "Gamma_f", "-", prior=priors()["added_mass"]["reed"]["Gamma_f"], bounds=(0.01, 100.0), plausible=(0.2, 10.0),
         field="hydrodynamic_function",
         source="hydrodynamic function of eq 3.13 at kappa_n = 0.9677 (section 3.8.2.2); a wall nearby "
-               "raises it"),)},
+               "raises it"),),
+              "ball": (Parameter(
+        "m_f", "kg", prior=float("nan"), bounds=(1.0 / 100.0, 100.0), plausible=(1.0 / 4.0, 10.0),
+        field="added_mass", prior_from=_ball_added_mass_prior, relative=True,
+        source="half the displaced fluid, a sphere in unbounded fluid (Lamb 1932); the seat and housing "
+               "nearby raise it"),)},
     apply=lambda m, v, t: set_fields(m, t, **({"added_mass": v["m_f"]} if "m_f" in v
                                               else {"hydrodynamic_function": v["Gamma_f"]})),
-    targets=BOTH_VALVES,
+    valve_types=("disc", "reed", "ball"), targets=BOTH_VALVES, tight_tolerance=True,
 ))
 
 

@@ -99,7 +99,9 @@ class Effect:
 
     ``apply(params, values, target)`` returns the model parameters with the effect
     switched on, ``values`` mapping parameter names to values and ``target`` one of
-    ``targets`` ("inlet"/"delivery" for an effect of one valve, "both", "pump").
+    ``targets`` ("inlet"/"delivery" for an effect of one valve, "both", "pump"). ``valve_types``:
+    the valve kinds the effect has a meaning for (None: every kind; an effect on the whole pump is
+    never checked against kinds).
     ``parameters`` may be empty (a pure switch). ``variants`` overrides them for a
     valve type whose model states the effect differently (the reed's seat stiffness is
     a pressure per metre, the disc's a force per metre). ``derived(values, context[, target])``
@@ -108,19 +110,22 @@ class Effect:
     synthetic-data generator can inject but the workflow never searches (e.g. a
     discharge coefficient a few percent off). ``applicable(runs)`` returns None, or why
     the effect is not a candidate for a dataset (e.g. entrained air when run.toml
-    states the air content).
+    states the air content). ``tight_tolerance``: a model with the effect is simulated at tight
+    integrator tolerances by the discrepancy workflow (its response is steep in the effect's
+    parameters, so a fit at the fast path's default tolerances reads integration noise as evidence).
     """
 
     name: str
     summary: str
     parameters: tuple[Parameter, ...]
     apply: Callable[[Any, dict, str], Any]
-    valve_types: tuple[str, ...] = ("disc", "reed")
+    valve_types: tuple[str, ...] | None = None
     targets: tuple[str, ...] = BOTH_VALVES
     derived: Callable[[dict, str], dict] | None = None
     candidate: bool = True
     applicable: Callable[[list], str | None] | None = None
     variants: dict = field(default_factory=dict)
+    tight_tolerance: bool = False
 
     def parameters_for(self, context=None, target: str | None = None) -> tuple[Parameter, ...]:
         """The parameters of the effect for a context: a valve type (kind name) or a model.
@@ -143,11 +148,11 @@ class Effect:
         if target in PER_VALVE:
             return model.kind_at(target)
         kinds = [model.kind_at(pos) for pos in PER_VALVE]
-        return next((k for k in kinds if k in self.valve_types), kinds[0])
+        return next((k for k in kinds if self.valve_types is None or k in self.valve_types), kinds[0])
 
     def applies_to(self, context, target: str) -> bool:
         """Whether the effect has a meaning for the target valve(s) of a context (kind name or model)."""
-        if context is None:
+        if context is None or self.valve_types is None or target == "pump" or self.targets == PUMP:
             return True
         if isinstance(context, str):
             return context in self.valve_types

@@ -89,8 +89,8 @@ def load_model(spec, field: str = "--model") -> PumpModel:
     if isinstance(spec, PumpModel):
         return spec
     name = str(spec)
-    if name in ("disc", "reed"):
-        name = f"thesis-{name}"
+    if name in KINDS and name not in SHIPPED:
+        name = kind_default_model(name)        # a kind's name stands for its shipped model
     if name in SHIPPED:
         return _shipped(name)
     path = Path(name)
@@ -161,8 +161,7 @@ def parse_model(data: dict, source: str = "", base_dir: Path | None = None, name
         path = Path(base_name)
         if base_dir is not None and base_name not in SHIPPED and not path.is_absolute():
             path = base_dir / path
-        base = load_model(base_name if base_name in SHIPPED or base_name in ("disc", "reed") else str(path),
-                          field="base")
+        base = load_model(base_name if base_name in SHIPPED or base_name in KINDS else str(path), field="base")
         defaults = model_table(base)
     elif defaults_from is not None:
         base = _shipped(defaults_from)
@@ -186,31 +185,36 @@ def parse_model(data: dict, source: str = "", base_dir: Path | None = None, name
             raise InputError(f"valves.{pos}", "expected a table")
         user = _merge(shared, own)
         valves[pos] = _load_valve(user, pos, base if base_name is not None else None, defaults, base_dir,
-                                  complete=defaults_from is None and base_name is None)
+                                  complete=defaults_from is None and base_name is None, shipped=defaults_from is None,
+                                  source=source)
 
     model = PumpModel(pump=comps["pump"], oil=comps["oil"], inlet=valves["inlet"], delivery=valves["delivery"],
                       circuit=comps["circuit"], operating=comps["operating"], name=name, source=source)
     _check_pump(model)
     effects = list(base.effects) if (base is not None and base_name is not None) else []
-    effects = _parse_effects(_table(data, "effects", ""), model, effects, data)
+    effects = _parse_effects(_table(data, "effects", ""), model, effects, data, base_name)
     return replace(model, effects=tuple(effects))
 
 
 def _load_valve(user: dict, pos: str, base: PumpModel | None, defaults: dict, base_dir: Path | None,
-                complete: bool = False):
-    """The valve at ``pos``: the user's table over the defaults of its kind (a shipped file: complete)."""
+                complete: bool = False, shipped: bool = False, source: str = ""):
+    """The valve at ``pos``: the user's table over the defaults of its kind (a shipped file: complete,
+    also where it changes its base's kind: it is that kind's defaults; so is a kind's default model
+    given as a file, ``ValveKind.default_model``)."""
     where = f"valves.{pos}"
     base_kind = kind_of(base.valve(pos)).name if base is not None else None
     kind_name = user.get("kind", base_kind or "disc")
     if not isinstance(kind_name, str) or kind_name not in KINDS:
         raise InputError(f"{where}.kind", f"expected one of {', '.join(KINDS)}, got {kind_name!r}")
     kind = KINDS[kind_name]
-    if complete:
+    default = kind_default_model(kind_name)
+    is_default = source and default not in SHIPPED and Path(default).resolve() == Path(source).resolve()
+    if complete or (shipped and base_kind != kind_name) or is_default:
         start = {}
     elif base_kind == kind_name:
         start = defaults["valves"][pos]
     else:
-        start = model_table(_shipped(kind_default_model(kind_name)))["valves"][pos]
+        start = model_table(load_model(kind_default_model(kind_name), field=f"{where}.kind"))["valves"][pos]
     if "geometry" in user:
         start = _drop(start, kind.params.FROM_GEOMETRY)
         start.pop("geometry", None)
@@ -239,16 +243,28 @@ def _check_pump(model: PumpModel) -> None:
         raise InputError("circuit.accumulator_precharge", f"must exceed the tank pressure ({p.tank_pressure:g} Pa)")
 
 
-def _parse_effects(table: dict, model: PumpModel, inherited: list, data: dict) -> list:
-    """Applied effects from ``[effects]``: {name: {params}} or {name: {target: {params}}}."""
+def _parse_effects(table: dict, model: PumpModel, inherited: list, data: dict, base_name: str | None = None) -> list:
+    """Applied effects from ``[effects]``: {name: {params}} or {name: {target: {params}}}; ``NAME = false``
+    or ``[effects.NAME] TARGET = false`` switches an inherited effect off. Inherited effects are checked
+    for the valves of this model like named ones."""
     out = {(a.name, a.target): a for a in inherited}
+    named = set()
     for name, body in table.items():
         where = f"effects.{name}"
         if name not in LIBRARY:
             raise InputError(where, f"unknown effect; expected one of {', '.join(LIBRARY.names())}")
         eff = LIBRARY[name]
+        if body is False:
+            out = {k: a for k, a in out.items() if a.name != name}
+            continue
         if not isinstance(body, dict):
-            raise InputError(where, "expected a table of the effect's parameters")
+            raise InputError(where, "expected a table of the effect's parameters (or false: off)")
+        off = [k for k, v in body.items() if k in POSITIONS and v is False]
+        for t in off:
+            out.pop((name, t), None)
+        body = {k: v for k, v in body.items() if k not in off}
+        if off and not body:
+            continue
         per_target = {k: v for k, v in body.items() if k in POSITIONS}
         direct = {k: v for k, v in body.items() if k not in POSITIONS}
         if per_target and direct:
@@ -270,6 +286,22 @@ def _parse_effects(table: dict, model: PumpModel, inherited: list, data: dict) -
                 raise InputError(w, f"{name} does not apply to the {model.kind_at(target)} valve")
             vals = effect_library.check_values(eff, values, model, target, w)
             out[(name, target)] = Applied.of(name, target, vals)
+            named.add((name, target))
+    for key, a in list(out.items()):
+        if key in named:
+            continue
+        # inherited from the base: checked for this model's valves like a named one
+        eff = LIBRARY[a.name]
+        w = f"effects.{a.name}" + ("" if a.target in ("both", "pump") else f".{a.target}")
+        off = f"[effects.{a.name}] {a.target} = false" if a.target in POSITIONS else f"[effects] {a.name} = false"
+        why = f" (inherited from base {base_name!r}; switch it off with {off})"
+        if not eff.applies_to(model, a.target):
+            raise InputError(w, f"{a.name} does not apply to the {model.kind_at(a.target)} valve{why}")
+        try:
+            vals = effect_library.check_values(eff, a.value_dict, model, a.target, w)
+        except InputError as exc:
+            raise InputError(exc.field, exc.message + why) from None
+        out[key] = Applied.of(a.name, a.target, vals)
     applied = list(out.values())
     air = [a for a in applied if a.name == "entrained_air"]
     if air and "air_content" in data.get("oil", {}) and \
@@ -355,7 +387,7 @@ def to_toml(model: PumpModel, comments: bool = True) -> str:
         v = model.valve(pos)
         kind = kind_of(v)
         lines += ["", f"[valves.{pos}]", _fmt("kind", kind.name) + (f"  # {kind.summary}" if comments else "")]
-        geo_keys = _geometry_supplied(v)
+        geo_keys = v.geometry_supplied()
         for n, s in specs(v):
             if s.key is None:
                 continue
@@ -399,26 +431,6 @@ def _inline(d) -> str:
     if isinstance(d, list):
         return "[" + ", ".join(_inline(v) for v in d) + "]"
     return tomli_w.dumps({"x": d}).strip()[4:]
-
-
-def _geometry_supplied(v) -> set:
-    """Keys of a disc valve whose value equals what its geometry preset or file supplies."""
-    if kind_of(v).name != "disc":
-        return set()
-    from geometry.disc import load_disc_geometry
-    try:
-        g = load_disc_geometry(v.geometry)
-    except InputError:
-        return set()
-    fill = {"seat.inner_radius": g.inner_radius, "seat.outer_radius": g.outer_radius,
-            "seat.bevel_angle": g.bevel_angle, "port.diameter": g.port_diameter, "port.length": g.port_length,
-            "stop.gap": g.stop_inlet if v.position == "inlet" else g.stop_delivery,
-            "spring.preload": g.spring_preload}
-    out = set()
-    for n, s in specs(v):
-        if s.key in fill and getattr(v, n) == fill[s.key]:
-            out.add(s.key)
-    return out
 
 
 def _derived_rows(v):
@@ -579,11 +591,8 @@ def describe(model: PumpModel) -> dict:
     for pos in POSITIONS:
         v = resolved.valve(pos)
         d = {"kind": kind_of(v).name, "natural_frequency_rad_s": v.natural_frequency(),
-             "damping_ratios": v.damping_ratios(), "stop_gap_m": v.stop_gap}
-        if kind_of(v).name == "reed":
-            d["reed_parameters"] = {"source": v.source, "kappa": v.stiffness, "gamma1": v.gamma1, "gamma2": v.gamma2,
-                                    "gamma3": v.gamma3, "h_eff": v.effective_thickness, "geometry": v.geometry,
-                                    "fidelity": v.fidelity}
+             "damping_ratios": v.damping_ratios(), "stop_gap_m": v.common(resolved.oil).stop_gap}
+        d.update(v.describe())
         out[pos] = d
     return out
 

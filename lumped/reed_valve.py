@@ -26,7 +26,7 @@ from dataclasses import dataclass, replace
 from geometry.declare import param, read_table
 from geometry.errors import InputError
 from geometry.reed import Reed
-from lumped.valve import ValveKind, check_discharge, contact_reaction, kind_block, register
+from lumped.valve import Common, ValveKind, ValveParams, check_discharge, contact_reaction, kind_block, register
 
 CRITICAL = "critical damping of the modal equation (eq 2.23: 2 sqrt(gamma1 k rho_c h_eff) / gamma1), derived when left out"
 DERIVED = "left out when the valve names a geometry: derived from it by the fidelity"
@@ -38,7 +38,7 @@ def modal_critical_damping(stiffness: float, gamma1: float, modal_mass: float) -
 
 
 @dataclass(frozen=True)
-class ReedValve:
+class ReedValve(ValveParams):
     """Reed valve of chapter 3 (Table 3.13, sections 3.8, 5.5.3); one per position."""
 
     position: str
@@ -105,6 +105,8 @@ class ReedValve:
     #: keys a geometry supplies (dropped from inherited defaults when a file names a geometry)
     FROM_GEOMETRY = ("structure.density", "structure.effective_thickness", "structure.stiffness",
                      "structure.gamma1", "structure.gamma2", "structure.gamma3", "structure.width_tip")
+    #: the reed's own derived packed quantities (:meth:`packed_extra`)
+    DERIVED = ("drag_term", "damping_total", "x_zero")
 
     # ---- construction
     @classmethod
@@ -206,21 +208,28 @@ class ReedValve:
                 "seat": self.seat_damping_value / modal_critical_damping(self.seat_stiffness, self.gamma1, m),
                 "stop": self.stop_damping_value / modal_critical_damping(self.stop_stiffness, self.gamma1, m)}
 
-    def derived(self, oil) -> dict:
-        """The packed quantities that are not plain fields (lumped.layout)."""
-        return {
-            "moving_mass": self.modal_mass(oil.density), "seat_k": self.seat_stiffness,
-            "seat_c": self.seat_damping_value, "stop_k": self.stop_stiffness, "stop_c": self.stop_damping_value,
-            "area_1": self.area_min, "area_2": self.area_max, "f_closing": self.f1, "f_opening": self.f2,
-            "perimeter": self.orifice_perimeter,
-            "average_density": 1.0 if self.orifice_density == "average" else 0.0,
-            "area_per_opening": self.orifice_length,                                      # eq 3.25: A_o / x
-            "regime_opening": -1.0,        # no pressure-regime switch: X(x) covers both regimes
-            "contact_area": 1.0,           # eq 3.21 is per unit area
-            "flow_in_acceleration": 0.0,
-            "drag_term": 0.5 * self.gamma2 * self.drag_coefficient if self.drag else 0.0,
-            "damping_total": self.damping, "x_zero": self.multiplier_zero,
-        }
+    def common(self, oil) -> Common:
+        """The quantities every kind shares (lumped.valve.Common), per unit area (eqs 3.21, 3.23-3.26, 3.89)."""
+        return Common(
+            moving_mass=self.modal_mass(oil.density if oil is not None else 0.0), stop_gap=self.stop_gap,
+            seat_k=self.seat_stiffness, seat_c=self.seat_damping_value, stop_k=self.stop_stiffness,
+            stop_c=self.stop_damping_value, area_1=self.area_min, area_2=self.area_max, f_closing=self.f1,
+            f_opening=self.f2, cd_inf=self.cd_inf, cd_a=self.cd_a, cd_b=self.cd_b, cd_c=self.cd_c,
+            perimeter=self.orifice_perimeter, average_density=self.orifice_density == "average",
+            area_per_opening=self.orifice_length,                                      # eq 3.25: A_o / x
+            regime_opening=None,           # no pressure-regime switch: X(x) covers both regimes
+            contact_area=1.0)              # eq 3.21 is per unit area
+
+    def packed_extra(self, oil=None) -> dict:
+        """The reed's own derived packed quantities (DERIVED)."""
+        return {"drag_term": 0.5 * self.gamma2 * self.drag_coefficient if self.drag else 0.0,
+                "damping_total": self.damping, "x_zero": self.multiplier_zero}
+
+    def describe(self) -> dict:
+        """What ``valvelab model check`` reports of a reed: its structural parameters and where they come from."""
+        return {"reed_parameters": {"source": self.source, "kappa": self.stiffness, "gamma1": self.gamma1,
+                                    "gamma2": self.gamma2, "gamma3": self.gamma3, "h_eff": self.effective_thickness,
+                                    "geometry": self.geometry, "fidelity": self.fidelity}}
 
 
 def _keys(cls):
@@ -255,8 +264,8 @@ def _reed_from(geo, field: str) -> Reed:
         raise InputError(field, f"{exc.field}: {exc.message}" if exc.field != geo else exc.message) from None
 
 
-#: offsets of the reed's packed quantities (common, packed fields, then these derived ones)
-REED = kind_block(ReedValve, ("drag_term", "damping_total", "x_zero"))
+#: offsets of the reed's packed quantities (common, packed fields, then its derived ones)
+REED = kind_block(ReedValve)
 
 
 def pressure_load_multiplier(x: float, plateau: float, n1: float, n0: float, d2: float, d1: float,
@@ -278,18 +287,15 @@ def pressure_load_multiplier(x: float, plateau: float, n1: float, n0: float, d2:
     return r
 
 
-def reed_acceleration(x: float, u: float, dp: float, p_down: float, p_vap: float, rho: float,
-                      mu: float, q_o: float, cd: float, aq: float, dq_ddp: float, dq_dx: float,
-                      ddp_dt: float, p, o: int, contact: int, regime: int) -> float:
-    """Tip acceleration x'' [m/s^2] of the reed from eq 3.21 (per unit area, Pa); the flow
-    arguments of the common kind signature are not used."""
+def reed_acceleration(x: float, u: float, f, p, o: int, contact: int, regime: int) -> float:
+    """Tip acceleration x'' [m/s^2] of the reed from eq 3.21 (per unit area, Pa)."""
     g1 = p[o + REED.gamma1]
     X = pressure_load_multiplier(x, p[o + REED.multiplier_poiseuille], p[o + REED.multiplier_n1], p[o + REED.multiplier_n0],
                                  p[o + REED.multiplier_d2], p[o + REED.multiplier_d1], p[o + REED.multiplier_d0], p[o + REED.x_zero])
-    f = g1 * (dp * X - p[o + REED.damping_total] * u - p[o + REED.stiffness] * (x - p[o + REED.preload]))
-    f += g1 * contact_reaction(x, u, p, o, contact)
-    f -= p[o + REED.drag_term] * rho * abs(u) * u
-    return f / p[o + REED.moving_mass]
+    force = g1 * (f.dp * X - p[o + REED.damping_total] * u - p[o + REED.stiffness] * (x - p[o + REED.preload]))
+    force += g1 * contact_reaction(x, u, p, o, contact)
+    force -= p[o + REED.drag_term] * f.rho * abs(u) * u
+    return force / p[o + REED.moving_mass]
 
 
 KIND = register(ValveKind(
@@ -301,5 +307,8 @@ KIND = register(ValveKind(
     # steps; benchmarks/pump_tolerance_study.py --effects)
     contact_velocity_atol=1.0,
     contact_position_atol=3.0,
+    # designs the fast path is checked on (studies.sweeps.random_designs): stiffness and the
+    # displacement factors of section 5.5.3
+    design_ranges={"flow.f1": (0.1, 0.4), "flow.f2": (0.2, 0.5), "structure.stiffness": (5e6, 1e7)},
     summary="cantilevered reed over a slotted seat, single-mode tip model (thesis chapter 3)",
 ))

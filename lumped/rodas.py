@@ -247,10 +247,10 @@ def _locate_event(t, h, y0, y1, q2, q3, p, g0, g, ybuf, n_events):
     for kk in range(n_events):
         if g0[kk] < 0.0 and g[kk] < 0.0:
             return kk, 0.0
-    gs = np.empty(n_events)
+    gs = np.empty(g.shape[0])
     g_lo = g0                     # the event values at the bracket's start (the step's, unless scanned past)
     if lo > 0.0:
-        g_lo = np.empty(n_events)
+        g_lo = np.empty(g.shape[0])
         _dense_into(lo, y0, y1, q2, q3, ybuf)
         event_values(t + lo * h, ybuf, p, g_lo)
     for kk in range(n_events):
@@ -447,7 +447,8 @@ def solve(t0, y0, tstops, p, opts):
     controller, as in RODAS.
 
     Events (``opts.n_events`` > 0): ``event_values(t, y, p, g)`` gives one value per
-    event; event k fires where g_k drops from >= 0 to < 0. The first crossing is found on
+    event (g holds the state's length more, scratch the model may use); event k fires where g_k
+    drops from >= 0 to < 0. The first crossing is found on
     the dense output; the step is redone (up to MAX_EVENT_RETRIES times, where
     ``event_retry(k, p)``) to end there, since the interpolant of a long step does not
     follow a stiff component, and the crossing located again is where the step is cut.
@@ -478,8 +479,9 @@ def solve(t0, y0, tstops, p, opts):
     q2 = np.empty(n)
     q3 = np.empty(n)
     n_events = opts.n_events
-    g0 = np.empty(max(n_events, 1))
-    g1 = np.empty(max(n_events, 1))
+    # the event functions' values, then the state's length of scratch the model's event function may use
+    g0 = np.empty(max(n_events, 1) + n)
+    g1 = np.empty(max(n_events, 1) + n)
     cap = 1024
     rec_t = np.empty(cap)
     rec_y = np.empty((cap, n))

@@ -2,11 +2,12 @@
 
 Inside a step the right-hand side must be smooth, so each valve's contact state (seat,
 free, stop), its pressure regime (Poiseuille, orifice: eq 2.18) and the cylinder's state
-(liquid, cavitating) are fixed there (the *mode*, ``lumped.pump.N_MODE`` entries) and
-change only where a switching function crosses zero. :func:`switch_values` gives those
-functions for the current mode (each >= 0 while the mode holds; the crossing to < 0 is
-the switch, direction "falling" in scipy's terms) and :func:`apply_switch` makes the
-change at a located crossing, putting a valve exactly onto its surface.
+(liquid, cavitating) are fixed there (the *mode*, ``lumped.layout.MODE``) and change only
+where a switching function crosses zero. :func:`switch_values` gives those functions for
+the current mode (each >= 0 while the mode holds; the crossing to < 0 is the switch,
+direction "falling" in scipy's terms) and :func:`apply_switch` makes the change at a
+located crossing, putting a valve exactly onto its surface. Which function is which is
+``lumped.layout.SWITCH`` (per valve: seat, stop, regime; then the cylinder).
 
 A valve pressed on its seat or stop leaves it where the net force of everything but the
 contact lets go, not where its deflection x crosses back (the two agree to the contact's
@@ -27,14 +28,14 @@ from __future__ import annotations
 
 import math
 
-from lumped.pump import (
-    CAVITATING, G, LIQUID, M_CAV, OFF_DEL, OFF_IN, S_MCYL, S_UDEL, S_UIN, S_XDEL, S_XIN, cylinder_volume_at,
-    evaluate,
+from lumped.layout import (
+    BLOCK_OFFSET, CAVITATING, CAVITATION_SLOT, CAVITATION_SWITCH, CONTACT_SLOT, G, LIQUID, N_SWITCHES, N_VALVES,
+    REGIME_SLOT, REGIME_SWITCH, S_MCYL, SEAT_SWITCH, STOP_SWITCH, SWITCH_VALVE, SWITCH_WHAT, event_code,
+    limit_rate, opening, set_opening,
 )
+from lumped.rhs import cylinder_volume_at, evaluate
 from lumped.valve import FREE, ORIFICE, POISEUILLE, SEAT, STOP, VALVE
 
-#: number of switching functions: per valve seat, stop, regime; then the cylinder
-N_SWITCHES = 7
 #: hysteresis of the reverse crossings [m]: a mode entered exactly on its switching surface
 #: must not switch back at its first step (a zero-length segment); 0.1 nm is far below
 #: any opening the model resolves
@@ -48,6 +49,9 @@ SETTLED_FRACTION = 1e-3
 #: its deflection decides (the same quantity; saves a pump evaluation per event check, ~5 % of the
 #: fast path's time)
 DEEP_FRACTION = 0.1
+#: what a switching function switches (lumped.layout.SWITCH_WHAT, as numbers numba compares)
+_WHAT_SEAT, _WHAT_STOP, _WHAT_REGIME, _WHAT_CAVITATION = 0, 1, 2, 3
+SWITCH_KIND = tuple({"seat": 0, "stop": 1, "regime": 2, "cavitation": 3}[w] for w in SWITCH_WHAT)
 
 
 def settled_speed(p, o: int, k: float) -> float:
@@ -87,81 +91,86 @@ def _set_contact(p, o: int, c) -> None:
     p[o + VALVE.seat_k], p[o + VALVE.seat_c], p[o + VALVE.stop_k], p[o + VALVE.stop_c] = c
 
 
-def free_accelerations(t: float, y, p, mode) -> tuple[float, float]:
-    """(inlet, delivery) accelerations [m/s^2] without the seat and stop reactions: the net
-    non-contact force over the moving mass, in the current mode (lumped.pump.evaluate with
-    the contact stiffness and damping zeroed for the call; p is restored)."""
-    c_in, c_del = _contact(p, OFF_IN), _contact(p, OFF_DEL)
-    _set_contact(p, OFF_IN, (0.0, 0.0, 0.0, 0.0))
-    _set_contact(p, OFF_DEL, (0.0, 0.0, 0.0, 0.0))
-    r = evaluate(t, y, p, mode)
-    _set_contact(p, OFF_IN, c_in)
-    _set_contact(p, OFF_DEL, c_del)
+def free_accelerations(t: float, y, p, mode, scratch) -> tuple[float, float]:
+    """(inlet, delivery) accelerations of the openings [m/s^2] without the seat and stop reactions:
+    the net non-contact force over the moving mass, in the current mode (lumped.rhs.evaluate with
+    the contact stiffness and damping zeroed for the call; p is restored; ``scratch``: room for dy/dt)."""
+    o_in, o_del = BLOCK_OFFSET
+    c_in, c_del = _contact(p, o_in), _contact(p, o_del)
+    _set_contact(p, o_in, (0.0, 0.0, 0.0, 0.0))
+    _set_contact(p, o_del, (0.0, 0.0, 0.0, 0.0))
+    r = evaluate(t, y, p, mode, scratch)
+    _set_contact(p, o_in, c_in)
+    _set_contact(p, o_del, c_del)
     return r.a_in, r.a_del
 
 
 def switch_values(t: float, y, p, mode, g) -> None:
-    """Fill g[0:N_SWITCHES] with the switching functions of the current mode (fire below 0).
+    """Fill g[0:N_SWITCHES] with the switching functions of the current mode (fire below 0); g holds
+    the state's length more as scratch (:func:`free_accelerations`; the steppers size it so).
 
-    Valve v (0 inlet, 1 delivery), entries 3 v .. 3 v + 2: on its seat, -x (lifts off at x > 0),
-    or where :func:`force_decides`, -a_f m / k_seat, about the quasi-static deflection of the net
-    non-contact force (its sign is what counts: the valve lifts off when that force turns away from
-    the seat); free, x + h (lands at x < -h) and x_stop - x (reaches the stop);
-    on its stop, x - (x_stop - h), or where the force decides, a_f m / k_stop (leaves when the
-    force turns away from the stop); the regime, x_t - x in the Poiseuille regime and x - (x_t - h) in the
-    orifice one. Entry 6, the cylinder: liquid, rho - rho(P_vap) (cavitates when the density
-    falls below the liquid's at the vapour pressure); cavitating, rho(P_vap) (1 + e) - rho
-    (refilled). An entry with no surface is 1.
+    Each valve's seat function: on its seat, -x (lifts off at x > 0), or where
+    :func:`force_decides`, -a_f m / k_seat, about the quasi-static deflection of the net
+    non-contact force (its sign is what counts: the valve lifts off when that force turns away
+    from the seat); free, x + h (lands at x < -h). Its stop function: free, x_stop - x (reaches
+    the stop); on its stop, x - (x_stop - h), or where the force decides, a_f m / k_stop (leaves
+    when the force turns away from the stop). Its regime function: x_t - x in the Poiseuille
+    regime and x - (x_t - h) in the orifice one. The cylinder's: liquid, rho - rho(P_vap)
+    (cavitates when the density falls below the liquid's at the vapour pressure); cavitating,
+    rho(P_vap) (1 + e) - rho (refilled). A function with no surface is 1. x is the opening
+    (lumped.layout.opening).
     """
     hy = HYSTERESIS
     need = False
-    for v in range(2):
-        o = OFF_IN if v == 0 else OFF_DEL
-        x = y[S_XIN] if v == 0 else y[S_XDEL]
-        u = y[S_UIN] if v == 0 else y[S_UDEL]
-        c = int(mode[2 * v])
-        r = int(mode[2 * v + 1])
+    for v in range(N_VALVES):
+        o = BLOCK_OFFSET[v]
+        x, u = opening(y, p, o)
+        c = int(mode[CONTACT_SLOT[v]])
+        r = int(mode[REGIME_SLOT[v]])
+        i_seat, i_stop, i_reg = SEAT_SWITCH[v], STOP_SWITCH[v], REGIME_SWITCH[v]
         xstop = p[o + VALVE.stop_gap]
         if c == SEAT:
-            g[3 * v] = -x
-            g[3 * v + 1] = 1.0
+            g[i_seat] = -x
+            g[i_stop] = 1.0
             if force_decides(-x, u, p, o, p[o + VALVE.seat_k]):
                 need = True
-                g[3 * v] = math.nan          # the force's, below
+                g[i_seat] = math.nan          # the force's, below
         elif c == FREE:
-            g[3 * v] = x + hy
-            g[3 * v + 1] = xstop - x
+            g[i_seat] = x + hy
+            g[i_stop] = xstop - x
         else:
-            g[3 * v] = 1.0
-            g[3 * v + 1] = x - (xstop - hy)
+            g[i_seat] = 1.0
+            g[i_stop] = x - (xstop - hy)
             if force_decides(x - xstop, u, p, o, p[o + VALVE.stop_k]):
                 need = True
-                g[3 * v + 1] = math.nan
-        g[3 * v + 2] = 1.0
+                g[i_stop] = math.nan
+        g[i_reg] = 1.0
         xt = p[o + VALVE.regime_opening]
         if xt > 0.0:
-            g[3 * v + 2] = xt - x if r == POISEUILLE else x - (xt - hy)
+            g[i_reg] = xt - x if r == POISEUILLE else x - (xt - hy)
     if need:
-        a = free_accelerations(t, y, p, mode)
-        for v in range(2):
-            o = OFF_IN if v == 0 else OFF_DEL
+        a = free_accelerations(t, y, p, mode, g[N_SWITCHES:])
+        for v in range(N_VALVES):
+            o = BLOCK_OFFSET[v]
             m = p[o + VALVE.moving_mass]
-            if math.isnan(g[3 * v]):
-                g[3 * v] = -a[v] * m / p[o + VALVE.seat_k]
-            if math.isnan(g[3 * v + 1]):
-                g[3 * v + 1] = a[v] * m / p[o + VALVE.stop_k]
-    g[6] = 1.0
+            if math.isnan(g[SEAT_SWITCH[v]]):
+                g[SEAT_SWITCH[v]] = -a[v] * m / p[o + VALVE.seat_k]
+            if math.isnan(g[STOP_SWITCH[v]]):
+                g[STOP_SWITCH[v]] = a[v] * m / p[o + VALVE.stop_k]
+    i_cav = CAVITATION_SWITCH
+    g[i_cav] = 1.0
     rho_v = p[G.rho_vapour]
     if rho_v > 0.0:
         rho = y[S_MCYL] / cylinder_volume_at(t, p)[0]
-        if int(mode[M_CAV]) == LIQUID:
-            g[6] = (rho - rho_v) / rho_v
+        if int(mode[CAVITATION_SLOT]) == LIQUID:
+            g[i_cav] = (rho - rho_v) / rho_v
         else:
-            g[6] = (rho_v * (1.0 + DENSITY_HYSTERESIS) - rho) / rho_v
+            g[i_cav] = (rho_v * (1.0 + DENSITY_HYSTERESIS) - rho) / rho_v
 
 
 def apply_switch(k: int, y, p, mode) -> int:
-    """Make the mode change of switching function k at its crossing; returns slot*100 + old*10 + new.
+    """Make the mode change of switching function k at its crossing; returns its event code
+    (lumped.layout.event_code).
 
     A valve is put exactly onto its surface (x = 0, -h, x_stop, x_stop - h, x_t, x_t - h),
     so the new mode starts on the right side of it; a valve leaving a contact does not move
@@ -170,32 +179,30 @@ def apply_switch(k: int, y, p, mode) -> int:
     land it again at once); the cylinder switch moves no state (the mass is the state: it
     stays exactly conserved).
     """
-    if k == 6:
-        old = int(mode[M_CAV])
+    what = SWITCH_KIND[k]
+    if what == _WHAT_CAVITATION:
+        old = int(mode[CAVITATION_SLOT])
         new = CAVITATING if old == LIQUID else LIQUID
-        mode[M_CAV] = new
-        return M_CAV * 100 + old * 10 + new
-    v = k // 3
-    kind = k % 3
-    o = OFF_IN if v == 0 else OFF_DEL
-    xi = S_XIN if v == 0 else S_XDEL
-    c = int(mode[2 * v])
-    r = int(mode[2 * v + 1])
+        mode[CAVITATION_SLOT] = new
+        return event_code(CAVITATION_SLOT, old, new)
+    v = SWITCH_VALVE[k]
+    o = BLOCK_OFFSET[v]
+    c = int(mode[CONTACT_SLOT[v]])
+    r = int(mode[REGIME_SLOT[v]])
     hy = HYSTERESIS
-    if kind == 0:
-        slot, old, new, level = 2 * v, c, (FREE if c == SEAT else SEAT), (0.0 if c == SEAT else -hy)
-    elif kind == 1:
-        slot, old, new = 2 * v, c, (STOP if c == FREE else FREE)
+    if what == _WHAT_SEAT:
+        slot, old, new, level = CONTACT_SLOT[v], c, (FREE if c == SEAT else SEAT), (0.0 if c == SEAT else -hy)
+    elif what == _WHAT_STOP:
+        slot, old, new = CONTACT_SLOT[v], c, (STOP if c == FREE else FREE)
         level = p[o + VALVE.stop_gap] - (0.0 if c == FREE else hy)
     else:
-        slot, old, new = 2 * v + 1, r, (ORIFICE if r == POISEUILLE else POISEUILLE)
+        slot, old, new = REGIME_SLOT[v], r, (ORIFICE if r == POISEUILLE else POISEUILLE)
         level = p[o + VALVE.regime_opening] - (0.0 if r == POISEUILLE else hy)
     mode[slot] = new
-    y[xi] = level
-    if slot == 2 * v and new == FREE:
-        ui = S_UIN if v == 0 else S_UDEL
-        y[ui] = max(y[ui], 0.0) if old == SEAT else min(y[ui], 0.0)
-    return slot * 100 + old * 10 + new
+    set_opening(y, p, o, level)
+    if slot == CONTACT_SLOT[v] and new == FREE:
+        limit_rate(y, p, o, 1.0 if old == SEAT else -1.0)
+    return event_code(slot, old, new)
 
 
 def redo_at_crossing(k: int, mode) -> bool:
@@ -203,27 +210,22 @@ def redo_at_crossing(k: int, mode) -> bool:
     or stop. In contact the opening is a stiff component slaved to the pressure, which the
     interpolant of a long step does not follow; in free flight (and the cylinder density)
     it does, to the tolerance."""
-    if k >= 6:
+    what = SWITCH_KIND[k]
+    if what == _WHAT_CAVITATION or what == _WHAT_REGIME:
         return False
-    c = int(mode[2 * (k // 3)])
-    kind = k % 3
-    return (kind == 0 and c == SEAT) or (kind == 1 and c == STOP)
+    c = int(mode[CONTACT_SLOT[SWITCH_VALVE[k]]])
+    return (what == _WHAT_SEAT and c == SEAT) or (what == _WHAT_STOP and c == STOP)
 
 
 def initial_mode(t: float, y, p, mode) -> None:
     """Contact state, regime and cylinder state decided from the state (at the start of a run)."""
-    for v in range(2):
-        o = OFF_IN if v == 0 else OFF_DEL
-        x = y[S_XIN] if v == 0 else y[S_XDEL]
-        mode[2 * v] = SEAT if x <= 0.0 else (STOP if x > p[o + VALVE.stop_gap] else FREE)
+    for v in range(N_VALVES):
+        o = BLOCK_OFFSET[v]
+        x = opening(y, p, o)[0]
+        mode[CONTACT_SLOT[v]] = SEAT if x <= 0.0 else (STOP if x > p[o + VALVE.stop_gap] else FREE)
         xt = p[o + VALVE.regime_opening]
-        mode[2 * v + 1] = POISEUILLE if (xt > 0.0 and x < xt) else ORIFICE
-    mode[M_CAV] = LIQUID
+        mode[REGIME_SLOT[v]] = POISEUILLE if (xt > 0.0 and x < xt) else ORIFICE
+    mode[CAVITATION_SLOT] = LIQUID
     rho_v = p[G.rho_vapour]
     if rho_v > 0.0 and y[S_MCYL] / cylinder_volume_at(t, p)[0] < rho_v:
-        mode[M_CAV] = CAVITATING
-
-
-def decode(code: int) -> tuple[int, int, int]:
-    """(mode slot, old, new) of an :func:`apply_switch` code."""
-    return code // 100, (code // 10) % 10, code % 10
+        mode[CAVITATION_SLOT] = CAVITATING

@@ -1,18 +1,23 @@
-"""Check-valve kinds: the registry, and the physics every kind shares (contact, flow).
+"""Check-valve kinds: the kind contract, the registry, and the physics every kind shares.
 
-A valve *kind* (disc, reed, ...) is one :class:`ValveKind` entry, registered by the
-module that implements it (``lumped/disc_valve.py``, ``lumped/reed_valve.py``). The entry
-owns the kind's parameter class (a frozen dataclass whose fields are declared with
-:func:`geometry.declare.param`), its acceleration function, its regime rule and its
-contact tolerance; the pump, the fast path, the effects and the command line find
-kinds here instead of branching on names. Adding a kind: a module like
-``lumped/disc_valve.py`` (class, physics, :func:`register`), its import in
-``lumped/__init__.py``, and a shipped model file that uses it (docs/extending.md).
+A valve *kind* (disc, reed, ball, ...) is one :class:`ValveKind` entry, registered by the
+module that implements it (``lumped/disc_valve.py``, ``lumped/reed_valve.py``,
+``lumped/ball_valve.py``). The contract a kind fulfils is small and typed:
 
-Every kind packs the :data:`COMMON` quantities first in its block of the flat
-parameter array (``lumped.layout``), so the shared functions below (contact forces,
-displacement area, orifice flow) and the pump read any kind alike. Functions here use
-floats and the flat array only, so ``numba.njit`` compiles them unchanged.
+- its parameter class: a frozen dataclass subclassing :class:`ValveParams` whose fields
+  are declared with :func:`geometry.declare.param`, and whose :meth:`ValveParams.common`
+  returns the quantities every kind shares as one frozen, checked :class:`Common`;
+- its acceleration: ``acceleration(x, u, f, p, o, contact, regime) -> du/dt`` of the opening
+  x [m] and its rate u [m/s], with ``f`` the :class:`ValveInputs` the pump gives every kind
+  (pressures, density, the orifice flow and its partials) and the flat parameter array
+  ``p`` read at the kind's block offset ``o`` (floats and arrays only: numba compiles it);
+  a kind with several mechanical degrees of freedom (the modal reed) adds
+  ``accelerations(y, s, n, x, u, f, p, o, contact, regime, out)``;
+- its tolerances on the fast path and the shipped model that gives its defaults.
+
+:func:`check_valve_kind` (``lumped.conformance``) checks a kind against this contract.
+The pump, the fast path, the effects and the command line find kinds here instead of
+branching on names.
 
 Contact state ``contact``: 0 seat (x < 0 side), 1 free, 2 stop (x > x_stop side),
 -1 decide from x. The pump integrator fixes it per step and switches it only at a
@@ -23,15 +28,16 @@ from __future__ import annotations
 
 import collections
 import math
-from dataclasses import dataclass
-from typing import Callable
+from dataclasses import dataclass, fields
+from typing import Callable, ClassVar, NamedTuple
 
 from lumped.orifice import orifice_flow
 
-#: quantities every kind packs first, at these offsets of its block (lumped.layout)
+#: quantities every kind packs first, at these offsets of its block (lumped.layout): the fields of
+#: :class:`Common`, then the bookkeeping the layout writes
 COMMON = (
     "kind_id",         # registry id of the kind
-    "moving_mass",     # kg (disc) or kg/m^2 (reed: per unit area, eq 3.21)
+    "moving_mass",     # kg (disc, ball) or kg/m^2 (reed: per unit area, eq 3.21)
     "stop_gap",        # x_stop [m]
     "seat_k",          # seat contact stiffness, N/m or Pa/m
     "seat_c",          # seat contact damping, N s/m or Pa s/m
@@ -47,17 +53,174 @@ COMMON = (
     "cd_c",
     "perimeter",       # orifice perimeter of the Reynolds number [m]
     "average_density",  # 1: orifice density is the mean of both sides (section 4.3.5), 0: cylinder's
-    "area_per_opening",  # A_o / x [m]
+    "area_per_opening",  # A_o / x at small openings [m]
+    "area_curvature",  # A_o = area_per_opening x + area_curvature x^2 (a ball in a cone) [-]
     "regime_opening",  # x of a pressure-regime switch (eq 2.18) [m]; <= 0: none
     "contact_area",    # area turning the contact force into a pressure load (disc face; reed 1)
-    "flow_in_acceleration",  # 1 if the kind's acceleration reads the flow arguments (flow forces), else 0
+    "flow_in_acceleration",  # 1 if the kind's acceleration reads the flow inputs (flow forces), else 0
     "orifice_start",   # scratch, not a parameter: sqrt(Re) of the last orifice solve (warm start)
+    "dofs",            # mechanical degrees of freedom of the valve (its states: dofs positions, dofs rates)
+    "state_start",     # index of its first state in the state vector (lumped.layout)
+    "tail",            # offset of its variable-length data in the flat array (0: none; lumped.layout)
 )
 #: the offsets, as a namedtuple numba folds into constants: p[o + VALVE.stop_gap]
 VALVE = collections.namedtuple("ValveBlock", COMMON)(*range(len(COMMON)))
 
 SEAT, FREE, STOP = 0, 1, 2
 POISEUILLE, ORIFICE = 0, 1
+#: names of the contact states and pressure regimes (event records, reports)
+CONTACT_NAMES = ("seat", "free", "stop")
+REGIME_NAMES = ("poiseuille", "orifice")
+
+
+class ValveInputs(NamedTuple):
+    """What the pump gives a kind's acceleration at one instant (SI), besides x, u and the block.
+
+    ``dp`` = P_up - P_down [Pa]; ``p_down`` [Pa]; ``p_vap`` the vapour pressure [Pa]; ``rho`` the
+    density of the orifice equation [kg/m^3]; ``mu`` [Pa s]; ``q_o`` the orifice flow [m^3/s] and
+    ``cd``, ``aq`` [m^2], ``dq_ddp`` [m^3/s/Pa], ``dq_dx`` [m^2/s] from :func:`valve_flow`;
+    ``ddp_dt`` d(dp)/dt [Pa/s] (the transient flow force of eq 2.37). A kind reads what it needs.
+    """
+
+    dp: float
+    p_down: float
+    p_vap: float
+    rho: float
+    mu: float
+    q_o: float
+    cd: float
+    aq: float
+    dq_ddp: float
+    dq_dx: float
+    ddp_dt: float
+
+
+# --------------------------------------------------------------------------- the shared quantities
+@dataclass(frozen=True)
+class Common:
+    """The quantities every valve kind shares (SI units), checked when built.
+
+    ``moving_mass`` [kg, or kg/m^2 per unit area]; ``stop_gap`` x_stop [m]; ``seat_k``, ``seat_c``,
+    ``stop_k``, ``stop_c`` the contact stiffness and damping of eq 2.20 (N/m, N s/m; per unit area
+    for the reed: Pa/m, Pa s/m); ``area_1``, ``area_2``, ``f_closing``, ``f_opening`` the fluid
+    displacement area of eqs 2.42, 3.26; ``cd_inf``, ``cd_a``, ``cd_b``, ``cd_c`` the Cd(Re)
+    correlation of eqs 2.47, 3.89; ``perimeter`` [m] of its Reynolds number; ``average_density``
+    (section 4.3.5); ``area_per_opening`` A_o / x [m] and ``area_curvature`` [-], the orifice area
+    A_o = area_per_opening x + area_curvature x^2; ``regime_opening`` [m] of a pressure-regime
+    switch (eq 2.18; None: none); ``contact_area`` [m^2] that turns a contact force into a
+    pressure load (1 for a per-unit-area kind); ``flow_in_acceleration``: the acceleration reads
+    the flow inputs (then the Jacobian recomputes the flow at each perturbation).
+    """
+
+    moving_mass: float
+    stop_gap: float
+    seat_k: float
+    seat_c: float
+    stop_k: float
+    stop_c: float
+    area_1: float
+    area_2: float
+    f_closing: float
+    f_opening: float
+    cd_inf: float
+    cd_a: float
+    cd_b: float
+    cd_c: float
+    perimeter: float
+    area_per_opening: float
+    contact_area: float
+    average_density: bool = False
+    regime_opening: float | None = None
+    flow_in_acceleration: bool = False
+    area_curvature: float = 0.0
+
+    #: fields that must be > 0 and those that must be >= 0
+    POSITIVE: ClassVar[tuple] = ("moving_mass", "stop_gap", "seat_k", "stop_k", "perimeter", "area_per_opening",
+                                 "contact_area", "cd_inf")
+    NON_NEGATIVE: ClassVar[tuple] = ("seat_c", "stop_c", "area_1", "area_2", "f_closing", "f_opening",
+                                     "area_curvature")
+
+    def __post_init__(self):
+        for name in _COMMON_FIELDS:
+            v = getattr(self, name)
+            if isinstance(v, bool) or (v is None and name == "regime_opening"):
+                continue
+            if not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise ValueError(f"Common.{name}: expected a finite number, got {v!r}")
+            if name in self.POSITIVE and not v > 0:
+                raise ValueError(f"Common.{name}: must be positive, got {v!r}")
+            if name in self.NON_NEGATIVE and v < 0:
+                raise ValueError(f"Common.{name}: must not be negative, got {v!r}")
+        if self.regime_opening is not None and not self.regime_opening > 0:
+            raise ValueError(f"Common.regime_opening: must be positive or None, got {self.regime_opening!r}")
+        if self.area_1 > self.area_2:
+            raise ValueError(f"Common.area_1 ({self.area_1:g}) exceeds area_2 ({self.area_2:g})")
+
+    def packed(self) -> dict:
+        """{COMMON name: float} as the flat array holds them."""
+        out = {}
+        for name in _COMMON_FIELDS:
+            v = getattr(self, name)
+            out[name] = (-1.0 if v is None else (1.0 if v is True else (0.0 if v is False else float(v))))
+        return out
+
+
+_COMMON_FIELDS = tuple(f.name for f in fields(Common))
+
+
+class ValveParams:
+    """Base of every kind's parameter class (a frozen dataclass of declared fields, with ``position``).
+
+    A kind implements :meth:`common` (the shared quantities) and :meth:`load` (from its
+    model-file table); it may add packed quantities of its own (:attr:`DERIVED` names given by
+    :meth:`packed_extra`), variable-length data (:meth:`tail`), more mechanical degrees of
+    freedom (:meth:`dofs`), and what ``model check`` reports (:meth:`describe`).
+    """
+
+    #: keys a geometry supplies (dropped from inherited defaults when a file names another geometry)
+    FROM_GEOMETRY: ClassVar[tuple] = ()
+    #: the kind's own derived packed quantities (names of :meth:`packed_extra`)
+    DERIVED: ClassVar[tuple] = ()
+
+    @classmethod
+    def load(cls, table: dict, where: str, position: str):  # pragma: no cover - every kind has its own
+        """A valve from its complete model-file table ``valves.<position>`` (``where`` names it in errors)."""
+        raise NotImplementedError
+
+    def common(self, oil) -> Common:  # pragma: no cover - every kind has its own
+        """The quantities every kind shares, for the oil ``oil``."""
+        raise NotImplementedError
+
+    def packed_extra(self, oil) -> dict:
+        """The kind's own derived packed quantities {name in DERIVED: value} (default: none)."""
+        return {}
+
+    def tail(self, oil):
+        """Variable-length data the kind reads at p[o + VALVE.tail] (a float array), or None."""
+        return None
+
+    def dofs(self) -> int:
+        """Mechanical degrees of freedom (1: the opening x itself is the state, with its rate u)."""
+        return 1
+
+    def natural_frequency(self) -> float:  # pragma: no cover - every kind has its own
+        """Undamped natural frequency of the moving element in vacuum [rad/s]."""
+        raise NotImplementedError
+
+    def damping_ratios(self) -> dict:
+        """Damping ratios of the moving element on its contacts (default: seat and stop, eq 2.23)."""
+        c = self.common(None)
+        crit = lambda k: 2.0 * math.sqrt(k * c.moving_mass)  # noqa: E731
+        return {"seat": c.seat_c / crit(c.seat_k), "stop": c.stop_c / crit(c.stop_k)}
+
+    def describe(self) -> dict:
+        """Kind-specific quantities ``valvelab model check`` reports (default: none)."""
+        return {}
+
+    def geometry_supplied(self) -> set:
+        """Keys whose value equals what the valve's geometry preset or file supplies (``model show``
+        prints them as comments; default: none)."""
+        return set()
 
 
 # --------------------------------------------------------------------------- registry
@@ -65,20 +228,17 @@ POISEUILLE, ORIFICE = 0, 1
 class ValveKind:
     """One valve kind (see the module docstring).
 
-    ``params``: the parameter class (``position`` field, declared parameters, a
-    ``load(table, where, position)`` classmethod and a ``derived(oil)`` method giving the
-    packed quantities that are not plain fields); ``acceleration``: du/dt with the
-    signature of :func:`lumped.disc_valve.disc_acceleration` (numba-compilable);
-    ``block``: the offsets of its packed quantities (:func:`kind_block`); ``default_model``:
-    the shipped model whose valves give the keys a model file leaves out for this kind;
-    ``contact_position_atol``: the fast path's opening tolerance in contact, in units of atol
-    x the contact deflection (lumped.steppers.tolerance_table; how closely the integrator
-    follows the deflection decides when the valve lets go);
-    ``free_velocity_atol``: the fast path's velocity tolerance in free flight, in units of
-    atol x 1 m/s (the velocity of a free element hardly matters to the delivery);
-    ``contact_velocity_atol``: the fast path's velocity tolerance in contact, in units of
-    atol x 1 m/s (how still the valve sits on its seat decides when it lets go);
-    ``flow_area_unit``: "N" if the contact force is a force (disc) or "Pa" (per unit area).
+    ``params``: the parameter class (:class:`ValveParams`); ``acceleration``: du/dt of the
+    opening (numba-compilable; see the module docstring), ``accelerations``: the several-DOF form
+    (None: the kind has one); ``block``: the offsets of its packed quantities
+    (:func:`kind_block`); ``default_model``: the shipped model whose valves give the keys a model
+    file leaves out for this kind; ``contact_position_atol``: the fast path's opening tolerance in
+    contact, in units of atol x the contact deflection (lumped.steppers.tolerance_table);
+    ``free_velocity_atol``: the fast path's velocity tolerance in free flight, in units of atol x
+    1 m/s; ``contact_velocity_atol``: the same in contact; ``design_ranges``: {model-file key of
+    the valve: (low, high)} of plausible designs (a random design draws each uniformly, log-
+    uniformly when ``low`` > 0 and ``high`` / ``low`` > 10; the tests and the conformance check draw
+    from them); ``summary``: one line.
     """
 
     name: str
@@ -86,24 +246,30 @@ class ValveKind:
     acceleration: Callable
     block: tuple
     default_model: str = ""
+    accelerations: Callable | None = None
     contact_velocity_atol: float = 1.0
     contact_position_atol: float = 30.0
     free_velocity_atol: float = 100.0
+    design_ranges: dict = None
     summary: str = ""
     id: int = -1
 
 
 KINDS: dict[str, ValveKind] = {}
+#: inlined where called in the compiled physics (lumped.compiled): the dispatch is a few compares, and
+#: inlined the ValveInputs it passes on stay in registers
+INLINE = ("valve_acceleration",)
 #: length of every valve block of the flat parameter array (a kind may use up to this many)
-BLOCK_SIZE = 64
+BLOCK_SIZE = 96
 
 
-def kind_block(params: type, derived: tuple = ()) -> tuple:
+def kind_block(params: type, derived: tuple | None = None) -> tuple:
     """Offsets of a kind's packed quantities: :data:`COMMON`, then every field declared
-    ``packed=True`` (by field name), then the kind's ``derived`` quantities; a namedtuple
-    that numba folds into constants (``p[o + DISC.spring_stiffness]``)."""
+    ``packed=True`` (by field name), then the kind's derived quantities (``params.DERIVED``); a
+    namedtuple that numba folds into constants (``p[o + DISC.spring_stiffness]``)."""
     from geometry.declare import specs
 
+    derived = tuple(params.DERIVED if derived is None else derived)
     own = [n for n, s in specs(params) if s.packed] + list(derived)
     names = COMMON + tuple(own)
     if len(set(names)) != len(names):
@@ -117,9 +283,11 @@ def register(kind: ValveKind) -> ValveKind:
     """Add a kind to the registry (its id is its registration order)."""
     if kind.name in KINDS:
         raise ValueError(f"valve kind {kind.name!r} is registered twice")
+    if not (isinstance(kind.params, type) and issubclass(kind.params, ValveParams)):
+        raise TypeError(f"valve kind {kind.name!r}: params must subclass lumped.valve.ValveParams")
     from dataclasses import replace
 
-    kind = replace(kind, id=len(KINDS))
+    kind = replace(kind, id=len(KINDS), design_ranges=dict(kind.design_ranges or {}))
     KINDS[kind.name] = kind
     _build_dispatch()
     return kind
@@ -141,30 +309,50 @@ def kind_named(name: str) -> ValveKind:
     return KINDS[name]
 
 
+def kind_names() -> tuple[str, ...]:
+    """Every registered kind's name, in registration order (command-line choices, tests)."""
+    return tuple(KINDS)
+
+
 def _build_dispatch() -> None:
-    """(Re)generate :func:`valve_acceleration`: an if-chain over the registered kinds.
+    """(Re)generate :func:`valve_acceleration` and :func:`valve_accelerations`: if-chains over the kinds.
 
     Generated (rather than written) so that a kind is one registry entry; numba compiles
-    the generated function like any other (lumped.compiled), each kind's function inlined.
+    the generated functions like any other (lumped.compiled), each kind's function inlined.
     """
-    args = "x, u, dp, p_down, p_vap, rho, mu, q_o, cd, aq, dq_ddp, dq_dx, ddp_dt, p, o, contact, regime"
-    lines = [f"def valve_acceleration({args}):",
-             '    """du/dt [m/s^2] of the valve at block offset o, by its kind (generated dispatch)."""',
+    one = "x, u, f, p, o, contact, regime"
+    many = "y, s, n, x, u, f, p, o, contact, regime, out"
+    lines = [f"def valve_acceleration({one}):",
+             '    """du/dt [m/s^2] of the opening of the one-DOF valve at block offset o, by its kind (generated)."""',
              "    k = p[o + VALVE.kind_id]"]
     for kind in KINDS.values():
         fname = f"_accel_{kind.name}"
         globals()[fname] = kind.acceleration
-        lines.append(f"    if k == {float(kind.id)}:")
-        lines.append(f"        return {fname}({args})")
-    lines.append("    return math.nan")
+        lines += [f"    if k == {float(kind.id)}:", f"        return {fname}({one})"]
+    lines += ["    return math.nan", "",
+              f"def valve_accelerations({many}):",
+              '    """The n accelerations [m/s^2] of a several-DOF valve into out (generated dispatch)."""',
+              "    k = p[o + VALVE.kind_id]"]
+    for kind in KINDS.values():
+        if kind.accelerations is None:
+            continue
+        fname = f"_accels_{kind.name}"
+        globals()[fname] = kind.accelerations
+        lines += [f"    if k == {float(kind.id)}:", f"        {fname}({many})", "        return"]
+    lines += ["    for j in range(n):", "        out[j] = math.nan"]
     code = compile("\n".join(lines), __file__, "exec")
     exec(code, globals())  # noqa: S102 - generated from the registry above
 
 
-def valve_acceleration(x, u, dp, p_down, p_vap, rho, mu, q_o, cd, aq, dq_ddp, dq_dx, ddp_dt, p, o, contact,
-                       regime):  # replaced by _build_dispatch() as kinds register
+def valve_acceleration(x, u, f, p, o, contact, regime):  # replaced by _build_dispatch() as kinds register
     """du/dt of the valve at block offset o (no kind registered yet: nan)."""
     return math.nan
+
+
+def valve_accelerations(y, s, n, x, u, f, p, o, contact, regime, out):  # replaced by _build_dispatch()
+    """The accelerations of a several-DOF valve (no kind registered yet: nan)."""
+    for j in range(n):
+        out[j] = math.nan
 
 
 # --------------------------------------------------------------------------- shared physics
@@ -211,7 +399,7 @@ def displacement_area(u: float, a1: float, a2: float, f1: float, f2: float, cont
 
 def valve_flow(x: float, u: float, dp: float, rho: float, mu: float, p, o: int,
                contact: int) -> tuple[float, float, float, float, float]:
-    """Flow through a check valve of any kind (disc eqs 2.40-2.42, reed eqs 3.23-3.26).
+    """Flow through a check valve of any kind (disc eqs 2.40-2.42, reed eqs 3.23-3.26, ball lumped.ball_valve).
 
     Returns (Q_o orifice [m^3/s], Cd, A_Q [m^2], dQ_o/d(dp) [m^3/s/Pa], dQ_o/dx [m^2/s]).
     The total volume flow is Q_o + A_Q u. Seated (contact 0) the orifice is shut: Q_o = 0.
@@ -223,12 +411,14 @@ def valve_flow(x: float, u: float, dp: float, rho: float, mu: float, p, o: int,
     if contact == SEAT or x <= 0.0:
         return 0.0, 0.0, aq, 0.0, 0.0
     k_area = p[o + VALVE.area_per_opening]
+    k2 = p[o + VALVE.area_curvature]
     per = p[o + VALVE.perimeter]
-    q, cd, dq_ddp, dq_da = orifice_flow(k_area * x, dp, rho, mu, per, p[o + VALVE.cd_inf], p[o + VALVE.cd_a],
-                                        p[o + VALVE.cd_b], p[o + VALVE.cd_c], p[o + VALVE.orifice_start])
+    q, cd, dq_ddp, dq_da = orifice_flow(k_area * x + k2 * x * x, dp, rho, mu, per, p[o + VALVE.cd_inf],
+                                        p[o + VALVE.cd_a], p[o + VALVE.cd_b], p[o + VALVE.cd_c],
+                                        p[o + VALVE.orifice_start])
     # the root sqrt(Re) starts the next solve of this valve (2-3 Halley steps become ~1)
     p[o + VALVE.orifice_start] = math.sqrt(4.0 * rho * abs(q) / (mu * per))
-    return q, cd, aq, dq_ddp, dq_da * k_area
+    return q, cd, aq, dq_ddp, dq_da * (k_area + 2.0 * k2 * x)
 
 
 def mass_flow(qo: float, aq: float, u: float, dp: float, rho: float, dq_ddp: float,
@@ -238,7 +428,7 @@ def mass_flow(qo: float, aq: float, u: float, dp: float, rho: float, dq_ddp: flo
     From the outputs of :func:`valve_flow`; returns (mdot, d mdot/d(dp), d mdot/d rho,
     d mdot/dx, d mdot/du), each at fixed other arguments. Q_o of the orifice equation
     with Cd(Re) scales as rho^(1/w' - 1) at fixed dp, so dQ_o/d rho = (dp dQ_o/d(dp) -
-    Q_o) / rho. The pump's right-hand side (lumped.pump.evaluate) and its Jacobian
+    Q_o) / rho. The pump's right-hand side (lumped.rhs.evaluate) and its Jacobian
     (lumped.jacobian) both take the valve mass flows from here: written once.
     """
     q = qo + aq * u

@@ -15,7 +15,8 @@ from lumped.layout import pack
 from lumped.model_file import load_model
 from lumped.oil import thesis_oil_viscosity
 from lumped.orifice import discharge_coefficient, laminar_slope, orifice_flow
-from lumped.pump import OFF_IN
+from lumped.layout import OFF_IN
+from lumped.valve import ValveInputs
 from studies.tables.pump import table_2_3
 from studies.tables.thesis import thesis_values
 
@@ -146,6 +147,12 @@ def test_high_reynolds_flow_approaches_cd_inf():
 
 
 # ----------------------------------------------------------------- forces
+def disc_acc(x, u, dp, p_down, p_vap, rho, mu, q_o, cd, aq, dq_ddp, dq_dx, ddp_dt, p, o, contact, regime):
+    """The disc's acceleration with the pump's inputs spelt out (lumped.valve.ValveInputs)."""
+    return dv.disc_acceleration(x, u, ValveInputs(dp, p_down, p_vap, rho, mu, q_o, cd, aq, dq_ddp, dq_dx, ddp_dt),
+                                p, o, contact, regime)
+
+
 def _p(model=None):
     return pack(model or thesis_model("disc"), 593.0, 2.76e6).tolist()
 
@@ -205,7 +212,7 @@ def test_disc_oscillates_on_its_spring_with_the_right_frequency():
     omega = math.sqrt(v.spring_stiffness / mass)
 
     def f(t, y):   # contact forced off (contact=1), no pressure (dp=0), no flow forces
-        return [y[1], dv.disc_acceleration(y[0], y[1], 0.0, 0.0, 0.0, 876.0, 0.0683, 0.0, 0.0, 0.0, 0.0,
+        return [y[1], disc_acc(y[0], y[1], 0.0, 0.0, 0.0, 876.0, 0.0683, 0.0, 0.0, 0.0, 0.0,
                                            0.0, 0.0, p, o, 1, 1)]
     x0 = 0.5e-3
     sol = solve_ivp(f, (0, 4 * 2 * math.pi / omega), [x0, 0.0], rtol=1e-10, atol=1e-14, dense_output=True)
@@ -218,8 +225,8 @@ def test_drag_opposes_motion():
     p = _p()
     o = OFF_IN
     for u in (-0.4, 0.4):
-        a_drag = dv.disc_acceleration(0.6e-3, u, 0.0, 0.0, 0.0, 876.0, 0.0683, 0, 0, 0, 0, 0, 0, p, o, 1, 1)
-        a_none = dv.disc_acceleration(0.6e-3, 0.0, 0.0, 0.0, 0.0, 876.0, 0.0683, 0, 0, 0, 0, 0, 0, p, o, 1, 1)
+        a_drag = disc_acc(0.6e-3, u, 0.0, 0.0, 0.0, 876.0, 0.0683, 0, 0, 0, 0, 0, 0, p, o, 1, 1)
+        a_none = disc_acc(0.6e-3, 0.0, 0.0, 0.0, 0.0, 876.0, 0.0683, 0, 0, 0, 0, 0, 0, p, o, 1, 1)
         assert (a_drag - a_none) * u < 0
 
 
@@ -237,14 +244,14 @@ def test_flow_force_switch_changes_force_only_when_on():
     p_off = _p(m)
     p_on = _p(replace(m, inlet=replace(m.inlet, flow_force_steady=1.0, flow_force_transient=1.0)))
     args = (0.6e-3, 0.2, 4e4, 6e4, 0.0, 870.0, 0.0683, 1e-4, 0.7, 1.77e-4, 2e-9, 0.1, 1e7)
-    a_off = dv.disc_acceleration(*args, p_off, OFF_IN, 1, 1)
-    a_on = dv.disc_acceleration(*args, p_on, OFF_IN, 1, 1)
+    a_off = disc_acc(*args, p_off, OFF_IN, 1, 1)
+    a_on = disc_acc(*args, p_on, OFF_IN, 1, 1)
     assert a_on != a_off
     # steady part alone (u = 0, no pressure rate): rho Q^2/A_port - 2 Cd^2 A_o |dP| cos(theta)
     v = m.inlet
     x, dp, rho, qo, cd = 0.6e-3, 4e4, 870.0, 1e-4, 0.7
-    base = dv.disc_acceleration(x, 0.0, dp, 6e4, 0.0, rho, 0.0683, qo, cd, 1.77e-4, 0, 0, 0, p_off, OFF_IN, 1, 1)
-    with_f = dv.disc_acceleration(x, 0.0, dp, 6e4, 0.0, rho, 0.0683, qo, cd, 1.77e-4, 0, 0, 0, p_on, OFF_IN, 1, 1)
+    base = disc_acc(x, 0.0, dp, 6e4, 0.0, rho, 0.0683, qo, cd, 1.77e-4, 0, 0, 0, p_off, OFF_IN, 1, 1)
+    with_f = disc_acc(x, 0.0, dp, 6e4, 0.0, rho, 0.0683, qo, cd, 1.77e-4, 0, 0, 0, p_on, OFF_IN, 1, 1)
     a_o = math.pi * v.port_diameter * math.sin(v.bevel_angle) * x
     fs = rho * qo**2 / v.port_area - 2 * cd**2 * a_o * dp * math.cos(v.bevel_angle)
     mass = v.moving_mass + rho * (v.port_length + x) * 1.77e-4

@@ -25,7 +25,8 @@ from lumped.layout import pack
 from lumped.model import Operating
 from lumped.model_file import SHIPPED, describe, key_paths, load_model, model_table, parse_model, to_toml, with_values
 from lumped.oil import Oil
-from lumped.pump import OFF_IN, Circuit, Pump
+from lumped.layout import OFF_IN
+from lumped.pump import Circuit, Pump
 from studies.cli import main
 
 MY_PUMP = """
@@ -240,7 +241,7 @@ def test_bad_model_file_exits_2_with_the_key_path(section, key, cls, name, spec,
     ({"effects": {"seat_compliance": {"delivery": {"k_sea": 1e6}}}}, "effects.seat_compliance.delivery.k_sea"),
     ({"effects": {"seat_compliance": {"delivery": {"k_seat": -5.0}}}}, "effects.seat_compliance.delivery.k_seat"),
     ({"effects": {"fluid_damping": {}}}, "effects.fluid_damping"),                       # reed effect on discs
-    ({"valves": {"inlet": {"kind": "ball"}}}, "valves.inlet.kind"),
+    ({"valves": {"inlet": {"kind": "poppet"}}}, "valves.inlet.kind"),
     ({"valves": {"inlet": {"kind": "reed", "geometry": "nosuch"}}}, "valves.inlet.geometry"),
     ({"valves": {"inlet": {"kind": "reed", "geometry": "prototype", "fidelity": "fancy"}}}, "valves.inlet.fidelity"),
     ({"valves": {"inlet": {"kind": "reed", "geometry": "prototype", "structure": {"stiffness": 1e7}}}},
@@ -317,12 +318,12 @@ class WobblyDisc(DiscValve):
                                   packed=True, default=0.0)
 
 
-def _wobbly_acceleration(x, u, dp, p_down, p_vap, rho, mu, q_o, cd, aq, dq_ddp, dq_dx, ddp_dt, p, o, contact, regime):
-    a = disc_acceleration(x, u, dp, p_down, p_vap, rho, mu, q_o, cd, aq, dq_ddp, dq_dx, ddp_dt, p, o, contact, regime)
+def _wobbly_acceleration(x, u, f, p, o, contact, regime):
+    a = disc_acceleration(x, u, f, p, o, contact, regime)
     return a - p[o + WOBBLY.wobble_damping] * u / p[o + WOBBLY.moving_mass]
 
 
-WOBBLY = V.kind_block(WobblyDisc, dv.DISC_DERIVED)
+WOBBLY = V.kind_block(WobblyDisc)
 
 
 @pytest.fixture

@@ -9,14 +9,16 @@ import pytest
 
 from geometry.errors import InputError
 from lumped import compiled
-from lumped import pump as P
+from lumped import rhs as R
 from lumped import switching as sw
+from lumped.layout import G, N_MODE, OFF_IN, SWITCH, StateLayout
 from lumped.cycle import simulate
 from lumped.layout import pack
 from lumped.model_file import load_model, with_values
 from studies.discrepancy import confusion
 from studies.discrepancy.pump_sim import for_valve_type
 from studies.discrepancy.workflow import RunCondition
+from lumped.valve import KINDS, VALVE
 from studies.sweeps.random_designs import mixed_model, random_design
 from studies.tables.thesis import experiments
 
@@ -26,26 +28,31 @@ ANGLE_TOL = math.radians(0.5)
 
 def _random_states(model, rng, k=6):
     p0 = pack(model, 650.0, 2.8e6)
+    lay = StateLayout((1, 1))
     for _ in range(k):
-        y = np.zeros(P.N_STATES)
-        y[P.S_MCYL] = model.oil.density_at(2.8e6) * model.pump.dead_volume * (1 + rng.uniform(-0.01, 0.004))
-        y[P.S_XIN], y[P.S_XDEL] = rng.uniform(-2e-6, 1.2e-3, size=2)
-        y[P.S_UIN], y[P.S_UDEL] = rng.uniform(-0.5, 0.5, size=2)
+        y = np.zeros(lay.n_states)
+        y[lay.index("m_cyl")] = model.oil.density_at(2.8e6) * model.pump.dead_volume * (1 + rng.uniform(-0.01, 0.004))
+        y[lay.index("inlet.x")], y[lay.index("delivery.x")] = rng.uniform(-2e-6, 1.2e-3, size=2)
+        y[lay.index("inlet.u")], y[lay.index("delivery.u")] = rng.uniform(-0.5, 0.5, size=2)
         t = rng.uniform(0, 0.1)
-        mode = np.zeros(P.N_MODE)
+        mode = np.zeros(N_MODE)
         sw.initial_mode(t, y, p0, mode)
         yield p0, y, mode, t
 
 
-@pytest.mark.parametrize("name", ["thesis-disc", "thesis-reed", "mixed"])
-def test_compiled_physics_is_the_reference_physics(name):
-    """lumped.pump.evaluate compiled by numba gives the Python function's numbers (every field)."""
+@pytest.mark.parametrize("name", [*(f"thesis-{k}" for k in KINDS), "mixed"])
+@pytest.mark.parametrize("one_dof", [True, False])
+def test_compiled_physics_is_the_reference_physics(name, one_dof):
+    """lumped.rhs.evaluate compiled by numba (both flavours, lumped.compiled.physics) gives the Python
+    function's numbers (every field and every derivative)."""
     model = mixed_model() if name == "mixed" else load_model(name)
-    evaluate = compiled.cached("lumped.pump", "evaluate")
+    evaluate = compiled.cached("lumped.rhs", "evaluate", one_dof)
     for p0, y, mode, t in _random_states(model, np.random.default_rng(5)):
-        want = P.evaluate(t, y.tolist(), p0.tolist(), mode.tolist())
-        got = evaluate(t, y, p0, mode)
+        d_want, d_got = np.empty(len(y)), np.empty(len(y))
+        want = R.evaluate(t, y.tolist(), p0.tolist(), mode.tolist(), d_want)
+        got = evaluate(t, y, p0, mode, d_got)
         assert np.allclose(tuple(got), tuple(want), rtol=1e-12, atol=1e-300)
+        assert np.allclose(d_got, d_want, rtol=1e-12, atol=1e-300)
         assert got._fields == want._fields
 
 
@@ -90,7 +97,7 @@ def test_fast_matches_reference_on_all_validation_cases(index):
     assert f.cyclic_steady == r.cyclic_steady
 
 
-@pytest.mark.parametrize("seed, valve", [(1, "disc"), (2, "reed"), (3, "mixed")])
+@pytest.mark.parametrize("seed, valve", [(1, "disc"), (2, "reed"), (3, "mixed"), (4, "ball"), (5, "ball/reed")])
 def test_fast_matches_reference_on_random_designs(seed, valve):
     speed, load, air, model = random_design(np.random.default_rng(seed), valve)
     _compare(model, speed, load, air)
@@ -99,7 +106,9 @@ def test_fast_matches_reference_on_random_designs(seed, valve):
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", range(10, 30))
 def test_fast_matches_reference_on_many_random_designs(seed):
-    valve = ("disc", "reed", "mixed")[seed % 3]
+    from studies.sweeps.random_designs import VALVES
+
+    valve = VALVES[seed % len(VALVES)]
     speed, load, air, model = random_design(np.random.default_rng(seed), valve)
     _compare(model, speed, load, air)
 
@@ -164,23 +173,26 @@ def test_a_stop_contact_needs_a_real_excursion():
     """A return to the stop counts only after the element was CONTACT_EXCURSION x gap clear of it."""
     from types import SimpleNamespace
 
-    from lumped.cycle import CONTACT_EXCURSION, _stop_arrivals
-    from lumped.pump import S_XDEL
-    from lumped.valve import FREE, STOP
+    from lumped.layout import Event
+    from lumped.postprocess import CONTACT_EXCURSION, stop_arrivals
+    from lumped.problem import PumpProblem
 
-    gap = 2e-3
+    problem = PumpProblem.build(load_model("thesis-disc"), 600.0, 2.8e6)
+    gap = problem.model.delivery.stop_gap
+    xi = problem.layout.index("delivery.x")
 
     def span(dip):
-        # delivery valve (slot 2): arrives at t=1, leaves at t=2, x dips by `dip` at t=2.5, back at t=3
+        # delivery valve: arrives at t=1, leaves at t=2, x dips by `dip` at t=2.5, back at t=3
         def sample(ts):
-            y = np.zeros((len(ts), 10))
-            y[:, S_XDEL] = gap - dip * np.sin(np.pi * np.clip(ts - 2.0, 0.0, 1.0))
+            y = np.zeros((len(ts), problem.layout.n_states))
+            y[:, xi] = gap - dip * np.sin(np.pi * np.clip(ts - 2.0, 0.0, 1.0))
             return y, None
-        ev = [(1.0, 2, FREE, STOP), (2.0, 2, STOP, FREE), (3.0, 2, FREE, STOP)]
+        ev = [Event(1.0, "delivery", "contact", "free", "stop"), Event(2.0, "delivery", "contact", "stop", "free"),
+              Event(3.0, "delivery", "contact", "free", "stop")]
         return SimpleNamespace(events=ev, sample=sample)
 
-    assert _stop_arrivals(span(1e-9), 1, S_XDEL, gap) == 1           # a nanometre: one contact
-    assert _stop_arrivals(span(3 * CONTACT_EXCURSION * gap), 1, S_XDEL, gap) == 2   # a rebound: two
+    assert stop_arrivals(span(1e-9), problem, 1) == 1           # a nanometre: one contact
+    assert stop_arrivals(span(3 * CONTACT_EXCURSION * gap), problem, 1) == 2   # a rebound: two
 
 
 def _flow_force_model():
@@ -233,17 +245,18 @@ def test_only_a_valve_near_lift_off_has_its_force_evaluated():
     force's -a_f m / k_seat nearer lift-off; the two measure the same deflection, so they agree
     where a valve's deflection is its quasi-static one."""
     p = pack(load_model("thesis-disc"), 593.0, 2.76e6)
-    o = P.OFF_IN
-    k, area = p[o + P.VALVE.seat_k], p[o + P.VALVE.contact_area]
-    delta = p[P.G.load_pressure] * area / k
-    mode = np.zeros(P.N_MODE)                  # both valves on their seats, liquid cylinder
-    g = np.empty(sw.N_SWITCHES)
-    y = np.zeros(P.N_STATES)
-    y[P.S_MCYL] = 1e-3
+    o = OFF_IN
+    k, area = p[o + VALVE.seat_k], p[o + VALVE.contact_area]
+    delta = p[G.load_pressure] * area / k
+    mode = np.zeros(N_MODE)                  # both valves on their seats, liquid cylinder
+    lay = StateLayout((1, 1))
+    g = np.empty(sw.N_SWITCHES + lay.n_states)
+    y = np.zeros(lay.n_states)
+    y[lay.index("m_cyl")] = 1e-3
     for depth, force in ((0.5 * delta, False), (0.01 * delta, True)):
         assert sw.force_decides(depth, 0.0, p, o, k) == force
-        y[P.S_XIN] = -depth
+        y[lay.index("inlet.x")] = -depth
         sw.switch_values(0.0, y, p, mode, g)
-        a_f = sw.free_accelerations(0.0, y, p, mode)[0]
-        assert g[0] == (-a_f * p[o + P.VALVE.moving_mass] / k if force else depth)
+        a_f = sw.free_accelerations(0.0, y, p, mode, np.empty(lay.n_states))[0]
+        assert g[SWITCH.inlet_seat] == (-a_f * p[o + VALVE.moving_mass] / k if force else depth)
     assert not sw.force_decides(0.01 * delta, 1.0, p, o, k)      # moving: the deflection decides

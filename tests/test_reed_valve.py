@@ -16,7 +16,8 @@ from lumped.layout import pack
 from lumped.mode_function import ReedProperties
 from lumped.model_file import load_model
 from lumped.orifice import discharge_coefficient, orifice_flow
-from lumped.pump import OFF_DEL, OFF_IN
+from lumped.layout import OFF_DEL, OFF_IN
+from lumped.valve import ValveInputs
 from lumped.reed_valve import REED
 from lumped.valve import displacement_area, valve_flow
 from studies.tables.thesis import thesis_values
@@ -33,7 +34,8 @@ def load_reed_valve(position):
 
 def acc(x, u, dp, p, o, contact, rho=876.0):
     """eq 3.21 through the kind's common acceleration signature (no flow arguments used)."""
-    return rv.reed_acceleration(x, u, dp, 0.0, 0.0, rho, 0.0683, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, p, o, contact, 1)
+    f = ValveInputs(dp, 0.0, 0.0, rho, 0.0683, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    return rv.reed_acceleration(x, u, f, p, o, contact, 1)
 
 T313 = thesis_values()["table_3_13"]
 T310 = thesis_values()["table_3_10"]

@@ -22,7 +22,7 @@ from lumped import disc_valve as dv
 from lumped.disc_valve import DISC, film_force
 from lumped.layout import pack
 from lumped.model_file import load_model
-from lumped.pump import OFF_IN
+from lumped.layout import OFF_IN
 
 RI, RO = 5.24e-3, 7.5e-3           # the thesis disc's film annulus (Table 2.3)
 MU = 0.0683                         # Pa s

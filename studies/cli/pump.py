@@ -7,6 +7,8 @@ import csv
 from geometry.declare import spec_of
 from geometry.errors import InputError
 from lumped.model import LOAD_MPA, SPEED
+from lumped.model_file import kind_default_model
+from lumped.valve import kind_names
 from lumped.oil import Oil
 from studies.cli import flags
 
@@ -20,10 +22,10 @@ MAX_REVOLUTIONS = 100_000
 
 def configure(p):
     p.add_argument("--model", default=None, metavar="NAME|FILE",
-                   help="pump model: a shipped one (thesis-disc, thesis-reed) or a model TOML file "
-                        "(default: thesis-<--valve>)")
-    p.add_argument("--valve", default=None, choices=("disc", "reed"),
-                   help="check valve type of the thesis pump (thesis-disc or thesis-reed) when no --model")
+                   help="pump model: a shipped one (thesis-disc, thesis-reed, thesis-ball, ...) or a model TOML file "
+                        "(default: the shipped model of --valve)")
+    p.add_argument("--valve", default=None, choices=kind_names(),
+                   help="valve kind: the shipped model of that kind (thesis-<kind>) when no --model")
     p.add_argument("--speed-rpm", type=flags.number("rpm", SPEED.bounds), default=None, help="crank speed [rpm] (default: the model's)")
     p.add_argument("--load-pressure-mpa", type=flags.number("MPa", LOAD_MPA.bounds), default=None,
                    help="(mean) load pressure [MPa, absolute] (default: the model's)")
@@ -58,8 +60,8 @@ def model_for(args, field: str = "--model"):
     from lumped.model_file import load_model, with_values
 
     if args.model is None and args.valve is None:
-        raise InputError("--model", "give a model (--model thesis-disc, thesis-reed or a model file) or --valve")
-    model = load_model(args.model if args.model is not None else f"thesis-{args.valve}", field=field)
+        raise InputError("--model", "give a model (--model thesis-disc, thesis-reed, thesis-ball or a model file) or --valve")
+    model = load_model(args.model if args.model is not None else kind_default_model(args.valve), field=field)
     if args.valve is not None and args.model is not None and set(model.kinds) != {args.valve}:
         raise InputError("--valve", f"the model {model.name!r} has {model.label} valves, not {args.valve}")
     values = {}

@@ -9,6 +9,7 @@ from geometry import validate
 from geometry.errors import InputError
 from lumped.effects import Applied
 from lumped.model import LOAD_MPA, SPEED
+from lumped.valve import kind_names
 from studies.cli import flags
 from studies.cli.pump import AIR_BOUNDS
 from studies.discrepancy.measured import MEASURED_VALVES
@@ -20,8 +21,8 @@ HELP = "write a synthetic measured dataset from the model with chosen effects hi
 
 def configure(p):
     p.add_argument("out", help="dataset folder to write (refused if it holds files valvelab did not write)")
-    p.add_argument("--valve", default=None, choices=("disc", "reed"), help="disc (default) or reed: the thesis model of that valve type "
-                                                  "when no --model")
+    p.add_argument("--valve", default=None, choices=kind_names(), help="valve kind (default disc): the shipped model of "
+                                                                      "that kind when no --model")
     p.add_argument("--effect", action="append", default=[], metavar="NAME[@TARGET][:PARAM=VALUE,...]",
                    help="effect to hide, e.g. seat_compliance@delivery:k_seat=1.5e6 (repeatable; parameters "
                         "default to the effect's prior; TARGET inlet/delivery for one-valve effects)")
@@ -115,10 +116,10 @@ def run(args) -> dict:
     names = [a.name for a in truth]
     if len(set(names)) != len(names):
         raise InputError("--effect", "each effect at most once")
-    if not args.condition and valve_type not in ("disc", "reed"):
-        raise InputError("--condition", f"the thesis ran no {valve_type} pump: give the operating conditions")
     conds = ([parse_condition(c, args.air_content) for c in args.condition] if args.condition
-             else thesis_conditions(valve_type, args.air_content))
+             else thesis_conditions(sim.context if sim.context is not None else valve_type, args.air_content))
+    if not conds:
+        raise InputError("--condition", f"the thesis ran no pump like {sim.name!r}: give the operating conditions")
     for c in conds:                                         # the trace size, before any simulation
         validate.size(args.revolutions * 60.0 / c.speed_rpm * args.sample_rate_hz, "--revolutions",
                       limit=MAX_SAMPLES_PER_RUN, unit="samples per run", bytes_each=80.0,

@@ -27,7 +27,6 @@ from lumped.trace import Trace
 
 from studies.outputs import check_new_file, prepare_output_dir
 
-VALVE_TYPES = ("disc", "reed")   # plus mixed kinds "<inlet kind>/<delivery kind>" (a model's label)
 MEASURED_VALVES = ("inlet", "delivery", "both")
 POSITION_COLUMNS = {"inlet": "inlet_position_m", "delivery": "delivery_position_m"}
 REQUIRED_RUN_KEYS = ("valve_type", "speed_rpm", "load_pressure_pa")

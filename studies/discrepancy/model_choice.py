@@ -17,6 +17,8 @@ from pathlib import Path
 from typing import Callable
 
 from geometry.errors import InputError
+from lumped.model_file import kind_default_model
+from lumped.valve import KINDS
 
 
 @dataclass
@@ -43,7 +45,7 @@ def _module(name: str, field: str) -> Simulator:
 def _is_model(name: str) -> bool:
     from lumped.model_file import SHIPPED
 
-    return name in SHIPPED or name in ("disc", "reed") or Path(name).is_file()
+    return name in SHIPPED or name in KINDS or Path(name).is_file()
 
 
 def choose(model: str | None = None, simulator: str | None = None, runs: list | None = None,
@@ -75,7 +77,7 @@ def choose(model: str | None = None, simulator: str | None = None, runs: list | 
                                                 "one model (or pass --model)")
     if model is None:
         vt = valve_type or (runs[0].valve_type if runs else "disc")
-        model = f"thesis-{vt}" if vt in ("disc", "reed") else None
+        model = kind_default_model(vt) if vt in KINDS else None
         if model is None:
             raise InputError("--model", f"runs of {vt!r} valves need a model file (--model)")
     pm = load_model(model, field="--model")

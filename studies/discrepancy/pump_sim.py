@@ -45,7 +45,6 @@ ATTEMPTS = ({"method": "fast", "max_steps": 200_000}, {"method": "fast", "rtol":
 #: cost of 112 units, which a 6 um leak "explained"; here within 0.1 %, held out 0.3-1.0 units).
 #: ~600 steps per revolution (2x the default); a film 16x eq 2.15's sticks and creeps (44-58k steps
 #: per revolution), so the step budget sends such corners on to ATTEMPTS after ~0.5 s
-SMOOTH_EFFECTS = ("squeeze_film", "added_mass")
 SMOOTH = {"method": "fast", "rtol": 1e-5, "atol": 1e-7, "max_steps": 20_000}
 
 
@@ -95,9 +94,9 @@ class PumpSimulator:
 
 
 def _needs_smooth(model: PumpModel) -> bool:
-    """Whether ``model`` is simulated at SMOOTH first: an effect of SMOOTH_EFFECTS applied, or a valve
-    that carries a squeeze film of its own (lumped.disc_valve: C2 > 0, effects applied)."""
-    if any(a.name in SMOOTH_EFFECTS for a in model.effects):
+    """Whether ``model`` is simulated at SMOOTH first: an effect declared ``tight_tolerance`` applied, or a
+    valve that carries a squeeze film of its own (lumped.disc_valve: C2 > 0, effects applied)."""
+    if any(LIBRARY[a.name].tight_tolerance for a in model.effects):
         return True
     m = resolve(model)
     return any(getattr(m.valve(v), "squeeze_c2", 0.0) > 0.0 for v in ("inlet", "delivery"))

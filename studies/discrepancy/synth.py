@@ -129,7 +129,18 @@ def write_synthetic(folder, runs: list[Run], truth: dict, force: bool = False):
     return folder
 
 
-def thesis_conditions(valve_type: str, air: float | None) -> list[Condition]:
-    """The six measured runs of the thesis for a valve type (Tables 5.3-5.6): speed, load, measured valve."""
+def thesis_conditions(model, air: float | None) -> list[Condition]:
+    """The six measured runs of the thesis (Tables 5.3-5.6) of the rig a model is: speed, load, measured valve.
+
+    ``model``: a pump model (its pump is compared with the thesis rigs' pumps: the disc rig of Table 5.4,
+    whose pump thesis-ball shares, or the reed rig of Table 5.6) or a thesis valve type ("disc", "reed").
+    Empty when the model is no thesis rig.
+    """
+    from lumped.model_file import load_model
+
+    if isinstance(model, str):
+        rig = model
+    else:
+        rig = next((t for t in ("disc", "reed") if load_model(f"thesis-{t}").pump == model.pump), None)
     return [Condition(c["speed_rpm"], c["load_pressure"], c["measured_valve"], air)
-            for c in experiments() if c["valve"] == valve_type]
+            for c in experiments() if c["valve"] == rig]

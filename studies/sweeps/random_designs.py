@@ -1,45 +1,82 @@
-"""Random pump designs around the thesis's: the draws the fast path is checked on.
+"""Random pump designs drawn from the valve-kind registry: the population the fast path is checked on.
 
-Used by tests/test_pump_fast.py (fast vs reference on random designs) and
-benchmarks/pump_tolerance_study.py, so both judge the fast path on the same population.
-Valve "disc", "reed" or "mixed" (a disc inlet with a reed delivery valve).
+Used by tests/test_pump_fast.py and tests/test_jacobian.py (fast vs reference, the Jacobian on
+random designs), the conformance check of a kind (``lumped.conformance``) and
+benchmarks/pump_tolerance_study.py, so all judge the fast path on the same population.
+A design names its valves: a kind ("disc", "reed", "ball", ... every registered one: the
+shipped model of that kind) or "<inlet kind>/<delivery kind>" (a mixed pump: the shipped pump
+with those valves); "mixed" is "disc/reed". Each kind declares the ranges its designs are
+drawn from (``lumped.valve.ValveKind.design_ranges``).
 """
 
 from __future__ import annotations
 
-from lumped.model import PumpModel
-from lumped.model_file import load_model, with_values
+import math
 
-VALVES = ("disc", "reed", "mixed")
+from lumped.model import PumpModel
+from lumped.model_file import kind_default_model, load_model, parse_model, with_values
+from lumped.valve import KINDS
+
+POSITIONS = ("inlet", "delivery")
+
+
+def valve_designs() -> tuple[str, ...]:
+    """Every design name: each registered kind, and each ordered pair of two kinds (mixed pumps)."""
+    kinds = tuple(KINDS)
+    return kinds + tuple(f"{a}/{b}" for a in kinds for b in kinds if a != b)
+
+
+#: the designs the tests draw (every kind, and the classic mixed pump)
+VALVES = tuple(KINDS) + ("mixed",)
+
+
+def _draw(rng, lo: float, hi: float) -> float:
+    """Uniform in [lo, hi], log-uniform when the range spans more than a decade."""
+    if lo > 0 and hi / lo > 10:
+        return 10.0 ** rng.uniform(math.log10(lo), math.log10(hi))
+    return rng.uniform(lo, hi)
+
+
+def _applies(key: str, pos: str | None) -> tuple[bool, str]:
+    """Whether a design-range key applies to a kind placed at ``pos`` (None: at both), and its model path."""
+    parts = key.split(".")
+    named = [p for p in parts if p in POSITIONS]
+    if named and pos is not None and named[0] != pos:
+        return False, ""
+    if named and pos is None:
+        pos = named[0]
+    if parts[0] in ("effects", "valves", "pump", "oil", "circuit"):
+        return True, key
+    rest = ".".join(p for p in parts if p not in POSITIONS)
+    return True, f"valves.{pos}.{rest}" if pos is not None else f"valves.{rest}"
 
 
 def random_design(rng, valve: str) -> tuple[float, float, float, PumpModel]:
-    """(speed [rpm], load pressure [Pa], air content [-], model): operating point, air, the disc
-    delivery seat stiffness (O-ring compliance, critical damping of eq 2.23), spring and displacement
-    factors f1/f2, or the reed's kappa and f1/f2, drawn uniformly (the seat log-uniformly)."""
+    """(speed [rpm], load pressure [Pa], air content [-], model): the operating point and air drawn
+    uniformly, then each valve kind's design ranges (``ValveKind.design_ranges``; a key naming a
+    position applies only to a valve of that kind there)."""
     speed = rng.uniform(450, 950)
     load = rng.uniform(1.5e6, 4.5e6)
     air = rng.uniform(0.0, 0.03)
-    if valve == "disc":
-        model = load_model("thesis-disc")
-        values = {"effects.seat_compliance.delivery.k_seat": 10 ** rng.uniform(5.5, 7.0),
-                  "valves.delivery.flow.f1": rng.uniform(0.6, 1.0), "valves.delivery.flow.f2": rng.uniform(0.6, 1.0),
-                  "valves.inlet.spring.stiffness": rng.uniform(150, 300)}
-    elif valve == "reed":
-        model = load_model("thesis-reed")
-        f1, f2 = rng.uniform(0.1, 0.4), rng.uniform(0.2, 0.5)
-        values = {"valves.structure.stiffness": rng.uniform(5e6, 1e7), "valves.flow.f1": f1, "valves.flow.f2": f2}
+    valve = "disc/reed" if valve == "mixed" else valve
+    if valve in KINDS:
+        model = load_model(kind_default_model(valve))
+        placed = [(KINDS[valve], None)]
     else:
-        model = mixed_model()
-        values = {"valves.inlet.spring.stiffness": rng.uniform(150, 300),
-                  "valves.delivery.structure.stiffness": rng.uniform(5e6, 1e7),
-                  "valves.delivery.flow.f1": rng.uniform(0.1, 0.4), "valves.delivery.flow.f2": rng.uniform(0.2, 0.5)}
+        a, b = valve.split("/")
+        model = mixed_model(a, b)
+        placed = [(KINDS[a], "inlet"), (KINDS[b], "delivery")]
+    values = {}
+    for kind, pos in placed:
+        for key, (lo, hi) in kind.design_ranges.items():
+            ok, path = _applies(key, pos)
+            if ok:
+                values[path] = _draw(rng, lo, hi)
     return speed, load, air, with_values(model, values)
 
 
-def mixed_model() -> PumpModel:
-    """The thesis pump with a disc inlet valve and the prototype reed as the delivery valve."""
-    from lumped.model_file import parse_model
-
-    return parse_model({"name": "mixed-disc-reed", "valves": {"inlet": {"kind": "disc"},
-                                                            "delivery": {"kind": "reed"}}})
+def mixed_model(inlet: str = "disc", delivery: str = "reed") -> PumpModel:
+    """The thesis pump (thesis-disc's pump and oil) with an ``inlet`` kind inlet valve and a ``delivery``
+    kind delivery valve (each with its kind's shipped defaults)."""
+    return parse_model({"name": f"mixed-{inlet}-{delivery}", "valves": {"inlet": {"kind": inlet},
+                                                                         "delivery": {"kind": delivery}}})
