@@ -28,7 +28,26 @@ def output_kind(folder: str | Path) -> str | None:
     except OSError:
         return None
     head = text.split(";", 1)[0].split()
-    return head[3] if len(head) == 4 and " ".join(head[:3]) == _MARKER_HEAD else None
+    if len(head) == 4 and " ".join(head[:3]) == _MARKER_HEAD:
+        return head[3]
+    return _guess_kind(Path(folder))
+
+
+#: a file or folder that only one kind of output holds: what an old marker (naming no kind) is taken for
+_SIGNATURES = ((".sweep-digest", "sweep"), ("truth.toml", "dataset"), ("run.toml", "run"), ("ranking.csv", "report"),
+               ("summary.json", "validate"))
+
+
+def _guess_kind(folder: Path) -> str | None:
+    """The kind of an output folder marked before markers named it (None when nothing tells)."""
+    stamp = folder / ".design-digest"
+    if stamp.is_file():
+        words = stamp.read_text().split()
+        return words[1] if len(words) > 1 else None
+    for name, kind in _SIGNATURES:
+        if (folder / name).exists():
+            return kind
+    return None
 
 
 def _resolved(p) -> Path:
