@@ -169,6 +169,8 @@ def parse_model(data: dict, source: str = "", base_dir: Path | None = None, name
     for k in data:
         if k not in TOP_KEYS:
             raise InputError(k, f"unknown section or key; expected some of {', '.join(TOP_KEYS)}")
+        if isinstance(data[k], dict):       # "spring.stiffness" and spring.stiffness: one would be dropped
+            flatten(data[k], where=k)
     name = data.get("name", name)
     if not isinstance(name, str):
         raise InputError("name", f"expected a string, got {name!r}")

@@ -242,6 +242,8 @@ def _cases_two(tmp: Path, data: dict, cyc: str) -> list[tuple]:
     alias_sweep = tmp / "alias_sweep.toml"
     alias_sweep.write_text('[sweep]\nsampler = "grid"\n[factors.inlet.spring_stiffness]\nlow = 150.0\nhigh = 300.0\n'
                            'levels = 2\n[fixed]\nvalve = "disc"\n"valves.inlet.spring.stiffness" = 200.0\n')
+    dup_model = tmp / "dup_model.toml"
+    dup_model.write_text('base = "thesis-disc"\n[valves.inlet]\n"spring.stiffness" = 300.0\nspring.stiffness = 250.0\n')
     key = '"valves.inlet.spring.stiffness"'
     pump = ["pump", "--valve", "disc", "--speed-rpm", "593", "--load-pressure-mpa", "2.76"]
     chain = "a.toml -> b.toml -> a.toml"
@@ -288,6 +290,8 @@ def _cases_two(tmp: Path, data: dict, cyc: str) -> list[tuple]:
          ("factors.valves.inlet.spring.stiffness",), ()),
         ("sweep: a first-version name and its key path", ["sweep", str(alias_sweep)], "inlet.spring_stiffness",
          ("valves.inlet.spring.stiffness",), ()),
+        ("model file: a quoted and a dotted key", ["model", "check", str(dup_model), "--no-fea"],
+         'valves.inlet."spring.stiffness"', ("valves.inlet.spring.stiffness",), ()),
         # outputs colliding with each other, with an input or with earlier output
         ("pump --trace and --plot one file", pump + ["--trace", "x.csv", "--plot", "x.csv"], "--plot", ("--trace",),
          ()),
@@ -311,7 +315,7 @@ def _cases_two(tmp: Path, data: dict, cyc: str) -> list[tuple]:
     ]
 
 
-N_CASES_TWO = 26
+N_CASES_TWO = 27
 
 
 def test_the_second_round_has_its_cases(tmp_path, dataset, cycle_dataset):
