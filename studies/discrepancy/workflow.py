@@ -558,26 +558,30 @@ class Workflow:
         self.nuisance_effects = self._nuisance_effects()
 
     def _coarsened(self, run: Run) -> Run:
-        """``run`` with its trace averaged over blocks of k consecutive samples when it holds more than
-        MAX_TRACE_SAMPLES (the search's cost grows with the samples; a block of k samples at 10 kHz or more
-        spans well under a crank degree), with a note saying so."""
+        """``run`` with its trace folded onto one revolution and averaged over blocks of k samples adjacent in
+        crank angle when it holds more than MAX_TRACE_SAMPLES (the search's cost grows with the samples; each
+        block then spans about 360 / MAX_TRACE_SAMPLES crank degrees, whatever the revolutions), with a note."""
         tr = run.trace
         n = 0 if tr is None else len(tr.time)
         if n <= MAX_TRACE_SAMPLES:
             return run
         k = math.ceil(n / MAX_TRACE_SAMPLES)
         m = n // k
+        period = 60.0 / run.speed_rpm
+        t = np.mod(np.asarray(tr.time, float), period)       # the search folds the trace anyway
+        t[t > period * (1.0 - 1e-9)] = 0.0                   # a rounding short of a whole revolution is TDC
+        order = np.argsort(t, kind="stable")[: m * k]
 
         def block(a):
-            return np.asarray(a, float)[: m * k].reshape(m, k).mean(axis=1)
+            return np.asarray(a, float)[order].reshape(m, k).mean(axis=1)
 
-        deg = 360.0 * (k * (tr.time[1] - tr.time[0])) * run.speed_rpm / 60.0
-        note = (f"{run.name}: {n:,} trace samples would make each round of the search take minutes "
-                f"(about {n * SECONDS_PER_SAMPLE_ROUND:.0f} s); averaged over blocks of {k} consecutive samples "
-                f"({deg:.3g} crank deg) to {m:,} (at most {MAX_TRACE_SAMPLES:,} per run)")
+        note = (f"{run.name}: {n:,} trace samples (about {n * SECONDS_PER_SAMPLE_ROUND:.0f} s per round of the "
+                f"search besides the simulations); folded onto one revolution and averaged over blocks of {k} "
+                f"samples adjacent in crank angle to {m:,} (at most {MAX_TRACE_SAMPLES:,} per run; "
+                f"{360.0 / m:.2g} crank deg each)")
         self.notes.append(note)
         self._log(note)
-        return replace(run, trace=type(tr)(block(tr.time), tr.speed_rpm, {key: block(v) for key, v in tr.signals.items()}))
+        return replace(run, trace=type(tr)(block(t), tr.speed_rpm, {key: block(v) for key, v in tr.signals.items()}))
 
     def _nuisance_effects(self) -> dict:
         """name -> (the nuisance effect with its parameters bounded to prior x (1 -+ nuisance_range), target).
