@@ -155,18 +155,41 @@ def check_field(obj_or_cls, name: str, value, where: str):
 
 
 # --------------------------------------------------------------------------- tables
-def flatten(table: dict, prefix: str = "", leaf_keys: frozenset | set | None = None) -> dict:
+def flatten(table: dict, prefix: str = "", leaf_keys: frozenset | set | None = None,
+            where: str | None = None) -> dict:
     """Nested TOML tables to dotted keys: {"spring": {"stiffness": 1}} -> {"spring.stiffness": 1}.
 
     With ``leaf_keys``, a table holding any of them (or empty) is a value, not a namespace:
     ``[factors.inlet.f1] low = 0.5`` stays ``{"inlet.f1": {"low": 0.5}}``.
+
+    With ``where`` (the table's name in messages), one key spelt twice, as a quoted dotted
+    name and as nested keys or tables (``"a.b" = 1`` and ``a.b = 2``), is an InputError naming
+    both spellings instead of one value silently replacing the other.
+
+    >>> flatten({"a.b": 1, "a": {"b": 2}}, where="variables")
+    Traceback (most recent call last):
+    ...
+    geometry.errors.InputError: variables."a.b": is the same key as variables.a.b (a quoted dotted name and nested keys); keep one
     """
-    out = {}
-    for k, v in table.items():
-        if isinstance(v, dict) and (leaf_keys is None or (v and not set(v) & set(leaf_keys))):
-            out.update(flatten(v, f"{prefix}{k}.", leaf_keys))
-        else:
-            out[f"{prefix}{k}"] = v
+    out: dict = {}
+    spelt: dict = {}
+
+    def walk(t: dict, parts: tuple):
+        for k, v in t.items():
+            here = parts + (str(k),)
+            if isinstance(v, dict) and (leaf_keys is None or (v and not set(v) & set(leaf_keys))):
+                walk(v, here)
+                continue
+            key = prefix + ".".join(here)
+            spelling = ".".join(f'"{p}"' if "." in p else p for p in here)
+            if where is not None and key in spelt:
+                first, second = sorted((spelt[key], spelling), key=lambda x: -x.count('"'))
+                raise InputError(f"{where}.{first}", f"is the same key as {where}.{second} (a quoted dotted name "
+                                                     "and nested keys); keep one")
+            spelt[key] = spelling
+            out[key] = v
+
+    walk(table, ())
     return out
 
 

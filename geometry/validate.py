@@ -37,6 +37,8 @@ from __future__ import annotations
 
 import difflib
 import math
+import os
+import re
 import tomllib
 from pathlib import Path
 
@@ -112,6 +114,24 @@ def number(value, where: str, *, unit: str = "-", bounds=None, positive: bool = 
     return value
 
 
+def boolean(value, where: str) -> bool:
+    """``value`` if it is True or False (a numpy bool too), else InputError: 1, "yes" or None are not switches."""
+    if isinstance(value, bool) or type(value).__name__ == "bool_":
+        return bool(value)
+    raise InputError(where, f"expected True or False, got {value!r}")
+
+
+def path(value, where: str) -> Path:
+    """``value`` (a str or os.PathLike) as a Path; InputError for another type or an empty name."""
+    if not isinstance(value, (str, os.PathLike)):
+        raise InputError(where, f"expected a file or folder path (str or pathlib.Path), got {type(value).__name__} "
+                                f"{value!r}")
+    text = os.fspath(value)
+    if not isinstance(text, str) or not text.strip() or "\x00" in text:
+        raise InputError(where, f"expected a file or folder name, got {text!r}")
+    return Path(text)
+
+
 def closest(value, options, cutoff: float = 0.6) -> str | None:
     """The option closest to a misspelt ``value`` (difflib ratio at least ``cutoff``), or None."""
     near = difflib.get_close_matches(str(value), tuple(options), n=1, cutoff=cutoff)
@@ -166,6 +186,33 @@ def columns(header, where: str, *, required=(), allowed=None) -> list[str]:
         if n not in seen:
             raise InputError(f"{where}, {n}", "missing column")
     return names
+
+
+#: a dask scheduler address: [scheme://]host:port (host a name, an IPv4 address or a bracketed IPv6 one)
+_ADDRESS = re.compile(r"(?:(tcp|tls|ws|wss|ucx)://)?(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9](?:[A-Za-z0-9.-]*[A-Za-z0-9])?)"
+                      r":([0-9]{1,5})")
+
+
+def address(value, where: str) -> str:
+    """A scheduler address ``host:port`` or ``tcp://host:port`` (also tls, ws, wss, ucx); else InputError.
+
+    >>> address("tcp://10.0.0.5:8786", "--scheduler")
+    'tcp://10.0.0.5:8786'
+    >>> address("localhost", "--scheduler")
+    Traceback (most recent call last):
+    ...
+    geometry.errors.InputError: --scheduler: expected a scheduler address host:port or tcp://host:port, got 'localhost' (no port)
+    """
+    expected = "expected a scheduler address host:port or tcp://host:port"
+    if not isinstance(value, str):
+        raise InputError(where, f"{expected}, got {value!r}")
+    m = _ADDRESS.fullmatch(value.strip())
+    if m is None:
+        why = " (no port)" if ":" not in value.split("://")[-1] else ""
+        raise InputError(where, f"{expected}, got {value!r}{why}")
+    if not 1 <= int(m.group(3)) <= 65535:
+        raise InputError(where, f"{expected} with a port from 1 to 65535, got {value!r}")
+    return value.strip()
 
 
 def read_text(path, where: str, *, max_bytes: int = MAX_TEXT_BYTES) -> str:

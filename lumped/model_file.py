@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import copy
 import math
+import threading
 import tomllib
 from dataclasses import replace
 from functools import lru_cache
@@ -88,6 +89,10 @@ def load_model(spec, field: str = "--model") -> PumpModel:
     """
     if isinstance(spec, PumpModel):
         return spec
+    if not isinstance(spec, (str, Path)) or not str(spec).strip():
+        raise InputError("spec" if field == "--model" else field,
+                         f"expected a shipped model name ({', '.join(SHIPPED)}), a model file path or a PumpModel, "
+                         f"got {spec!r}")
     name = str(spec)
     if name in KINDS and name not in SHIPPED:
         name = kind_default_model(name)        # a kind's name stands for its shipped model
@@ -97,7 +102,20 @@ def load_model(spec, field: str = "--model") -> PumpModel:
     if not path.is_file():
         raise InputError(field, f"{name!r}: no such model; expected a shipped model ({', '.join(SHIPPED)}) "
                                 f"or a model TOML file")
-    return _load_file(str(path.resolve()), path.stat().st_mtime_ns, field)
+    resolved = str(path.resolve())
+    loading = _LOADING.__dict__.setdefault("files", [])
+    if resolved in loading:      # a base chain that comes back to a file being read: a cycle, not a recursion
+        chain = [Path(f).name for f in loading[loading.index(resolved):]] + [path.name]
+        raise InputError("base", f"the model files name each other as base in a cycle: {' -> '.join(chain)}")
+    loading.append(resolved)
+    try:
+        return _load_file(resolved, path.stat().st_mtime_ns, field)
+    finally:
+        loading.pop()
+
+
+#: per thread, the model files being read (outermost first), to refuse a ``base`` cycle
+_LOADING = threading.local()
 
 
 @lru_cache(maxsize=64)
@@ -151,6 +169,8 @@ def parse_model(data: dict, source: str = "", base_dir: Path | None = None, name
     for k in data:
         if k not in TOP_KEYS:
             raise InputError(k, f"unknown section or key; expected some of {', '.join(TOP_KEYS)}")
+        if isinstance(data[k], dict):       # "spring.stiffness" and spring.stiffness: one would be dropped
+            flatten(data[k], where=k)
     name = data.get("name", name)
     if not isinstance(name, str):
         raise InputError("name", f"expected a string, got {name!r}")
@@ -457,6 +477,10 @@ def with_values(model: PumpModel, values: dict, field_prefix: str = "") -> PumpM
     ...
     geometry.errors.InputError: pump.dead_volum: unknown key (did you mean dead_volume?); expected one of ...
     """
+    if not isinstance(model, PumpModel):
+        raise InputError("model", f"expected a PumpModel (lumped.load_model(...)), got {type(model).__name__}")
+    if not isinstance(values, dict):
+        raise InputError("values", f"expected a dict {{key path: value}}, got {type(values).__name__}")
     if not values:
         return model
     table = model_table(model)

@@ -46,19 +46,20 @@ def names() -> list[str]:
 def reed_model(fidelity: str, field: str = "--fidelity") -> Callable:
     """The ``reed_properties`` function of a fidelity; InputError naming ``field`` if unknown."""
     _load_plugins()
-    if fidelity not in FIDELITIES:
+    if not isinstance(fidelity, str) or fidelity not in FIDELITIES:
         raise InputError(field, f"expected one of {', '.join(names())}, got {fidelity!r}")
     return FIDELITIES[fidelity]
 
 
-def reed_properties(reed, fidelity: str = "analytic", mesh_size=None, field: str = "--fidelity"):
+def reed_properties(reed, fidelity: str = "analytic", mesh_size=None, field: str = "fidelity"):
     """kappa, gamma1..3, h_eff, omega_n of ``reed`` by ``fidelity`` (a ReedProperties); the reed is
     checked first as a reed file would be (geometry.reed_io.check_reed).
 
     Parameters
     ----------
-    reed : geometry.Reed
-        The reed (``geometry.load_reed`` of a preset or a reed file).
+    reed : geometry.Reed, str or Path
+        The reed, or a preset name (``uniform``, ``stepped1``, ``stepped2``, ``prototype``) or reed
+        file that ``geometry.load_reed`` reads.
     fidelity : str
         ``analytic`` (exact Euler-Bernoulli) or a registered FEA fidelity (``beam``, ``plate``, ``solid``).
     mesh_size : float, optional
@@ -81,6 +82,16 @@ def reed_properties(reed, fidelity: str = "analytic", mesh_size=None, field: str
     >>> print(f"{p.omega_n:.0f} rad/s")      # Table 3.3: exact E-B 3046 rad/s
     3046 rad/s
     """
-    from geometry.reed_io import check_reed
+    import os
 
+    from geometry import validate
+    from geometry.reed import Reed
+    from geometry.reed_io import check_reed, load_reed
+
+    if isinstance(reed, (str, os.PathLike)):
+        reed = load_reed(reed)
+    if not isinstance(reed, Reed):
+        raise InputError("reed", f"expected a geometry.Reed, a preset name or a reed TOML file, got {reed!r}")
+    if mesh_size is not None:
+        mesh_size = validate.number(mesh_size, "mesh_size", unit="m", positive=True)
     return reed_model(fidelity, field)(check_reed(reed), mesh_size=mesh_size)

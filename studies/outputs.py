@@ -16,6 +16,57 @@ from pathlib import Path
 from geometry.errors import InputError
 
 MARKER = ".valvelab-output"
+#: the marker's first words, then the kind of output (``written by valvelab sweep; ...``)
+_MARKER_HEAD = "written by valvelab"
+
+
+def output_kind(folder: str | Path) -> str | None:
+    """The kind of valvelab output a folder holds (``sweep``, ``dataset``, ...), from its marker; None if it has
+    no marker or an old one that does not say."""
+    try:
+        text = (Path(folder) / MARKER).read_text()
+    except OSError:
+        return None
+    head = text.split(";", 1)[0].split()
+    if len(head) == 4 and " ".join(head[:3]) == _MARKER_HEAD:
+        return head[3]
+    return _guess_kind(Path(folder))
+
+
+#: a file or folder that only one kind of output holds: what an old marker (naming no kind) is taken for
+_SIGNATURES = ((".sweep-digest", "sweep"), ("truth.toml", "dataset"), ("run.toml", "run"), ("ranking.csv", "report"),
+               ("summary.json", "validate"))
+
+
+def _guess_kind(folder: Path) -> str | None:
+    """The kind of an output folder marked before markers named it (None when nothing tells)."""
+    stamp = folder / ".design-digest"
+    if stamp.is_file():
+        words = stamp.read_text().split()
+        return words[1] if len(words) > 1 else None
+    for name, kind in _SIGNATURES:
+        if (folder / name).exists():
+            return kind
+    return None
+
+
+def _resolved(p) -> Path:
+    return Path(p).expanduser().resolve()
+
+
+def check_distinct(outputs: dict, inputs: dict | None = None) -> None:
+    """InputError when two outputs of one command are the same path ({flag: path}), or an output is one of
+    the command's input files ({name: path}): one would replace or mix with the other. None paths are skipped."""
+    outs = [(f, _resolved(p)) for f, p in outputs.items() if p is not None and str(p).strip()]
+    ins = [(n, _resolved(p)) for n, p in (inputs or {}).items() if p is not None and str(p).strip()
+           and Path(p).exists()]
+    for i, (f1, p1) in enumerate(outs):
+        for f2, p2 in outs[i + 1:]:
+            if p1 == p2:
+                raise InputError(f2, f"is the same path as {f1} ({p2}); give each output its own path")
+        for n, q in ins:
+            if p1 == q:
+                raise InputError(f1, f"is the input {n} ({q}); an input is never replaced: choose another path")
 
 
 def _probe(folder: Path) -> str | None:
@@ -44,6 +95,22 @@ def finite_or_none(x) -> float | None:
     return x if math.isfinite(x) else None
 
 
+def check_inputs_outside(folder, field: str, inputs: dict, own: tuple[str, ...] = ()) -> None:
+    """InputError when an input file ({name: path}) lies in the output ``folder`` (its results would mix with
+    the command's inputs, or replace them); ``own``: file names in ``folder`` that a rerun reads back (the
+    study's own spec copy) and may stay there."""
+    o = _resolved(folder)
+    for name, p in inputs.items():
+        if p is None or not str(p).strip() or not Path(p).is_file():
+            continue
+        q = _resolved(p)
+        if q.parent == o and q.name in own:
+            continue
+        if o in q.parents:
+            raise InputError(field, f"{folder} holds the input {name} ({p}); the outputs would mix with it: "
+                                    "choose another folder (or move the input out)")
+
+
 def check_new_file(path: str | Path, field: str, force: bool = False, writable: bool = True) -> Path:
     """``path`` as a Path, after checking it may be written: its folder exists and is writable, it is
     not a folder, and no user file is there (unless ``force``). Call it before any computation."""
@@ -66,8 +133,11 @@ def check_new_file(path: str | Path, field: str, force: bool = False, writable: 
     return p
 
 
-def check_output_dir(path: str | Path, field: str, force: bool = False) -> Path:
-    """``path`` as a Path after checking a valvelab output folder may go there (nothing created yet)."""
+def check_output_dir(path: str | Path, field: str, force: bool = False, kind: str | None = None) -> Path:
+    """``path`` as a Path after checking a valvelab output folder may go there (nothing created yet).
+
+    ``kind`` (``sweep``, ``dataset``, ...): a folder holding valvelab output of another kind is refused
+    unless ``force`` (a sweep written into a dataset would mix with it)."""
     if not str(path).strip():
         raise InputError(field, "expected a folder name, got an empty one")
     p = Path(path)
@@ -78,6 +148,10 @@ def check_output_dir(path: str | Path, field: str, force: bool = False) -> Path:
             raise InputError(
                 field, f"{p} is a non-empty folder valvelab did not create; choose another (or pass --force)"
             )
+        other = output_kind(p)
+        if kind is not None and other is not None and other != kind and not force:
+            raise InputError(field, f"{p} holds valvelab {other} output; choose another folder for the {kind} "
+                                    "(or pass --force)")
         why = _probe(p)
         if why is not None:
             raise InputError(field, f"{p} cannot be written ({why})")
@@ -93,14 +167,16 @@ def check_output_dir(path: str | Path, field: str, force: bool = False) -> Path:
     return p
 
 
-def prepare_output_dir(path: str | Path, field: str, force: bool = False) -> Path:
-    """Create (or reuse) a valvelab output folder; refuse a non-empty folder valvelab did not make."""
-    p = check_output_dir(path, field, force)
+def prepare_output_dir(path: str | Path, field: str, force: bool = False, kind: str | None = None) -> Path:
+    """Create (or reuse) a valvelab output folder; refuse a non-empty folder valvelab did not make (or one of
+    another ``kind``, see :func:`check_output_dir`). The marker names the kind."""
+    p = check_output_dir(path, field, force, kind)
     try:
         p.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise InputError(field, f"{p} cannot be created ({exc.strerror})") from None
-    (p / MARKER).write_text("written by valvelab; files here may be replaced by the next run\n")
+    what = f"{_MARKER_HEAD} {kind}" if kind else _MARKER_HEAD
+    (p / MARKER).write_text(f"{what}; files here may be replaced by the next run\n")
     return p
 
 

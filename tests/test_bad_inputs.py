@@ -1,4 +1,9 @@
-"""The 41 bad inputs of issue 14, each refused with exit 2 and one line naming the field.
+"""Bad inputs, each refused with exit 2 and one line naming the field: the 41 first cases, then the
+second round's classes (model-file base cycles, scheduler addresses, negative numbers in exponent
+form, misspelt LTS keys, the argument given named, nothing written before a spec is valid, one key
+spelt twice, outputs colliding with each other, with inputs or with earlier output), then the
+Python API's entry points (InputError naming the argument, before any work) and the size limits
+of the discrepancy workflow and the resumed sweep's JSON.
 
 Every case runs the command line in this process (``studies.cli.main``), from a scratch
 folder, and asserts: exit status 2, exactly one line on stderr, the field named in it,
@@ -178,3 +183,338 @@ def test_refused_with_the_field_named(index, tmp_path, dataset, capsys, monkeypa
     # refused before any computation: no pump run, FEA or sweep
     assert elapsed < 20, f"{name}: took {elapsed:.1f} s"
     assert {p for p in tmp_path.rglob("*")} == before, f"{name} wrote files"
+
+
+# --------------------------------------------------------------------------- second round
+SENS = """model = "{model}"
+[operating]
+speed_rpm = [593.0]
+load_pressure_mpa = [2.76]
+[variables]
+{variables}
+[run]
+outputs = ["{output}"]
+objectives = ["max delivery_cc_per_rev"]
+samples = 4
+"""
+
+
+def _spec(path: Path, model="thesis-disc", variables='"oil.air_content" = [0.005, 0.02]',
+          output="delivery_cc_per_rev") -> str:
+    path.write_text(SENS.format(model=model, variables=variables, output=output))
+    return str(path)
+
+
+@pytest.fixture(scope="module")
+def cycle_dataset(dataset, tmp_path_factory):
+    """The synthetic run with run.toml naming a model file whose base chain comes back to it."""
+    base = tmp_path_factory.mktemp("cyc")
+    shutil.copytree(dataset["ds"], base / "cyc")
+    r = next((base / "cyc").glob("run*"))
+    (r / "run.toml").write_text((r / "run.toml").read_text() + 'model = "a.toml"\n')
+    (r / "a.toml").write_text('base = "b.toml"\n')
+    (r / "b.toml").write_text('base = "a.toml"\n')
+    return str(base / "cyc")
+
+
+def _cases_two(tmp: Path, data: dict, cyc: str) -> list[tuple]:
+    """(name, argv, the field named, strings the line must also hold, strings it must not hold)."""
+    (tmp / "self.toml").write_text('base = "self.toml"\n')
+    (tmp / "a.toml").write_text('base = "b.toml"\n')
+    (tmp / "b.toml").write_text('base = "a.toml"\n')
+    (tmp / "model.toml").write_text('base = "thesis-disc"\n')
+    (tmp / "volts.csv").write_text("volts\n1.0\n2.0\n")
+    (tmp / "lts.toml").write_text("[lts]\nair_gap = 90.67e-3\nwindow_thicknes = 12.14e-3\n")
+    (tmp / "reed.toml").write_text(UNIFORM)
+    (tmp / "sw2").mkdir()
+    (tmp / "sw2" / ".valvelab-output").write_text("written by valvelab sweep; files here may be replaced\n")
+    (tmp / "sw2" / "results.parquet").write_bytes(b"PAR1 the sweep's results")
+    (tmp / "specs").mkdir()
+    spec_in_folder = _sweep(tmp / "specs" / "s.toml", "load_pressure = 2.76e6\n")
+    ok = _sweep(tmp / "ok.toml", "load_pressure = 2.76e6\n")
+    cycle_sweep = tmp / "cyc_sweep.toml"
+    cycle_sweep.write_text('[sweep]\nmodel = "a.toml"\nsampler = "grid"\n[factors.speed_rpm]\nlow = 450.0\n'
+                           'high = 950.0\nlevels = 2\n')
+    dup_sweep = tmp / "dup_sweep.toml"
+    dup_sweep.write_text('[sweep]\nsampler = "grid"\n[factors."valves.inlet.spring.stiffness"]\nlow = 150.0\n'
+                         'high = 300.0\nlevels = 2\n[factors.valves.inlet.spring.stiffness]\nlow = 100.0\n'
+                         'high = 300.0\nlevels = 2\n[fixed]\nvalve = "disc"\n')
+    alias_sweep = tmp / "alias_sweep.toml"
+    alias_sweep.write_text('[sweep]\nsampler = "grid"\n[factors.inlet.spring_stiffness]\nlow = 150.0\nhigh = 300.0\n'
+                           'levels = 2\n[fixed]\nvalve = "disc"\n"valves.inlet.spring.stiffness" = 200.0\n')
+    dup_model = tmp / "dup_model.toml"
+    dup_model.write_text('base = "thesis-disc"\n[valves.inlet]\n"spring.stiffness" = 300.0\nspring.stiffness = 250.0\n')
+    key = '"valves.inlet.spring.stiffness"'
+    pump = ["pump", "--valve", "disc", "--speed-rpm", "593", "--load-pressure-mpa", "2.76"]
+    chain = "a.toml -> b.toml -> a.toml"
+    return [
+        # a model file's base naming itself or coming back through another file
+        ("base names its own file", ["model", "check", str(tmp / "self.toml"), "--no-fea"], "base",
+         ("self.toml -> self.toml",), ()),
+        ("two files naming each other", ["pump", "--model", str(tmp / "a.toml"), "--speed-rpm", "593",
+                                         "--load-pressure-mpa", "2.76"], "base", (chain,), ()),
+        ("base cycle through run.toml's model", ["discrepancy", cyc, "--no-report"], "base", (chain,), ()),
+        ("base cycle through a sweep spec's model", ["sweep", str(cycle_sweep), "--out", str(tmp / "s1")], "base",
+         (chain,), ()),
+        ("base cycle through a sensitivity spec's model", ["sensitivity", _spec(tmp / "c.toml", model="a.toml"),
+                                                            "--out", str(tmp / "s2")], "base", (chain,), ()),
+        # scheduler addresses
+        ("sweep --scheduler notanaddress", ["sweep", ok, "--scheduler", "notanaddress"], "--scheduler",
+         ("host:port",), ()),
+        ("sensitivity --scheduler notanaddress", ["sensitivity", _spec(tmp / "s.toml"), "--scheduler", "notanaddress"],
+         "--scheduler", ("host:port",), ()),
+        ("optimize --scheduler localhost", ["optimize", _spec(tmp / "o.toml"), "--scheduler", "localhost"],
+         "--scheduler", ("tcp://host:port", "no port"), ()),
+        # negative numbers in exponent form reach the range check
+        ("reed --mesh-size -1e-4", ["reed", "prototype", "--fidelity", "solid", "--mesh-size", "-1e-4"], "--mesh-size",
+         ("expected a number", "-0.0001"), ("expected one argument",)),
+        ("pump --speed-rpm -5.93e2", ["pump", "--valve", "disc", "--speed-rpm", "-5.93e2"], "--speed-rpm",
+         ("expected a number", "-593"), ("expected one argument",)),
+        # the unknown key and its closest match; the argument actually given
+        ("lts setup window_thicknes", ["lts", str(tmp / "lts.toml")], "lts.window_thicknes",
+         ("did you mean window_thickness",), ("missing",)),
+        ("sweep-plot on a missing folder", ["sweep-plot", str(tmp / "nowhere")], "nowhere", (), ("--output",)),
+        # refused by validation: nothing written in --out (the harness checks)
+        ("sensitivity of the reed stress on disc valves", ["sensitivity", _spec(tmp / "r.toml",
+                                                           output="reed_stress_mpa"), "--out", str(tmp / "s3")],
+         "run.outputs", ("reed",), ()),
+        # one variable spelt twice
+        ("sensitivity: a quoted and a dotted key", ["sensitivity", _spec(
+            tmp / "d1.toml", variables=f"{key} = [150.0, 300.0]\nvalves.inlet.spring.stiffness = [100.0, 300.0]")],
+         f"variables.{key}", ("variables.valves.inlet.spring.stiffness",), ()),
+        ("optimize: a key and a table", ["optimize", _spec(
+            tmp / "d2.toml", variables=f"{key} = [150.0, 300.0]\n[variables.valves.inlet.spring.stiffness]\n"
+                                       "low = 100.0\nhigh = 300.0")],
+         f"variables.{key}", ("variables.valves.inlet.spring.stiffness",), ()),
+        ("sweep: a quoted and a dotted factor", ["sweep", str(dup_sweep)], f"factors.{key}",
+         ("factors.valves.inlet.spring.stiffness",), ()),
+        ("sweep: a first-version name and its key path", ["sweep", str(alias_sweep)], "inlet.spring_stiffness",
+         ("valves.inlet.spring.stiffness",), ()),
+        ("model file: a quoted and a dotted key", ["model", "check", str(dup_model), "--no-fea"],
+         'valves.inlet."spring.stiffness"', ("valves.inlet.spring.stiffness",), ()),
+        # outputs colliding with each other, with an input or with earlier output
+        ("pump --trace and --plot one file", pump + ["--trace", "x.csv", "--plot", "x.csv"], "--plot", ("--trace",),
+         ()),
+        ("pump --trace over its --model", pump[:1] + ["--model", str(tmp / "model.toml"), "--speed-rpm", "593",
+                                                      "--trace", str(tmp / "model.toml"), "--force"],
+         "--trace", ("--model",), ()),
+        ("lts --out and --plot one file", ["lts", "disc_inlet", "--voltages", str(tmp / "volts.csv"), "--out", "p.png",
+                                           "--plot", "p.png"], "--out", ("--plot",), ()),
+        ("reed --plot over its geometry", ["reed", str(tmp / "reed.toml"), "--plot", str(tmp / "reed.toml"), "--force"],
+         "--plot", ("GEOMETRY",), ()),
+        ("synth into the dataset it wrote", ["synth", data["ds"], "--condition", "593:2.76", "--revolutions", "2"],
+         "OUT", ("already holds", "--force"), ()),
+        ("discrepancy --report into its dataset", ["discrepancy", data["ds"], "--report", data["ds"]], "--report",
+         ("DATASET",), ()),
+        ("sweep --out into a dataset", ["sweep", ok, "--out", data["ds"]], "--out", ("dataset",), ()),
+        ("sweep --out into its spec's folder", ["sweep", spec_in_folder, "--out", str(tmp / "specs"), "--force"],
+         "--out", ("SPEC",), ()),
+        ("sweep-plot --output over the sweep's results", ["sweep-plot", str(tmp / "sw2"), "--output",
+                                                          str(tmp / "sw2" / "results.parquet")], "--output",
+         ("already exists",), ()),
+    ]
+
+
+N_CASES_TWO = 27
+
+
+def test_the_second_round_has_its_cases(tmp_path, dataset, cycle_dataset):
+    assert len(_cases_two(tmp_path, dataset, cycle_dataset)) == N_CASES_TWO
+
+
+@pytest.mark.parametrize("index", range(N_CASES_TWO))
+def test_second_round_refused_with_the_field_named(index, tmp_path, dataset, cycle_dataset, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    name, argv, field, also, absent = _cases_two(tmp_path, dataset, cycle_dataset)[index]
+    before = {p: p.stat().st_mtime_ns for p in tmp_path.rglob("*")}
+    before_data = {p: p.stat().st_mtime_ns for p in Path(dataset["ds"]).rglob("*")}
+    capsys.readouterr()
+    t0 = time.perf_counter()
+    try:
+        code = main(argv)
+    except SystemExit as exc:
+        code = exc.code
+    elapsed = time.perf_counter() - t0
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert code == 2, f"{name}: exit {code}, stderr {err!r}"
+    assert len(lines) == 1, f"{name}: {lines}"
+    assert "Traceback" not in err and "RecursionError" not in err
+    assert field in lines[0], f"{name}: {lines[0]!r} does not name {field}"
+    for s in also:
+        assert s in lines[0], f"{name}: {lines[0]!r} lacks {s!r}"
+    for s in absent:
+        assert s not in lines[0], f"{name}: {lines[0]!r} holds {s!r}"
+    assert elapsed < 20, f"{name}: took {elapsed:.1f} s"
+    # nothing written, nothing replaced (the user's files and the earlier dataset alike)
+    assert {p: p.stat().st_mtime_ns for p in tmp_path.rglob("*")} == before, f"{name} wrote files"
+    assert {p: p.stat().st_mtime_ns for p in Path(dataset["ds"]).rglob("*")} == before_data, f"{name} changed ds"
+
+
+# --------------------------------------------------------------------------- the Python API
+def _api_cases(tmp: Path, data: dict) -> list[tuple]:
+    """(name, call, the argument the InputError must name): every public entry point refuses bad types
+    and values before any work."""
+    from geometry.errors import InputError  # noqa: F401
+    from lumped import load_model, reed_properties, with_values
+    from studies.discrepancy import Settings, Workflow, read_dataset, synthesize
+    from studies.discrepancy.pump_sim import LIBRARY, simulate
+    from studies.discrepancy.synth import Condition, Noise
+    from studies.sweeps import load_spec, run_sweep
+    from studies.sweeps.design import spec as design_spec
+    from studies.sweeps.design.optimize import run_optimize
+    from studies.sweeps.design.sensitivity import run_sensitivity
+
+    (tmp / "a.toml").write_text('base = "b.toml"\n')
+    (tmp / "b.toml").write_text('base = "a.toml"\n')
+    sweep_spec = load_spec(_sweep(tmp / "ok.toml", "load_pressure = 2.76e6\n"))
+    sens = design_spec.load_spec(_spec(tmp / "sens.toml"), "sensitivity")
+    opt = design_spec.load_spec(_spec(tmp / "opt.toml"), "optimize")
+    runs = read_dataset(data["ds"])
+    cond = [Condition(593.0, 2.76e6)]
+    return [
+        ("Settings(workers=-1)", lambda: Settings(workers=-1), "workers"),
+        ("Settings(max_rounds=-2)", lambda: Settings(max_rounds=-2), "max_rounds"),
+        ("Settings(min_rel_improvement=nan)", lambda: Settings(min_rel_improvement=float("nan")),
+         "min_rel_improvement"),
+        ("Settings(max_rounds='3')", lambda: Settings(max_rounds="3"), "max_rounds"),
+        ("Settings(holdout='run1')", lambda: Settings(holdout="run1"), "holdout"),
+        ("Settings(scale_bounds reversed)", lambda: Settings(scale_bounds=(1.05, 0.95)), "scale_bounds"),
+        ("Settings(min_abs_improvement=inf)", lambda: Settings(min_abs_improvement=float("inf")),
+         "min_abs_improvement"),
+        ("Workflow(runs, sim, None)", lambda: Workflow(runs, simulate, None), "library"),
+        ("Workflow(runs, None, LIBRARY)", lambda: Workflow(runs, None, LIBRARY), "simulator"),
+        ("Workflow(runs, sim, LIBRARY, settings={})", lambda: Workflow(runs, simulate, LIBRARY, {}), "settings"),
+        ("Workflow(42, ...)", lambda: Workflow(42, simulate, LIBRARY), "runs"),
+        ("Workflow(a missing folder, ...)", lambda: Workflow(str(tmp / "nowhere"), simulate, LIBRARY), "nowhere"),
+        ("reed_properties(42)", lambda: reed_properties(42), "reed"),
+        ("reed_properties('prototype', 'fancy')", lambda: reed_properties("prototype", "fancy"), "fidelity"),
+        ("reed_properties('prototype', mesh_size=-1)", lambda: reed_properties("prototype", mesh_size=-1.0),
+         "mesh_size"),
+        ("load_model(None)", lambda: load_model(None), "spec"),
+        ("load_model(a base cycle)", lambda: load_model(tmp / "a.toml"), "base"),
+        ("with_values(model, [...])", lambda: with_values(load_model("thesis-disc"), ["pump.dead_volume"]), "values"),
+        ("run_sweep(out=None)", lambda: run_sweep(sweep_spec, None), "out"),
+        ("run_sweep(scheduler='localhost')", lambda: run_sweep(sweep_spec, tmp / "o", scheduler="localhost"),
+         "scheduler"),
+        ("run_sweep(n_workers=0)", lambda: run_sweep(sweep_spec, tmp / "o", n_workers=0), "n_workers"),
+        ("run_sweep(force='yes')", lambda: run_sweep(sweep_spec, tmp / "o", force="yes"), "force"),
+        ("run_sweep(fmt='xlsx')", lambda: run_sweep(sweep_spec, tmp / "o", fmt="xlsx"), "fmt"),
+        ("run_sweep(a dict spec)", lambda: run_sweep({"sweep": {}}, tmp / "o"), "spec"),
+        ("sweeps.load_spec(None)", lambda: load_spec(None), "path"),
+        ("design load_spec(command='optimise')", lambda: design_spec.load_spec(tmp / "sens.toml", "optimise"),
+         "command"),
+        ("run_sensitivity(an optimize spec)", lambda: run_sensitivity(opt, tmp / "o"), "spec"),
+        ("run_sensitivity(workers=0)", lambda: run_sensitivity(sens, tmp / "o", workers=0), "workers"),
+        ("run_optimize(scheduler='localhost')", lambda: run_optimize(opt, tmp / "o", scheduler="localhost"),
+         "scheduler"),
+        ("run_optimize(progress=None)", lambda: run_optimize(opt, tmp / "o", progress=None), "progress"),
+        ("synthesize(simulator=None)", lambda: synthesize(None, "disc", cond), "simulator"),
+        ("synthesize(load in MPa)", lambda: synthesize(simulate, "disc", [Condition(593.0, 2.76)]),
+         "conditions[0].load_pressure_pa"),
+        ("synthesize(seed=-1)", lambda: synthesize(simulate, "disc", cond, seed=-1), "seed"),
+        ("synthesize(1e9 samples)", lambda: synthesize(simulate, "disc", cond,
+                                                       noise=Noise(sample_rate_hz=1e7, revolutions=1000)),
+         "noise.revolutions"),
+        ("read_dataset(None)", lambda: read_dataset(None), "path"),
+    ]
+
+
+N_API = 35
+
+
+def test_the_api_cases(tmp_path, dataset):
+    assert len(_api_cases(tmp_path, dataset)) == N_API
+
+
+@pytest.mark.parametrize("index", range(N_API))
+def test_python_api_refuses_naming_the_argument(index, tmp_path, dataset, monkeypatch):
+    from geometry.errors import InputError
+
+    monkeypatch.chdir(tmp_path)
+    name, call, field = _api_cases(tmp_path, dataset)[index]
+    before = {p for p in tmp_path.rglob("*")}
+    t0 = time.perf_counter()
+    with pytest.raises(InputError) as exc:
+        call()
+    assert field in exc.value.field or field in str(exc.value), f"{name}: {exc.value} does not name {field}"
+    assert time.perf_counter() - t0 < 20, f"{name}: refused only after work"
+    assert {p for p in tmp_path.rglob("*")} == before, f"{name} wrote files"
+
+
+def test_python_api_accepts_what_it_documents(dataset):
+    """A preset name for reed_properties, a dataset folder for Workflow: the same as the objects."""
+    from geometry import load_reed
+    from lumped import reed_properties
+    from studies.discrepancy import Settings, Workflow, read_dataset
+    from studies.discrepancy.pump_sim import LIBRARY, simulate
+
+    by_name = reed_properties("prototype", "analytic")
+    by_object = reed_properties(load_reed("prototype"), "analytic")
+    for q in ("omega_n", "kappa", "gamma1", "gamma2", "gamma3", "h_eff"):
+        assert getattr(by_name, q) == getattr(by_object, q), q
+    # Table 3.13 / section 3.8.1: the prototype reed's analytic kappa is within 6 % of the thesis's 6.353e6 Pa/m
+    assert by_name.kappa == pytest.approx(6.353e6, rel=0.06)
+    wf = Workflow(dataset["ds"], simulate, LIBRARY, Settings(max_rounds=0))
+    assert [r.name for r in wf.runs] == [r.name for r in read_dataset(dataset["ds"])]
+    # Settings keeps what it was given, normalised (a list of names becomes a tuple)
+    assert Settings(holdout=["run01"], workers=2.0).holdout == ("run01",)
+
+
+def test_a_long_trace_is_averaged_down_with_a_note(capsys):
+    """Long traces of known signals are averaged to at most MAX_TRACE_SAMPLES before any simulation, each
+    block's mean at its mean crank angle, and a note plus a line on stderr say so: one revolution of a ramp
+    in 1,000,000 samples (a linear signal's block mean is its value at the block's centre), and 100
+    revolutions of a sine in 1,000 samples each (blocks gather the revolutions' samples at one crank angle,
+    so they stay exact; blocks of consecutive samples would span 3.6 deg and miss by ~1e-4 relative)."""
+    import numpy as np
+
+    from studies.discrepancy import Workflow
+    from studies.discrepancy.measured import Run, Trace
+    from studies.discrepancy.pump_sim import LIBRARY
+    from studies.discrepancy.workflow import MAX_TRACE_SAMPLES
+
+    def run_of(t, x, rpm):
+        return Run(name="long", valve_type="disc", speed_rpm=rpm, load_pressure_pa=2.76e6, measured_valve="delivery",
+                   trace=Trace.measured(t, {"delivery": x}, None, None, rpm))
+
+    def never(cond, effects):
+        raise AssertionError("no simulation before the size is settled")
+
+    n, rpm, period = 1_000_000, 600.0, 0.1
+    t = np.arange(n) * (period / n)
+    t0 = time.perf_counter()
+    wf = Workflow([run_of(t, 1e-3 * t / period, rpm)], never, LIBRARY)
+    assert time.perf_counter() - t0 < 10
+    tr = wf.runs[0].trace
+    assert len(tr.time) <= MAX_TRACE_SAMPLES and len(tr.time) == n // 100
+    assert np.allclose(tr.positions["delivery"], 1e-3 * tr.time / period, rtol=0, atol=1e-15)
+    assert any("blocks of 100" in s for s in wf.notes)
+    assert "blocks of 100" in capsys.readouterr().err
+
+    per_rev, revs = 1000, 100
+    t = np.arange(per_rev * revs) * (period / per_rev)
+    theta = 2 * np.pi * t / period
+    wf = Workflow([run_of(t, 1e-3 * np.sin(theta), rpm)], never, LIBRARY)
+    tr = wf.runs[0].trace
+    assert len(tr.time) == per_rev * revs // 10 and np.all(tr.time < period) and np.all(np.diff(tr.time) >= 0)
+    assert np.max(np.abs(tr.positions["delivery"] - 1e-3 * np.sin(2 * np.pi * tr.time / period))) < 1e-12
+
+
+def test_a_study_with_nothing_computed_gives_way_to_the_corrected_spec(tmp_path):
+    """A refused or stopped study that computed nothing does not hold its folder against the corrected spec;
+    one that computed something does (unless --force)."""
+    from geometry.errors import InputError
+    from studies.sweeps.design import runner, spec as design_spec
+
+    first = design_spec.load_spec(_spec(tmp_path / "a.toml"), "sensitivity")
+    second = design_spec.load_spec(_spec(tmp_path / "b.toml", variables='"oil.air_content" = [0.005, 0.03]'),
+                                   "sensitivity")
+    assert first.digest != second.digest
+    out = tmp_path / "study"
+    runner.prepare_study(out, first, False, ("runs", "calibration"))
+    runner.prepare_study(out, second, False, ("runs", "calibration"))     # nothing computed: replaced
+    (out / "runs").mkdir()
+    with pytest.raises(InputError) as exc:
+        runner.prepare_study(out, first, False, ("runs", "calibration"))
+    assert exc.value.field == "--out" and "different" in exc.value.message

@@ -170,6 +170,9 @@ def test_grid_sweep_on_local_cluster_matches_the_formula(client, tmp_path):
     # rerun: everything is already there, nothing is recomputed
     again = sweep.run_sweep(spec, tmp_path / "run", client=client, progress=False)
     assert again["computed"] == 0 and again["skipped"] == 30 and again["complete"]
+    # the same keys as a run that computed (CONTRACT.md's list); no worker used and no rate to report
+    assert set(again) == set(s)
+    assert again["workers"] == 0 and again["designs_per_hour"] is None
 
     # main effects: x1's effect is 3 x1 (slope 3 over [0, 1]), x2's is x2^2, kind's is 10
     eff = sweep.main_effects(df, spec, ["y"])["y"]

@@ -19,6 +19,7 @@ import importlib
 import json
 import os
 import pkgutil
+import re
 import sys
 
 from geometry.errors import InputError
@@ -43,8 +44,17 @@ def _discover() -> dict[str, str]:
 COMMANDS: dict[str, str] = _discover()
 
 
+#: a negative number as users type it, exponent form and -inf/-nan included (argparse's own pattern knows only
+#: plain decimals, so ``--mesh-size -1e-4`` would be taken for a flag and refused as "expected one argument")
+NEGATIVE_NUMBER = re.compile(r"^-(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?$|^-(?:inf|infinity|nan)$", re.IGNORECASE)
+
+
 class _Parser(argparse.ArgumentParser):
-    """argparse with the contract's one-line error and exit status 2."""
+    """argparse with the contract's one-line error and exit status 2; negative numbers in any form are values."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = NEGATIVE_NUMBER
 
     def error(self, message: str):  # noqa: D102
         sys.stderr.write(f"{self.prog}: error: {message}\n")

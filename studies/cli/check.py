@@ -55,7 +55,7 @@ def run(args) -> dict:
     if args.out is not None:
         from studies.outputs import prepare_output_dir
 
-        out_dir = prepare_output_dir(args.out, "--out", args.force)
+        out_dir = prepare_output_dir(args.out, "--out", args.force, kind="check")
     check = multi_fidelity_check(reed, fids, args.tolerance_pct, args.mesh_size, progress=True, modes=n_modes)
     result = check_as_json(check)
     result["geometry"] = args.geometry

@@ -71,13 +71,19 @@ def run(args) -> dict:
     gain = args.min_gain_units
     if args.demo:
         args.dataset = args.dataset or "thesis_oring_demo"
-        check_output_dir(args.dataset, "DATASET", args.force)
+        check_output_dir(args.dataset, "DATASET", args.force, kind="dataset")
+        from studies.discrepancy.synth import check_rerun
+
+        check_rerun(args.dataset, "DATASET", args.force, {"--model": args.model})
     elif args.dataset is None:
         raise InputError("DATASET", "missing; give a dataset folder (or --demo)")
     report = None
     if not args.no_report:       # refuse an unusable report folder before minutes of search
         report = Path(args.report) if args.report else Path(f"{Path(args.dataset).resolve().name}_discrepancy")
-        check_output_dir(report, "--report", args.force)
+        if report.resolve() == Path(args.dataset).resolve():
+            raise InputError("--report", f"{report} is the dataset folder DATASET; the report would mix with its "
+                                         "runs: choose another folder")
+        check_output_dir(report, "--report", args.force, kind="report")
     if args.demo:
         demo_dataset(args.dataset, args.seed, args.workers, args.force)
     runs = read_dataset(args.dataset)

@@ -49,6 +49,19 @@ def integer(lo: int, hi: int):
     return number("-", (lo, hi), integer=True)
 
 
+def address():
+    """An argparse ``type``: a dask scheduler address (host:port or tcp://host:port)."""
+
+    def parse(s: str) -> str:
+        try:
+            return validate.address(s, "")
+        except InputError as exc:
+            raise argparse.ArgumentTypeError(exc.message) from None
+
+    parse.__name__ = "address"
+    return parse
+
+
 def text(max_len: int = 200):
     """An argparse ``type``: a non-empty string without control characters, at most ``max_len`` long."""
 

@@ -21,7 +21,7 @@ from geometry.declare import read_table, spec_of
 from geometry.errors import InputError
 from instruments import lts
 from studies.cli import flags
-from studies.outputs import check_new_file
+from studies.outputs import check_distinct, check_new_file
 
 HELP = "laser triangulation scale factor through air, PMMA and oil (section 5.3); voltage -> position"
 
@@ -84,10 +84,10 @@ def load_setup_file(path: Path, indices: str = "table_b_2") -> tuple[str, lts.Lt
     name = t.pop("name", path.stem)
     if not isinstance(name, str):
         raise InputError("lts.name", f"expected a string, got {name!r}")
+    vals = read_table(lts.LtsSetup, t, "lts")        # a misspelt key first: it names the key it meant
     for k in _REQUIRED:
         if k not in t:
             raise InputError(f"lts.{k}", "missing; expected a length in m")
-    vals = read_table(lts.LtsSetup, t, "lts")
     validate.keys(unc, _FIELDS, "lts.uncertainty")
     for k, v in unc.items():
         deltas[k] = validate.number(v, f"lts.uncertainty.{k}", unit=spec_of(lts.LtsSetup, k).unit, bounds=(0.0, 1.0))
@@ -230,6 +230,9 @@ def plot(path: Path, results: list[dict], setups: dict) -> None:
 
 def run(args) -> dict:
     x_max = None if args.x_max_mm is None else args.x_max_mm * 1e-3
+    out = (Path(args.out) if args.out else Path(args.voltages).with_name(Path(args.voltages).stem + "_position.csv")) \
+        if args.voltages else None
+    check_distinct({"--plot": args.plot, "--out": out}, {"--voltages": args.voltages, "SETUP": args.setup})
     plot_path = check_new_file(args.plot, "--plot", args.force) if args.plot else None
     out_path = _output_path(args) if args.voltages else None
     chosen = select_setups(args)

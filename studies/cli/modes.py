@@ -52,7 +52,7 @@ def run(args) -> dict:
 
         for reed in reeds:
             check_size(reed, args.mesh_size)
-    out = prepare_output_dir(args.out, "--out", args.force)
+    out = prepare_output_dir(args.out, "--out", args.force, kind="modes")
     files, modes = [], {}
     for g, reed in zip(args.geometries, reeds):
         print(f"modes: {args.fidelity} {reed.name} ({n} modes)", file=sys.stderr, flush=True)

@@ -102,9 +102,11 @@ def _check_args(args) -> None:
 
 def run(args) -> dict:
     from lumped.cycle import simulate
-    from studies.outputs import check_new_file
+    from studies.outputs import check_distinct, check_new_file
 
     _check_args(args)
+    check_distinct({"--trace": args.trace, "--plot": args.plot},
+                   {"--model": args.model, "--reed-geometry": args.reed_geometry})
     outputs = {}
     for flag, path in (("--trace", args.trace), ("--plot", args.plot)):
         if path is not None:                    # fail before the run, not after

@@ -35,9 +35,10 @@ def run(args) -> dict:
     reed = load_reed(args.geometry)
     plot = getattr(args, "plot", None)
     if plot is not None:  # refuse a bad or existing file before any computation
-        from studies.outputs import check_new_file
+        from studies.outputs import check_distinct, check_new_file
         from studies.plots import check_plot_suffix
 
+        check_distinct({"--plot": plot}, {"GEOMETRY": args.geometry})
         plot = check_new_file(check_plot_suffix(plot), "--plot", args.force)
     from fea.fidelities import get
 

@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 from geometry.errors import InputError
+from studies.cli import flags
 
 HELP = ("global sensitivity of pump outputs to model parameters: Sobol indices with bootstrap intervals or Morris "
         "screening (SALib), run on a dask cluster, resumable")
@@ -19,7 +20,7 @@ def configure(p):
 
 
 def add_cluster_flags(p):
-    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS", type=flags.address(),
                    help="dask scheduler address (e.g. tcp://host:8786); default: a local cluster")
     p.add_argument("--workers", type=int, default=None, help="local cluster worker processes (default: one per core)")
     p.add_argument("--batch-size", type=int, default=None, help="evaluations per dask task (default: automatic)")
@@ -43,6 +44,9 @@ def run_study(args, command: str, runner) -> dict:
     check_cluster_flags(args)
     spec = load_spec(args.spec, command, model_override=args.model)
     out = Path(args.out) if args.out else Path(f"{command}-{Path(args.spec).stem}")
+    from studies.outputs import check_inputs_outside
+
+    check_inputs_outside(out, "--out", {"SPEC": args.spec, "the model file": spec.model}, own=("spec.toml",))
     try:
         return runner(spec, out, scheduler=args.scheduler, workers=args.workers, batch_size=args.batch_size,
                       force=args.force, progress=not args.no_progress)

@@ -16,7 +16,7 @@ def configure(p):
     p.add_argument("spec", help="sweep TOML file (model, sampler, factors, fixed inputs)")
     p.add_argument("--out", default=None, help="sweep folder (default: sweep-<spec name>); rerun to resume")
     p.add_argument("--format", default="parquet", choices=sweep.FORMATS, help="results table format")
-    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS", type=flags.address(),
                    help="dask scheduler address (e.g. tcp://host:8786); default: a local cluster")
     p.add_argument("--workers", type=flags.integer(1, 1024), default=None, help="local cluster worker processes (default: one per core)")
     p.add_argument("--batch-size", type=flags.integer(1, 1_000_000), default=None, help="designs per dask task (default: automatic)")
@@ -33,6 +33,11 @@ def run(args) -> dict:
     if args.model is not None:
         spec = sweep.with_base_model(spec, args.model)
     out = Path(args.out) if args.out else Path(f"sweep-{Path(args.spec).stem}")
+    from studies.outputs import check_inputs_outside
+
+    model = spec.fixed_dict.get("model")
+    check_inputs_outside(out, "--out", {"SPEC": args.spec, "the model file": model if isinstance(model, str) else None},
+                         own=(sweep.SPEC_FILE,))
     if args.scheduler is not None and args.workers is not None:
         raise InputError("--workers", "applies to the local cluster only; the scheduler at --scheduler has its own")
     try:

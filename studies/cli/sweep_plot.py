@@ -21,11 +21,19 @@ def configure(p):
     p.add_argument("--force", action="store_true", help="replace an existing plot file")
 
 
-def main_effects_report(folder: Path, responses, png: Path, bins: int = 8, force: bool = False) -> dict:
-    """Main effects of the sweep in ``folder``, plotted to ``png``; the numbers as a dict."""
-    png = Path(png)           # the output first: refused before any work
-    ours = (png.parent / ".valvelab-output").exists() and not png.is_dir()   # a plot in a sweep folder
-    check_new_file(png, "--output", force or ours)
+def main_effects_report(folder: Path, responses, png: Path, bins: int = 8, force: bool = False,
+                        png_field: str = "--output") -> dict:
+    """Main effects of the sweep in ``folder``, plotted to ``png``; the numbers as a dict.
+
+    ``png_field`` names the plot path in messages (``--output``, or the folder when the plot goes there
+    by default)."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError(str(folder), "no such folder; expected a sweep folder written by valvelab sweep")
+    png = Path(png)           # the output next: refused before any work
+    # a plot in a valvelab folder may be replaced; its data (results, spec) never
+    ours = (png.parent / ".valvelab-output").exists() and not png.is_dir() and png.suffix.lower() == ".png"
+    check_new_file(png, png_field, force or ours)
     df, spec = sweep.read_results(folder)
     model = sweep.load_model(spec.model)
     numeric = [k for k, t in model.OUTPUTS.items() if t in ("float64", "int64")]
@@ -44,7 +52,8 @@ def main_effects_report(folder: Path, responses, png: Path, bins: int = 8, force
 def run(args) -> dict:
     folder = Path(args.folder)
     png = Path(args.output) if args.output else folder / "main_effects.png"
-    return {"folder": str(folder), **main_effects_report(folder, args.response, png, args.bins, args.force)}
+    field = "--output" if args.output else f"{folder} (its main_effects.png)"
+    return {"folder": str(folder), **main_effects_report(folder, args.response, png, args.bins, args.force, field)}
 
 
 def render(r: dict) -> str:

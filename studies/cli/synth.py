@@ -14,7 +14,8 @@ from studies.cli import flags
 from studies.cli.pump import AIR_BOUNDS
 from studies.discrepancy.measured import MEASURED_VALVES
 from studies.discrepancy.model_choice import choose
-from studies.discrepancy.synth import Condition, Noise, synthesize, thesis_conditions, write_synthetic
+from studies.discrepancy.synth import (MAX_SAMPLES_PER_RUN, Condition, Noise, check_rerun, synthesize,
+                                       thesis_conditions, write_synthetic)
 
 HELP = "write a synthetic measured dataset from the model with chosen effects hidden in it"
 
@@ -99,14 +100,11 @@ def parse_condition(spec: str, air: float | None) -> Condition:
     return Condition(rpm, mpa * 1e6, valve, air)
 
 
-#: samples one run may hold (a trace.csv of ~80 MB)
-MAX_SAMPLES_PER_RUN = 1_000_000
-
-
 def run(args) -> dict:
     from studies.outputs import check_output_dir
 
-    check_output_dir(args.out, "OUT", args.force)          # before any simulation
+    check_output_dir(args.out, "OUT", args.force, kind="dataset")          # before any simulation
+    check_rerun(args.out, "OUT", args.force, {"--model": args.model})
     if args.model is not None and args.valve is not None:
         raise InputError("--valve", "the valves come from --model; give one or the other")
     sim = choose(args.model, args.simulator, valve_type=args.valve or "disc")

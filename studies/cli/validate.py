@@ -42,7 +42,7 @@ def run(args) -> dict:
     jobs = V.default_jobs() if args.jobs is None else args.jobs
     if jobs < 1:
         raise InputError("--jobs", f"must be at least 1, got {jobs}")
-    out = prepare_output_dir(args.out, "--out", args.force)
+    out = prepare_output_dir(args.out, "--out", args.force, kind="validate")
     t_start = time.time()
     summary: dict = {"out": str(out), "quick": bool(args.quick), "steps": {}}
 

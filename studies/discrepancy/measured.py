@@ -341,7 +341,7 @@ def read_run(folder: str | Path) -> Run:
 
 def read_dataset(path: str | Path) -> list[Run]:
     """All runs of a dataset folder (or the one run of a run folder), sorted by folder name."""
-    path = Path(path)
+    path = validate.path(path, "path")
     if not path.exists():
         raise InputError(str(path), "no such folder; expected a dataset folder of run folders or a run folder")
     if not path.is_dir():
@@ -400,7 +400,7 @@ def trace_frame(run: Run) -> pd.DataFrame:
 
 def write_run(folder: str | Path, run: Run, force: bool = False) -> Path:
     """Write a run folder (run.toml, trace.csv if the run has a trace); never over a user's files."""
-    folder = prepare_output_dir(folder, str(folder), force=force)
+    folder = prepare_output_dir(folder, str(folder), force=force, kind="run")
     (folder / "run.toml").write_text(tomli_w.dumps(run_toml_dict(run)))
     if run.trace is not None:
         if run.measured_valve is None:
@@ -416,7 +416,7 @@ def write_dataset(folder: str | Path, runs: list[Run], force: bool = False) -> P
     names = [r.name for r in runs]
     if len(set(names)) != len(names):
         raise InputError(str(folder), "run names must be unique")
-    folder = prepare_output_dir(folder, str(folder), force=force)
+    folder = prepare_output_dir(folder, str(folder), force=force, kind="dataset")
     for r in runs:
         write_run(folder / r.name, r, force=True)
     return folder

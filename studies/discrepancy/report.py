@@ -130,7 +130,7 @@ def _bars(path: Path, outcome: Outcome):
 
 def write_report(folder, outcome: Outcome, runs, result: dict, force: bool = False) -> Path:
     """Write the report folder for a workflow outcome; returns its path."""
-    out = prepare_output_dir(folder, "--report", force=force)
+    out = prepare_output_dir(folder, "--report", force=force, kind="report")
     (out / "summary.json").write_text(json.dumps(result, indent=2, allow_nan=False) + "\n")
     df = _ranking_frame(outcome.ranking)
     df.to_csv(out / "ranking.csv", index=False)

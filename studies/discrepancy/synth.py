@@ -14,11 +14,14 @@ hidden from the workflow.
 
 from __future__ import annotations
 
+import shutil
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import tomli_w
 
+from geometry.errors import InputError
 from lumped.effects import Applied
 
 from studies.discrepancy.workflow import ModelFailure, RunCondition, Simulations
@@ -57,9 +60,60 @@ def run_name(i: int, c: Condition) -> str:
     return f"run{i + 1:02d}_{c.speed_rpm:.0f}rpm_{c.load_pressure_pa / 1e6:.2f}MPa_{c.measured_valve}"
 
 
+#: samples one run may hold (a trace.csv of ~80 MB)
+MAX_SAMPLES_PER_RUN = 1_000_000
+
+
+def check_synthesis(simulator, valve_type, conditions, truth, noise, seed, workers) -> None:
+    """InputError naming the first bad argument of :func:`synthesize` (types, ranges, the trace size)."""
+    from geometry import validate
+    from geometry.declare import check_value, spec_of
+    from lumped.model import SPEED, Operating
+    from studies.discrepancy.measured import MEASURED_VALVES
+
+    if not callable(simulator):
+        raise InputError("simulator", f"expected a callable (run condition, effects) -> CycleTrace, got {simulator!r}")
+    if not isinstance(valve_type, str) or not valve_type:
+        raise InputError("valve_type", f"expected a valve type such as 'disc' or 'reed', got {valve_type!r}")
+    if not isinstance(conditions, (list, tuple)) or not conditions:
+        raise InputError("conditions", f"expected a non-empty list of Condition, got {conditions!r}")
+    for i, c in enumerate(conditions):
+        where = f"conditions[{i}]"
+        if not isinstance(c, Condition):
+            raise InputError(where, f"expected a studies.discrepancy.synth.Condition, got {c!r}")
+        check_value(c.speed_rpm, SPEED, f"{where}.speed_rpm")
+        check_value(c.load_pressure_pa, spec_of(Operating, "load_pressure"), f"{where}.load_pressure_pa")
+        validate.choice(c.measured_valve, f"{where}.measured_valve", MEASURED_VALVES)
+        if c.air_content is not None:
+            validate.number(c.air_content, f"{where}.air_content", bounds=(0.0, 0.49))
+    if not isinstance(truth, (list, tuple)) or not all(isinstance(a, Applied) for a in truth):
+        raise InputError("truth", f"expected a tuple of lumped.effects.Applied, got {truth!r}")
+    if not isinstance(noise, Noise):
+        raise InputError("noise", f"expected a studies.discrepancy.synth.Noise, got {noise!r}")
+    for f in ("position_m", "pressure_pa", "delivery_frac"):
+        validate.number(getattr(noise, f), f"noise.{f}", bounds=(0.0, 1e9))
+    validate.number(noise.sample_rate_hz, "noise.sample_rate_hz", unit="Hz", bounds=(1e3, 1e7))
+    validate.number(noise.revolutions, "noise.revolutions", integer=True, bounds=(1, 1000))
+    if noise.time_offset_s is not None:
+        validate.number(noise.time_offset_s, "noise.time_offset_s", unit="s", bounds=(-5e-3, 5e-3))
+    if noise.scale_error is not None:
+        if not isinstance(noise.scale_error, (tuple, list)) or len(noise.scale_error) != 2:
+            raise InputError("noise.scale_error", f"expected (inlet, delivery), got {noise.scale_error!r}")
+        for i, x in enumerate(noise.scale_error):
+            validate.number(x, f"noise.scale_error[{i}]", bounds=(-0.2, 0.2))
+    validate.number(seed, "seed", integer=True, bounds=(0, 2**32 - 1))
+    validate.number(workers, "workers", integer=True, bounds=(1, 256))
+    for c in conditions:
+        validate.size(noise.revolutions * 60.0 / c.speed_rpm * noise.sample_rate_hz, "noise.revolutions",
+                      limit=MAX_SAMPLES_PER_RUN, unit="samples per run", bytes_each=80.0,
+                      how=f"at {c.speed_rpm:g} rpm lower the revolutions or the sample rate")
+
+
 def synthesize(simulator, valve_type: str, conditions: list[Condition], truth: tuple[Applied, ...] = (),
                noise: Noise = Noise(), seed: int = 0, workers: int = 1) -> tuple[list[Run], dict]:
-    """Runs (with traces and deliveries) the model gives with ``truth`` switched on, and the truth itself."""
+    """Runs (with traces and deliveries) the model gives with ``truth`` switched on, and the truth itself.
+    Every argument is checked first (:func:`check_synthesis`)."""
+    check_synthesis(simulator, valve_type, conditions, truth, noise, seed, workers)
     rng = np.random.default_rng(seed)
     if noise.scale_error is None:
         scale_err = {v: float(rng.uniform(-1, 1) * LTS_SCALE_UNCERTAINTY) for v in ("inlet", "delivery")}
@@ -120,8 +174,39 @@ def pressure_floor(simulator) -> float:
     return float(getattr(oil, "vapour_pressure", 0.0))
 
 
+def earlier_output(folder) -> list[Path]:
+    """What an earlier ``synth`` wrote in ``folder`` (a valvelab folder): its run folders, ``truth.toml`` and
+    ``model.toml``; [] for a new folder or a user's."""
+    from studies.outputs import MARKER
+
+    folder = Path(folder)
+    if not (folder / MARKER).is_file():
+        return []
+    runs = [p for p in sorted(folder.iterdir()) if p.is_dir() and (p / "run.toml").is_file() and (p / MARKER).is_file()]
+    return runs + [folder / n for n in ("truth.toml", "model.toml") if (folder / n).is_file()]
+
+
+def check_rerun(folder, field: str, force: bool, inputs: dict | None = None) -> None:
+    """InputError when ``folder`` holds an earlier synthetic dataset (new runs would mix with its runs and its
+    truth) unless ``force``, which replaces it; or when an input file ({flag: path}) lies in what is replaced."""
+    old = earlier_output(folder)
+    for flag, path in (inputs or {}).items():
+        if path is not None and Path(path).is_file() and any(
+                Path(path).resolve() == o.resolve() or o.resolve() in Path(path).resolve().parents for o in old):
+            raise InputError(flag, f"{path} is part of the dataset in {folder} that this run would replace; copy it "
+                                   "elsewhere first")
+    if old and not force:
+        n = sum(p.is_dir() for p in old)
+        raise InputError(field, f"{folder} already holds a synthetic dataset ({n} runs) valvelab wrote; choose "
+                                "another folder, or pass --force to replace it (new runs never mix with old ones)")
+
+
 def write_synthetic(folder, runs: list[Run], truth: dict, force: bool = False):
-    """Write a synthetic dataset: run folders plus the hidden ``truth.toml``."""
+    """Write a synthetic dataset: run folders plus the hidden ``truth.toml``. An earlier synthetic dataset in
+    ``folder`` is refused, or replaced with ``force`` (:func:`check_rerun`)."""
+    check_rerun(folder, str(folder), force)
+    for p in earlier_output(folder):
+        shutil.rmtree(p) if p.is_dir() else p.unlink()
     folder = write_dataset(folder, runs, force=force)
     (folder / "truth.toml").write_text(
         "# What synth hid in this dataset; the discrepancy workflow does not read this file.\n"

@@ -41,6 +41,7 @@ from scipy.optimize import least_squares, minimize_scalar
 from scipy.stats import qmc
 from tqdm import tqdm
 
+from geometry import validate
 from geometry.errors import InputError, ModelFailure  # noqa: F401  (ModelFailure re-exported)
 from lumped.effects import Applied, Effect, Library, Parameter
 from studies.discrepancy.gap import (
@@ -68,6 +69,24 @@ class RunCondition:
 
 #: a simulator: (run condition, applied effects) -> one revolution of cyclic steady state
 Simulator = Callable[[RunCondition, tuple], CycleTrace]
+
+
+#: most trace samples per run the search works on: longer traces are averaged down to this (Workflow._coarsened).
+#: One round costs about SECONDS_PER_SAMPLE_ROUND per sample on top of the simulations (measured: three runs
+#: of 1,000 vs 20,000 samples, one round, 6.0 vs 14.6 s on 2 workers)
+MAX_TRACE_SAMPLES = 10_000
+SECONDS_PER_SAMPLE_ROUND = 1.6e-4
+
+#: Settings fields that are integers: (lowest, highest)
+_SETTINGS_INTEGERS = {"n_grid": (2, 1000), "n_fine": (1, 1000), "brent_maxiter": (1, 10_000), "n_grid_box": (2, 100),
+                      "box_levels": (0, 50), "max_rounds": (0, 20), "workers": (1, 256), "polish_nfev": (1, 10_000)}
+#: Settings fields that are real numbers: (lowest, highest, must be positive); the command line's ranges
+_SETTINGS_NUMBERS = {"min_rel_improvement": (0.0, 0.999, True), "min_abs_improvement": (0.0, 1e6, True),
+                     "decisive_fit_improvement": (0.0, 0.999, False), "decisive_abs_improvement": (0.0, 1e6, False),
+                     "max_worse_units": (0.0, 1e6, False), "max_bic_increase": (-1e12, 1e12, False),
+                     "brent_xatol": (0.0, 0.5, True), "nuisance_range": (0.0, 0.9, True),
+                     "nuisance_step": (0.0, 1.0, True), "nuisance_prior_sd": (0.0, 10.0, True)}
+_SETTINGS_OPTIONAL = ("min_abs_improvement",)
 
 
 @dataclass(frozen=True)
@@ -125,6 +144,36 @@ class Settings:
                                        # function evaluations per parameter (Workflow.polish)
     nuisance_prior_sd: float = 0.05    # Gaussian prior, as a fraction of the prior value: the fit cost
                                        # gains ((value - prior) / (sd prior))^2 units (4 at the bound)
+
+    def __post_init__(self):
+        """Every field checked at construction (type, range, finite): InputError naming it, before any work."""
+        for name, (lo, hi) in _SETTINGS_INTEGERS.items():
+            object.__setattr__(self, name, validate.number(getattr(self, name), name, integer=True, bounds=(lo, hi)))
+        for name, (lo, hi, positive) in _SETTINGS_NUMBERS.items():
+            v = getattr(self, name)
+            if v is None and name in _SETTINGS_OPTIONAL:
+                continue
+            object.__setattr__(self, name, validate.number(v, name, bounds=(lo, hi), positive=positive))
+        if not isinstance(self.scales, GapScales):
+            raise InputError("scales", f"expected a studies.discrepancy.gap.GapScales, got {self.scales!r}")
+        for f in ("position_m", "delivery_frac", "pressure_pa"):
+            validate.number(getattr(self.scales, f), f"scales.{f}", positive=True)
+        for name, lo, hi in (("offset_bounds_s", -1.0, 1.0), ("scale_bounds", 0.0, 10.0)):
+            b = getattr(self, name)
+            if not isinstance(b, (tuple, list)) or len(b) != 2:
+                raise InputError(name, f"expected (low, high), got {b!r}")
+            b = tuple(validate.number(x, f"{name}[{i}]", bounds=(lo, hi), positive=lo == 0.0) for i, x in enumerate(b))
+            if not b[0] < b[1]:
+                raise InputError(name, f"expected low < high, got {b!r}")
+            object.__setattr__(self, name, b)
+        for name in ("holdout", "nuisance_effects"):
+            v = getattr(self, name)
+            if v is None and name == "holdout":
+                continue
+            if isinstance(v, str) or not isinstance(v, (tuple, list)) or \
+                    not all(isinstance(x, str) and x.strip() for x in v):
+                raise InputError(name, f"expected a tuple of names, got {v!r}")
+            object.__setattr__(self, name, tuple(v))
 
 
 @dataclass
@@ -464,26 +513,75 @@ class Workflow:
 
     def __init__(self, runs: list[Run], simulator: Simulator, library: Library, settings: Settings = Settings(),
                  progress: bool = True, context=None):
+        """``runs``: the measured runs, or a dataset folder (a path: read by
+        :func:`studies.discrepancy.measured.read_dataset`). Every argument is checked here, before any work
+        (InputError naming it); a trace longer than :data:`MAX_TRACE_SAMPLES` is averaged down to it (a note
+        and a line on stderr say so)."""
+        import os
+
+        from studies.discrepancy.measured import read_dataset
+
+        if isinstance(runs, (str, os.PathLike)):
+            runs = read_dataset(runs)
+        if not isinstance(runs, (list, tuple)) or not all(isinstance(r, Run) for r in runs):
+            raise InputError("runs", f"expected a list of studies.discrepancy.measured.Run or a dataset folder, "
+                                     f"got {type(runs).__name__}")
+        if not callable(simulator):
+            raise InputError("simulator", f"expected a callable (run condition, effects) -> CycleTrace, got "
+                                          f"{simulator!r}")
+        if not isinstance(library, Library):
+            raise InputError("library", f"expected a lumped.effects.Library (e.g. studies.discrepancy.pump_sim.LIBRARY),"
+                                        f" got {library!r}")
+        if not isinstance(settings, Settings):
+            raise InputError("settings", f"expected a studies.discrepancy.Settings, got {settings!r}")
+        validate.boolean(progress, "progress")
         if not runs:
             raise InputError("DATASET", "no runs")
         usable = [r for r in runs if r.trace is not None or r.delivery_cc_per_rev is not None]
         if not usable:
             raise InputError("DATASET", "no run has a trace.csv or a measured delivery_cc_per_rev to compare with")
+        self.notes: list[str] = []
+        self.progress = progress
+        usable = [self._coarsened(r) for r in usable]
         self.runs = usable
         self.valve_type = usable[0].valve_type
         # what effect priors are computed for: the pump model (its geometry, oil), or the valve type
         self.context = context if context is not None else self.valve_type
         self.library = library
         self.settings = settings
-        self.progress = progress
         self.folded = {r.name: fold(r) for r in usable if r.trace is not None}
         self.fit_runs, self.held_runs = split(usable, settings.holdout)
         self.conds = {r.name: RunCondition.of(r) for r in usable}
         self.sims = Simulations(simulator, settings.workers)
-        self.notes: list[str] = []
         self.last_failure: str | None = None
         self.last_jacobian: np.ndarray | None = None   # the nuisance Jacobian of the last profiled fit
         self.nuisance_effects = self._nuisance_effects()
+
+    def _coarsened(self, run: Run) -> Run:
+        """``run`` with its trace folded onto one revolution and averaged over blocks of k samples adjacent in
+        crank angle when it holds more than MAX_TRACE_SAMPLES (the search's cost grows with the samples; each
+        block then spans about 360 / MAX_TRACE_SAMPLES crank degrees, whatever the revolutions), with a note."""
+        tr = run.trace
+        n = 0 if tr is None else len(tr.time)
+        if n <= MAX_TRACE_SAMPLES:
+            return run
+        k = math.ceil(n / MAX_TRACE_SAMPLES)
+        m = n // k
+        period = 60.0 / run.speed_rpm
+        t = np.mod(np.asarray(tr.time, float), period)       # the search folds the trace anyway
+        t[t > period * (1.0 - 1e-9)] = 0.0                   # a rounding short of a whole revolution is TDC
+        order = np.argsort(t, kind="stable")[: m * k]
+
+        def block(a):
+            return np.asarray(a, float)[order].reshape(m, k).mean(axis=1)
+
+        note = (f"{run.name}: {n:,} trace samples (about {n * SECONDS_PER_SAMPLE_ROUND:.0f} s per round of the "
+                f"search besides the simulations); folded onto one revolution and averaged over blocks of {k} "
+                f"samples adjacent in crank angle to {m:,} (at most {MAX_TRACE_SAMPLES:,} per run; "
+                f"{360.0 / m:.2g} crank deg each)")
+        self.notes.append(note)
+        self._log(note)
+        return replace(run, trace=type(tr)(block(t), tr.speed_rpm, {key: block(v) for key, v in tr.signals.items()}))
 
     def _nuisance_effects(self) -> dict:
         """name -> (the nuisance effect with its parameters bounded to prior x (1 -+ nuisance_range), target).

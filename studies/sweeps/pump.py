@@ -170,6 +170,12 @@ def check_inputs(fixed: dict, factors: dict) -> None:
     if not bases:
         raise InputError("model", "missing: give the pump model (model = NAME|FILE, or valve = disc|reed) as a "
                                   "factor or in [fixed]")
+    seen: dict = {}
+    for name in [*fixed, *factors]:      # a first-version name and its key path: one input given twice
+        path = translate(name)
+        if path in seen and seen[path] != name:
+            raise InputError(name, f"is the same input as {seen[path]} (both name {path}); keep one")
+        seen[path] = name
     keys = {k: [v] for k, v in fixed.items() if k not in OPERATING}
     keys.update({k: list(v) for k, v in factors.items() if k not in OPERATING})
     base_values = {translate(k): v[0] for k, v in keys.items()}

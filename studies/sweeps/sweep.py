@@ -201,6 +201,9 @@ def _pump_model_name(model: str, base_dir: Path | None) -> str | None:
             p = base_dir / p
         if not p.is_file():
             raise InputError("sweep.model", f"{model!r}: no such model file")
+        from lumped.model_file import load_model as load_pump_model
+
+        load_pump_model(str(p), field="sweep.model")     # a bad file (a base cycle, a key) is named here
         return str(p.resolve())
     return None
 
@@ -246,11 +249,11 @@ def parse_spec(doc: dict, text: str = "", base_dir: Path | None = None) -> Sweep
     fdoc = doc.get("factors")
     if not isinstance(fdoc, dict) or not fdoc:
         raise InputError("factors", "need at least one [factors.NAME] table")
-    factors = tuple(_parse_factor(n, d, sampler) for n, d in flatten(fdoc, leaf_keys=_FACTOR_KEYS).items())
+    factors = tuple(_parse_factor(n, d, sampler) for n, d in flatten(fdoc, leaf_keys=_FACTOR_KEYS, where="factors").items())
     fixed_doc = doc.get("fixed", {})
     if not isinstance(fixed_doc, dict):
         raise InputError("fixed", "must be a table of name = value")
-    fixed_doc = flatten(fixed_doc)
+    fixed_doc = flatten(fixed_doc, where="fixed")
     fixed = tuple((k, _scalar(v, f"fixed.{k}")) for k, v in fixed_doc.items())
     pump_model = _pump_model_name(model, base_dir)
     if pump_model is not None:
@@ -290,7 +293,7 @@ def with_base_model(spec: SweepSpec, model: str) -> SweepSpec:
 
 def load_spec(path: str | Path) -> SweepSpec:
     """Read and check a sweep TOML file."""
-    p = Path(path)
+    p = validate.path(path, "path")
     if not p.exists():
         raise InputError(str(path), "sweep file not found")
     text = validate.read_text(p, str(path))
@@ -350,8 +353,9 @@ def check_spec(spec: SweepSpec, model) -> None:
 def _relabel(check, name, value, where):
     try:
         check(name, value)
-    except InputError as exc:
-        raise InputError(where, exc.message) from None
+    except InputError as exc:       # a field inside the value (a model file's key) stays named
+        inner = "" if exc.field in ("", name, where) else f"{exc.field}: "
+        raise InputError(where, inner + exc.message) from None
 
 
 # --------------------------------------------------------------------------- sampling
@@ -597,18 +601,19 @@ def _prepare_folder(out: Path, spec: SweepSpec, fmt: str, force: bool, digest: s
     stamp = out / ".sweep-digest"
     if out.exists() and (out / MARKER).exists() and stamp.is_file():
         old = stamp.read_text().split()
-        if old[0] != digest and not force:
+        computed = any((out / name).exists() for name in ("results.csv", "results.parquet", PARTS_DIR))
+        if old[0] != digest and not force and computed:   # nothing computed yet: the new spec replaces it
             raise InputError(
                 "--out", f"{out} holds a different sweep (its {SPEC_FILE} differs); choose another folder or --force"
             )
-        if len(old) > 1 and old[1] != fmt and not force:
+        if len(old) > 1 and old[1] != fmt and not force and computed:
             raise InputError("--format", f"{out} holds a {old[1]} sweep; resume it with --format {old[1]}")
         if old[0] != digest or (len(old) > 1 and old[1] != fmt):
             for name in ("results.csv", "results.parquet", DESIGNS_FILE, SPEC_FILE):
                 (out / name).unlink(missing_ok=True)
             if (out / PARTS_DIR).is_dir():
                 shutil.rmtree(out / PARTS_DIR)
-    prepare_output_dir(out, "--out", force)
+    prepare_output_dir(out, "--out", force, kind="sweep")
     stamp.write_text(f"{digest} {fmt}\n")
     (out / SPEC_FILE).write_text(spec.text or _spec_to_toml(spec))
 
@@ -656,6 +661,27 @@ def designs_digest(spec: SweepSpec, designs: list[dict]) -> str:
     return h.hexdigest()[:16]
 
 
+def check_run_arguments(spec, out, *, fmt="parquet", scheduler=None, n_workers=None, batch_size=None,
+                        force=False, retry_failed=False, progress=True, designs=None) -> None:
+    """InputError naming the first bad argument of :func:`run_sweep` (types and values), before any work."""
+    if not isinstance(spec, SweepSpec):
+        raise InputError("spec", f"expected a SweepSpec (studies.sweeps.load_spec(path)), got {type(spec).__name__}")
+    validate.path(out, "out")
+    validate.choice(fmt, "fmt", FORMATS)
+    if scheduler is not None:
+        validate.address(scheduler, "scheduler")
+    if n_workers is not None:
+        validate.number(n_workers, "n_workers", integer=True, bounds=(1, 1024))
+    if batch_size is not None:
+        validate.number(batch_size, "batch_size", integer=True, bounds=(1, 1_000_000))
+    for name, v in (("force", force), ("retry_failed", retry_failed), ("progress", progress)):
+        validate.boolean(v, name)
+    if designs is not None:
+        if not isinstance(designs, (list, tuple)) or not all(isinstance(d, dict) for d in designs):
+            raise InputError("designs", "expected a list of {factor: value} dicts")
+        validate.size(max(1, len(designs)), "designs", limit=MAX_DESIGNS, unit="designs")
+
+
 def run_sweep(
     spec: SweepSpec,
     out: str | Path,
@@ -681,12 +707,10 @@ def run_sweep(
     (the samplers of ``valvelab sensitivity`` and ``optimize``); the folder's digest then covers
     them, so a rerun resumes only with the very same list. ``desc``: the progress bar's label.
     """
+    check_run_arguments(spec, out, fmt=fmt, scheduler=scheduler, n_workers=n_workers, batch_size=batch_size,
+                        force=force, retry_failed=retry_failed, progress=progress, designs=designs)
     model = load_model(spec.model)
     check_spec(spec, model)
-    if n_workers is not None and n_workers < 1:
-        raise InputError("--workers", f"must be a positive integer, got {n_workers}")
-    if batch_size is not None and batch_size < 1:
-        raise InputError("--batch-size", f"must be a positive integer, got {batch_size}")
     out = Path(out)
     digest = None if designs is None else designs_digest(spec, designs)
     _prepare_folder(out, spec, fmt, force, digest)
@@ -704,7 +728,12 @@ def run_sweep(
     }
 
     own_cluster = None
-    if todo:
+    if not todo:      # a rerun with every design recorded: no cluster, no rate to measure
+        summary["workers"] = 0
+        if progress:
+            print(f"{desc}: all {len(designs)} designs are already recorded in {out}; nothing to compute",
+                  file=sys.stderr, flush=True)
+    else:
         from distributed import Client, LocalCluster, as_completed
 
         if client is None:
@@ -754,7 +783,8 @@ def run_sweep(
         summary["results"] = str(store.final)
     wall = time.perf_counter() - t_start
     summary["wall_seconds"] = wall
-    summary["designs_per_hour"] = summary["computed"] / wall * 3600.0 if summary["computed"] else 0.0
+    # null when nothing was computed (a resume of a finished sweep): there is no rate to report
+    summary["designs_per_hour"] = summary["computed"] / wall * 3600.0 if summary["computed"] else None
     return summary
 
 

@@ -312,6 +312,8 @@ def _tick(bar, ev: Evaluator):
 def run_optimize(spec: DesignSpec, out, *, scheduler: str | None = None, workers: int | None = None, client=None,
                  batch_size: int | None = None, force: bool = False, progress: bool = True) -> dict:
     """Run (or resume) an optimisation into folder ``out``; return the summary (CONTRACT.md)."""
+    runner.check_study_arguments(spec, "optimize", out, scheduler=scheduler, workers=workers, batch_size=batch_size,
+                                 force=force, progress=progress)
     t_start = time.perf_counter()
     out = Path(out)
     r = spec.run_dict
@@ -325,7 +327,7 @@ def run_optimize(spec: DesignSpec, out, *, scheduler: str | None = None, workers
                f"{r['population']} x {r['generations']} generations x {len(spec.points)} operating points")
     from studies.outputs import check_output_dir
 
-    check_output_dir(out, "--out", force)
+    check_output_dir(out, "--out", force, kind="optimize")
     if model is not None and study.needs_stress(spec) and not study.reed_positions(model):
         raise InputError("constraints.reed_stress", "the base model has no reed valve with a geometry "
                                                     "(valves.<pos>.geometry)")
@@ -381,7 +383,7 @@ def run_optimize(spec: DesignSpec, out, *, scheduler: str | None = None, workers
         "designs": designs, "baseline": baseline,
         "dominating_baseline": sum(1 for d in designs if d.get("dominates_baseline")),
         "files": files, "complete": True, "wall_seconds": wall, "loop_wall_seconds": loop_wall,
-        "designs_per_hour": ev.computed / ev.eval_seconds * 3600.0 if ev.computed and ev.eval_seconds else 0.0,
+        "designs_per_hour": ev.computed / ev.eval_seconds * 3600.0 if ev.computed and ev.eval_seconds else None,
     }
     (out / "summary.json").write_text(json.dumps(_jsonable(result), indent=1, allow_nan=False))
     return _jsonable(result)

@@ -23,6 +23,26 @@ STAMP = ".design-digest"
 SPEC_COPY = "spec.toml"
 
 
+def check_study_arguments(spec, command: str, out, *, scheduler=None, workers=None, batch_size=None, force=False,
+                          progress=True) -> None:
+    """InputError naming the first bad argument of a study entry point (run_sensitivity, run_optimize)."""
+    from geometry import validate
+    from studies.sweeps.design.spec import DesignSpec
+
+    if not isinstance(spec, DesignSpec) or spec.command != command:
+        raise InputError("spec", f"expected a {command} DesignSpec (studies.sweeps.design.spec.load_spec(path, "
+                                 f"{command!r})), got {getattr(spec, 'command', type(spec).__name__)!r}")
+    validate.path(out, "out")
+    if scheduler is not None:
+        validate.address(scheduler, "scheduler")
+    if workers is not None:
+        validate.number(workers, "workers", integer=True, bounds=(1, 1024))
+    if batch_size is not None:
+        validate.number(batch_size, "batch_size", integer=True, bounds=(1, 1_000_000))
+    validate.boolean(force, "force")
+    validate.boolean(progress, "progress")
+
+
 class Cluster:
     """A dask client, started on first use: the scheduler at ``scheduler`` or a LocalCluster of ``workers``."""
 
@@ -80,12 +100,13 @@ def prepare_study(out: Path, spec, force: bool, subfolders: tuple[str, ...]) -> 
     from studies.outputs import MARKER, check_output_dir, prepare_output_dir
 
     out = Path(out)
-    check_output_dir(out, "--out", force)
+    check_output_dir(out, "--out", force, kind=spec.command)
     stamp = out / STAMP
     if out.is_dir() and (out / MARKER).exists() and stamp.is_file():
         old = stamp.read_text().split()
+        computed = any((out / name).exists() for name in subfolders)
         if old and old[0] != spec.digest:
-            if not force:
+            if not force and computed:      # a study with nothing computed yet (refused, stopped) is replaced
                 raise InputError("--out", f"{out} holds a different {spec.command} study (its spec differs); choose "
                                           "another folder or pass --force to start over")
             for name in subfolders:
@@ -95,7 +116,7 @@ def prepare_study(out: Path, spec, force: bool, subfolders: tuple[str, ...]) -> 
         # a valvelab folder of another kind (a sweep...): refuse unless forced
         if not force:
             raise InputError("--out", f"{out} holds other valvelab results; choose another folder or pass --force")
-    prepare_output_dir(out, "--out", force)
+    prepare_output_dir(out, "--out", force, kind=spec.command)
     stamp.write_text(f"{spec.digest} {spec.command}\n")
     if spec.text:
         (out / SPEC_COPY).write_text(spec.text)

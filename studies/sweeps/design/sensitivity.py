@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from geometry.errors import InputError
 from studies.sweeps.design import runner, study
 from studies.sweeps.design.spec import DesignSpec, check_size
 
@@ -123,6 +124,8 @@ def analyse_morris(problem: dict, u: np.ndarray, y: np.ndarray, num_levels: int,
 def run_sensitivity(spec: DesignSpec, out, *, scheduler: str | None = None, workers: int | None = None,
                     client=None, batch_size: int | None = None, force: bool = False, progress: bool = True) -> dict:
     """Run (or resume) a sensitivity study into folder ``out``; return the summary (CONTRACT.md)."""
+    runner.check_study_arguments(spec, "sensitivity", out, scheduler=scheduler, workers=workers, batch_size=batch_size,
+                                 force=force, progress=progress)
     t_start = time.perf_counter()
     out = Path(out)
     r = spec.run_dict
@@ -135,16 +138,20 @@ def run_sensitivity(spec: DesignSpec, out, *, scheduler: str | None = None, work
                                           f" x {len(spec.points)} operating points")
     from studies.outputs import check_output_dir
 
-    check_output_dir(out, "--out", force)
+    check_output_dir(out, "--out", force, kind="sensitivity")
     catalogue = study.outputs_catalogue(spec)
     outputs = [catalogue[o] for o in spec.outputs]
+    if study.needs_stress(spec) and not study.reed_positions(model):
+        raise InputError("run.outputs", "the reed stress needs a reed valve with a geometry "
+                                        "(valves.<pos>.geometry); the base model has none")
+    u = sample_unit(spec)
+    designs = designs_of(spec, u)
+    study.rows_for(spec, designs)          # every design's derived keys, before anything is written
     with runner.Cluster(scheduler, workers, client) as cluster:
         cluster.check_reachable()
         runner.prepare_study(out, spec, force, SUBFOLDERS)
         base_path = study.write_base_model(out, model) if model is not None else None
         cal = study.calibrate(spec, model, base_path, cluster, out, progress) if study.needs_stress(spec) else None
-        u = sample_unit(spec)
-        designs = designs_of(spec, u)
         rows = study.rows_for(spec, designs, cal)
         fixed = study.fixed_inputs(spec, base_path)
         module = study.EVALUATE if spec.model_kind == "pump" else spec.model
@@ -198,8 +205,8 @@ def run_sensitivity(spec: DesignSpec, out, *, scheduler: str | None = None, work
                      for a in analyses],
         "stress_calibration": study.calibration_summary(cal), "files": files, "complete": True,
         "wall_seconds": wall, "evaluation_wall_seconds": eval_wall,
-        "designs_per_hour": computed / eval_wall * 3600.0 if computed else 0.0,
-        "samples_per_hour": computed / npts / eval_wall * 3600.0 if computed else 0.0,
+        "designs_per_hour": computed / eval_wall * 3600.0 if computed else None,
+        "samples_per_hour": computed / npts / eval_wall * 3600.0 if computed else None,
     }
     import json
 

@@ -614,7 +614,10 @@ def _unit_of(model, path: str) -> str:
 def parse_spec(doc: dict, command: str, text: str = "", base_dir: Path | None = None,
                model_override: str | None = None) -> DesignSpec:
     """A :class:`DesignSpec` from a parsed spec TOML (see the module docstring and CONTRACT.md)."""
-    assert command in COMMANDS
+    if command not in COMMANDS:
+        raise InputError("command", f"expected one of {', '.join(COMMANDS)}, got {command!r}")
+    if model_override is not None and not isinstance(model_override, str):
+        raise InputError("model_override", f"expected a model name or file, got {model_override!r}")
     if not isinstance(doc, dict):
         raise InputError("spec", "must be a TOML table")
     extra = set(doc) - TOP_KEYS[command]
@@ -636,7 +639,7 @@ def parse_spec(doc: dict, command: str, text: str = "", base_dir: Path | None = 
     if not isinstance(fixed_doc, dict):
         raise InputError("fixed", "expected a table of key path = value")
     fixed = []
-    for k, v in flatten(fixed_doc).items():
+    for k, v in flatten(fixed_doc, where="fixed").items():
         if isinstance(v, float) and not math.isfinite(v):
             raise InputError(f"fixed.{_q(k)}", f"must be finite, got {v}")
         if isinstance(v, list):
@@ -646,11 +649,11 @@ def parse_spec(doc: dict, command: str, text: str = "", base_dir: Path | None = 
     var_doc = doc.get("variables")
     if not isinstance(var_doc, dict) or not var_doc:
         raise InputError("variables", "need at least one variable: \"key.path\" = [low, high]")
-    var_doc = flatten(var_doc, leaf_keys=_VAR_KEYS)
+    var_doc = flatten(var_doc, leaf_keys=_VAR_KEYS, where="variables")
     der_doc = doc.get("derived", {})
     if not isinstance(der_doc, dict):
         raise InputError("derived", "expected a table of key path = \"expression\"")
-    der_doc = flatten(der_doc)
+    der_doc = flatten(der_doc, where="derived")
 
     model_obj = None
     if kind == "pump":
@@ -810,7 +813,9 @@ def _parse_recheck(d) -> dict:
 
 def load_spec(path, command: str, model_override: str | None = None) -> DesignSpec:
     """Read and check a spec file (a path)."""
-    p = Path(path)
+    p = validate.path(path, "path")
+    if command not in COMMANDS:
+        raise InputError("command", f"expected one of {', '.join(COMMANDS)}, got {command!r}")
     text = validate.read_text(p, str(path))
     try:
         doc = tomllib.loads(text)
