@@ -54,7 +54,8 @@ def kind_default_model(kind: str) -> str:
     return KIND_DEFAULTS.get(kind) or KINDS[kind].default_model
 #: the model whose pump, oil and circuit are the defaults of every model file
 DEFAULT_BASE = "thesis-disc"
-TOP_KEYS = ("name", "base", "description", "pump", "oil", "circuit", "operating", "valves", "effects")
+TOP_KEYS = ("name", "base", "description", "pump", "oil", "circuit", "operating", "valves", "effects",
+            "uncertainty")
 COMPONENTS = {"pump": Pump, "oil": Oil, "circuit": Circuit, "operating": Operating}
 
 
@@ -193,7 +194,11 @@ def parse_model(data: dict, source: str = "", base_dir: Path | None = None, name
     _check_pump(model)
     effects = list(base.effects) if (base is not None and base_name is not None) else []
     effects = _parse_effects(_table(data, "effects", ""), model, effects, data)
-    return replace(model, effects=tuple(effects))
+    model = replace(model, effects=tuple(effects))
+    # declared input uncertainties (lumped/uncertainty.py), a base's inherited
+    from lumped.uncertainty import parse_uncertainties
+    return replace(model, uncertainties=parse_uncertainties(
+        data.get("uncertainty"), model, base.uncertainties if (base is not None and base_name is not None) else ()))
 
 
 def _load_valve(user: dict, pos: str, base: PumpModel | None, defaults: dict, base_dir: Path | None,
@@ -317,6 +322,9 @@ def model_table(model: PumpModel) -> dict:
             eff[a.name] = dict(a.values)
     if eff:
         out["effects"] = eff
+    if model.uncertainties:
+        from lumped.uncertainty import uncertainty_table
+        out["uncertainty"] = uncertainty_table(model.uncertainties)
     return out
 
 
@@ -389,6 +397,9 @@ def to_toml(model: PumpModel, comments: bool = True) -> str:
             p = params.get(k)
             c = f"  # {p.unit}, prior {p.prior:.4g}: {p.source}" if (comments and p) else ""
             lines.append(_fmt(k, val) + c)
+    if model.uncertainties:                     # declared input uncertainties (lumped/uncertainty.py)
+        from lumped.uncertainty import uncertainty_table
+        lines += ["", tomli_w.dumps({"uncertainty": uncertainty_table(model.uncertainties)}).strip()]
     return "\n".join(lines) + "\n"
 
 
@@ -448,12 +459,17 @@ def with_values(model: PumpModel, values: dict, field_prefix: str = "") -> PumpM
     if not values:
         return model
     table = model_table(model)
+    table.pop("uncertainty", None)          # carried over below, as inherited declarations
     for path, value in values.items():
         _set_path(table, model, str(path), value, field_prefix)
     try:
-        return parse_model(table, source=model.source, name=model.name, defaults_from=None)
+        out = parse_model(table, source=model.source, name=model.name, defaults_from=None)
     except InputError as exc:
         raise InputError(field_prefix + exc.field, exc.message) from None
+    if not model.uncertainties:
+        return out
+    from lumped.uncertainty import parse_uncertainties
+    return replace(out, uncertainties=parse_uncertainties(None, out, model.uncertainties))
 
 
 def _set_path(table: dict, model: PumpModel, path: str, value, prefix: str) -> None:
