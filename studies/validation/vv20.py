@@ -220,7 +220,7 @@ class ValidationTable:
             ax.set_yticks(y)
             ax.set_yticklabels([r["case"] for r in rows], fontsize=8)
             ax.set_ylabel("case [-]")
-            unit = "%" if relative else (rows[0].get("unit") or "-")
+            unit = "% of D" if relative else (rows[0].get("unit") or "-")
             ax.set_xlabel(f"E = S - D of {out} with +-U_val [{unit}]")
             ax.legend(fontsize=7, loc="best")
         fig.suptitle(self.title, fontsize=9)
@@ -381,3 +381,38 @@ def reed_validation(reed, rows: list[dict], *, quick: bool = False, progress: bo
     ]
     return ValidationTable(f"Reed parameters of {reed.name}: analytic against each FEA fidelity (ASME V&V 20)",
                            tuple(out), tuple(notes))
+
+
+# --------------------------------------------------------------------------- one operating point
+#: outputs of ``valvelab pump --uncertainty``
+POINT_OUTPUTS = ("delivery_cc_per_rev", "inlet_opening_angle_deg", "inlet_closing_angle_deg",
+                 "delivery_opening_angle_deg", "delivery_closing_angle_deg")
+
+
+def point_uncertainty(model, speed_rpm: float, load_pressure: float, result, *, revolutions: int = 5,
+                      max_revolutions: int | None = None, circuit: str | None = None, quick: bool = False,
+                      cluster=None, progress: bool = False, outputs=POINT_OUTPUTS) -> dict:
+    """u_num and u_input of one run of any model (``result``: its PumpResult, on either stepper).
+
+    u_num: the tolerance ladder from the run's own tolerance (fast) or the fast ladder against
+    the reference run; u_input: the model's declared uncertainties by Monte Carlo (none
+    declared: 0). Returns ``{output: {"u_num", "u_input", "contributors", "unit", ...}}``.
+    """
+    from studies.validation.input_uncertainty import Point, propagate
+    from studies.validation.numerical import OUTPUTS, numerical_uncertainty, output_values
+
+    outs = {o: OUTPUTS[o] for o in outputs}
+    reported = output_values(result, outs)
+    fast = result.method == "fast"
+    num = numerical_uncertainty(model, speed_rpm, load_pressure, reported=reported,
+                                reported_method="fast" if fast else "reference", reported_rtol=result.rtol if fast else None,
+                                quick=quick, revolutions=revolutions, max_revolutions=max_revolutions, circuit=circuit,
+                                outputs=outs)
+    inp = propagate([Point("point", model, speed_rpm, load_pressure, revolutions, max_revolutions, circuit)],
+                    quick=quick, cluster=cluster, progress=progress, outputs=tuple(outputs))["point"]
+    return {o: {"value": reported[o], "unit": outs[o], "u_num": num[o].u, "u_input": inp[o].u,
+                "contributors": [list(c) for c in inp[o].contributors], "U_num": num[o].U,
+                "u_num_converging": num[o].converging, "u_num_note": num[o].note,
+                "u_input_precision": inp[o].precision, "draws": inp[o].samples + inp[o].missing,
+                "u_input_note": inp[o].note}
+            for o in outputs}
