@@ -35,6 +35,7 @@ from geometry.declare import check_field, flatten, specs
 from geometry.errors import InputError
 from geometry.validate import read_toml
 from lumped import effect_library
+from lumped import uncertainty as _uncertainty
 from lumped.effect_library import LIBRARY
 from lumped.effects import Applied
 from lumped.model import POSITIONS, Operating, PumpModel
@@ -196,8 +197,7 @@ def parse_model(data: dict, source: str = "", base_dir: Path | None = None, name
     effects = _parse_effects(_table(data, "effects", ""), model, effects, data)
     model = replace(model, effects=tuple(effects))
     # declared input uncertainties (lumped/uncertainty.py), a base's inherited
-    from lumped.uncertainty import parse_uncertainties
-    return replace(model, uncertainties=parse_uncertainties(
+    return replace(model, uncertainties=_uncertainty.parse_uncertainties(
         data.get("uncertainty"), model, base.uncertainties if (base is not None and base_name is not None) else ()))
 
 
@@ -323,8 +323,7 @@ def model_table(model: PumpModel) -> dict:
     if eff:
         out["effects"] = eff
     if model.uncertainties:
-        from lumped.uncertainty import uncertainty_table
-        out["uncertainty"] = uncertainty_table(model.uncertainties)
+        out["uncertainty"] = _uncertainty.uncertainty_table(model.uncertainties)
     return out
 
 
@@ -398,8 +397,7 @@ def to_toml(model: PumpModel, comments: bool = True) -> str:
             c = f"  # {p.unit}, prior {p.prior:.4g}: {p.source}" if (comments and p) else ""
             lines.append(_fmt(k, val) + c)
     if model.uncertainties:                     # declared input uncertainties (lumped/uncertainty.py)
-        from lumped.uncertainty import uncertainty_table
-        lines += ["", tomli_w.dumps({"uncertainty": uncertainty_table(model.uncertainties)}).strip()]
+        lines += ["", tomli_w.dumps({"uncertainty": _uncertainty.uncertainty_table(model.uncertainties)}).strip()]
     return "\n".join(lines) + "\n"
 
 
@@ -468,8 +466,7 @@ def with_values(model: PumpModel, values: dict, field_prefix: str = "") -> PumpM
         raise InputError(field_prefix + exc.field, exc.message) from None
     if not model.uncertainties:
         return out
-    from lumped.uncertainty import parse_uncertainties
-    return replace(out, uncertainties=parse_uncertainties(None, out, model.uncertainties))
+    return replace(out, uncertainties=_uncertainty.parse_uncertainties(None, out, model.uncertainties))
 
 
 def _set_path(table: dict, model: PumpModel, path: str, value, prefix: str) -> None:
@@ -606,6 +603,8 @@ def describe(model: PumpModel) -> dict:
 
 # the effect library asks for the thesis model of a kind when a prior is wanted for a bare valve type
 effect_library.REFERENCE["model"] = lambda kind: _shipped(kind_default_model(kind))
+# the input-uncertainty declarations check their key paths against key_paths
+_uncertainty.KEY_PATHS["key_paths"] = key_paths
 
 
 def check_key(model: PumpModel, path: str, value) -> None:

@@ -74,12 +74,16 @@ class Uncertainty:
 
 
 # --------------------------------------------------------------------------- the model's keys
+#: the model file's key listing, ``key_paths(model) -> [{"path", "value", ...}]``: lumped.model_file
+#: registers it when it loads (it calls this module, so this module does not import it)
+KEY_PATHS: dict = {}
+
+
 def numeric_keys(model) -> dict[str, float]:
     """{key path: value} of every numeric key of ``model`` (with a reed geometry's keys)."""
     from lumped.model import POSITIONS
-    from lumped.model_file import key_paths
 
-    out = {k["path"]: float(k["value"]) for k in key_paths(model)}
+    out = {k["path"]: float(k["value"]) for k in KEY_PATHS["key_paths"](model)}
     for pos in POSITIONS:
         reed = getattr(model.valve(pos), "reed", None)
         if reed is None:

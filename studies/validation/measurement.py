@@ -38,6 +38,17 @@ FLOW_METER_REL = FLOW_METER_HALF_WIDTH / math.sqrt(3.0)
 SAME_SPEED, SAME_LOAD = 0.005, 0.02
 
 
+def welch_satterthwaite(u, dof) -> float:
+    """Effective degrees of freedom of a combined standard uncertainty: (sum u_i^2)^2 / sum(u_i^4 / nu_i)
+    (GUM G.4.1, eq G.2b); infinite components (Type B) add nothing below; inf if all are."""
+    u = [float(x) for x in u]
+    den = sum(x**4 / float(n) for x, n in zip(u, dof) if n is not None and math.isfinite(n) and x > 0.0)
+    num = sum(x * x for x in u) ** 2
+    if den == 0.0:
+        return math.inf
+    return num / den
+
+
 @dataclass(frozen=True)
 class Component:
     """One contribution to u_D (output units)."""
@@ -61,8 +72,6 @@ class MeasurementUncertainty:
 
     @property
     def dof(self) -> float:
-        from studies.validation.vv20 import welch_satterthwaite
-
         return welch_satterthwaite([c.u for c in self.components], [c.dof for c in self.components])
 
     def as_dict(self) -> dict:

@@ -31,23 +31,14 @@ from pathlib import Path
 
 import numpy as np
 
+from studies.validation.measurement import welch_satterthwaite
+
 #: coverage probability of U_val (k = 2 for a normal distribution)
 COVERAGE = 0.9545
 K_DEFAULT = 2.0
 #: row keys of the CONTRACT, in order
 ROW_KEYS = ("case", "output", "S", "D", "E", "u_num", "u_input", "u_D", "u_val", "k", "U_val", "delta_model",
             "verdict", "contributors")
-
-
-def welch_satterthwaite(u, dof) -> float:
-    """Effective degrees of freedom of a combined standard uncertainty: (sum u_i^2)^2 / sum(u_i^4 / nu_i)
-    (GUM G.4.1, eq G.2b); infinite components (Type B) add nothing below; inf if all are."""
-    u = [float(x) for x in u]
-    den = sum(x**4 / float(n) for x, n in zip(u, dof) if n is not None and math.isfinite(n) and x > 0.0)
-    num = sum(x * x for x in u) ** 2
-    if den == 0.0:
-        return math.inf
-    return num / den
 
 
 def coverage_factor(dof: float, p: float = COVERAGE) -> float:
