@@ -67,9 +67,6 @@ def run(args) -> dict:
         if chain["status"] != "ok":
             _log(f"  {chain['reason']}: the pump uses Table 3.13 only")
     if chain["rows"]:
-        rows, notes = V.reed_parameter_table(chain)
-        V.write_table([_plain(r) for r in rows], out / "reed_parameters",
-                      "Prototype reed parameters by fidelity (step 1), beside the thesis's FEA", notes)
         if uncertainty and len(chain["rows"]) > 1:
             from geometry import load_reed
             from studies.validation.vv20 import reed_validation
@@ -78,6 +75,20 @@ def run(args) -> dict:
             reed_table = reed_validation(load_reed("prototype"), chain["rows"], quick=args.quick, progress=True)
             files += reed_table.write(out / "reed_validation")
             files.append(reed_table.plot(out / "reed_validation.png", relative=True))
+        rows, notes = V.reed_parameter_table(chain)
+        if reed_table is not None:                  # each FEA value's GCI band beside it
+            from fea.convergence import GCI_STANDARD_FACTOR
+
+            band = {(r["case"].split("/")[-1], r["output"]): r["u_num"] * GCI_STANDARD_FACTOR / abs(r["D"]) * 100
+                    for r in reed_table.rows}
+            for row in rows:
+                for q in ("omega_n", "kappa", "gamma1", "gamma2", "gamma3"):
+                    b = band.get((row["fidelity"], q))
+                    row[f"{q} GCI [%]"] = None if b is None else round(b, 4)
+            notes.append("GCI [%]: the band of each FEA value at its mesh (meshes 2h, h, h/2; Celik et al. 2008); "
+                         "reed_validation.md compares each fidelity with the analytic model (ASME V&V 20).")
+        V.write_table([_plain(r) for r in rows], out / "reed_parameters",
+                      "Prototype reed parameters by fidelity (step 1), beside the thesis's FEA", notes)
     sel = chain["selected"]
     summary["steps"]["reed_parameters"] = {
         "status": chain["status"], "reason": chain["reason"], "fidelities": len(chain["rows"]),
