@@ -166,8 +166,9 @@ def parse_run_toml(data: dict, where: str) -> dict:
     for key, hi in (("delivery_uncertainty_cc", math.inf), ("position_uncertainty_rel", 0.5)):
         u = _num(data, key, where, False)
         if u is not None and not 0.0 <= u < hi:
-            raise InputError(f"{where}: {key}", f"expected a standard uncertainty from 0 to {hi:g}, got {u:g}"
-                             + (" (is it in percent?)" if hi < 1 else ""))
+            what = "of 0 or more" if math.isinf(hi) else f"from 0 to below {hi:g}"
+            raise InputError(f"{where}: {key}", f"expected a standard uncertainty {what}, got {u:g}"
+                             + (" (is it in percent?)" if u >= hi else ""))
         out[key] = u
     out["extra"] = {}
     return out

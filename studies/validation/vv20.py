@@ -369,6 +369,8 @@ def reed_validation(reed, rows: list[dict], *, quick: bool = False, progress: bo
         "sensitivities enters E.",
         "A model-form error here is physics Euler-Bernoulli theory leaves out (plate stiffening, shear, the clamp), "
         "or the FEA's own simplification (the plate's grooves).",
+        "settings: " + ("quick: two meshes per fidelity (Fs = 3), cheaper and coarser" if quick else
+                        "three meshes per fidelity (2h, h, h/2)") + ".",
     ]
     return ValidationTable(f"Reed parameters of {reed.name}: analytic against each FEA fidelity (ASME V&V 20)",
                            tuple(out), tuple(notes))
