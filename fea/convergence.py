@@ -83,6 +83,166 @@ class Richardson:
         return float(max(bound, (abs(value - f_inf) + tail) / abs(f_inf) * 100))
 
 
+def observed_order(sizes, values, max_iter: int = 200, tol: float = 1e-12) -> tuple[float | None, int, bool]:
+    """Observed order of three solutions on sizes h1 < h2 < h3 (fine to coarse), any refinement ratios.
+
+    Celik et al. (2008, J. Fluids Eng. 130, 078001), eqs 3-5: with eps21 = f2 - f1,
+    eps32 = f3 - f2, s = sign(eps32 / eps21) (-1: oscillatory convergence) and
+    r21 = h2 / h1, r32 = h3 / h2, p solves p = |ln|eps32 / eps21| + q(p)| / ln r21 with
+    q(p) = ln((r21^p - s) / (r32^p - s)) (fixed-point iteration; q = 0 for a constant ratio).
+
+    Returns ``(p, s, shrinking)``: p None when a change is zero or the iteration fails;
+    ``shrinking`` is whether the fine pair's change is the smaller one in the sense of the
+    order (the expression inside the absolute value is positive).
+    """
+    h1, h2, h3 = (float(x) for x in sizes)
+    f1, f2, f3 = (float(x) for x in values)
+    e21, e32 = f2 - f1, f3 - f2
+    if e21 == 0.0 or e32 == 0.0:
+        return None, 1, False
+    s = 1 if e32 / e21 > 0 else -1
+    r21, r32 = h2 / h1, h3 / h2
+    ln_ratio = math.log(abs(e32 / e21))
+    p = abs(ln_ratio) / math.log(r21)
+    inner = ln_ratio
+    for _ in range(max_iter):
+        a, b = r21**p - s, r32**p - s
+        if a <= 0.0 or b <= 0.0:
+            return None, s, False
+        inner = ln_ratio + math.log(a / b)
+        p_new = abs(inner) / math.log(r21)
+        if abs(p_new - p) <= tol * max(1.0, p):
+            p = p_new
+            break
+        p = p_new
+    else:
+        return None, s, False
+    return (p if p > 0.0 else None), s, inner > 0.0
+
+
+def extrapolate(f_fine: float, f_coarse: float, ratio: float, order: float) -> float:
+    """Richardson's extrapolated value (r^p f_fine - f_coarse) / (r^p - 1) of a pair with size ratio r > 1."""
+    rp = ratio**order
+    return (rp * f_fine - f_coarse) / (rp - 1.0)
+
+
+#: factors of safety of the GCI (Roache 1998): three solutions converging monotonically, else
+FS_THREE = 1.25
+FS_TWO = 3.0
+
+
+@dataclass(frozen=True)
+class GCI:
+    """Grid Convergence Index of two or three solutions (Celik et al. 2008), fine to coarse.
+
+    ``gci_fine_pct`` is GCI21, the relative band of the finest solution; ``gci_coarse_pct``
+    the band of the second solution (GCI32 from the coarser pair with three solutions,
+    Roache's coarse-grid GCI of the pair with two). ``u_fine``/``u_coarse`` are the same bands
+    in the quantity's units. A sequence that does not converge monotonically (oscillating,
+    diverging, a zero change) gets no extrapolation and the conservative band Fs = 3 times
+    the largest change, never hidden (``converging`` False, ``note`` says why).
+    """
+
+    sizes: tuple[float, ...]
+    values: tuple[float, ...]
+    ratios: tuple[float, ...]
+    order: float | None
+    order_assumed: bool
+    extrapolated: float
+    safety_factor: float
+    converging: bool | None
+    oscillatory: bool
+    approx_error_pct: tuple[float | None, ...]
+    extrapolated_error_pct: float | None
+    gci_fine_pct: float | None
+    gci_coarse_pct: float | None
+    u_fine: float
+    u_coarse: float
+    asymptotic_ratio: float | None
+    note: str
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+    def band(self, index: int) -> float:
+        """Absolute band (quantity units) of solution ``index`` (0 the finest, 1 the second)."""
+        return (self.u_fine, self.u_coarse)[index]
+
+
+def representative_sizes(cells, dim: int) -> tuple[float, ...]:
+    """h = (1 / N)^(1 / dim) of each cell count (Celik et al. 2008, eq 1 for equal cells)."""
+    return tuple((1.0 / float(n)) ** (1.0 / dim) for n in cells)
+
+
+def _pct(u: float, f: float) -> float | None:
+    return None if f == 0.0 else float(abs(u / f) * 100.0)
+
+
+def gci(values, sizes=None, cells=None, dim: int | None = None, order: float | None = None) -> GCI:
+    """GCI of two or three solutions, fine to coarse (Celik, Ghia and Roache 2008, steps 1-5).
+
+    ``sizes`` increasing (fine to coarse) representative sizes, or ``cells`` decreasing cell
+    counts with ``dim``. Three solutions: the observed order (:func:`observed_order`, iterated
+    for unequal ratios, with the sign term), extrapolated value (eq 6), approximate and
+    extrapolated relative errors (eqs 7-8), GCI21 and GCI32 with Fs = 1.25 (eq 9) and the
+    asymptotic-range ratio GCI32 / (r21^p GCI21) (Roache 1998; ~1 in the asymptotic range).
+    Two solutions: ``order`` is the assumed (formal) order and Fs = 3.
+    """
+    f = tuple(float(v) for v in values)
+    if len(f) not in (2, 3):
+        raise ValueError("the GCI needs two or three solutions")
+    if sizes is None:
+        if cells is None or dim is None:
+            raise ValueError("give sizes, or cells and dim")
+        sizes = representative_sizes(cells, dim)
+    h = tuple(float(x) for x in sizes)
+    if len(h) != len(f) or not all(0.0 < a < b for a, b in zip(h, h[1:])) or h[0] <= 0.0:
+        raise ValueError("sizes must be positive and increase from the finest to the coarsest solution")
+    ratios = tuple(b / a for a, b in zip(h, h[1:]))
+    changes = [abs(b - a) for a, b in zip(f, f[1:])]
+    ea = tuple(_pct(b - a, a) for a, b in zip(f, f[1:]))
+    if len(f) == 2:
+        if order is None or not order > 0.0:
+            raise ValueError("two solutions need the assumed order of the method (order > 0)")
+        rp = ratios[0] ** order
+        u_fine = FS_TWO * changes[0] / (rp - 1.0)
+        u_coarse = u_fine * rp
+        ext = extrapolate(f[0], f[1], ratios[0], order)
+        return GCI(sizes=h, values=f, ratios=ratios, order=float(order), order_assumed=True, extrapolated=ext,
+                   safety_factor=FS_TWO, converging=None, oscillatory=False, approx_error_pct=ea,
+                   extrapolated_error_pct=_pct(ext - f[0], ext), gci_fine_pct=_pct(u_fine, f[0]),
+                   gci_coarse_pct=_pct(u_coarse, f[1]), u_fine=u_fine, u_coarse=u_coarse, asymptotic_ratio=None,
+                   note=f"two solutions: assumed order {order:g}, Fs = {FS_TWO:g}; convergence not checked")
+    if changes[0] == 0.0 and changes[1] == 0.0:
+        return GCI(sizes=h, values=f, ratios=ratios, order=None, order_assumed=False, extrapolated=f[0],
+                   safety_factor=FS_THREE, converging=True, oscillatory=False, approx_error_pct=ea,
+                   extrapolated_error_pct=0.0, gci_fine_pct=_pct(0.0, f[0]) if f[0] else None,
+                   gci_coarse_pct=_pct(0.0, f[1]) if f[1] else None, u_fine=0.0, u_coarse=0.0,
+                   asymptotic_ratio=None, note="identical on every level")
+    p, s, shrinking = observed_order(h, f)
+    if p is not None and s > 0 and shrinking:
+        r21, r32 = ratios
+        ext = extrapolate(f[0], f[1], r21, p)
+        u_fine = FS_THREE * changes[0] / (r21**p - 1.0)
+        u_coarse = FS_THREE * changes[1] / (r32**p - 1.0)
+        g21, g32 = _pct(u_fine, f[0]), _pct(u_coarse, f[1])
+        ratio = None if not g21 else g32 / (r21**p * g21)
+        return GCI(sizes=h, values=f, ratios=ratios, order=p, order_assumed=False, extrapolated=ext,
+                   safety_factor=FS_THREE, converging=True, oscillatory=False, approx_error_pct=ea,
+                   extrapolated_error_pct=_pct(ext - f[0], ext), gci_fine_pct=g21, gci_coarse_pct=g32,
+                   u_fine=u_fine, u_coarse=u_coarse, asymptotic_ratio=ratio,
+                   note=f"monotonic convergence, observed order {p:.3g}, Fs = {FS_THREE:g}")
+    why = ("oscillatory convergence (eps32 / eps21 < 0)" if s < 0 else
+           "a zero change: the order is undefined" if min(changes) == 0.0 else
+           "the changes do not shrink (divergence)")
+    big = FS_TWO * max(changes)
+    return GCI(sizes=h, values=f, ratios=ratios, order=p, order_assumed=False, extrapolated=f[0],
+               safety_factor=FS_TWO, converging=False, oscillatory=s < 0, approx_error_pct=ea,
+               extrapolated_error_pct=None, gci_fine_pct=_pct(big, f[0]), gci_coarse_pct=_pct(big, f[1]),
+               u_fine=big, u_coarse=big, asymptotic_ratio=None,
+               note=f"{why}: no extrapolation; conservative band Fs = {FS_TWO:g} x the largest change (Roache)")
+
+
 def richardson(sizes, values, theoretical_order: float | None = None) -> Richardson:
     """Richardson extrapolation of ``values`` on three meshes of ``sizes`` [m] (coarse to fine, constant ratio).
 
@@ -99,11 +259,11 @@ def richardson(sizes, values, theoretical_order: float | None = None) -> Richard
     r = math.sqrt(h[0] / h[2])
     d1, d2 = f[0] - f[1], f[1] - f[2]
     monotonic = d1 * d2 > 0 or (d1 == 0 and d2 == 0)
-    converging = d1 * d2 > 0 and abs(d2) < abs(d1)
     p_max = None if theoretical_order is None else MAX_ORDER_FACTOR * theoretical_order
+    p, _, shrinking = observed_order(h[::-1], f[::-1])
+    converging = d1 * d2 > 0 and shrinking
     if converging:
-        p = math.log(d1 / d2) / math.log(r)
-        f_inf = f[2] - d2 / (r**p - 1.0)
+        f_inf = extrapolate(f[2], f[1], h[1] / h[2], p)
         err = tuple(float(abs(v - f_inf) / abs(f_inf) * 100) for v in f)
         plausible = p >= MIN_ORDER and (p_max is None or p <= p_max)
         if plausible:
@@ -271,3 +431,54 @@ def plot_convergence(study: dict, path) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
+
+
+#: quantities of the reed-parameter table that get a GCI
+REED_QUANTITIES = ("omega_n", "kappa", "gamma1", "gamma2", "gamma3")
+#: standard numerical uncertainty of a GCI band: GCI / 1.15 (ASME V&V 20-2009, section 2-4: the GCI
+#: with Fs = 1.25 read as a ~95 % interval); applied alike to the conservative Fs = 3 bands
+GCI_STANDARD_FACTOR = 1.15
+
+
+def gci_study(reed, fidelity: str, mesh_size: float | None = None, quick: bool = False,
+              quantities=REED_QUANTITIES, progress: bool = False, model=None) -> dict:
+    """GCI of omega_n, kappa, gamma1..3 of one FEA fidelity at the mesh a check uses (``mesh_size`` or the default h).
+
+    Full: :func:`convergence_study` on (2h, h, h/2) and :func:`gci` of the three solutions;
+    the value at h is the second solution, so its band is GCI32 (``gci_coarse``).
+    ``quick``: two meshes (2h, h), Fs = 3 with the assumed order :data:`MIN_ORDER` (the
+    lowest these singular problems show; a conservative choice), the value at h the finest.
+
+    Returns ``{"fidelity", "sizes", "dofs", "quick", "quantities": {q: {"value", "U", "u",
+    "gci"}}}``: ``U`` the band [quantity units], ``u`` = U / :data:`GCI_STANDARD_FACTOR`.
+    """
+    if model is None:
+        from .fidelities import get
+
+        model = get(fidelity, "fidelity").reed_properties
+    h = float(mesh_size) if mesh_size is not None else default_mesh_size(reed, fidelity)
+    if quick:
+        sizes = (h, RATIO * h)
+        props = []
+        for x in sizes:
+            if progress:
+                print(f"gci {fidelity}: mesh {len(props) + 1}/2, size {x:.4g} m", file=sys.stderr, flush=True)
+            props.append(model(reed, mesh_size=x))
+        values = {q: [getattr(p, q) for p in props] for q in quantities}
+        dofs = [int(p.dofs) for p in props]
+        index, kw = 0, {"order": MIN_ORDER}
+    else:
+        study = convergence_study(reed, fidelity, sizes=default_sizes(h), quantities=quantities,
+                                  progress=progress, model=model, max_extra=0)
+        sizes = tuple(study["sizes"][::-1])
+        values = {q: study["quantities"][q]["values"][::-1] for q in quantities}
+        dofs = study["dofs"][::-1]
+        index, kw = 1, {}
+    out = {}
+    for q in quantities:
+        g = gci(values[q], sizes=sizes, **kw)
+        band = g.band(index)
+        out[q] = {"value": float(values[q][index]), "U": float(band), "u": float(band / GCI_STANDARD_FACTOR),
+                  "gci": g.as_dict()}
+    return {"fidelity": fidelity, "sizes": [float(x) for x in sizes], "dofs": dofs, "quick": bool(quick),
+            "mesh_size": h, "quantities": out}

@@ -49,6 +49,7 @@ class PumpModel:
     effects: tuple[Applied, ...] = ()
     name: str = "custom"          # shipped name, or the model file's stem
     source: str = ""              # where it was read from
+    uncertainties: tuple = ()     # declared input uncertainties (lumped.uncertainty.Uncertainty)
 
     def valve(self, position: str):
         """The valve at ``position`` (inlet or delivery)."""

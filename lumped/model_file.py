@@ -36,6 +36,7 @@ from geometry.declare import check_field, flatten, specs
 from geometry.errors import InputError
 from geometry.validate import read_toml
 from lumped import effect_library
+from lumped import uncertainty as _uncertainty
 from lumped.effect_library import LIBRARY
 from lumped.effects import Applied
 from lumped.model import POSITIONS, Operating, PumpModel
@@ -55,7 +56,8 @@ def kind_default_model(kind: str) -> str:
     return KIND_DEFAULTS.get(kind) or KINDS[kind].default_model
 #: the model whose pump, oil and circuit are the defaults of every model file
 DEFAULT_BASE = "thesis-disc"
-TOP_KEYS = ("name", "base", "description", "pump", "oil", "circuit", "operating", "valves", "effects")
+TOP_KEYS = ("name", "base", "description", "pump", "oil", "circuit", "operating", "valves", "effects",
+            "uncertainty")
 COMPONENTS = {"pump": Pump, "oil": Oil, "circuit": Circuit, "operating": Operating}
 
 
@@ -213,7 +215,10 @@ def parse_model(data: dict, source: str = "", base_dir: Path | None = None, name
     _check_pump(model)
     effects = list(base.effects) if (base is not None and base_name is not None) else []
     effects = _parse_effects(_table(data, "effects", ""), model, effects, data, base_name)
-    return replace(model, effects=tuple(effects))
+    model = replace(model, effects=tuple(effects))
+    # declared input uncertainties (lumped/uncertainty.py), a base's inherited
+    return replace(model, uncertainties=_uncertainty.parse_uncertainties(
+        data.get("uncertainty"), model, base.uncertainties if (base is not None and base_name is not None) else ()))
 
 
 def _load_valve(user: dict, pos: str, base: PumpModel | None, defaults: dict, base_dir: Path | None,
@@ -369,6 +374,8 @@ def model_table(model: PumpModel) -> dict:
             eff[a.name] = dict(a.values)
     if eff:
         out["effects"] = eff
+    if model.uncertainties:
+        out["uncertainty"] = _uncertainty.uncertainty_table(model.uncertainties)
     return out
 
 
@@ -441,6 +448,8 @@ def to_toml(model: PumpModel, comments: bool = True) -> str:
             p = params.get(k)
             c = f"  # {p.unit}, prior {p.prior:.4g}: {p.source}" if (comments and p) else ""
             lines.append(_fmt(k, val) + c)
+    if model.uncertainties:                     # declared input uncertainties (lumped/uncertainty.py)
+        lines += ["", tomli_w.dumps({"uncertainty": _uncertainty.uncertainty_table(model.uncertainties)}).strip()]
     return "\n".join(lines) + "\n"
 
 
@@ -484,12 +493,16 @@ def with_values(model: PumpModel, values: dict, field_prefix: str = "") -> PumpM
     if not values:
         return model
     table = model_table(model)
+    table.pop("uncertainty", None)          # carried over below, as inherited declarations
     for path, value in values.items():
         _set_path(table, model, str(path), value, field_prefix)
     try:
-        return parse_model(table, source=model.source, name=model.name, defaults_from=None)
+        out = parse_model(table, source=model.source, name=model.name, defaults_from=None)
     except InputError as exc:
         raise InputError(field_prefix + exc.field, exc.message) from None
+    if not model.uncertainties:
+        return out
+    return replace(out, uncertainties=_uncertainty.parse_uncertainties(None, out, model.uncertainties))
 
 
 def _set_path(table: dict, model: PumpModel, path: str, value, prefix: str) -> None:
@@ -623,6 +636,8 @@ def describe(model: PumpModel) -> dict:
 
 # the effect library asks for the thesis model of a kind when a prior is wanted for a bare valve type
 effect_library.REFERENCE["model"] = lambda kind: _shipped(kind_default_model(kind))
+# the input-uncertainty declarations check their key paths against key_paths
+_uncertainty.KEY_PATHS["key_paths"] = key_paths
 
 
 def check_key(model: PumpModel, path: str, value) -> None:

@@ -87,6 +87,19 @@ def test_validate_quick_writes_tables_plots_and_summary(cli, tmp_path):
     assert s["tables"]["5.4"]["max_abs_diff_from_thesis_model_pct"] < 1.0
     assert "step 2/4" in err and "step 4/4" in err                            # progress on stderr
     assert obj["steps"]["pump_cases"]["cases"] == 6
+    # the V&V 20 table (CONTRACT keys), cheaper with --quick and saying so
+    assert len(obj["validation"]) == 6 and obj["reed_validation"] == []
+    keys = {"case", "output", "S", "D", "E", "u_num", "u_input", "u_D", "u_val", "k", "U_val", "delta_model",
+            "verdict", "contributors"}
+    for r in obj["validation"]:
+        assert keys <= set(r) and r["output"] == "delivery_cc_per_rev" and r["verdict"] in ("within", "model_form_error")
+        assert r["E"] == pytest.approx(r["S"] - r["D"]) and r["U_val"] == pytest.approx(r["k"] * r["u_val"])
+        assert r["u_input"] > 0 and r["u_D"] > 0 and r["contributors"][0][0] == "oil.air_content"
+    assert obj["area_metric"]["disc"] > 0 and obj["area_metric"]["reed"] is None
+    assert obj["uncertainty"]["quick"] and "cheaper" in obj["uncertainty"]["note"]
+    for name in ("validation.md", "validation.csv", "validation.json", "validation.png"):
+        assert (out / name).is_file(), name
+    assert "within the validation uncertainty" in (out / "validation.md").read_text()
     # a second run may replace its own output, but not a user's folder
     user = tmp_path / "mine"
     user.mkdir()
@@ -136,3 +149,19 @@ def test_reed_parameter_chain_feeds_the_pump():
     m = V.reed_model_from(props)
     assert m.inlet.stiffness == props.kappa and m.delivery.gamma1 == props.gamma1
     assert m.delivery.preload == pytest.approx(-0.18e-3)    # the empirical rest stays Table 3.13's
+
+
+def test_pump_uncertainty_gives_u_num_and_u_input(cli):
+    """valvelab pump --uncertainty: u_num and u_input of the delivery and each valve's angles (CONTRACT);
+    a model without declarations has u_input 0."""
+    rc, out, err, obj = cli("pump", "--valve", "disc", "--revolutions", "3", "--uncertainty", "--json", timeout=600)
+    assert rc == 0, err
+    u = obj["uncertainty"]
+    assert set(u) == {"delivery_cc_per_rev", "inlet_opening_angle_deg", "inlet_closing_angle_deg",
+                      "delivery_opening_angle_deg", "delivery_closing_angle_deg"}
+    for name, d in u.items():
+        assert {"u_num", "u_input", "contributors"} <= set(d)
+        assert d["u_num"] is not None and 0 <= d["u_num"] < d["u_input"], (name, d)
+    # the air content's 0.0029 at ~22 cc/rev per unit R (thesis disc pump)
+    assert u["delivery_cc_per_rev"]["contributors"][0][0] == "oil.air_content"
+    assert 0.03 < u["delivery_cc_per_rev"]["u_input"] < 0.1

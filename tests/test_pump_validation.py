@@ -104,6 +104,19 @@ def test_validate_full_run(cli, tmp_path):
     assert obj["tables"]["5.4"]["max_abs_diff_from_thesis_model_pct"] < 1.0
     assert obj["tables"]["5.6"]["max_abs_diff_from_thesis_model_pct"] < 0.1
     assert obj["tables"]["5.6"]["table_5_1_dead_volume_max_abs_diff_from_thesis_model_pct"] > 8.0
+    # with its validation uncertainty (ASME V&V 20): 12 rows, the reed parameters of three FEA fidelities
+    assert obj["steps"]["reed_parameters"]["selected"]["fidelity"] == "analytic"
+    assert len(obj["validation"]) == 12 and len(obj["reed_validation"]) == 15
+    assert set(obj["area_metric"]) == {"disc", "reed"} and not obj["uncertainty"]["quick"]
+    assert obj["uncertainty"]["worst_u_input_precision"] <= 0.10
+    for r in obj["validation"]:
+        assert r["u_num"] < 0.01 * r["u_input"]                   # the integrator is not what limits
+    # the E-B model against the beam FE (same theory) is within its uncertainty; against the solid it is not
+    by = {(r["case"], r["output"]): r for r in obj["reed_validation"]}
+    assert by[("prototype/beam", "kappa")]["verdict"] == "within"
+    assert by[("prototype/solid", "kappa")]["verdict"] == "model_form_error"
+    for name in ("validation.md", "reed_validation.md", "validation.png", "reed_validation.png"):
+        assert (out / name).is_file(), name
 
 
 def test_air_content_is_the_thesis_value_per_valve():

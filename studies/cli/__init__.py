@@ -27,7 +27,7 @@ from geometry.errors import InputError
 #: modules of this package that are not commands
 HELPERS = frozenset({"flags"})
 #: the order commands are listed in ``valvelab --help`` (others follow alphabetically)
-ORDER = ("validate", "pump", "model", "reed", "modes", "check", "seat", "table", "lts", "sweep",
+ORDER = ("validate", "pump", "model", "reed", "modes", "check", "gci", "seat", "table", "lts", "sweep",
          "sweep-plot", "sensitivity", "optimize", "synth", "discrepancy")
 
 

@@ -29,7 +29,11 @@ def run(args) -> dict:
         return out
     if args.toml:
         raise InputError("--toml", "applies to model show")
+    from lumped.uncertainty import check_reach
+
+    check_reach(model)              # every draw of a declared uncertainty inside its key's range
     out = describe(model)
+    out["uncertainties"] = [dict(key=u.key, **u.as_table()) for u in model.uncertainties]
     out["valid"] = True
     if not args.no_fea:
         out["fea_check"] = _fea_checks(model)
@@ -88,6 +92,8 @@ def render(r: dict) -> str:
             rp = v["reed_parameters"]
             lines.append(f"           kappa {rp['kappa'] / 1e6:.4g} MPa/m, gamma1..3 {rp['gamma1']:.4f} {rp['gamma2']:.4f} "
                          f"{rp['gamma3']:.4f}, h_eff {rp['h_eff'] * 1e3:.4f} mm ({rp['source']})")
+    if r.get("uncertainties"):
+        lines.append(f"  input uncertainties {', '.join(u['key'] for u in r['uncertainties'])}")
     for pos, c in r.get("fea_check", {}).items():
         lines.append(f"  FEA check ({pos}, {c['geometry']}): flagged {', '.join(c['flagged']) or 'nothing'} "
                      f"against {c['reference']}")

@@ -50,6 +50,9 @@ def configure(p):
                    help="integrator relative tolerance (default: fast 1e-3, reference 1e-6)")
     p.add_argument("--atol", type=flags.number("-", TOL_BOUNDS), default=None,
                    help="integrator absolute tolerance in state scales (default: fast 1e-5, reference 1e-6)")
+    p.add_argument("--uncertainty", action="store_true",
+                   help="add u_num (tolerance ladder) and u_input (the model's declared input uncertainties, "
+                        "Monte Carlo) of the delivery and the valve angles (ASME V&V 20)")
     p.add_argument("--method", default="fast", choices=("fast", "reference"),
                    help="fast: compiled Rodas4P (default; delivery within 0.1 %% and valve timing within 0.5 deg of "
                         "the reference, README); reference: scipy Radau")
@@ -129,6 +132,14 @@ def run(args) -> dict:
 
     out["model"] = model.name if model.name in SHIPPED and model.source.startswith("lumped/") else model.source
     out["reed_parameters"] = _reed_source(model)
+    if args.uncertainty:
+        from lumped.model_file import with_values
+        from studies.validation.vv20 import point_uncertainty
+
+        m = model if args.air_content is None else with_values(model, {"oil.air_content": args.air_content})
+        out["uncertainty"] = point_uncertainty(m, speed, load, res, revolutions=args.revolutions,
+                                               max_revolutions=args.max_revolutions, circuit=args.circuit,
+                                               progress=True)
     out["trace"] = None
     if "--trace" in outputs:
         write_trace_csv(res, outputs["--trace"], args.trace_valve)
@@ -188,6 +199,11 @@ def render(r: dict) -> str:
     ]
     if r["reed_parameters"]:
         lines.append(f"  reed data     {r['reed_parameters']}")
+    for name, u in (r.get("uncertainty") or {}).items():
+        top = ", ".join(f"{k} {v:.2g}" for k, v in u["contributors"]) or "none declared"
+        num = "-" if u["u_num"] is None else f"{u['u_num']:.2g}"
+        inp = "-" if u["u_input"] is None else f"{u['u_input']:.3g}"
+        lines.append(f"  u {name:26s} u_num {num} {u['unit']}, u_input {inp} {u['unit']} ({top})")
     for k in ("trace", "plot"):
         if r.get(k):
             lines.append(f"  {k:13s} {r[k]}")

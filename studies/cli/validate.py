@@ -1,9 +1,11 @@
 """``valvelab validate``: the multi-fidelity chain and the 12 pump cases of chapter 5, written to ``out/``.
 
-Steps: 1. reed parameters, analytic vs FEA (``studies.validation.reed_check``); 2. the 12 pump
-cases of Tables 5.4 and 5.6 to cyclic steady state; 3. tables (Markdown and CSV) and
-plots (valve positions and pressures over three revolutions, the model's Figures
-5.7-5.21); 4. a summary of errors vs measured and vs the thesis's model.
+Steps: 1. reed parameters, analytic vs FEA (``studies.validation.reed_check``), with the V&V 20
+table of the analytic model against each FEA fidelity; 2. the 12 pump cases of Tables 5.4 and
+5.6 to cyclic steady state, with their numerical, input and measurement uncertainty (ASME
+V&V 20, ``studies.validation.vv20``); 3. tables (Markdown and CSV) and plots (valve positions
+and pressures over three revolutions, the model's Figures 5.7-5.21; E with U_val); 4. a summary
+of errors vs measured and vs the thesis's model, and the verdicts.
 """
 
 from __future__ import annotations
@@ -27,6 +29,12 @@ def configure(p):
     p.add_argument("--jobs", type=flags.integer(1, 256), default=None, help="processes for the pump cases (default 1 or $VALVELAB_JOBS)")
     p.add_argument("--valve", choices=("disc", "reed"), default=None, help="only the cases of one valve type")
     p.add_argument("--skip-reed-chain", action="store_true", help="skip step 1 (reed parameters by fidelity)")
+    p.add_argument("--no-uncertainty", action="store_true",
+                   help="skip the validation uncertainty (u_num, u_input, u_D and the V&V 20 tables)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="dask scheduler for the Monte Carlo of u_input (default: a local cluster; --quick: this process)")
+    p.add_argument("--workers", type=flags.integer(1, 256), default=None,
+                   help="local dask workers for the Monte Carlo (default: one per core)")
 
 
 def _log(msg: str) -> None:
@@ -42,9 +50,14 @@ def run(args) -> dict:
     jobs = V.default_jobs() if args.jobs is None else args.jobs
     if jobs < 1:
         raise InputError("--jobs", f"must be at least 1, got {jobs}")
+    if args.scheduler is not None and args.workers is not None:
+        raise InputError("--workers", "applies to the local cluster only; the scheduler at --scheduler has its own")
+    uncertainty = not args.no_uncertainty
     out = prepare_output_dir(args.out, "--out", args.force, kind="validate")
     t_start = time.time()
     summary: dict = {"out": str(out), "quick": bool(args.quick), "steps": {}}
+    files = []
+    reed_table = None
 
     # 1. reed parameters by fidelity
     chain = {"status": "skipped", "reason": "--skip-reed-chain", "rows": [], "selected": None}
@@ -54,15 +67,35 @@ def run(args) -> dict:
         if chain["status"] != "ok":
             _log(f"  {chain['reason']}: the pump uses Table 3.13 only")
     if chain["rows"]:
+        if uncertainty and len(chain["rows"]) > 1:
+            from geometry import load_reed
+            from studies.validation.vv20 import reed_validation
+
+            _log("  V&V 20: analytic against each FEA fidelity (GCI of each mesh, thickness tolerance)")
+            reed_table = reed_validation(load_reed("prototype"), chain["rows"], quick=args.quick, progress=True)
+            files += reed_table.write(out / "reed_validation")
+            files.append(reed_table.plot(out / "reed_validation.png", relative=True))
         rows, notes = V.reed_parameter_table(chain)
+        if reed_table is not None:                  # each FEA value's GCI band beside it
+            from fea.convergence import GCI_STANDARD_FACTOR
+
+            band = {(r["case"].split("/")[-1], r["output"]): r["u_num"] * GCI_STANDARD_FACTOR / abs(r["D"]) * 100
+                    for r in reed_table.rows}
+            for row in rows:
+                for q in ("omega_n", "kappa", "gamma1", "gamma2", "gamma3"):
+                    b = band.get((row["fidelity"], q))
+                    row[f"{q} GCI [%]"] = None if b is None else round(b, 4)
+            notes.append("GCI [%]: the band of each FEA value at its mesh (meshes 2h, h, h/2; Celik et al. 2008); "
+                         "reed_validation.md compares each fidelity with the analytic model (ASME V&V 20).")
         V.write_table([_plain(r) for r in rows], out / "reed_parameters",
                       "Prototype reed parameters by fidelity (step 1), beside the thesis's FEA", notes)
     sel = chain["selected"]
     summary["steps"]["reed_parameters"] = {
         "status": chain["status"], "reason": chain["reason"], "fidelities": len(chain["rows"]),
         "flagged": list(chain.get("flagged", [])),
-        "selected": None if sel is None else {k: finite_or_none(getattr(sel, k)) for k in
-                                              ("fidelity", "omega_n", "kappa", "gamma1", "gamma2", "gamma3", "h_eff")},
+        "selected": None if sel is None else {
+            "fidelity": sel.fidelity,
+            **{k: finite_or_none(getattr(sel, k)) for k in ("omega_n", "kappa", "gamma1", "gamma2", "gamma3", "h_eff")}},
     }
 
     # 2. the pump cases
@@ -77,10 +110,15 @@ def run(args) -> dict:
         rs = V.run_cases(reed_sel, params_for=lambda c: model, quick=args.quick, trace=False, progress=True,
                          jobs=jobs, method="fast")     # an auxiliary column: the fast path (within 0.1 %)
         geo_results = {V.case_name(c): r for c, r in zip(reed_sel, rs)}
+    pump_table = extra = None
+    t_unc = time.time()
+    if uncertainty:
+        _log("  validation uncertainty: u_num (tolerance ladder), u_input (Monte Carlo), u_D (paired runs)"
+             + (" - quick: cheaper and coarser" if args.quick else ""))
+        pump_table, extra = _pump_uncertainty(args, selected, results)
 
     # 3. tables and plots
     _log("step 3/4: tables and plots")
-    files = []
     tables = {}
     for table, valve in (("5.4", "disc"), ("5.6", "reed")):
         pairs = [(c, r) for c, r in zip(selected, results) if c["table"] == table]
@@ -129,11 +167,45 @@ def run(args) -> dict:
          "stop_contacts": [v.stop_contacts for v in r.valves.values()]}
         for c, r in zip(selected, results)
     ]
+    if pump_table is not None:
+        files += pump_table.write(out / "validation")
+        files.append(pump_table.plot(out / "validation.png"))
+    summary["validation"] = pump_table.to_json() if pump_table is not None else []
+    summary["reed_validation"] = reed_table.to_json() if reed_table is not None else []
+    summary["area_metric"] = dict(pump_table.area_metric) if pump_table is not None else {"disc": None, "reed": None}
+    if uncertainty:
+        summary["uncertainty"] = {
+            "quick": bool(args.quick),
+            "note": ("cheaper: a two-level tolerance ladder (Fs = 3), 64 draws per case, two FEA meshes (Fs = 3); "
+                     "run without --quick for the full estimate") if args.quick else
+                    "tolerance ladder of three levels (GCI, Fs = 1.25), draws until u_input is known within 10 %, "
+                    "FEA meshes 2h, h, h/2",
+            "draws": extra["draws"] if extra else {}, "worst_u_input_precision": extra["worst_precision"] if extra else None,
+            "predictions": extra["predictions"] if extra else {}, "measurement": extra["measurement"] if extra else {},
+            "area_metric_detail": extra["area_metric_detail"] if extra else {},
+            "wall_seconds": round(time.time() - t_unc, 1) if extra else None,
+        }
     summary["wall_seconds"] = round(time.time() - t_start, 1)
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     (out / "summary.md").write_text(_summary_md(summary))
     summary["files"] = sorted(str(Path(f).name) for f in files) + ["summary.json", "summary.md"]
     return summary
+
+
+def _pump_uncertainty(args, selected, results):
+    """The V&V 20 table of the pump cases; the Monte Carlo on dask (--quick: in this process unless a cluster is named)."""
+    from studies.sweeps.design.runner import Cluster
+    from studies.validation.vv20 import pump_validation
+
+    local = args.quick and args.scheduler is None and args.workers is None
+    cluster = None if local else Cluster(scheduler=args.scheduler, workers=args.workers)
+    try:
+        if cluster is not None:
+            cluster.check_reachable()
+        return pump_validation(selected, results, quick=args.quick, cluster=cluster, progress=True)
+    finally:
+        if cluster is not None:
+            cluster.close()
 
 
 def _plain(row) -> dict:
@@ -175,6 +247,23 @@ def _summary_md(s: dict) -> str:
     for c in s["cases"]:
         lines.append(f"| {c['case']} | {c['modeled_cc']:.4f} | {c['measured_cc']:.3f} | {c['thesis_modeled_cc']:.3f} "
                      f"| {c['peak_opening_mm'][0]:.3f} / {c['peak_opening_mm'][1]:.3f} | {c['stop_contacts']} |")
+    if s.get("validation") or s.get("reed_validation"):
+        u = s.get("uncertainty", {})
+        lines += ["", "## Validation uncertainty (ASME V&V 20)", "",
+                  f"{'Quick, ' + u['note'] if u.get('quick') else 'Full: ' + u.get('note', '')}. "
+                  "Tables: validation.md (pump cases), reed_validation.md (reed parameters).", ""]
+        for r in s.get("validation", []):
+            lines.append(f"- {r['case']}: E = {r['E']:+.4f} {r['unit']} ({r['E'] / r['D'] * 100:+.2f} %), "
+                         f"{r['words']}; largest input: "
+                         + (", ".join(f"{a} {b:.2g}" for a, b in r["contributors"]) or "none"))
+        am = s.get("area_metric", {})
+        if any(v is not None for v in am.values()):
+            lines.append("- area validation metric (u-pooling): "
+                         + ", ".join(f"{k} {v:.4g} cc/rev" for k, v in am.items() if v is not None))
+        bad = [r for r in s.get("reed_validation", []) if r["verdict"] != "within"]
+        if s.get("reed_validation"):
+            lines.append(f"- reed parameters: {len(bad)} of {len(s['reed_validation'])} comparisons show a model-form "
+                         "error: " + (", ".join(f"{r['case']} {r['output']}" for r in bad) or "none"))
     lines += ["", f"Wall time {s['wall_seconds']} s."]
     return "\n".join(lines) + "\n"
 
@@ -187,5 +276,9 @@ def render(s: dict) -> str:
     for t, e in s["tables"].items():
         out.append(f"  Table {t}: mean |error| {e['mean_abs_error_pct']} % (thesis {e['thesis_mean_abs_error_pct']} %), "
                    f"max diff from the thesis's model {e['max_abs_diff_from_thesis_model_pct']} %")
+    if s.get("validation"):
+        n_bad = sum(r["verdict"] != "within" for r in s["validation"])
+        out.append(f"  V&V 20: {len(s['validation']) - n_bad} of {len(s['validation'])} pump cases within the validation "
+                   f"uncertainty" + (" (quick: cheaper estimate)" if s.get("uncertainty", {}).get("quick") else ""))
     out.append(f"  {len(s['files'])} files, {s['wall_seconds']} s")
     return "\n".join(out)

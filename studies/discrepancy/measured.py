@@ -13,6 +13,7 @@ written by valvelab carries), so both valves' positions can be used where measur
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from functools import cache
 from pathlib import Path
@@ -33,6 +34,7 @@ REQUIRED_RUN_KEYS = ("valve_type", "speed_rpm", "load_pressure_pa")
 KNOWN_RUN_KEYS = {
     "valve_type", "measured_valve", "speed_rpm", "load_pressure_pa",
     "delivery_cc_per_rev", "air_content", "model",
+    "delivery_uncertainty_cc", "position_uncertainty_rel",      # u_D, standard (CONTRACT.md)
 }
 
 # Plausibility limits that catch unit mistakes (a position in mm written as m, a
@@ -65,6 +67,8 @@ class Run:
     path: Path | None = None
     extra: dict = field(default_factory=dict)  # other run.toml keys, kept when rewriting
     model: str | None = None                    # run.toml's model file (relative to the run folder)
+    delivery_uncertainty_cc: float | None = None    # stated standard uncertainty of the delivery [cc/rev]
+    position_uncertainty_rel: float | None = None   # stated standard uncertainty of positions, relative
 
     @property
     def period_s(self) -> float:
@@ -157,6 +161,14 @@ def parse_run_toml(data: dict, where: str) -> dict:
         hint = " (is it in percent?)" if r >= 0.5 else ""
         raise InputError(f"{where}: air_content", f"{r:g} is not a volume fraction of air; expected 0 <= R < 0.5{hint}")
     out["air_content"] = r
+    # stated measurement uncertainties (standard; studies/validation/measurement.py)
+    for key, hi in (("delivery_uncertainty_cc", math.inf), ("position_uncertainty_rel", 0.5)):
+        u = _num(data, key, where, False)
+        if u is not None and not 0.0 <= u < hi:
+            what = "of 0 or more" if math.isinf(hi) else f"from 0 to below {hi:g}"
+            raise InputError(f"{where}: {key}", f"expected a standard uncertainty {what}, got {u:g}"
+                             + (" (is it in percent?)" if u >= hi else ""))
+        out[key] = u
     out["extra"] = {}
     return out
 
@@ -376,6 +388,8 @@ def run_toml_dict(run: Run) -> dict:
         "delivery_cc_per_rev": None if run.delivery_cc_per_rev is None else float(run.delivery_cc_per_rev),
         "air_content": None if run.air_content is None else float(run.air_content),
         "model": run.model,
+        "delivery_uncertainty_cc": run.delivery_uncertainty_cc,
+        "position_uncertainty_rel": run.position_uncertainty_rel,
     }
     d = {k: v for k, v in d.items() if v is not None}
     d.update(run.extra)

@@ -1,10 +1,15 @@
-"""The multi-fidelity validation: reed parameters by fidelity, then the thesis's pump cases.
+"""The multi-fidelity validation: reed parameters by fidelity, then the thesis's pump cases, with their uncertainty.
 
 - :mod:`~studies.validation.reed_check`: one reed at every fidelity, deviations flagged;
-- :mod:`~studies.validation.chain`: the 12 pump cases of Tables 5.4 and 5.6, tables and plots.
+- :mod:`~studies.validation.chain`: the 12 pump cases of Tables 5.4 and 5.6, tables and plots;
+- :mod:`~studies.validation.vv20`: every comparison with its uncertainty (ASME V&V 20), from
+  :mod:`~studies.validation.numerical` (u_num), :mod:`~studies.validation.input_uncertainty`
+  (u_input) and :mod:`~studies.validation.measurement` (u_D).
 """
 
 from studies.validation.chain import cases, run_case, run_cases, table_rows
 from studies.validation.reed_check import multi_fidelity_check
+from studies.validation.vv20 import ValidationTable, point_uncertainty, pump_validation, reed_validation
 
-__all__ = ["cases", "multi_fidelity_check", "run_case", "run_cases", "table_rows"]
+__all__ = ["ValidationTable", "cases", "multi_fidelity_check", "point_uncertainty", "pump_validation",
+           "reed_validation", "run_case", "run_cases", "table_rows"]

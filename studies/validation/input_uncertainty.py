@@ -1,0 +1,253 @@
+"""u_input: the model file's declared input uncertainties propagated through the fast pump model by Monte Carlo.
+
+Each operating point draws its model's declarations (``[uncertainty."KEY"]``,
+:mod:`lumped.uncertainty`) on scrambled Sobol points (scipy.stats.qmc, seeded; the inverse
+CDF of each declaration's normal or uniform distribution), sets the keys
+(:func:`lumped.model_file.with_values`) and runs the compiled stepper at rtol 1e-4 (the
+sweeps' design tolerance: its numerical noise, ~1e-5 relative in delivery, is far below
+u_input) to cyclic steady state. The simulations run on a dask cluster like the sweeps
+(:class:`studies.sweeps.design.runner.Cluster`), or in this process.
+
+u_input of an output is the standard deviation of its draws. How well the sample knows
+it is measured, not assumed: :data:`SCRAMBLES` independent scrambles of the Sobol sequence
+each give an estimate u_r, and the standard error of the pooled estimate is
+std(u_r) / sqrt(SCRAMBLES) (randomised QMC; Owen 1997). Each point starts with 16 points
+per scramble and doubles them (keeping the sequences balanced) until 2 x that standard
+error is within 10 % of u_input for every output, or 128 per scramble (1024 draws);
+``--quick``: 8 per scramble, once. The precision reached and the degrees of freedom it
+implies (GUM G.4.2: nu = (u / se)^2 / 2) are reported with every estimate.
+
+Contributors: a linear regression of the output on the standard scores of the same draws
+(first-order, linear variance decomposition): input j contributes |beta_j| sd(z_j), in the
+output's units; ``linear_r2`` says how much of the variance the linear model explains
+(the contributions add in quadrature to u_input when it is near 1).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import asdict, dataclass, replace
+
+import numpy as np
+
+from studies.validation.numerical import OUTPUTS
+
+#: the fast path's tolerances for the draws
+MC_RTOL, MC_ATOL = 1e-4, 1e-6
+#: independent scrambles of the Sobol sequence (their spread measures the estimate's precision)
+SCRAMBLES = 8
+#: points per scramble: 2^FIRST_POWER to start, doubled up to 2^MAX_POWER; --quick: 2^QUICK_POWER once
+FIRST_POWER, MAX_POWER, QUICK_POWER = 4, 7, 3
+#: stop when 2 x the standard error of u_input is at most this fraction of it
+TARGET_PRECISION = 0.10
+#: the contributors reported per output
+TOP = 3
+#: draws per dask task
+BATCH = 16
+
+
+@dataclass(frozen=True)
+class Point:
+    """One operating point to propagate to: a model with its declarations, speed [rpm], load [Pa]."""
+
+    name: str
+    model: object
+    speed_rpm: float
+    load_pressure: float
+    revolutions: int = 5
+    max_revolutions: int | None = 12
+    circuit: str | None = None
+
+
+@dataclass(frozen=True)
+class InputUncertainty:
+    """u_input of one output at one point (output units)."""
+
+    output: str
+    unit: str
+    u: float | None
+    mean: float | None
+    precision: float | None                 # 2 x standard error of u / u
+    dof: float | None                       # None: infinite
+    samples: int
+    missing: int                            # draws where the output is undefined or the run failed
+    contributors: tuple[tuple[str, float], ...]
+    linear_r2: float | None
+    note: str = ""
+
+    def as_dict(self) -> dict:
+        d = asdict(self)
+        d["contributors"] = [list(c) for c in self.contributors]
+        return d
+
+
+def evaluate_draws(model, speed_rpm: float, load_pressure: float, decls, keys: dict, zs, settings: dict,
+                   outputs=tuple(OUTPUTS)) -> list[dict | None]:
+    """The outputs of ``model`` at each draw of standard scores ``zs`` (None for a failed run); runs on a worker."""
+    from lumped.cycle import simulate
+    from lumped.model_file import with_values
+    from lumped.uncertainty import sample_values
+    from studies.validation.numerical import output_values
+
+    out = []
+    for z in zs:
+        try:
+            m = with_values(model, sample_values(model, decls, z, keys))
+            r = simulate(m, speed_rpm, load_pressure, method="fast", rtol=MC_RTOL, atol=MC_ATOL, **settings)
+            out.append(output_values(r, {k: OUTPUTS[k] for k in outputs}))
+        except Exception:  # noqa: BLE001 - a draw the model cannot run is counted as missing, by design
+            out.append(None)
+    return out
+
+
+class _State:
+    """The draws of one point: its Sobol samplers, standard scores and results per scramble."""
+
+    def __init__(self, point: Point, seed: int, index: int):
+        from scipy.stats import qmc
+
+        from lumped.uncertainty import check_reach, numeric_keys
+
+        self.point = point
+        self.decls = tuple(point.model.uncertainties)
+        check_reach(point.model, self.decls)
+        self.model = replace(point.model, uncertainties=())
+        self.keys = numeric_keys(self.model)
+        d = len(self.decls)
+        self.samplers = [qmc.Sobol(d, scramble=True, rng=np.random.default_rng([seed, index, r]))
+                         for r in range(SCRAMBLES)] if d else []
+        self.z: list[list] = [[] for _ in range(SCRAMBLES)]
+        self.y: list[list] = [[] for _ in range(SCRAMBLES)]
+        self.n = 0
+        self.done = d == 0
+
+    def next_draws(self, n: int) -> list[tuple[int, np.ndarray]]:
+        """(scramble, standard scores) of the next ``n`` points of every scramble."""
+        from lumped.uncertainty import standard_scores
+
+        out = []
+        for r, s in enumerate(self.samplers):
+            z = standard_scores(self.decls, s.random(n))
+            self.z[r] += list(z)
+            out.append((r, z))
+        self.n += n
+        return out
+
+
+def _estimate(state: _State, name: str, unit: str) -> InputUncertainty:
+    decls = state.decls
+    if not decls:
+        return InputUncertainty(name, unit, 0.0, None, 0.0, None, 0, 0, (), None,
+                                "the model declares no input uncertainties")
+    zs, ys, scr = [], [], []
+    for r in range(SCRAMBLES):
+        for z, y in zip(state.z[r], state.y[r]):
+            v = None if y is None else y.get(name)
+            if v is not None and math.isfinite(v):
+                zs.append(z)
+                ys.append(v)
+                scr.append(r)
+    n_all = sum(len(y) for y in state.y)
+    missing = n_all - len(ys)
+    if len(ys) < 4:
+        return InputUncertainty(name, unit, None, None, None, None, n_all, missing, (), None,
+                                "undefined in (almost) every draw: the valve never opens or never reseats")
+    Z, Y, S = np.asarray(zs), np.asarray(ys), np.asarray(scr)
+    u = float(np.std(Y, ddof=1))
+    per = [float(np.std(Y[S == r], ddof=1)) for r in range(SCRAMBLES) if np.sum(S == r) >= 2]
+    se = float(np.std(per, ddof=1) / math.sqrt(len(per))) if len(per) >= 2 else math.inf
+    precision = 0.0 if u == 0.0 else (2.0 * se / u if math.isfinite(se) else None)
+    dof = None if se == 0.0 or not math.isfinite(se) or u == 0.0 else 0.5 * (u / se) ** 2
+    contributors, r2 = (), None
+    if u > 0.0:
+        X = np.column_stack([np.ones(len(Y)), Z])
+        beta, *_ = np.linalg.lstsq(X, Y, rcond=None)
+        resid = Y - X @ beta
+        r2 = float(1.0 - np.sum(resid**2) / np.sum((Y - Y.mean()) ** 2))
+        contrib = [(d.key, float(abs(b) * np.std(Z[:, j], ddof=1))) for j, (d, b) in enumerate(zip(decls, beta[1:]))]
+        contributors = tuple(sorted(contrib, key=lambda c: -c[1])[:TOP])
+    note = ""
+    if missing:
+        note = f"{missing} of {n_all} draws without this output (a valve event missing or a failed run), left out"
+    return InputUncertainty(name, unit, u, float(Y.mean()), precision, dof, len(ys), missing, contributors, r2, note)
+
+
+def propagate(points, *, quick: bool = False, seed: int = 0, cluster=None, progress: bool = False,
+              outputs=tuple(OUTPUTS), draws: dict | None = None) -> dict[str, dict[str, InputUncertainty]]:
+    """u_input of ``outputs`` at every :class:`Point` (see the module docstring); ``cluster``: a
+    :class:`studies.sweeps.design.runner.Cluster` (None: in this process). ``draws``: a dict that
+    receives {point: {output: array of its defined draws}} (the predictive distributions)."""
+    states = [_State(p, seed, i) for i, p in enumerate(points)]
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        per_point = SCRAMBLES * 2**(QUICK_POWER if quick else FIRST_POWER)
+        bar = tqdm(total=per_point * sum(not s.done for s in states), desc="input uncertainty", unit="draw",
+                   file=sys.stderr, smoothing=0.05)
+    n_next = 2**(QUICK_POWER if quick else FIRST_POWER)
+    while True:
+        active = [s for s in states if not s.done]
+        if not active:
+            break
+        tasks = []
+        for s in active:
+            n = n_next if s.n == 0 else s.n          # doubling keeps each scramble's sequence balanced
+            for r, z in s.next_draws(n):
+                for k in range(0, len(z), BATCH):
+                    tasks.append((s, r, z[k:k + BATCH]))
+        if bar is not None and bar.n + sum(len(t[2]) for t in tasks) > bar.total:
+            bar.total = bar.n + sum(len(t[2]) for t in tasks)
+            bar.refresh()
+        for (s, r, _), rows in zip(tasks, _run(tasks, cluster, bar, outputs)):
+            s.y[r] += rows
+        for s in active:
+            if quick or s.n >= 2**MAX_POWER:
+                s.done = True
+                continue
+            est = [_estimate(s, o, OUTPUTS[o]) for o in outputs]
+            s.done = all(e.precision is None or e.precision <= TARGET_PRECISION for e in est)
+    if bar is not None:
+        bar.close()
+    if draws is not None:
+        for s in states:
+            ys = [y for r in range(SCRAMBLES) for y in s.y[r] if y is not None]
+            draws[s.point.name] = {o: np.array([y[o] for y in ys if y.get(o) is not None], dtype=float)
+                                   for o in outputs}
+    return {s.point.name: {o: _estimate(s, o, OUTPUTS[o]) for o in outputs} for s in states}
+
+
+def _run(tasks, cluster, bar, outputs) -> list[list]:
+    """Results of each task, in order (on the cluster's workers, or here)."""
+    def args(t):
+        s, _, z = t
+        p = s.point
+        settings = {"revolutions": p.revolutions, "max_revolutions": p.max_revolutions, "circuit": p.circuit}
+        return (s.model, p.speed_rpm, p.load_pressure, s.decls, s.keys, list(z), settings, tuple(outputs))
+
+    if cluster is None:
+        out = []
+        for t in tasks:
+            out.append(evaluate_draws(*args(t)))
+            if bar is not None:
+                bar.update(len(t[2]))
+        return out
+    from distributed import as_completed
+
+    client = cluster.get()
+    futures = [client.submit(evaluate_draws, *args(t), pure=False) for t in tasks]
+    index = {f.key: i for i, f in enumerate(futures)}
+    out: list = [None] * len(futures)
+    for f in as_completed(futures):
+        out[index[f.key]] = f.result()
+        if bar is not None:
+            bar.update(len(tasks[index[f.key]][2]))
+        f.release()
+    return out
+
+
+def summary(result: dict[str, InputUncertainty]) -> dict:
+    """Draws used and the worst precision reached over the outputs of one point."""
+    prec = [e.precision for e in result.values() if e.precision is not None]
+    n = max((e.samples + e.missing for e in result.values()), default=0)
+    return {"draws": n, "worst_precision": max(prec) if prec else None}
