@@ -345,7 +345,7 @@ def modal_basis(reed: Reed, port=None, mesh_size: float | None = None, n_modes: 
     vecs = r.modes[sys.free]
     raw = np.einsum("ij,ij->j", vecs, sys.M[sys.free][:, sys.free] @ vecs) * sys.ell**2
     return build_basis(reed, port, "plate", r.omega, r.labels, raw, lambda s, y: sys.probe(s, y) @ vecs,
-                       bending_index=r.bending_index, plane=True, raw_load=sys.footprint_load(port) @ vecs,
+                       plane=True, raw_load=sys.footprint_load(port) @ vecs,
                        mesh_size=sys.mesh_size, dofs=r.dofs)
 
 

@@ -388,8 +388,5 @@ def modal_basis(reed: Reed, port=None, mesh_size: float | None = None, n_modes: 
             w = w * np.where((sy[1] < 0)[:, None] & anti[None, :], -1.0, 1.0)
         return np.asarray(w)
 
-    labels = [r.labels[k] for k in keep]
-    kinds = [r.kinds[k] for k in keep]
-    return build_basis(reed, port, "solid", r.omega[keep], labels, raw, evaluate,
-                       bending_index=first_bending(kinds, labels), plane=True, mesh_size=r.mesh_size,
-                       dofs=r.dofs)
+    return build_basis(reed, port, "solid", r.omega[keep], [r.labels[k] for k in keep], raw, evaluate,
+                       plane=True, mesh_size=r.mesh_size, dofs=r.dofs)

@@ -148,8 +148,16 @@ class ModalBasis:
         return rho * (np.pi / 4 * gamma_f * bend + np.pi / 128 * gamma_t * tors)
 
 
+def _opening_mode(tip) -> int:
+    """Index of the mode that scales the opening: the lowest whose tip-centre value is at least half
+    its largest |w| (``tip`` of shapes normalised to max |w| = 1): the first bending mode, not a
+    torsion mode (0 at the tip centre of a symmetric reed) even if that one is lower."""
+    big = np.nonzero(np.abs(np.asarray(tip)) >= 0.5)[0]
+    return int(big[0]) if big.size else 0
+
+
 def build_basis(reed: Reed, port: ReedPort | None, fidelity: str, omega, kinds, raw_mass,
-                evaluate: Callable, *, bending_index: int = 0, plane: bool = False, breaks=None,
+                evaluate: Callable, *, plane: bool = False, breaks=None,
                 raw_load=None, mesh_size: float | None = None, dofs: int | None = None) -> ModalBasis:
     """A :class:`ModalBasis` from a fidelity's modes: omega [rad/s], names, raw modal masses
     int rho_c h phi^2 dA [kg] and ``evaluate(s, y) -> (len(s), N)``, the raw shapes at face points [m].
@@ -160,8 +168,8 @@ def build_basis(reed: Reed, port: ReedPort | None, fidelity: str, omega, kinds, 
     the width. ``plane``: the shapes vary across the width (plate, solid); else one point
     across suffices. ``breaks``: extra s [m] where the shapes are not smooth (FE nodes).
     ``raw_load``: Gamma of the raw shapes [m^2] when the fidelity integrates it itself (an
-    FE model's consistent load vector f . phi), instead of the face rule.
-    ``bending_index``: the first bending mode (the opening's scale).
+    FE model's consistent load vector f . phi), instead of the face rule. The opening is
+    scaled to the first bending mode (:func:`_opening_mode`).
     """
     omega = np.asarray(omega, dtype=float)
     n = len(omega)
@@ -182,7 +190,8 @@ def build_basis(reed: Reed, port: ReedPort | None, fidelity: str, omega, kinds, 
     else:
         es, ey, ew = edge_rule(reed, port)
         edge = ew @ evaluate(es, ey) * scale / ew.sum()
-        opening = edge / edge[bending_index] * tip[bending_index]
+        b = _opening_mode(tip)
+        opening = edge / edge[b] * tip[b]
     sk, wk, Wk = station_rule(reed, N_STATIONS)
     eta, we = np.polynomial.legendre.leggauss(N_ACROSS if plane else 1)
     V = evaluate(np.repeat(sk, len(eta)), (eta[None, :] * Wk[:, None] / 2).ravel()) * scale
@@ -327,11 +336,13 @@ def fe_reed_from(reed: Reed, port: ReedPort | None, fidelity: str, mass, stiffne
     if port is None:
         opening = tip.copy()
     else:
-        # x = <w>_edge phi_1(tip) / <phi_1>_edge: the scale from this reed's first mode
+        # x = <w>_edge phi_1(tip) / <phi_1>_edge, phi_1 this reed's first bending mode
         es, ey, ew = edge_rule(reed, port)
         edge = ew @ probe(es, ey) / ew.sum()
-        _, v1 = _dense_modes(mass, stiffness, 1)
-        opening = edge * float(tip @ v1[:, 0]) / float(edge @ v1[:, 0])
+        _, V = _dense_modes(mass, stiffness, min(4, len(mass)))
+        V = V / np.abs(probe(*face_grid(reed)) @ V).max(axis=0)
+        v1 = V[:, _opening_mode(tip @ V)]
+        opening = edge * float(tip @ v1) / float(edge @ v1)
     sk, wk, Wk = station_rule(reed, N_STATIONS)
     eta, we = np.polynomial.legendre.leggauss(N_ACROSS if plane else 1)
     P = probe(np.repeat(sk, len(eta)), (eta[None, :] * Wk[:, None] / 2).ravel()).reshape(len(sk), len(eta), -1)
