@@ -66,11 +66,47 @@ def _load(v, w):
     return w.q * v
 
 
-def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> BeamResult:
-    """Bending modes [rad/s], uniform-load stiffness kappa = p / v(L) [Pa/m] and shapes of the E-B beam.
+@dataclass
+class BeamSystem:
+    """The assembled Hermite beam of a reed, in units of the element length ``ell`` [m].
 
-    EI(s), rho A(s) of any profile (steps, tapers, thickness steps, grooves); the mode
-    shapes (``modes``, w at ``s``) are kept for plots. DOFs and memory are checked first.
+    ``K``, ``M``, ``f`` (full, sparse / dense) are assembled on the mesh scaled by 1/ell, so
+    the true stiffness is K / ell^3 [N/m], mass M ell [kg] and uniform-pressure load f ell
+    [m^2]; the DOFs are, at each node, w [m] and ell w' [m] (both in metres: well scaled).
+    ``free`` are the DOFs left after clamping w = w' = 0 at s = 0.
+    """
+
+    basis: Basis
+    ell: float
+    K: object
+    M: object
+    f: np.ndarray
+    free: np.ndarray
+    clamped: np.ndarray
+    mesh_size: float
+
+    def probe(self, s) -> np.ndarray:
+        """Dense (len(s), len(free)) matrix giving w [m] at stations s [m] from the free DOFs."""
+        s = np.clip(np.asarray(s, dtype=float), 0.0, self.basis.mesh.p.max() * self.ell * (1 - 1e-14))
+        return self.basis.probes(s[None, :] / self.ell).tocsc()[:, self.free].toarray()
+
+    def dense(self) -> tuple[np.ndarray, np.ndarray]:
+        """(M [kg], K [N/m]) on the free DOFs, dense, in true units."""
+        M = self.M[self.free][:, self.free].toarray() * self.ell
+        K = self.K[self.free][:, self.free].toarray() / self.ell**3
+        return M, K
+
+    def nodes(self) -> np.ndarray:
+        """The mesh nodes s [m] (where the Hermite shapes join)."""
+        return np.sort(self.basis.mesh.p[0]) * self.ell
+
+
+def assemble(reed: Reed, mesh_size: float | None = None) -> BeamSystem:
+    """Stiffness, mass and uniform-pressure load of the E-B beam reed (eq 3.8 without damping and fluid).
+
+    Elements of at most ``mesh_size`` [m] (default L/200) with nodes on every breakpoint;
+    EI(s), rho A(s) and W(s) of the exact profile at Gauss points of order INTORDER. DOFs
+    and memory are checked first.
     """
     h = default_mesh_size(reed) if mesh_size is None else float(mesh_size)
     check_size(reed, h)
@@ -90,13 +126,31 @@ def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> BeamR
     M = asm(_mass, basis, m=m)
     f = asm(_load, basis, q=q)
     D = basis.get_dofs(lambda x: x[0] < 1e-12).all()
-    u = fem_solve(*condense(K, f, D=D)) * ell**4
-    Kc, Mc, _, I = condense(K, M, D=D)
+    free = np.setdiff1d(np.arange(K.shape[0]), D)
+    return BeamSystem(basis=basis, ell=ell, K=K, M=M, f=f, free=free, clamped=D, mesh_size=h)
+
+
+def _eigen(sys: BeamSystem, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
+    """Lowest omega^2 [rad^2/s^2] and the free-DOF mode vectors (M'-normalised) by shift-invert ARPACK."""
+    Kc, Mc, _, I = condense(sys.K, sys.M, D=sys.clamped)
     k = min(int(n_modes), len(I) - 2)
     vals, vecs = spla.eigsh(Kc.tocsc(), k=k, M=Mc.tocsc(), sigma=0.0, which="LM",
                             v0=np.ones(Kc.shape[0]))  # a fixed start: reproducible results
     order = np.argsort(vals)
-    vals, vecs = vals[order] / ell**4, vecs[:, order]
+    return vals[order] / sys.ell**4, vecs[:, order]
+
+
+def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> BeamResult:
+    """Bending modes [rad/s], uniform-load stiffness kappa = p / v(L) [Pa/m] and shapes of the E-B beam.
+
+    EI(s), rho A(s) of any profile (steps, tapers, thickness steps, grooves); the mode
+    shapes (``modes``, w at ``s``) are kept for plots. DOFs and memory are checked first.
+    """
+    sys = assemble(reed, mesh_size)
+    basis, ell, K, I = sys.basis, sys.ell, sys.K, sys.free
+    u = fem_solve(*condense(K, sys.f, D=sys.clamped)) * ell**4
+    vals, vecs = _eigen(sys, n_modes)
+    k = len(vals)
     s = np.linspace(0.0, reed.length, N_SHAPE)
     P = basis.probes(np.clip(s, 0.0, reed.length * (1 - 1e-14))[None, :] / ell)
     w = P @ u
@@ -108,8 +162,8 @@ def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> BeamR
     kappa = 1.0 / u[tip]
     return BeamResult(
         omega=np.sqrt(vals), kinds=["bending"] * k, bending_index=0, kappa=kappa, s=s,
-        psi_static=w / w[-1], psi_mode=phi / phi[-1], dofs=len(I), mesh_size=h, labels=bending_labels(k),
-        shapes=shapes,
+        psi_static=w / w[-1], psi_mode=phi / phi[-1], dofs=len(I), mesh_size=sys.mesh_size,
+        labels=bending_labels(k), shapes=shapes,
     )
 
 
@@ -148,3 +202,42 @@ def write_modes_vtu(result: BeamResult, reed: Reed, path) -> None:
     data = {f"mode{k + 1}_{lab.replace(' ', '_')}_{w:.0f}rad_s": result.shapes[:, k] / np.abs(result.shapes[:, k]).max()
             for k, (lab, w) in enumerate(zip(result.labels, result.omega))}
     meshio.write(str(path), meshio.Mesh(pts, cells, point_data=data), file_format="vtu")
+
+
+# -- the modal reed and the whole FE reed (lumped.reed_modes) ---------------------------------
+#: default elements per reed length of the whole FE reed: about 50-60 DOFs (2 per node),
+#: mode 6 within ~1e-4 of exact E-B on the thesis reeds (docs/reed_dynamics.md)
+FE_ELEMENTS_PER_LENGTH = 24
+
+
+def default_fe_mesh_size(reed: Reed) -> float:
+    """The whole FE reed's default element length [m]: L / 24 (plus nodes at every breakpoint)."""
+    return float(f"{reed.length / FE_ELEMENTS_PER_LENGTH:.6g}")
+
+
+def modal_basis(reed: Reed, port=None, mesh_size: float | None = None, n_modes: int = 6):
+    """The ``beam`` fidelity's modal basis (lumped.reed_modes.ModalBasis): the first bending modes
+    of the Hermite E-B beam, modal masses phi^T M phi [kg], loads and openings integrated
+    exactly element by element. The same assembly as :func:`fe_reed` at the same mesh size."""
+    from lumped.reed_modes import build_basis
+
+    sys = assemble(reed, mesh_size)
+    vals, vecs = _eigen(sys, n_modes)
+    raw = np.einsum("ij,ij->j", vecs, sys.M[sys.free][:, sys.free] @ vecs) * sys.ell
+    return build_basis(reed, port, "beam", np.sqrt(vals), bending_labels(len(vals)), raw,
+                       lambda s, y: sys.probe(s) @ vecs, breaks=sys.nodes(), mesh_size=sys.mesh_size,
+                       dofs=len(sys.free))
+
+
+def fe_reed(reed: Reed, port=None, mesh_size: float | None = None):
+    """The whole Hermite-beam reed (lumped.reed_modes.FEReed): dense M, K on the free DOFs
+    (w and ell w' at each node but the clamped one, both in metres), the exact consistent
+    load of a unit pressure on the footprint, opening, tip and station rows. Default
+    element length :func:`default_fe_mesh_size` (about 50-60 DOFs)."""
+    from lumped.reed_modes import fe_reed_from
+
+    sys = assemble(reed, default_fe_mesh_size(reed) if mesh_size is None else mesh_size)
+    M, K = sys.dense()
+    return fe_reed_from(reed, port, "beam", M, K, lambda s, y: sys.probe(s), breaks=sys.nodes(),
+                        mesh_size=sys.mesh_size,
+                        dof_units=f"w [m] and ell w' [m] at each node, ell = {sys.ell:.6g} m")

@@ -53,6 +53,7 @@ class PlateResult(ModalResult):
     face: FaceMesh = None
     modes: np.ndarray = None
     scale: float = 1.0           # length unit of the basis mesh [m]
+    system: "PlateSystem" = None  # the assembled matrices (modal masses, the whole FE reed)
 
 
 @BilinearForm
@@ -72,6 +73,52 @@ def _mass(u, v, w):
 @LinearForm
 def _load(v, w):
     return 1.0 * v
+
+
+def _clip_to_rectangle(poly: np.ndarray, lo, hi) -> np.ndarray:
+    """The part of a convex polygon (k, 2) inside the box lo <= p <= hi (Sutherland-Hodgman)."""
+    for axis in (0, 1):
+        for bound, sign in ((lo[axis], 1.0), (hi[axis], -1.0)):
+            if len(poly) == 0:
+                return poly
+            d = sign * (poly[:, axis] - bound)          # >= 0 inside this half-plane
+            out = []
+            for i in range(len(poly)):
+                p, q, dp, dq = poly[i], poly[(i + 1) % len(poly)], d[i], d[(i + 1) % len(poly)]
+                if dp >= 0:
+                    out.append(p)
+                if (dp >= 0) != (dq >= 0):
+                    out.append(p + dp / (dp - dq) * (q - p))
+            poly = np.array(out).reshape(-1, 2)
+    return poly
+
+
+def rectangle_rule(mesh, lo, hi, intorder: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """Points (2, n) and weights (n,) integrating over the box lo..hi intersected with a triangle mesh.
+
+    Each triangle is clipped to the box and its part fanned into triangles, each with a
+    Gauss rule of order ``intorder`` (exact for the Argyris quintics times a constant), so
+    int_box N_j dA is exact on a mesh the box's edges cut anywhere.
+    """
+    from skfem.quadrature import get_quadrature
+    from skfem.refdom import RefTri
+
+    X, Wq = get_quadrature(RefTri, intorder)
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    tri = mesh.p[:, mesh.t]                                      # (2, 3, nel)
+    cand = np.nonzero((tri[0].max(0) > lo[0]) & (tri[0].min(0) < hi[0])
+                      & (tri[1].max(0) > lo[1]) & (tri[1].min(0) < hi[1]))[0]
+    pts, wts = [], []
+    for e in cand:
+        poly = _clip_to_rectangle(tri[:, :, e].T.copy(), lo, hi)
+        for k in range(1, len(poly) - 1):
+            a, b, c = poly[0], poly[k], poly[k + 1]
+            J = abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
+            if J <= 1e-14 * (hi - lo).prod():
+                continue
+            pts.append(a[:, None] + np.outer(b - a, X[0]) + np.outer(c - a, X[1]))
+            wts.append(Wq * J)
+    return np.hstack(pts), np.concatenate(wts)
 
 
 def release_step_curvature(basis: Basis, reed: Reed, ell: float) -> int:
@@ -121,8 +168,50 @@ def estimate(fm: FaceMesh) -> tuple[int, float]:
     return dofs, plate_bytes(dofs)
 
 
-def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> PlateResult:
-    """Modes (named by nodal pattern), uniform-load stiffness [Pa/m] and centre-line shapes of the clamped plate.
+@dataclass
+class PlateSystem:
+    """The assembled Argyris plate of a reed, on the mesh in units of ``ell`` [m].
+
+    True stiffness K / ell^2 [N/m], mass M ell^2 [kg], uniform-pressure load f ell^2 [m^2];
+    the DOFs are w [m] and its derivatives times powers of ell (all in metres). ``free``:
+    the DOFs left after the clamp (w and every derivative but w_xx zero on s = 0).
+    """
+
+    basis: Basis
+    face: FaceMesh
+    ell: float
+    K: object
+    M: object
+    f: np.ndarray
+    free: np.ndarray
+    clamped: np.ndarray
+    mesh_size: float
+
+    def probe(self, s, y) -> np.ndarray:
+        """Dense (len(s), len(free)) matrix giving w [m] at face points (s, y) [m] from the free DOFs
+        (points just outside the meshed outline are moved onto it, fea.modes.pull_inside)."""
+        pts = pull_inside(self.face.mesh, np.vstack([np.asarray(s, float), np.asarray(y, float)]))
+        return self.basis.probes(pts / self.ell).tocsc()[:, self.free].toarray()
+
+    def footprint_load(self, port) -> np.ndarray:
+        """f_j = int_F N_j dA [m^2] on the free DOFs: a unit pressure on the port's footprint F
+        (the whole meshed face without a port), exact (:func:`rectangle_rule` on the mesh)."""
+        if port is None:
+            return self.f[self.free] * self.ell**2
+        lo = np.array([port.s_start, port.y_center - port.width / 2]) / self.ell
+        hi = np.array([port.s_end, port.y_center + port.width / 2]) / self.ell
+        pts, wts = rectangle_rule(self.basis.mesh, lo, hi)
+        return self.basis.probes(pts).tocsc()[:, self.free].T @ wts * self.ell**2
+
+    def dense(self) -> tuple[np.ndarray, np.ndarray]:
+        """(M [kg], K [N/m]) on the free DOFs, dense, in true units."""
+        M = self.M[self.free][:, self.free].toarray() * self.ell**2
+        K = self.K[self.free][:, self.free].toarray() / self.ell**2
+        return M, K
+
+
+def assemble(reed: Reed, mesh_size: float | None = None) -> PlateSystem:
+    """Stiffness, mass and uniform-pressure load of the clamped Kirchhoff plate reed (Argyris triangles).
 
     Before assembling, the DOFs and memory are estimated and an InputError naming
     --mesh-size raised if they exceed what the machine has (fea.resources).
@@ -146,13 +235,31 @@ def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> Plate
     tol = 1e-12 * max(1.0, reed.length / ell)
     clamp = basis.get_dofs(lambda x: x[0] < tol)
     D = np.concatenate([clamp.nodal[n] for n in ("u", "u_x", "u_y", "u_xy", "u_yy")] + [clamp.facet["u_n"]])
-    u = fem_solve(*condense(K, f, D=D)) * ell**4
-    Kc, Mc, _, I = condense(K, M, D=D)
+    free = np.setdiff1d(np.arange(K.shape[0]), D)
+    return PlateSystem(basis=basis, face=fm, ell=ell, K=K, M=M, f=f, free=free, clamped=D, mesh_size=size)
+
+
+def _eigen(sys: PlateSystem, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
+    """Lowest omega^2 [rad^2/s^2] and free-DOF mode vectors by shift-invert ARPACK."""
+    Kc, Mc, _, I = condense(sys.K, sys.M, D=sys.clamped)
     k = min(int(n_modes), len(I) - 2)
     vals, vecs = spla.eigsh(Kc.tocsc(), k=k, M=Mc.tocsc(), sigma=0.0, which="LM",
                             v0=np.ones(Kc.shape[0]))  # a fixed start: reproducible results
     order = np.argsort(vals)
-    vals, vecs = vals[order] / ell**4, vecs[:, order]
+    return vals[order] / sys.ell**4, vecs[:, order]
+
+
+def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> PlateResult:
+    """Modes (named by nodal pattern), uniform-load stiffness [Pa/m] and centre-line shapes of the clamped plate.
+
+    Before assembling, the DOFs and memory are estimated and an InputError naming
+    --mesh-size raised if they exceed what the machine has (fea.resources).
+    """
+    sys = assemble(reed, mesh_size)
+    basis, fm, ell, K, I = sys.basis, sys.face, sys.ell, sys.K, sys.free
+    u = fem_solve(*condense(K, sys.f, D=sys.clamped)) * ell**4
+    vals, vecs = _eigen(sys, n_modes)
+    k = len(vals)
     modes = np.zeros((K.shape[0], k))
     modes[I] = vecs
     grid = face_grid(reed)
@@ -166,8 +273,8 @@ def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> Plate
     phi = Pc @ modes[:, bending]
     return PlateResult(
         omega=np.sqrt(vals), kinds=kinds, bending_index=bending, kappa=1.0 / w[-1], s=s,
-        psi_static=w / w[-1], psi_mode=phi / phi[-1], dofs=len(I), mesh_size=size, labels=labels,
-        basis=basis, face=fm, modes=modes, scale=ell,
+        psi_static=w / w[-1], psi_mode=phi / phi[-1], dofs=len(I), mesh_size=sys.mesh_size, labels=labels,
+        basis=basis, face=fm, modes=modes, scale=ell, system=sys,
     )
 
 
@@ -214,3 +321,43 @@ def write_modes_vtu(result: PlateResult, path) -> None:
         v = result.modes[nodal, k]
         data[f"mode{k + 1}_{result.labels[k].replace(' ', '_')}_{result.omega[k]:.0f}rad_s"] = v / np.abs(v).max()
     write_vtu(path, result.face.mesh, data)
+
+
+# -- the modal reed and the whole FE reed (lumped.reed_modes) ---------------------------------
+#: default element size of the whole FE plate reed on the 1 in thesis reeds (scaled for others):
+#: coarse, so the dense reed stays a few hundred DOFs (docs/reed_dynamics.md)
+FE_MESH_SIZE = 5.0e-3
+
+
+def default_fe_mesh_size(reed: Reed) -> float:
+    """The whole FE plate reed's default element size [m]: FE_MESH_SIZE scaled with the reed."""
+    return scaled_mesh_size(reed, FE_MESH_SIZE)
+
+
+def modal_basis(reed: Reed, port=None, mesh_size: float | None = None, n_modes: int = 6):
+    """The ``plate`` fidelity's modal basis (lumped.reed_modes.ModalBasis): the first modes of the
+    Kirchhoff plate (bending, torsion and plate modes, named by nodal pattern), modal masses
+    phi^T M phi [kg], loads, openings and station values from the plate's w(s, y)."""
+    from lumped.reed_modes import build_basis
+
+    r = solve(reed, mesh_size, n_modes=n_modes)
+    sys = r.system
+    vecs = r.modes[sys.free]
+    raw = np.einsum("ij,ij->j", vecs, sys.M[sys.free][:, sys.free] @ vecs) * sys.ell**2
+    return build_basis(reed, port, "plate", r.omega, r.labels, raw, lambda s, y: sys.probe(s, y) @ vecs,
+                       plane=True, raw_load=sys.footprint_load(port) @ vecs,
+                       mesh_size=sys.mesh_size, dofs=r.dofs)
+
+
+def fe_reed(reed: Reed, port=None, mesh_size: float | None = None):
+    """The whole Argyris plate reed (lumped.reed_modes.FEReed): dense M, K on the free DOFs (w and
+    its derivatives, scaled to metres by the element size), the load of a unit pressure on the
+    footprint, opening, tip and station rows. Default element size :func:`default_fe_mesh_size`."""
+    from lumped.reed_modes import fe_reed_from
+
+    sys = assemble(reed, default_fe_mesh_size(reed) if mesh_size is None else mesh_size)
+    M, K = sys.dense()
+    return fe_reed_from(reed, port, "plate", M, K, sys.probe, plane=True, load=sys.footprint_load(port),
+                        mesh_size=sys.mesh_size,
+                        dof_units=f"Argyris DOFs: w [m], ell (w_x, w_y), ell^2 (w_xx, w_xy, w_yy), ell w_n "
+                                  f"[m], ell = {sys.ell:.6g} m")

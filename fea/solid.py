@@ -69,6 +69,7 @@ class SolidResult(ModalResult):
     basis: Basis
     antisymmetric: np.ndarray = None   # per mode: True if from the antisymmetric half model
     timings: dict = field(default_factory=dict)
+    mass: sp.csr_matrix = None   # the (half) model's mass matrix [kg], full vector DOFs
 
 
 def _scalar_basis(mesh, intorder=INTORDER) -> Basis:
@@ -280,7 +281,7 @@ def solve(reed: Reed, mesh_size: float | None = None, layers: int | None = None,
     return SolidResult(
         omega=np.sqrt(np.abs(vals)), kinds=kinds, bending_index=bending, kappa=1.0 / w[-1],
         s=s, psi_static=w / w[-1], psi_mode=phi / phi[-1], dofs=len(free), mesh_size=h, labels=labels,
-        mesh=sm, u_static=u, modes=modes, basis=basis, antisymmetric=anti, timings=tm,
+        mesh=sm, u_static=u, modes=modes, basis=basis, antisymmetric=anti, timings=tm, mass=M,
     )
 
 
@@ -348,3 +349,44 @@ def write_modes_vtu(result: SolidResult, path) -> None:
         v = v / np.abs(v).max()
         data[f"mode{k + 1}_{result.labels[k].replace(' ', '_')}_{result.omega[k]:.0f}rad_s"] = v
     write_vtu(path, mesh, data)
+
+
+# -- the modal reed (lumped.reed_modes) ---------------------------------------------------------
+def modal_basis(reed: Reed, port=None, mesh_size: float | None = None, n_modes: int = 6):
+    """The ``solid`` fidelity's modal basis (lumped.reed_modes.ModalBasis): the first out-of-plane
+    modes of the 3-D reed (bending, torsion, plate modes; in-plane modes, which the
+    transverse reed model has no coordinate for, are left out), modal masses phi^T M phi [kg]
+    of the whole reed (twice the half model's), and w = u_z on the upstream face (z = 0, or
+    a groove's floor: where the pressure acts and the reed seals)."""
+    from matplotlib.tri import Triangulation
+
+    from lumped.reed_modes import build_basis
+
+    from .mesh import is_symmetric
+
+    half = is_symmetric(reed)
+    r = solve(reed, mesh_size, n_modes=n_modes if half else n_modes + 4, torsion=True)
+    keep = [k for k, kind in enumerate(r.kinds) if kind != "in-plane"][:n_modes]
+    modes = r.modes[:, keep]
+    anti = np.zeros(len(keep), dtype=bool) if r.antisymmetric is None else r.antisymmetric[keep]
+    raw = (2.0 if r.mesh.half else 1.0) * np.einsum("ij,ij->j", modes, r.mass @ modes)
+    uz = modes[2::3]                                 # z component of each scalar node
+    inset = 1e-6 * reed.min_thickness
+
+    face = r.mesh.face
+    t = face.mesh.t if face.mesh.t.shape[0] == 3 else np.hstack([face.mesh.t[[0, 1, 2]], face.mesh.t[[0, 2, 3]]])
+    depth = face.depth if face.mesh.t.shape[0] == 3 else np.concatenate([face.depth, face.depth])
+    finder = Triangulation(face.mesh.p[0], face.mesh.p[1], t.T).get_trifinder()
+
+    def evaluate(s, y):
+        sy = pull_inside(face.mesh, np.vstack([np.asarray(s, float), np.asarray(y, float)]), mirror=r.mesh.half)
+        # the meshed groove floor (the mesh's chords, not the exact arcs, decide what is pocket)
+        z = depth[finder(sy[0], np.abs(sy[1]) if r.mesh.half else sy[1])] + inset
+        P = r.basis.probes(np.vstack([sy[0], np.abs(sy[1]) if r.mesh.half else sy[1], z]))
+        w = P @ uz
+        if r.mesh.half:                              # antisymmetric modes are odd in y
+            w = w * np.where((sy[1] < 0)[:, None] & anti[None, :], -1.0, 1.0)
+        return np.asarray(w)
+
+    return build_basis(reed, port, "solid", r.omega[keep], [r.labels[k] for k in keep], raw, evaluate,
+                       plane=True, mesh_size=r.mesh_size, dofs=r.dofs)

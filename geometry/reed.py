@@ -24,7 +24,7 @@ R - sqrt(R^2 - d^2), d = s - (L - R) (a circular arc when the piece is not taper
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -466,6 +466,23 @@ class Reed:
         A, _ = self.section(s)
         W = self.width(s)
         return np.where(W > 0, A / np.where(W > 0, W, 1.0), 0.0)
+
+    def scaled(self, length: float = 1.0, thickness: float = 1.0, name: str | None = None) -> "Reed":
+        """This reed stretched ``length`` times along s and ``thickness`` times through its thickness.
+
+        Every position along s (length, sections' ends, grooves' s_start, s_end, s_center)
+        scales with ``length``; every thickness and groove depth with ``thickness``; widths,
+        the tip radius and the ring radii of half-ring grooves stay. E.g. ``scaled(2, 0.5)``:
+        twice as long and half as thick (a reed whose one-mode model should fail first).
+        """
+        a, b = float(length), float(thickness)
+        sections = tuple(replace(sec, s_end=sec.s_end * a,
+                                 thickness=None if sec.thickness is None else sec.thickness * b)
+                         for sec in self.sections)
+        grooves = tuple(replace(g, depth=g.depth * b, s_start=g.s_start * a, s_end=g.s_end * a,
+                                s_center=g.s_center * a) for g in self.grooves)
+        return replace(self, length=self.length * a, thickness=self.thickness * b, sections=sections,
+                       grooves=grooves, name=self.name if name is None else name)
 
     def mass_per_length(self, s):
         """m(s) = rho_c A(s) [kg/m], the mass per unit length of eq 3.8."""
