@@ -26,7 +26,8 @@ from lumped.valve import KINDS
 
 def physics_modules() -> tuple[str, ...]:
     """Modules whose functions are the physics, in dependency order (valve kinds from the registry)."""
-    kinds = tuple(sorted({k.acceleration.__module__ for k in KINDS.values()}))
+    kinds = tuple(sorted({f.__module__ for k in KINDS.values() for f in (k.acceleration, k.accelerations)
+                          if f is not None}))
     return ("lumped.oil", "lumped.orifice", "lumped.valve", *kinds, "lumped.pump", "lumped.layout", "lumped.rhs",
             "lumped.switching", "lumped.jacobian")
 
@@ -66,10 +67,11 @@ def _jit_physics(one_dof: bool) -> dict[str, types.ModuleType]:
                 scope[attr] = jitted[(v.__module__, attr)]      # a kind's function bound under another name
             elif isinstance(v, types.ModuleType) and v.__name__ in mirrors:
                 scope[attr] = mirrors[v.__name__]
-    if one_dof:
-        for scope in scopes:
-            if "ONE_DOF_ONLY" in scope:
-                scope["ONE_DOF_ONLY"] = True      # a compile-time constant: the several-DOF paths fold away
+    for scope in scopes:
+        if "COMPILED" in scope:
+            scope["COMPILED"] = True              # a module's loop form for numba, its numpy form in Python
+        if one_dof and "ONE_DOF_ONLY" in scope:
+            scope["ONE_DOF_ONLY"] = True          # a compile-time constant: the several-DOF paths fold away
     return mirrors
 
 

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from lumped.layout import (
-    CAVITATING, CONTACT_SLOT, G, MODE, OFF_DEL, OFF_IN, ONE_DOF_ONLY, REGIME_SLOT, S_MCYL, accel_index, dofs,
+    CAVITATING, CONTACT_SLOT, G, MODE, OFF_DEL, OFF_IN, REGIME_SLOT, S_MCYL, accel_index, dofs, is_scalar,
     load_index, opening, opening_weight, position_index, quadrature_indices, state_start,
 )
 from lumped.rhs import (
@@ -76,7 +76,7 @@ def _flow_partials(y, p, o: int, contact: int, dp: float, dp_m: float, dp_l: flo
 def _flow_columns(jac, row: int, sign: float, p, o: int, f_x: float, f_u: float) -> None:
     """d(mass flow)/d(the valve's states) into a row: through its opening x and rate u."""
     n = dofs(p, o)
-    if ONE_DOF_ONLY or n == 1:
+    if is_scalar(p, o):
         jac[row, position_index(p, o, 0)] = sign * f_x
         jac[row, accel_index(p, o, 0)] = sign * f_u
         return
@@ -104,7 +104,7 @@ def _valve_rows(t, y, p, mode, jac, yscratch, atol, rtol: float, o: int, v: int,
     x, u = opening(y, p, o)
     n = dofs(p, o)
     i_load = load_index(p)
-    if ONE_DOF_ONLY or n == 1:
+    if is_scalar(p, o):
         xi, ui = position_index(p, o, 0), accel_index(p, o, 0)
         jac[xi, ui] = 1.0
         hx = SQRT_EPS * max(abs(x), atol[xi] / rtol)

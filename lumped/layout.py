@@ -182,7 +182,7 @@ def modes_of_tags(tags: np.ndarray) -> np.ndarray:
 
 # ----------------------------------------------------------------- per-valve states (compiled code)
 #: helpers the compiled physics inlines (lumped.compiled): a few loads each, called in every rhs
-INLINE = ("mode_of", "state_start", "dofs", "opening", "opening_weight", "valve_rates", "accel_index",
+INLINE = ("mode_of", "state_start", "dofs", "is_scalar", "opening", "opening_weight", "valve_rates", "accel_index",
           "position_index", "load_index", "n_states", "quadrature_indices", "set_opening", "limit_rate",
           "write_rates")
 #: True in the one-DOF flavour of the compiled physics (lumped.compiled.physics(one_dof=True)), for pumps
@@ -206,14 +206,22 @@ def dofs(p, o: int) -> int:
     return int(p[o + VALVE.dofs])
 
 
+def is_scalar(p, o: int) -> bool:
+    """Whether the valve at block offset o is a scalar one: its opening x and rate u are its two states and
+    its kind's ``acceleration`` moves it (a valve with a tail, e.g. a modal reed even of one mode, has its
+    kind's ``accelerations`` and its opening weighted from its states)."""
+    if ONE_DOF_ONLY:
+        return True
+    return p[o + VALVE.tail] == 0.0
+
+
 def opening(y, p, o: int) -> tuple[float, float]:
     """(x, u): the valve's opening [m] and its rate [m/s] from its states (one DOF: the states
     themselves; several: the opening weights its kind packed at the start of its tail)."""
     s = state_start(p, o)
-    n = dofs(p, o)
-    if n == 1:
+    if is_scalar(p, o):
         return y[s], y[s + 1]
-    return multi_opening(y, p, o, s, n)
+    return multi_opening(y, p, o, s, dofs(p, o))
 
 
 def multi_opening(y, p, o: int, s: int, n: int) -> tuple[float, float]:
@@ -229,7 +237,7 @@ def multi_opening(y, p, o: int, s: int, n: int) -> tuple[float, float]:
 
 def opening_weight(p, o: int, j: int) -> float:
     """dx/dq_j: the weight of the valve's j-th position in its opening (1 for a one-DOF valve)."""
-    if dofs(p, o) == 1:
+    if is_scalar(p, o):
         return 1.0
     return p[int(p[o + VALVE.tail]) + j]
 
@@ -238,11 +246,10 @@ def set_opening(y, p, o: int, level: float) -> None:
     """Put the valve's opening exactly at ``level`` [m] (one DOF: the state itself; several: along
     the opening weights, the least change of the positions)."""
     s = state_start(p, o)
-    n = dofs(p, o)
-    if n == 1:
+    if is_scalar(p, o):
         y[s] = level
         return
-    multi_set_opening(y, p, o, s, n, level)
+    multi_set_opening(y, p, o, s, dofs(p, o), level)
 
 
 def multi_set_opening(y, p, o: int, s: int, n: int, level: float) -> None:
@@ -261,11 +268,10 @@ def limit_rate(y, p, o: int, sign: float) -> None:
     """Make the valve's opening rate u no smaller (sign > 0) or no larger (sign < 0) than 0 (a valve
     leaving a contact does not move into it)."""
     s = state_start(p, o)
-    n = dofs(p, o)
-    if n == 1:
+    if is_scalar(p, o):
         y[s + 1] = max(y[s + 1], 0.0) if sign > 0 else min(y[s + 1], 0.0)
         return
-    multi_limit_rate(y, p, o, s, n, sign)
+    multi_limit_rate(y, p, o, s, dofs(p, o), sign)
 
 
 def multi_limit_rate(y, p, o: int, s: int, n: int, sign: float) -> None:
@@ -290,15 +296,14 @@ def valve_rates(y, x: float, u: float, f, p, o: int, contact: int, regime: int, 
     """The acceleration of the valve's opening d^2x/dt^2 [m/s^2] (its kind's, lumped.valve); a valve of
     several DOFs writes its state derivatives into dydt here, one of one DOF in :func:`write_rates`
     (after the other valve's: the stores would make the compiled code reload the packed parameters)."""
-    n = dofs(p, o)
-    if n == 1:
+    if is_scalar(p, o):
         return valve_acceleration(x, u, f, p, o, contact, regime)
-    return multi_rates(y, x, u, f, p, o, contact, regime, dydt, state_start(p, o), n)
+    return multi_rates(y, x, u, f, p, o, contact, regime, dydt, state_start(p, o), dofs(p, o))
 
 
 def write_rates(dydt, p, o: int, u: float, a: float) -> None:
     """d(x)/dt = u, du/dt = a of a one-DOF valve (a several-DOF valve has written its own)."""
-    if dofs(p, o) == 1:
+    if is_scalar(p, o):
         s = state_start(p, o)
         dydt[s] = u
         dydt[s + 1] = a
@@ -360,18 +365,23 @@ class StateLayout:
 
     dofs: tuple[int, ...]
     complete: bool = False
+    scalar: tuple[bool, ...] | None = None     # per valve: opening and rate are its states (None: dofs == 1)
+
+    @property
+    def scalars(self) -> tuple[bool, ...]:
+        return tuple(n == 1 for n in self.dofs) if self.scalar is None else self.scalar
 
     @property
     def names(self) -> tuple[str, ...]:
-        return _state_names(self.dofs)
+        return _state_names(self.dofs, self.scalars)
 
     def index(self, name: str) -> int:
-        return _state_index(self.dofs)[name]
+        return _state_index(self.dofs, self.scalars)[name]
 
     @property
     def one_dof(self) -> bool:
-        """Every valve has one DOF (the compiled physics has a flavour for that: lumped.compiled)."""
-        return all(n == 1 for n in self.dofs)
+        """Every valve is a scalar one (the compiled physics has a flavour for that: lumped.compiled)."""
+        return all(self.scalars)
 
     @property
     def n_states(self) -> int:
@@ -410,7 +420,7 @@ class StateLayout:
     def openings(self, ys: np.ndarray, p: np.ndarray, v: int) -> tuple[np.ndarray, np.ndarray]:
         """(x, u) of valve v [m, m/s] for states ys (rows: samples)."""
         pos, rate = ys[:, self.positions(v)], ys[:, self.rates(v)]
-        if self.dofs[v] == 1:
+        if self.scalars[v]:
             return pos[:, 0], rate[:, 0]
         o = BLOCK_OFFSET[v]
         w = p[int(p[o + VALVE.tail]):int(p[o + VALVE.tail]) + self.dofs[v]]
@@ -430,10 +440,10 @@ class StateLayout:
 
 
 @functools.lru_cache(maxsize=None)
-def _state_names(dofs: tuple) -> tuple[str, ...]:
+def _state_names(dofs: tuple, scalars: tuple) -> tuple[str, ...]:
     out = list(PUMP_STATES)
-    for pos, n in zip(POSITIONS, dofs):
-        if n == 1:
+    for pos, n, scalar in zip(POSITIONS, dofs, scalars):
+        if scalar:
             out += [f"{pos}.x", f"{pos}.u"]
         else:
             out += [f"{pos}.q{j + 1}" for j in range(n)] + [f"{pos}.qdot{j + 1}" for j in range(n)]
@@ -441,8 +451,8 @@ def _state_names(dofs: tuple) -> tuple[str, ...]:
 
 
 @functools.lru_cache(maxsize=None)
-def _state_index(dofs: tuple) -> dict:
-    return {n: i for i, n in enumerate(_state_names(dofs))}
+def _state_index(dofs: tuple, scalars: tuple) -> dict:
+    return {n: i for i, n in enumerate(_state_names(dofs, scalars))}
 
 
 #: the layout of a pump whose valves have one DOF each: the constants of the one-DOF flavour of the
@@ -456,7 +466,8 @@ ONE_DOF_QUADRATURES = tuple(ONE_DOF.index(q) for q in QUADRATURES)
 
 def layout_of(model, complete: bool) -> StateLayout:
     """The state layout of a resolved model (each valve's DOFs from its parameters)."""
-    return StateLayout(tuple(model.valve(pos).dofs() for pos in POSITIONS), complete)
+    valves = [model.valve(pos) for pos in POSITIONS]
+    return StateLayout(tuple(v.dofs() for v in valves), complete, tuple(not v.several() for v in valves))
 
 
 # ----------------------------------------------------------------- packing

@@ -23,10 +23,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
+import numpy as np
+
 from geometry.declare import param, read_table
 from geometry.errors import InputError
 from geometry.reed import Reed
-from lumped.valve import Common, ValveKind, ValveParams, check_discharge, contact_reaction, kind_block, register
+from lumped.valve import (
+    SEAT, STOP, Common, ValveKind, ValveParams, check_discharge, contact_reaction, contact_state, kind_block, register,
+)
 
 CRITICAL = "critical damping of the modal equation (eq 2.23: 2 sqrt(gamma1 k rho_c h_eff) / gamma1), derived when left out"
 DERIVED = "left out when the valve names a geometry: derived from it by the fidelity"
@@ -94,6 +98,21 @@ class ReedValve(ValveParams):
                              bounds=(1e-6, 10.0), positive=True, optional=True)
     seat_damping: float = param("seat.damping", "Pa s/m", "c_seat; " + CRITICAL, bounds=(0.0, 1e12), optional=True)
     stop_damping: float = param("stop.damping", "Pa s/m", "c_stop; " + CRITICAL, bounds=(0.0, 1e12), optional=True)
+    # beyond one mode (lumped/reed_dynamics.py): the reed's first modes or the whole FE reed
+    dynamics: str = param("dynamics", "-", "one-mode (eq 3.21), modal (the fidelity's first `modes` modes, the "
+                          "port's load on each) or fe (the whole FE reed; the reference stepper)",
+                          choices=("one-mode", "modal", "fe"), default="one-mode", optional=True)
+    modes: int = param("modes", "-", "modes of the modal reed (dynamics = modal)", bounds=(1, 6), optional=True)
+    mesh_size: float = param("mesh_size", "m", "element size of the fidelity's FE model for the modal or FE reed "
+                             "(left out: the fidelity's default)", bounds=(1e-6, 1.0), positive=True, optional=True)
+    port_s_start: float = param("port.s_start", "m", "port footprint on the reed face, from the clamp (left out: the "
+                                "whole face, eq 3.21's load)", bounds=(0.0, 10.0), optional=True)
+    port_s_end: float = param("port.s_end", "m", "port footprint: end, from the clamp", bounds=(0.0, 10.0),
+                              optional=True)
+    port_width: float = param("port.width", "m", "port footprint: width across the reed", bounds=(0.0, 10.0),
+                              optional=True)
+    port_y_center: float = param("port.y_center", "m", "port footprint: centre, from the reed's centre line",
+                                 bounds=(-10.0, 10.0), optional=True)
     # set by candidate effects (lumped/effect_library.py); zero = the effect is off
     fluid_damping_coefficient: float = param(None, "Pa s/m", "c_f of eq 3.80", bounds=(0.0, 1e9), default=0.0,
                                              effect="fluid_damping")
@@ -106,7 +125,7 @@ class ReedValve(ValveParams):
     FROM_GEOMETRY = ("structure.density", "structure.effective_thickness", "structure.stiffness",
                      "structure.gamma1", "structure.gamma2", "structure.gamma3", "structure.width_tip")
     #: the reed's own derived packed quantities (:meth:`packed_extra`)
-    DERIVED = ("drag_term", "damping_total", "x_zero")
+    DERIVED = ("drag_term", "damping_total", "x_zero", "dynamics_code", "n_stations", "drag_half_cd")
 
     # ---- construction
     @classmethod
@@ -158,14 +177,73 @@ class ReedValve(ValveParams):
                        source=f"{props.fidelity} model", **extra)
 
     def checked(self, where: str) -> "ReedValve":
-        """Consistency: X(x) of eq 3.83 must fall to zero at a positive opening; A_1 <= A_2; Cd(Re)."""
+        """Consistency: X(x) of eq 3.83 must fall to zero at a positive opening; A_1 <= A_2; Cd(Re); the modal or
+        FE reed needs a geometry, 1..6 modes the fidelity provides, and a port on the reed."""
         check_discharge(self.cd_inf, self.cd_a, self.cd_b, self.cd_c, where)
+        self._check_dynamics(where)
         if not self.multiplier_zero > 0:
             raise InputError(f"{where}.pressure_multiplier.n0", "X(x) of eq 3.83 must reach 0 at a positive "
                              f"opening (-n0/n1 > 0), got {self.multiplier_zero:g} m")
         if self.area_min > self.area_max:
             raise InputError(f"{where}.flow.area_min", f"must not exceed flow.area_max ({self.area_max:g} m^2)")
         return self
+
+    def _check_dynamics(self, where: str) -> None:
+        from lumped.reed_dynamics import structure
+        from lumped.reed_modes import check_modes
+
+        dyn = self.dynamics or "one-mode"
+        port_keys = [self.port_s_start, self.port_s_end, self.port_width, self.port_y_center]
+        if dyn == "one-mode":
+            if self.modes is not None:
+                raise InputError(f"{where}.modes", "applies to dynamics = \"modal\" (this reed is one-mode, eq 3.21)")
+            if any(v is not None for v in port_keys):
+                raise InputError(f"{where}.port", "a port footprint loads the modal or FE reed (dynamics = "
+                                                  "\"modal\" or \"fe\"); eq 3.21 loads the whole face")
+            return
+        if self.reed is None:
+            raise InputError(f"{where}.dynamics", f"{dyn} dynamics need the reed's geometry (valves.<pos>.geometry)")
+        if dyn == "modal":
+            if self.modes is None:
+                raise InputError(f"{where}.modes", "missing: how many modes (1..6) the modal reed keeps")
+            check_modes(self.modes, f"{where}.modes")
+        elif self.modes is not None:
+            raise InputError(f"{where}.modes", "applies to dynamics = \"modal\" (the FE reed keeps every DOF)")
+        if any(v is not None for v in port_keys[:3]) and not all(v is not None for v in port_keys[:3]):
+            missing = ("s_start", "s_end", "width")[[v is None for v in port_keys[:3]].index(True)]
+            raise InputError(f"{where}.port.{missing}", "missing; a port is a rectangle s_start..s_end [m] from the "
+                             "clamp, width [m] across, centred at y_center [m] (default 0)")
+        structure(self, 1.0)          # the basis or FE reed exists: modes, fidelity and port checked here
+
+    @property
+    def port(self):
+        """The port footprint (geometry.reed_port.ReedPort), or None: the whole face (eq 3.21)."""
+        if self.port_s_start is None:
+            return None
+        from geometry.reed_port import ReedPort
+
+        return ReedPort(self.port_s_start, self.port_s_end, self.port_width,
+                        0.0 if self.port_y_center is None else self.port_y_center)
+
+    def dofs(self) -> int:
+        """Mechanical DOFs: 1 (eq 3.21), the modes kept (modal) or the FE reed's DOFs (fe)."""
+        if (self.dynamics or "one-mode") == "one-mode":
+            return 1
+        from lumped.reed_dynamics import structure
+
+        return structure(self, 1.0).n
+
+    def several(self) -> bool:
+        """The modal or FE reed moves by :func:`reed_accelerations` (even with one mode)."""
+        return (self.dynamics or "one-mode") != "one-mode"
+
+    def tail(self, oil):
+        """The modal or FE reed's matrices for :func:`reed_accelerations` (lumped.reed_dynamics.tail)."""
+        if (self.dynamics or "one-mode") == "one-mode":
+            return None
+        from lumped.reed_dynamics import tail
+
+        return tail(self, oil.density)
 
     # ---- derived quantities
     @property
@@ -222,14 +300,29 @@ class ReedValve(ValveParams):
 
     def packed_extra(self, oil=None) -> dict:
         """The reed's own derived packed quantities (DERIVED)."""
+        from lumped.reed_dynamics import DYNAMICS, n_stations
+
+        dyn = self.dynamics or "one-mode"
         return {"drag_term": 0.5 * self.gamma2 * self.drag_coefficient if self.drag else 0.0,
-                "damping_total": self.damping, "x_zero": self.multiplier_zero}
+                "damping_total": self.damping, "x_zero": self.multiplier_zero,
+                "dynamics_code": float(DYNAMICS.index(dyn)),
+                "n_stations": float(n_stations(self, oil.density)) if dyn != "one-mode" else 0.0,
+                "drag_half_cd": 0.5 * self.drag_coefficient if self.drag else 0.0}
 
     def describe(self) -> dict:
-        """What ``valvelab model check`` reports of a reed: its structural parameters and where they come from."""
-        return {"reed_parameters": {"source": self.source, "kappa": self.stiffness, "gamma1": self.gamma1,
-                                    "gamma2": self.gamma2, "gamma3": self.gamma3, "h_eff": self.effective_thickness,
-                                    "geometry": self.geometry, "fidelity": self.fidelity}}
+        """What ``valvelab model check`` reports of a reed: its structural parameters and where they come from,
+        and beyond one mode the modes kept (frequencies in vacuum [rad/s], names)."""
+        out = {"reed_parameters": {"source": self.source, "kappa": self.stiffness, "gamma1": self.gamma1,
+                                   "gamma2": self.gamma2, "gamma3": self.gamma3, "h_eff": self.effective_thickness,
+                                   "geometry": self.geometry, "fidelity": self.fidelity}}
+        dyn = self.dynamics or "one-mode"
+        if dyn != "one-mode":
+            from lumped.reed_dynamics import structure
+
+            s = structure(self, 1.0)
+            out["dynamics"] = {"kind": dyn, "dofs": s.n, "frequencies_rad_s": [float(w) for w in s.frequencies[:6]],
+                               "modes": list(s.kinds[:6]) if dyn == "modal" else None}
+        return out
 
 
 def _keys(cls):
@@ -298,8 +391,64 @@ def reed_acceleration(x: float, u: float, f, p, o: int, contact: int, regime: in
     return force / p[o + REED.moving_mass]
 
 
+#: True in the compiled physics (lumped.compiled sets it, numba folds it): loops there, numpy in the Python
+#: reference (an FE reed's matrices are ~50 x 50)
+COMPILED = False
+
+
+def reed_accelerations(y, s: int, n: int, x: float, u: float, f, p, o: int, contact: int, regime: int, out) -> None:
+    """q'' [m/s^2] of the modal or FE reed into out (lumped.reed_dynamics): M q'' + C q' + K (q - q0) =
+    b dP X(x) - seat (k_seat F q + c_seat F q' while seated) + A_c c F_stop(x, x') - f_drag, with A = M^-1 K,
+    B = M^-1 C, g = M^-1 b, h = M^-1 A_c c, M^-1 F packed in the tail; X of eq 3.83 at the opening x = c . q,
+    the stop of eq 2.20 (per unit area), the drag of eq 3.21 per strip."""
+    w = int(p[o + REED.tail])
+    g, h, q0 = w + n, w + 2 * n, w + 3 * n
+    a_m = w + 4 * n
+    b_m = a_m + n * n
+    f_m = b_m + n * n
+    pressure = f.dp * pressure_load_multiplier(
+        x, p[o + REED.multiplier_poiseuille], p[o + REED.multiplier_n1], p[o + REED.multiplier_n0],
+        p[o + REED.multiplier_d2], p[o + REED.multiplier_d1], p[o + REED.multiplier_d0], p[o + REED.x_zero])
+    if contact < 0:
+        contact = contact_state(x, p[o + REED.stop_gap])
+    f_stop = contact_reaction(x, u, p, o, contact) if contact == STOP else 0.0
+    k_seat = p[o + REED.seat_k] if contact == SEAT else 0.0
+    c_seat = p[o + REED.seat_c] if contact == SEAT else 0.0
+    if COMPILED:
+        for i in range(n):
+            acc = p[g + i] * pressure + p[h + i] * f_stop
+            for j in range(n):
+                acc -= p[a_m + i * n + j] * (y[s + j] - p[q0 + j]) + p[b_m + i * n + j] * y[s + n + j]
+            if k_seat > 0.0 or c_seat > 0.0:
+                for j in range(n):
+                    acc -= p[f_m + i * n + j] * (k_seat * y[s + j] + c_seat * y[s + n + j])
+            out[i] = acc
+    else:
+        # the same in numpy (the reference stepper's Python physics: an FE reed has ~50 DOFs)
+        q, v = np.asarray(y[s:s + n]), np.asarray(y[s + n:s + 2 * n])
+        pa = np.asarray(p)
+        acc = pa[g:g + n] * pressure + pa[h:h + n] * f_stop - pa[a_m:b_m].reshape(n, n) @ (q - pa[q0:q0 + n]) \
+            - pa[b_m:f_m].reshape(n, n) @ v
+        if k_seat > 0.0 or c_seat > 0.0:
+            acc -= pa[f_m:f_m + n * n].reshape(n, n) @ (k_seat * q + c_seat * v)
+        out[:n] = acc
+    half_cd = p[o + REED.drag_half_cd]
+    if half_cd > 0.0:
+        k_st = int(p[o + REED.n_stations])
+        d_m = f_m + n * n
+        r_m = d_m + n * k_st
+        for k in range(k_st):
+            v = 0.0
+            for j in range(n):
+                v += p[r_m + k * n + j] * y[s + n + j]
+            drag = half_cd * f.rho * abs(v) * v
+            for i in range(n):
+                out[i] -= p[d_m + i * k_st + k] * drag
+
+
 KIND = register(ValveKind(
     name="reed", default_model="thesis-reed", params=ReedValve, acceleration=reed_acceleration, block=REED,
+    accelerations=reed_accelerations,
     # a reed lifting off its seat at near-zero speed is the most sensitive timing: the lift-off
     # angle drifts by 1 deg at x100, so it keeps x1; its stop rebounds (the tip a few hundred
     # nanometres into the stop) need the opening to 3 x atol x the deflection: at the default

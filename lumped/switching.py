@@ -30,7 +30,7 @@ import math
 
 from lumped.layout import (
     BLOCK_OFFSET, CAVITATING, CAVITATION_SLOT, CAVITATION_SWITCH, CONTACT_SLOT, G, LIQUID, N_SWITCHES, N_VALVES,
-    REGIME_SLOT, REGIME_SWITCH, S_MCYL, SEAT_SWITCH, STOP_SWITCH, SWITCH_VALVE, SWITCH_WHAT, event_code,
+    REGIME_SLOT, REGIME_SWITCH, S_MCYL, SEAT_SWITCH, STOP_SWITCH, SWITCH_VALVE, SWITCH_WHAT, event_code, is_scalar,
     limit_rate, opening, set_opening,
 )
 from lumped.rhs import cylinder_volume_at, evaluate
@@ -73,7 +73,12 @@ def force_decides(depth: float, u: float, p, o: int, k: float) -> bool:
     """Whether the force (not the deflection ``depth`` [m] into a contact of stiffness k) decides
     a valve's lift-off: settled (|u| below :func:`settled_speed`), and its depth below
     SETTLED_FRACTION of the stop gap (a soft contact's deflection is followed to the tolerance)
-    and below DEEP_FRACTION of the load-pressure deflection (deeper, it is held for sure)."""
+    and below DEEP_FRACTION of the load-pressure deflection (deeper, it is held for sure). A valve of
+    several DOFs (a modal or FE reed on its seat lands) is decided by its opening: its net free
+    acceleration holds its higher modes' elastic forces, whose sign flips at their frequency (the FE
+    reed chattered on its seat, 187 switches in 0.2 deg)."""
+    if not is_scalar(p, o):
+        return False
     if abs(u) > settled_speed(p, o, k):
         return False
     return depth <= SETTLED_FRACTION * p[o + VALVE.stop_gap] and \

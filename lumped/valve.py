@@ -203,6 +203,11 @@ class ValveParams:
         """Mechanical degrees of freedom (1: the opening x itself is the state, with its rate u)."""
         return 1
 
+    def several(self) -> bool:
+        """Whether the valve moves by its kind's ``accelerations`` (generalised coordinates, the opening
+        weighted from them, data in its tail) rather than its scalar ``acceleration`` of x."""
+        return self.dofs() > 1
+
     def natural_frequency(self) -> float:  # pragma: no cover - every kind has its own
         """Undamped natural frequency of the moving element in vacuum [rad/s]."""
         raise NotImplementedError
