@@ -204,7 +204,7 @@ class BallValve(ValveParams):
         env = super().validity(oil)
         s, c = math.sin(self.half_angle), math.cos(self.half_angle)
         d_c = self.contact_diameter
-        x_port = (-s * d_c + math.sqrt((s * d_c) ** 2 + s * c * self.port_diameter**2)) / (2.0 * s * c)
+        x_port = (-s * d_c + math.sqrt((s * d_c) ** 2 + s * s * c * self.port_diameter**2)) / (2.0 * s * s * c)
         port = Limit("port_area", "peak_opening", x_port, f"the {x_port * 1e3:.3g} mm where its curtain area "
                      "(ball 1) reaches the port area: the port, not the gap, throttles there")
         return replace(env, rest_opening=-self.spring_preload, rest_key="spring.preload",

@@ -235,7 +235,7 @@ class ReedValve(ValveParams):
         """The reed's validity envelope (lumped.validity.Envelope): it rests at x_0 (eq 3.21), lifts off at
         kappa (-x_0) / X(0) when pressed on its seat, X(x) of eq 3.83 holds up to where it falls to 0 (the fit's
         end, docs/errata.md) and, with a geometry, small-deflection beam theory (eq 3.8) up to a tip deflection
-        of 10 % of the length (the elastica's tip deflection is then within 1 % of the linear one)."""
+        of 10 % of the length (the elastica's tip deflection under a tip load is then 1.0 % below the linear one)."""
         from lumped.validity import Limit
 
         env = super().validity(oil)

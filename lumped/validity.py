@@ -20,6 +20,7 @@ Units: SI inside; the messages print mm, MPa and J.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, replace
 
@@ -81,13 +82,14 @@ class Limit:
 class Envelope:
     """What a valve kind declares of its validity: where its element rests with no pressure difference
     (``rest_opening`` [m], set by the valve key ``rest_key``), the pressure difference that lifts it off its
-    seat (``cracking_pressure`` [Pa], 0 when it rests open) and the :class:`Limit` records on a run.
-    None: not declared (the condition is not checked)."""
+    seat (``cracking_pressure`` [Pa], 0 when it rests open), the :class:`Limit` records on a run and its lift
+    ``stop_gap`` [m]. None: not declared (the condition is not checked)."""
 
     rest_opening: float | None = None
     rest_key: str | None = None
     cracking_pressure: float | None = None
     limits: tuple = ()
+    stop_gap: float | None = None          # the lift x_stop [m] (lumped.valve.Common)
 
 
 @dataclass(frozen=True)
@@ -137,6 +139,7 @@ def _show(quantity: str, value: float) -> str:
 
 
 # --------------------------------------------------------------------------- limits every kind shares
+@functools.lru_cache(maxsize=256)
 def plateau_reynolds(cd_inf: float, a: float, b: float, c: float, fraction: float = CD_PLATEAU) -> float | None:
     """The Reynolds number [-] where Cd(Re) of eq 2.47 (Wu et al. 2002; eqs 2.48, 3.89) first reaches
     ``fraction`` of its asymptote Cd_inf, or None if it never does within Re = 1e8.
@@ -187,7 +190,7 @@ def valve_warnings(valve, run: ValveRun, oil=None) -> list[ResultWarning]:
     against what the run measured, and the conditions on any valve (it rests between its seat and its
     stop, it opens, its loss is not negative)."""
     env = valve.validity(oil)
-    gap = valve.common(oil).stop_gap
+    gap = env.stop_gap if env.stop_gap is not None else valve.common(oil).stop_gap
     if env.rest_opening is not None:
         run = replace(run, deflection=max(run.peak_opening - env.rest_opening, env.rest_opening - run.min_opening))
     out = []
@@ -266,7 +269,7 @@ def check_model(model, load_pressure: float | None = None) -> None:
     for pos in ("inlet", "delivery"):
         v = m.valve(pos)
         env = v.validity(m.oil)
-        gap = v.common(m.oil).stop_gap
+        gap = env.stop_gap if env.stop_gap is not None else v.common(m.oil).stop_gap
         if env.rest_opening is not None and env.rest_opening > gap:
             raise InputError(f"valves.{pos}.{env.rest_key or 'stop.gap'}",
                              f"the {pos} {kinds[pos]} rests {_mm(env.rest_opening)} open, beyond its "

@@ -225,7 +225,8 @@ class ValveParams:
         ``dataclasses.replace`` of it with its rest, cracking pressure and own limits added."""
         from lumped.validity import Envelope, common_limits
 
-        return Envelope(limits=common_limits(self.common(oil)))
+        c = self.common(oil)
+        return Envelope(limits=common_limits(c), stop_gap=c.stop_gap)
 
     def geometry_supplied(self) -> set:
         """Keys whose value equals what the valve's geometry preset or file supplies (``model show``

@@ -18,7 +18,7 @@ Inputs, each a factor or a fixed value (SI units; names in CONTRACT.md, "Sweeps"
 
 Outputs: delivery per revolution (eq 4.17), volumetric efficiency, per valve the peak
 opening, opening and closing crank angles (rad from TDC), stop contacts, the largest
-impact speeds on the seat and the stop, the pressure-drop energy per revolution, then the
+impact speeds on the seat and the stop, the energy dissipated by throttling per revolution, then the
 cylinder pressure extremes, cyclic steady state, mass balance error, CPU seconds, and
 ``warnings``: the result's validity warnings (lumped.validity) as JSON text, ``[]`` when none.
 ``status`` is "ok", or "not_cyclic" when the last two revolutions still differ by more
