@@ -74,7 +74,8 @@ class PumpResult:
     cycle_change: float            # relative change of delivery and TDC state between the last two revolutions
     cpu_seconds: float
     simulated_seconds: float
-    mass_balance_error: float      # |dm_cyl - (m_in - m_out - m_leak)| / m_in over the last revolution (postprocess.mass_balance)
+    mass_balance_error: float      # |dm_cyl - (m_in - m_out - m_leak)| / the mass through the valves, last revolution
+                                   # (at least 1 % of one swept volume's: postprocess.mass_balance)
     inlet: ValveResult
     delivery: ValveResult
     mean_load_pressure: float      # [Pa]

@@ -213,7 +213,7 @@ def valve_warnings(valve, run: ValveRun, oil=None) -> list[ResultWarning]:
 
 def pump_warnings(runs: dict, delivery: float, rtol: float, cavitation_angle: float,
                   max_vapour_fraction: float) -> list[ResultWarning]:
-    """The pump's own conditions: no cavitation in the cylinder, a delivery the tolerances resolve.
+    """The pump's own conditions: a small vapour cavity in the cylinder, a delivery the tolerances resolve.
 
     - cavitation: the cylinder pressure held at the vapour pressure with the oil short of filling it is the
       discrete vapour cavity model (lumped.rhs.cylinder_pressure; Wylie & Streeter 1993, section 8.5), which
@@ -258,10 +258,10 @@ def compression_pressure(model) -> float:
 def check_model(model, load_pressure: float | None = None) -> None:
     """Refuse (:class:`geometry.errors.InputError`) what can be decided before running: a valve resting
     beyond its stop (any kind: its :class:`Envelope`), an inlet valve the tank pressure cannot open, and a
-    pump that cannot deliver (its
-    :func:`compression_pressure` below the load, the model's ``[operating]`` one or ``load_pressure`` [Pa],
-    plus the delivery valve's cracking pressure; or below the tank pressure plus it: no load at all).
-    ``model``: resolved (its effects applied, lumped.effect_library.resolve)."""
+    pump that cannot deliver: its :func:`compression_pressure` not above the tank pressure plus the
+    delivery valve's cracking pressure (no load at all), or not above the load (the model's
+    ``[operating]`` one, or ``load_pressure`` [Pa]) plus it. ``model``: resolved (its effects applied,
+    lumped.effect_library.resolve)."""
     from geometry.errors import InputError
 
     m = model
