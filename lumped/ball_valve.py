@@ -193,6 +193,24 @@ class BallValve(ValveParams):
                          "contact_diameter_m": self.contact_diameter, "seat_area_m2": self.seat_area,
                          "cracking_pressure_pa": self.spring_stiffness * self.spring_preload / self.seat_area}}
 
+    def validity(self, oil=None):
+        """The ball's validity envelope (lumped.validity.Envelope): it rests at x = -x_pre (eq 2.19), lifts off
+        at k_spr x_pre / (pi d_c^2 / 4), and its curtain area (ball 1) throttles only while smaller than the port:
+        up to the lift where pi x sin(alpha) (d_c + x sin(alpha) cos(alpha)) = pi d_port^2 / 4."""
+        from dataclasses import replace
+
+        from lumped.validity import Limit
+
+        env = super().validity(oil)
+        s, c = math.sin(self.half_angle), math.cos(self.half_angle)
+        d_c = self.contact_diameter
+        x_port = (-s * d_c + math.sqrt((s * d_c) ** 2 + s * s * c * self.port_diameter**2)) / (2.0 * s * s * c)
+        port = Limit("port_area", "peak_opening", x_port, f"the {x_port * 1e3:.3g} mm where its curtain area "
+                     "(ball 1) reaches the port area: the port, not the gap, throttles there")
+        return replace(env, rest_opening=-self.spring_preload, rest_key="spring.preload",
+                       cracking_pressure=max(0.0, self.spring_stiffness * self.spring_preload / self.seat_area),
+                       limits=env.limits + (port,))
+
 
 #: offsets of the ball's packed quantities (common, packed fields, then its derived ones)
 BALL = kind_block(BallValve)

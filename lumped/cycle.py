@@ -20,6 +20,7 @@ import numpy as np
 from geometry.declare import Spec, check_field, check_value
 from geometry.errors import InputError, ModelFailure
 from lumped import postprocess as post
+from lumped import validity
 from lumped import switching as sw
 from lumped.layout import CAVITATION_SLOT, N_MODE, POSITIONS
 from lumped.model import Operating, PumpModel
@@ -52,7 +53,7 @@ class ValveResult:
     stop_contacts: int             # arrivals on the stop
     seat_impact_velocity: float    # largest speed arriving on the seat [m/s] (0: no impact)
     stop_impact_velocity: float    # largest speed arriving on the stop [m/s]
-    energy_loss: float             # pressure-drop loss integral dP Q dt over the revolution [J]
+    energy_loss: float             # energy dissipated by throttling, integral of dP Q_o dt over the revolution [J]
 
 
 @dataclass(frozen=True)
@@ -73,7 +74,8 @@ class PumpResult:
     cycle_change: float            # relative change of delivery and TDC state between the last two revolutions
     cpu_seconds: float
     simulated_seconds: float
-    mass_balance_error: float      # |dm_cyl - (m_in - m_out - m_leak)| / m_in over the last revolution
+    mass_balance_error: float      # |dm_cyl - (m_in - m_out - m_leak)| / the mass through the valves, last revolution
+                                   # (at least 1 % of one swept volume's: postprocess.mass_balance)
     inlet: ValveResult
     delivery: ValveResult
     mean_load_pressure: float      # [Pa]
@@ -89,6 +91,7 @@ class PumpResult:
     rtol: float
     atol: float
     trace: Trace | None = field(default=None, compare=False)
+    warnings: tuple = ()           # lumped.validity.ResultWarning: conditions of the model's equations the run left
 
     @property
     def valves(self) -> dict:
@@ -135,6 +138,7 @@ class PumpResult:
             "cavitation_deg": math.degrees(self.cavitation_angle),
             "leakage_cc_per_rev": self.leakage_per_rev * 1e6,
             "method": "fast" if self.method == "fast" else "reference", "rtol": self.rtol, "atol": self.atol,
+            "warnings": [w.to_dict() for w in self.warnings],
         }
 
     def to_frame(self):
@@ -149,11 +153,18 @@ class PumpResult:
             rows.append(row)
         return pd.DataFrame(rows).set_index("valve")
 
-    def plot(self, path=None):
-        """Valve openings [mm] and pressures [MPa] against crank angle [deg] (needs ``trace=True``)."""
+    def plot(self, path=None, force: bool = False):
+        """Valve openings [mm] and pressures [MPa] against crank angle [deg] (needs ``trace=True``); with
+        ``path`` the figure is saved there, an existing file only replaced with ``force=True``."""
         import matplotlib
 
         if path is not None:
+            from pathlib import Path
+
+            if not isinstance(path, (str, Path)) or not str(path):
+                raise InputError("path", f"expected a file path, got {path!r}")
+            if Path(path).exists() and not force:
+                raise InputError("path", f"{path} already exists; pass force=True to replace it")
             matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
@@ -273,6 +284,9 @@ def simulate(model="thesis-disc", speed_rpm: float | None = None, load_pressure:
         raise InputError("load_pressure", f"missing: the model {m.name!r} has no [operating] load_pressure")
     speed, load, revs = _check(speed_rpm, load_pressure, revolutions, max_revolutions, circuit, method,
                                trace_revolutions, trace_points, steady_tol, contact_atol)
+    if load < m.pump.tank_pressure:      # absolute pressures: the pump would be fed from above its outlet
+        raise InputError("load_pressure", f"{load:g} Pa is below the tank pressure {m.pump.tank_pressure:g} Pa "
+                                          "(absolute): a pump delivers into a load above its inlet")
     kind = family(method)
     r_def, a_def = DEFAULT_TOLERANCES[kind]
     rtol = r_def if rtol is None else _tol("rtol", rtol)
@@ -311,6 +325,10 @@ def _result(m: PumpModel, problem: PumpProblem, done, physics, method: str, rtol
     losses = post.losses(rt, problem, problem.period / post.ENERGY_SAMPLES)
     cav = float(np.mean(modes[:, CAVITATION_SLOT] > 0.5)) * 2.0 * math.pi
     resolved = problem.model
+    runs = post.valve_runs(span, problem, rt, losses, [kind_of(resolved.valve(pos)).name for pos in POSITIONS])
+    vapour = float(np.max(rt[:, post.COL["vapour_volume"]] / rt[:, post.COL["volume"]]))
+    warns = [w for pos in POSITIONS for w in validity.valve_warnings(resolved.valve(pos), runs[pos], resolved.oil)]
+    warns += validity.pump_warnings(runs, last.delivery, rtol, cav, vapour)
     valves = {}
     for v, pos in enumerate(POSITIONS):
         valves[pos] = ValveResult(
@@ -326,14 +344,14 @@ def _result(m: PumpModel, problem: PumpProblem, done, physics, method: str, rtol
         load_pressure=problem.load_pressure, air_content=resolved.oil.air_content, delivery_per_rev=last.delivery,
         swept_volume=resolved.pump.displacement, deliveries=done.deliveries, revolutions=len(done.revolutions),
         cyclic_steady=bool(done.steady), cycle_change=float(done.change), cpu_seconds=cpu,
-        simulated_seconds=len(done.revolutions) * problem.period, mass_balance_error=float(last.mass_error),
+        simulated_seconds=len(done.revolutions) * problem.period, mass_balance_error=post.mass_balance(problem, last),
         inlet=valves["inlet"], delivery=valves["delivery"], mean_load_pressure=float(last.mean_load_pressure),
         leakage_per_rev=float(last.leakage),
         needle_area=(problem.p[G.needle_cda] / resolved.circuit.needle_discharge) if problem.complete else None,
         min_cylinder_pressure=float(p_cyl.min()), max_cylinder_pressure=float(p_cyl.max()),
         cavitation_angle=cav, rhs_evaluations=int(done.n_rhs), steps=int(done.n_steps), events=int(done.n_events),
         method="fast" if method == "fast" else ("reference" if method == "reference" else method),
-        rtol=rtol, atol=atol, trace=tr)
+        rtol=rtol, atol=atol, trace=tr, warnings=tuple(warns))
 
 
 def check_invariants(res: PumpResult, model: PumpModel) -> None:

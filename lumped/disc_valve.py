@@ -275,6 +275,21 @@ class DiscValve(ValveParams):
         """L_t [m] of the transient flow force (eq 2.37 with L_t + x): as given, else the port length L (eq 2.31)."""
         return self.port_length if self.transient_length is None else self.transient_length
 
+    def validity(self, oil=None):
+        """The disc's validity envelope (lumped.validity.Envelope): it rests at x = -x_pre (eq 2.19), lifts off
+        at k_spr x_pre / (C1 A_disc) (eqs 2.13, 2.19; orifice form without the Poiseuille regime), and its
+        orifice is the curtain of eq 2.40 only while that is smaller than the port: up to x = d_port / (4 sin theta)."""
+        from lumped.validity import Limit
+
+        env = super().validity(oil)
+        area = self.disc_area * (self.c1 if self.poiseuille_regime else 1.0)
+        x_port = self.port_diameter / (4.0 * math.sin(self.bevel_angle))
+        port = Limit("port_area", "peak_opening", x_port, f"the {x_port * 1e3:.3g} mm where its curtain area "
+                     "(eq 2.40) reaches the port area: the port, not the gap, throttles there")
+        return replace(env, rest_opening=-self.spring_preload, rest_key="spring.preload",
+                       cracking_pressure=max(0.0, self.spring_stiffness * self.spring_preload / area),
+                       limits=env.limits + (port,))
+
 
 #: offsets of the disc's packed quantities (common, packed fields, then its derived ones)
 DISC = kind_block(DiscValve)

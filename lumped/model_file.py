@@ -614,7 +614,11 @@ def key_paths(model: PumpModel) -> list[dict]:
 # --------------------------------------------------------------------------- derived quantities
 def describe(model: PumpModel) -> dict:
     """What ``valvelab model check`` reports: swept volume, compression ratio, valve frequencies,
-    damping ratios, reed parameters (SI units)."""
+    damping ratios, reed parameters (SI units). Refuses (InputError) what can be decided before running:
+    a valve resting beyond its stop, a pump that cannot deliver (lumped.validity.check_model)."""
+    from lumped.validity import check_model
+
+    check_model(effect_library.resolve(model))
     p = model.pump
     out = {
         "model": model.name, "source": model.source, "valves": {"inlet": model.kinds[0], "delivery": model.kinds[1]},

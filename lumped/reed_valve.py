@@ -324,6 +324,29 @@ class ReedValve(ValveParams):
                                "modes": list(s.kinds[:6]) if dyn == "modal" else None}
         return out
 
+    def validity(self, oil=None):
+        """The reed's validity envelope (lumped.validity.Envelope): it rests at x_0 (eq 3.21), lifts off at
+        kappa (-x_0) / X(0) when pressed on its seat, X(x) of eq 3.83 holds up to where it falls to 0 (the fit's
+        end, docs/errata.md) and, with a geometry, small-deflection beam theory (eq 3.8) up to a tip deflection
+        of 10 % of the length (the elastica's tip deflection under a tip load is then 1.0 % below the linear one)."""
+        from lumped.validity import Limit
+
+        env = super().validity(oil)
+        x0 = self.preload
+        x_at_seat = pressure_load_multiplier(0.0, self.multiplier_poiseuille, self.multiplier_n1, self.multiplier_n0,
+                                             self.multiplier_d2, self.multiplier_d1, self.multiplier_d0,
+                                             self.multiplier_zero)
+        crack = 0.0 if x0 >= 0.0 else (self.stiffness * -x0 / x_at_seat if x_at_seat > 0.0 else math.inf)
+        limits = [Limit("multiplier_range", "peak_opening", self.multiplier_zero,
+                        f"the {self.multiplier_zero * 1e3:.3g} mm where X(x) of eq 3.83 falls to 0: beyond the "
+                        "openings it was fitted to")]
+        if self.reed is not None:
+            length = self.reed.length
+            limits.append(Limit("beam_deflection", "deflection", 0.1 * length,
+                                f"10 % of its {length * 1e3:.3g} mm length (small-deflection beam theory, eq 3.8)"))
+        return replace(env, rest_opening=x0, rest_key="seat.preload", cracking_pressure=crack,
+                       limits=env.limits + tuple(limits))
+
 
 def _keys(cls):
     from geometry.declare import specs

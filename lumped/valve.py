@@ -222,6 +222,17 @@ class ValveParams:
         """Kind-specific quantities ``valvelab model check`` reports (default: none)."""
         return {}
 
+    def validity(self, oil=None):
+        """Where the valve's equations hold (:class:`lumped.validity.Envelope`): its rest opening [m], the
+        pressure difference lifting it off its seat [Pa] and limits on what a run measures of it. The base
+        gives the limits every kind shares (:func:`lumped.validity.common_limits`: contact deflections
+        within the lift, eq 2.20; Reynolds numbers below Cd(Re)'s asymptote, eq 2.47); a kind returns
+        ``dataclasses.replace`` of it with its rest, cracking pressure and own limits added."""
+        from lumped.validity import Envelope, common_limits
+
+        c = self.common(oil)
+        return Envelope(limits=common_limits(c), stop_gap=c.stop_gap)
+
     def geometry_supplied(self) -> set:
         """Keys whose value equals what the valve's geometry preset or file supplies (``model show``
         prints them as comments; default: none)."""

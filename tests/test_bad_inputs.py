@@ -1,8 +1,10 @@
 """Bad inputs, each refused with exit 2 and one line naming the field: the 41 first cases, then the
 second round's classes (model-file base cycles, scheduler addresses, negative numbers in exponent
 form, misspelt LTS keys, the argument given named, nothing written before a spec is valid, one key
-spelt twice, outputs colliding with each other, with inputs or with earlier output), then the
-Python API's entry points (InputError naming the argument, before any work) and the size limits
+spelt twice, outputs colliding with each other, with inputs or with earlier output, a load below the
+tank pressure, what ``model check`` decides before running: a pump that cannot deliver, a reed resting
+beyond its stop, an inlet the tank cannot open), then the Python API's entry points (InputError naming
+the argument, before any work; a load below the tank pressure; a plot over an existing file) and the size limits
 of the discrepancy workflow and the resumed sweep's JSON.
 
 Every case runs the command line in this process (``studies.cli.main``), from a scratch
@@ -242,6 +244,9 @@ def _cases_two(tmp: Path, data: dict, cyc: str) -> list[tuple]:
     alias_sweep = tmp / "alias_sweep.toml"
     alias_sweep.write_text('[sweep]\nsampler = "grid"\n[factors.inlet.spring_stiffness]\nlow = 150.0\nhigh = 300.0\n'
                            'levels = 2\n[fixed]\nvalve = "disc"\n"valves.inlet.spring.stiffness" = 200.0\n')
+    (tmp / "no_delivery.toml").write_text('base = "thesis-disc"\n[pump]\ndead_volume = 1e-3\n')
+    (tmp / "reed_beyond_stop.toml").write_text('base = "thesis-reed"\n[valves.delivery]\nseat.preload = 5e-3\n')
+    (tmp / "stiff_inlet.toml").write_text('base = "thesis-disc"\n[valves.inlet]\nspring.stiffness = 5000.0\n')
     dup_model = tmp / "dup_model.toml"
     dup_model.write_text('base = "thesis-disc"\n[valves.inlet]\n"spring.stiffness" = 300.0\nspring.stiffness = 250.0\n')
     key = '"valves.inlet.spring.stiffness"'
@@ -312,10 +317,20 @@ def _cases_two(tmp: Path, data: dict, cyc: str) -> list[tuple]:
         ("sweep-plot --output over the sweep's results", ["sweep-plot", str(tmp / "sw2"), "--output",
                                                           str(tmp / "sw2" / "results.parquet")], "--output",
          ("already exists",), ()),
+        # the pump core: a load below the tank pressure; what model check can decide before running
+        ("pump load below the tank pressure", pump[:5] + ["--load-pressure-mpa", "0.05"], "--load-pressure-mpa",
+         ("below the tank pressure",), ("the model failed",)),
+        ("model check: a pump that cannot deliver", ["model", "check", str(tmp / "no_delivery.toml"), "--no-fea"],
+         "operating.load_pressure", ("cannot deliver against 2.76 MPa", "at most"), ()),
+        ("model check: a reed resting beyond its stop", ["model", "check", str(tmp / "reed_beyond_stop.toml"),
+                                                         "--no-fea"], "valves.delivery.seat.preload",
+         ("beyond its 1.90 mm stop",), ()),
+        ("model check: an inlet the tank pressure cannot open", ["model", "check", str(tmp / "stiff_inlet.toml"),
+                                                                 "--no-fea"], "valves.inlet", ("cannot fill",), ()),
     ]
 
 
-N_CASES_TWO = 27
+N_CASES_TWO = 31
 
 
 def test_the_second_round_has_its_cases(tmp_path, dataset, cycle_dataset):
@@ -372,6 +387,8 @@ def _api_cases(tmp: Path, data: dict) -> list[tuple]:
     opt = design_spec.load_spec(_spec(tmp / "opt.toml"), "optimize")
     runs = read_dataset(data["ds"])
     cond = [Condition(593.0, 2.76e6)]
+    (tmp / "valves.png").write_bytes(b"the user's figure")
+    from lumped import simulate as pump
     return [
         ("Settings(workers=-1)", lambda: Settings(workers=-1), "workers"),
         ("Settings(max_rounds=-2)", lambda: Settings(max_rounds=-2), "max_rounds"),
@@ -417,10 +434,13 @@ def _api_cases(tmp: Path, data: dict) -> list[tuple]:
                                                        noise=Noise(sample_rate_hz=1e7, revolutions=1000)),
          "noise.revolutions"),
         ("read_dataset(None)", lambda: read_dataset(None), "path"),
+        ("simulate(load below the tank pressure)", lambda: pump("thesis-disc", 593, 0.05e6), "load_pressure"),
+        ("PumpResult.plot over an existing file", lambda: pump("thesis-disc", 593, 2.76e6, revolutions=2, trace=True)
+         .plot(tmp / "valves.png"), "path"),
     ]
 
 
-N_API = 35
+N_API = 37
 
 
 def test_the_api_cases(tmp_path, dataset):

@@ -12,13 +12,14 @@ def test_synth_then_discrepancy_json_and_report(cli, tmp_path):
                             "--air-content", "0.013", "--seed", "3", *MODEL, "--json")
     assert rc == 0, err
     assert len(obj["runs"]) == 6 and (tmp_path / "ds" / "truth.toml").is_file()
+    assert obj["warnings"] == []          # the thesis's conditions, the O-ring it measured: inside the envelope
     rc, out, err, res = cli("discrepancy", "ds", "--workers", "1", *MODEL, "--json")
     assert rc == 0, err
     for key in ("effects_added", "parameters", "gap_before", "gap_after", "disagreements", "held_out"):
         assert key in res
     for g in ("gap_before", "gap_after"):
         assert {"position_rms_m", "delivery_error_pct"} <= set(res[g])
-    assert res["effects_added"] == ["seat_compliance"]
+    assert res["effects_added"] == ["seat_compliance"] and res["warnings"] == []
     assert set(res["parameters"]["seat_compliance"]) == {"k_seat", "c_seat"}
     # the discharge-coefficient factor is a fitted baseline nuisance, reported apart from the effects
     cd = res["baseline_nuisances"]["discharge_scale"]

@@ -270,15 +270,17 @@ def test_piston_leakage_is_laminar_in_the_pressure_difference(disc_run):
     assert r.leakage_per_rev == pytest.approx(leak, rel=2e-3)
 
 
-def test_valve_losses_are_the_pressure_drop_work(disc_run):
-    """The reported loss equals an independent integral of dP Q over the traced revolution, and is positive."""
+def test_valve_losses_are_the_throttling_work(disc_run):
+    """The reported loss equals an independent integral of dP Q_o over the traced revolution (the orifice
+    flow: the total flow less the disc's displacement flow A_disc u, eq 2.42 with f1 = f2 = 1), and is positive."""
     m = thesis_model("disc")
     tr = disc_run.trace
     period = 60.0 / disc_run.speed_rpm
     rho_cyl = np.array([m.oil.density_at(pc) for pc in tr.cylinder_pressure])
     rho_in = 0.5 * (rho_cyl + m.oil.density_at(m.pump.tank_pressure))       # section 4.3.5, "average"
-    q = tr.inlet_mass_flow / rho_in
-    e = np.trapezoid(np.append((m.pump.tank_pressure - tr.cylinder_pressure) * q, 0.0), np.append(tr.time, period))
+    a_disc = math.pi * m.inlet.outer_radius**2
+    q_o = tr.inlet_mass_flow / rho_in - a_disc * tr.signals["inlet_velocity"]
+    e = np.trapezoid(np.append((m.pump.tank_pressure - tr.cylinder_pressure) * q_o, 0.0), np.append(tr.time, period))
     assert disc_run.inlet.energy_loss == pytest.approx(e, rel=0.02)
     assert disc_run.inlet.energy_loss > 0 and disc_run.delivery.energy_loss > 0
 

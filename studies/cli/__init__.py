@@ -9,7 +9,9 @@ Conventions shared by every command:
 - a user mistake (:class:`geometry.errors.InputError`, bad flags) exits 2 with one
   line on stderr naming the field or file; never a traceback, never a NaN in output;
 - anything else that goes wrong (a result breaking its own invariants, a bug) exits 1
-  with one line and, for a bug, where to report it.
+  with one line and, for a bug, where to report it;
+- a command that simulates puts ``warnings`` (``[{"code", "message"}]``, lumped.validity) in its JSON and
+  writes each on stderr as one line.
 """
 
 from __future__ import annotations
@@ -133,6 +135,9 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except Exception as exc:  # noqa: BLE001 - the boundary: anything else is our failure, said in one line
         return _internal_error(args.command, exc)
+    # a result outside its model's validity envelope (lumped.validity): one line each, on stderr
+    for w in (result.get("warnings") or ()) if isinstance(result, dict) else ():
+        sys.stderr.write(f"valvelab {args.command}: warning: {w['code']}: {_one_line(w['message'])}\n")
     if args.json:
         sys.stdout.write(json.dumps(result, allow_nan=False) + "\n")
     else:

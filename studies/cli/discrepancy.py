@@ -97,6 +97,10 @@ def run(args) -> dict:
     result["dataset"] = str(args.dataset)
     result["model"] = sim.name
     result["report"] = None
+    from studies.cli._warnings import at_conditions
+
+    # the validity envelope of the model found (its effects and fitted nuisances) at each run's condition
+    result["warnings"] = at_conditions(sim.simulate, runs, tuple(outcome.model) + tuple(outcome.nuisances))
     if report is not None:
         result["report"] = str(report)
         write_report(report, outcome, runs, result, force=args.force)

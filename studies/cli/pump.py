@@ -124,6 +124,10 @@ def run(args) -> dict:
         raise InputError("--speed-rpm", f"missing: the model {model.name!r} has no [operating] speed_rpm")
     if load is None:
         raise InputError("--load-pressure-mpa", f"missing: the model {model.name!r} has no [operating] load_pressure")
+    if load < model.pump.tank_pressure:
+        flag = "--load-pressure-mpa" if args.load_pressure_mpa is not None else "operating.load_pressure"
+        raise InputError(flag, f"{load / 1e6:g} MPa is below the tank pressure {model.pump.tank_pressure / 1e6:g} MPa "
+                               "(absolute): a pump delivers into a load above its inlet")
     res = simulate(model, speed, load, air_content=args.air_content, revolutions=args.revolutions,
                    max_revolutions=args.max_revolutions, circuit=args.circuit, rtol=args.rtol, atol=args.atol,
                    trace=bool(outputs), progress=True, method=args.method)
@@ -145,7 +149,7 @@ def run(args) -> dict:
         write_trace_csv(res, outputs["--trace"], args.trace_valve)
         out["trace"] = str(outputs["--trace"])
     if "--plot" in outputs:
-        res.plot(outputs["--plot"])
+        res.plot(outputs["--plot"], force=True)      # checked above, --force included
         out["plot"] = str(outputs["--plot"])
     return out
 

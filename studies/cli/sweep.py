@@ -50,11 +50,23 @@ def run(args) -> dict:
         sys.stderr.write(f"sweep interrupted: the designs finished so far are in {out}; "
                          "rerun the same command to resume\n")
         raise
+    summary["warnings"] = table_warnings(out)
     if args.plot and summary["complete"]:
         from studies.cli.sweep_plot import main_effects_report
 
         summary["main_effects"] = main_effects_report(out, None, out / "main_effects.png", force=True)
     return summary
+
+
+def table_warnings(folder) -> list[dict]:
+    """The validity warnings of a sweep folder's designs, one entry per code (count and first message);
+    [] for a model without a ``warnings`` column."""
+    from studies.sweeps.pump import summarize_warnings
+
+    df, _ = sweep.read_results(folder)
+    if "warnings" not in df.columns or not len(df):
+        return []
+    return summarize_warnings(zip((f"design {int(i)}" for i in df["design_id"]), df["warnings"]))
 
 
 def render(r: dict) -> str:

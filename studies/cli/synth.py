@@ -144,7 +144,10 @@ def run(args) -> dict:
     folder = write_synthetic(Path(args.out), runs, truth_doc, force=args.force)
     if model_file is not None:
         (folder / "model.toml").write_text(model_file)
-    return {"dataset": str(folder), "runs": [r.name for r in runs], "truth": truth_doc}
+    from studies.cli._warnings import at_conditions
+
+    return {"dataset": str(folder), "runs": [r.name for r in runs], "truth": truth_doc,
+            "warnings": at_conditions(sim.simulate, conds, truth, [r.name for r in runs])}
 
 
 def render(r: dict) -> str:

@@ -157,6 +157,11 @@ def run(args) -> dict:
         "cpu_seconds_per_simulated_second": cpu,
     }
     summary["tables"] = {t: V.error_summary(rows) for t, rows in tables.items()}
+    # the validity envelope (lumped.validity) of every case: none is expected on the thesis's own cases
+    summary["warnings"] = [{"code": w.code, "message": f"{V.case_name(c)}: {w.message}"}
+                           for c, r in [*zip(selected, results), *((c, geo_results[V.case_name(c)]) for c in reed_sel
+                                                                   if V.case_name(c) in geo_results)]
+                           for w in r.warnings]
     if "5.6" in tables and all(V.TABLE_5_1_COLUMN in r for r in tables["5.6"]):
         summary["tables"]["5.6"]["table_5_1_dead_volume_max_abs_diff_from_thesis_model_pct"] = round(
             max(abs(r["table_5_1_vs_thesis_model_pct"]) for r in tables["5.6"]), 3)

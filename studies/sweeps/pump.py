@@ -18,14 +18,18 @@ Inputs, each a factor or a fixed value (SI units; names in CONTRACT.md, "Sweeps"
 
 Outputs: delivery per revolution (eq 4.17), volumetric efficiency, per valve the peak
 opening, opening and closing crank angles (rad from TDC), stop contacts, the largest
-impact speeds on the seat and the stop, the pressure-drop energy per revolution, then the
-cylinder pressure extremes, cyclic steady state, mass balance error, CPU seconds.
+impact speeds on the seat and the stop, the energy dissipated by throttling per revolution, then the
+cylinder pressure extremes, cyclic steady state, mass balance error, CPU seconds, and
+``warnings``: the result's validity warnings (lumped.validity) as JSON text, ``[]`` when none.
 ``status`` is "ok", or "not_cyclic" when the last two revolutions still differ by more
-than the steady tolerance (or than rtol, if larger).
+than the steady tolerance (or than rtol, if larger), or "outside" when the input
+``on_warning = "exclude"`` is given and the result carries a warning (``"flag"``, the
+default, keeps such designs "ok" with their warnings in the column).
 """
 
 from __future__ import annotations
 
+import json
 import math
 from functools import lru_cache
 
@@ -57,11 +61,14 @@ OUTPUTS = {
     "mass_balance_error": "float64",
     "revolutions_run": "int64",
     "cpu_seconds": "float64",
+    "warnings": "string",
 }
+#: what a design with a validity warning becomes: "flag" (status ok, warnings in their column) or "exclude"
+ON_WARNING = ("flag", "exclude")
 MAIN_RESPONSES = ("delivery_m3_per_rev", "volumetric_efficiency", "delivery_peak_opening_m")
 REQUIRED = ()
 OPERATING = ("model", "valve", "speed_rpm", "load_pressure", "air_content", "revolutions", "method", "rtol",
-             "atol", "circuit")
+             "atol", "circuit", "on_warning")
 
 
 # --------------------------------------------------------------------------- names of the first sweep files
@@ -148,6 +155,9 @@ def check(name: str, value) -> None:
     elif name == "circuit":
         if value not in ("simplified", "complete"):
             raise InputError(name, f"expected simplified or complete, got {value!r}")
+    elif name == "on_warning":
+        if value not in ON_WARNING:
+            raise InputError(name, f"expected {' or '.join(ON_WARNING)}, got {value!r}")
     elif "." not in name:
         raise InputError(name, "unknown input; expected an operating input (" + ", ".join(OPERATING)
                          + ") or a model key path such as pump.dead_volume, valves.delivery.spring.stiffness, "
@@ -217,11 +227,12 @@ def evaluate(design: dict) -> dict:
     res = simulate(model, design.get("speed_rpm"), design.get("load_pressure"),
                    air_content=design.get("air_content"), revolutions=int(design.get("revolutions", 5)),
                    circuit=design.get("circuit"), method=design.get("method", "fast"), **kw)
-    return outputs_of(res)
+    return outputs_of(res, design.get("on_warning", "flag"))
 
 
-def outputs_of(res) -> dict:
-    """The sweep outputs of a PumpResult."""
+def outputs_of(res, on_warning: str = "flag") -> dict:
+    """The sweep outputs of a PumpResult; with ``on_warning = "exclude"`` a result carrying a validity
+    warning has status "outside"."""
     out = {
         "delivery_m3_per_rev": res.delivery_per_rev,
         "volumetric_efficiency": res.volumetric_efficiency,
@@ -231,7 +242,10 @@ def outputs_of(res) -> dict:
         "mass_balance_error": res.mass_balance_error, "revolutions_run": res.revolutions,
         "cpu_seconds": res.cpu_seconds,
         "status": "ok" if res.cyclic_steady else "not_cyclic",
+        "warnings": json.dumps([w.to_dict() for w in res.warnings]),
     }
+    if on_warning == "exclude" and res.warnings and out["status"] == "ok":
+        out["status"] = "outside"
     for pos, v in res.valves.items():
         out.update({
             f"{pos}_peak_opening_m": v.peak_opening, f"{pos}_opening_angle_rad": v.opening_angle,
@@ -241,3 +255,23 @@ def outputs_of(res) -> dict:
         })
     out["valve_loss_j"] = res.inlet.energy_loss + res.delivery.energy_loss
     return out
+
+
+def parse_warnings(text) -> list[dict]:
+    """The warnings of a results-table cell ([] for an empty cell: an error row, a module model)."""
+    if not isinstance(text, str) or not text:
+        return []
+    return json.loads(text)
+
+
+def summarize_warnings(cells, what: str = "designs") -> list[dict]:
+    """One {"code", "message"} per warning code of a results column ``cells`` ((label, cell) pairs): how many
+    of the rows carry it and the first one's message."""
+    cells = list(cells)
+    found: dict = {}
+    for label, cell in cells:
+        for w in parse_warnings(cell):
+            n, first = found.get(w["code"], (0, None))
+            found[w["code"]] = (n + 1, first or f"{label}: {w['message']}")
+    return [{"code": code, "message": f"{n} of {len(cells)} {what}, first {first}"}
+            for code, (n, first) in found.items()]

@@ -83,7 +83,7 @@ def evaluate(design: dict) -> dict:
                    method=design.get("method", "fast"), **kw)
     # a valve that never reseats (held off its seat by the squeeze film's C2 u / x^3) has no timing:
     # lumped.cycle reports its angles as None, which the outputs keep as missing
-    out = sweep_pump.outputs_of(res)
+    out = sweep_pump.outputs_of(res, design.get("on_warning", "flag"))
     from studies.sweeps.design.stress import lift_deflection, reed_outputs
 
     cal = {pos: float(design.get(f"stress_calibration_{pos}", 0.0) or 0.0) for pos in ("inlet", "delivery")}

@@ -51,6 +51,7 @@ import numpy as np
 from geometry.errors import InputError
 from studies.sweeps.design import runner, study
 from studies.sweeps.design.spec import DesignSpec, check_size, design_inputs, point_label
+from studies.sweeps.pump import parse_warnings
 
 SUBFOLDERS = ("generations", "calibration", "recheck-fea", "recheck-reference", "baseline")
 FAILED_F = 1e12          # objective value of an infeasible (failed) design: never on a front
@@ -141,14 +142,19 @@ def design_records(spec: DesignSpec, catalogue: dict, df, n_designs: int) -> lis
     mats = {n: runner.output_matrix(df, catalogue[n], n_designs, npts) for n in names}
     status = np.array(["missing"] * (n_designs * npts), dtype=object)
     errors = [None] * (n_designs * npts)
+    warns = [[] for _ in range(n_designs * npts)]
     for r in df.to_dict("records"):
         status[int(r["row"])] = r["status"]
         errors[int(r["row"])] = r.get("error")
+        warns[int(r["row"])] = parse_warnings(r.get("warnings"))
     status = status.reshape(n_designs, npts)
+    labels = spec.point_labels
     out = []
     for i in range(n_designs):
         ok = bool((status[i] == "ok").all()) and all(np.isfinite(mats[n][i]).all() for n in names)
-        rec = {"ok": ok, "status": list(status[i]), "objectives": {}, "constraints": {}, "points": []}
+        rec = {"ok": ok, "status": list(status[i]), "objectives": {}, "constraints": {}, "points": [],
+               "warnings": [{"code": w["code"], "message": (f"{labels[j]}: " if npts > 1 else "") + w["message"]}
+                            for j in range(npts) for w in warns[i * npts + j]]}
         if not ok:
             bad = [j for j in range(npts) if status[i][j] != "ok"]
             rec["error"] = (errors[i * npts + bad[0]] or status[i][bad[0]]) if bad else \
@@ -382,6 +388,9 @@ def run_optimize(spec: DesignSpec, out, *, scheduler: str | None = None, workers
         "stress_calibration": study.calibration_summary(cal),
         "designs": designs, "baseline": baseline,
         "dominating_baseline": sum(1 for d in designs if d.get("dominates_baseline")),
+        "warnings": [{"code": w["code"], "message": f"{d['name']}: {w['message']}"}
+                     for d in designs + ([dict(baseline, name="baseline")] if baseline else [])
+                     for w in d.get("warnings", [])],
         "files": files, "complete": True, "wall_seconds": wall, "loop_wall_seconds": loop_wall,
         "designs_per_hour": ev.computed / ev.eval_seconds * 3600.0 if ev.computed and ev.eval_seconds else None,
     }
@@ -423,7 +432,8 @@ def _baseline(spec, model, base_path, cluster, out, cal, catalogue, progress) ->
     rec = design_records(spec, catalogue, df, 1)[0]
     return {"name": model.name if model.source.startswith("lumped/") else Path(model.source).stem or model.name,
             "variables": {v.name: base_value(model, v.name) for v in spec.variables}, "objectives_fast": rec["objectives"],
-            "constraints_fast": rec["constraints"], "ok_fast": rec["ok"], "points_fast": rec["points"]}
+            "constraints_fast": rec["constraints"], "ok_fast": rec["ok"], "points_fast": rec["points"],
+            "warnings": rec["warnings"]}
 
 
 def base_value(model, path: str):
@@ -604,6 +614,7 @@ def _finish(spec, model, out, catalogue, items, baseline) -> list[dict]:
              "fea_check": _fea_json(fea, positions), "fea_flagged": bool(fea and fea.get("flagged")),
              "fidelity": {k.split(".")[1]: v for k, v in (rec.get("fidelity_keys") or {}).items()} or None,
              "points": fin["points"], "ok": bool(fin.get("ok", True)), "rechecked": bool(rec.get("rechecked")),
+             "warnings": fin.get("warnings", rec.get("warnings", [])),
              "generation_folder": rec.get("generation_folder")}
         if rec.get("final") is not None:
             e["fast_vs_reference_pct"] = {o.output: _pct(rec["objectives"][o.output], fin["objectives"][o.output])
@@ -633,6 +644,7 @@ def _finish(spec, model, out, catalogue, items, baseline) -> list[dict]:
             baseline["constraints"] = _final_constraints(spec, fb, baseline.get("fea"), positions)
             baseline["constraints_met"] = not violations(spec.constraints, baseline["constraints"])
             baseline["points"] = fb["points"]
+            baseline["warnings"] = fb.get("warnings", baseline.get("warnings", []))
         baseline["fea_check"] = _fea_json(baseline.pop("fea", None), positions)
         baseline["fidelity"] = {k.split(".")[1]: v for k, v in (baseline.pop("fidelity_keys", None) or {}).items()} \
             or None

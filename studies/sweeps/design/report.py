@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import json
 import os
 from pathlib import Path
 
@@ -225,7 +226,8 @@ def pareto_rows(designs: list[dict], variables, objectives, constraints) -> tupl
     for d in designs:
         r = {"design": d["name"], "model_file": d["model_file"], "on_front": d["on_front"],
              "constraints_met": d["constraints_met"], "fea_flagged": d.get("fea_flagged"),
-             "fidelity": d.get("fidelity"), "dominates_baseline": d.get("dominates_baseline")}
+             "fidelity": d.get("fidelity"), "dominates_baseline": d.get("dominates_baseline"),
+             "warnings": json.dumps(d.get("warnings", []))}
         for v in variables:
             r[f"{v.name} [{v.unit}]"] = d["variables"].get(v.name)
         for k, x in d.get("derived", {}).items():

@@ -204,7 +204,7 @@ def run_sensitivity(spec: DesignSpec, out, *, scheduler: str | None = None, work
         "analyses": [{k: a.get(k) for k in ("output", "operating_point", "n_used", "dropped", "constant", "note")}
                      for a in analyses],
         "stress_calibration": study.calibration_summary(cal), "files": files, "complete": True,
-        "wall_seconds": wall, "evaluation_wall_seconds": eval_wall,
+        "warnings": study.evaluation_warnings(df), "wall_seconds": wall, "evaluation_wall_seconds": eval_wall,
         "designs_per_hour": computed / eval_wall * 3600.0 if computed else None,
         "samples_per_hour": computed / npts / eval_wall * 3600.0 if computed else None,
     }

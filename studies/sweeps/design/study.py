@@ -120,8 +120,21 @@ def fixed_inputs(spec: DesignSpec, base_path: str | None) -> dict:
     if spec.model_kind == "module":
         return {k: (list(v) if isinstance(v, tuple) else v) for k, v in spec.fixed}
     r = spec.run_dict
-    return {"model": base_path, "revolutions": r["revolutions"], "max_revolutions": r["max_revolutions"],
-            "method": r["integrator"], "rtol": r["rtol"], "atol": r["atol"]}
+    out = {"model": base_path, "revolutions": r["revolutions"], "max_revolutions": r["max_revolutions"],
+           "method": r["integrator"], "rtol": r["rtol"], "atol": r["atol"]}
+    if "on_warning" in r:
+        out["on_warning"] = r["on_warning"]
+    return out
+
+
+def evaluation_warnings(df) -> list[dict]:
+    """The validity warnings of an evaluation table (lumped.validity), one entry per code: how many
+    evaluations carry it and the first one's message ([] for a module model: no ``warnings`` column)."""
+    from studies.sweeps.pump import summarize_warnings
+
+    if "warnings" not in getattr(df, "columns", ()) or not len(df):
+        return []
+    return summarize_warnings(zip((f"evaluation {int(i)}" for i in df["row"]), df["warnings"]), "evaluations")
 
 
 def rows_for(spec: DesignSpec, designs: list[dict], calibration: dict | None = None) -> list[dict]:
