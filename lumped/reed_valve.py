@@ -421,50 +421,39 @@ COMPILED = False
 
 def reed_accelerations(y, s: int, n: int, x: float, u: float, f, p, o: int, contact: int, regime: int, out) -> None:
     """q'' [m/s^2] of the modal or FE reed into out (lumped.reed_dynamics): M q'' + C q' + K (q - q0) =
-    b dP X(x) - seat (k_seat F q + c_seat F q' while seated) + A_c c F_stop(x, x') - f_drag, with A = M^-1 K,
-    B = M^-1 C, g = M^-1 b, h = M^-1 A_c c, M^-1 F packed in the tail; X of eq 3.83 at the opening x = c . q,
-    the stop of eq 2.20 (per unit area), the drag of eq 3.21 per strip."""
+    b [dP X(x) + F_c(x, x')] - Q_drag, with A = M^-1 K, B = M^-1 C, g = M^-1 b packed in the tail; X of eq
+    3.83 and the seat and stop of eq 2.20 (per unit area) at the port's opening x = e . q, the drag of eq
+    3.21 on the width-mean rate of each strip."""
     w = int(p[o + REED.tail])
-    g, h, q0 = w + n, w + 2 * n, w + 3 * n
-    a_m = w + 4 * n
+    g, q0 = w + n, w + 2 * n
+    a_m = w + 3 * n
     b_m = a_m + n * n
-    f_m = b_m + n * n
-    pressure = f.dp * pressure_load_multiplier(
+    load = f.dp * pressure_load_multiplier(
         x, p[o + REED.multiplier_poiseuille], p[o + REED.multiplier_n1], p[o + REED.multiplier_n0],
         p[o + REED.multiplier_d2], p[o + REED.multiplier_d1], p[o + REED.multiplier_d0], p[o + REED.x_zero])
-    if contact < 0:
-        contact = contact_state(x, p[o + REED.stop_gap])
-    f_stop = contact_reaction(x, u, p, o, contact) if contact == STOP else 0.0
-    k_seat = p[o + REED.seat_k] if contact == SEAT else 0.0
-    c_seat = p[o + REED.seat_c] if contact == SEAT else 0.0
+    load += contact_reaction(x, u, p, o, contact)
     if COMPILED:
         for i in range(n):
-            acc = p[g + i] * pressure + p[h + i] * f_stop
+            acc = p[g + i] * load
             for j in range(n):
                 acc -= p[a_m + i * n + j] * (y[s + j] - p[q0 + j]) + p[b_m + i * n + j] * y[s + n + j]
-            if k_seat > 0.0 or c_seat > 0.0:
-                for j in range(n):
-                    acc -= p[f_m + i * n + j] * (k_seat * y[s + j] + c_seat * y[s + n + j])
             out[i] = acc
     else:
-        # the same in numpy (the reference stepper's Python physics: an FE reed has ~50 DOFs)
-        q, v = np.asarray(y[s:s + n]), np.asarray(y[s + n:s + 2 * n])
+        # the same in numpy: the reference stepper's Python physics (an FE reed has ~50 DOFs)
         pa = np.asarray(p)
-        acc = pa[g:g + n] * pressure + pa[h:h + n] * f_stop - pa[a_m:b_m].reshape(n, n) @ (q - pa[q0:q0 + n]) \
-            - pa[b_m:f_m].reshape(n, n) @ v
-        if k_seat > 0.0 or c_seat > 0.0:
-            acc -= pa[f_m:f_m + n * n].reshape(n, n) @ (k_seat * q + c_seat * v)
-        out[:n] = acc
+        q, v = np.asarray(y[s:s + n]), np.asarray(y[s + n:s + 2 * n])
+        out[:n] = pa[g:g + n] * load - pa[a_m:b_m].reshape(n, n) @ (q - pa[q0:q0 + n]) \
+            - pa[b_m:b_m + n * n].reshape(n, n) @ v
     half_cd = p[o + REED.drag_half_cd]
     if half_cd > 0.0:
         k_st = int(p[o + REED.n_stations])
-        d_m = f_m + n * n
+        d_m = b_m + n * n
         r_m = d_m + n * k_st
         for k in range(k_st):
-            v = 0.0
+            vk = 0.0
             for j in range(n):
-                v += p[r_m + k * n + j] * y[s + n + j]
-            drag = half_cd * f.rho * abs(v) * v
+                vk += p[r_m + k * n + j] * y[s + n + j]
+            drag = half_cd * f.rho * abs(vk) * vk
             for i in range(n):
                 out[i] -= p[d_m + i * k_st + k] * drag
 
