@@ -484,6 +484,28 @@ class Reed:
         return replace(self, length=self.length * a, thickness=self.thickness * b, sections=sections,
                        grooves=grooves, name=self.name if name is None else name)
 
+    def with_heavy_tip(self, factor: float = 3.0, name: str | None = None) -> "Reed":
+        """This reed with its tip piece ``factor`` times as thick (a reed whose one-mode model should fail).
+
+        The tip piece is the rounded end, s >= L - tip_radius (the last quarter for a square tip),
+        within the last piece; the reed is rewritten as sections so the step is a thickness step of
+        the downstream face. Widths, tapers, grooves and the material stay.
+        """
+        pieces = list(self.pieces())
+        last = pieces[-1]
+        start = self.length - (self.tip_radius if self.tip_radius > 0.0 else 0.25 * self.length)
+        start = max(start, last.s0)
+        w_split = float(last.width(start)) if last.tapered else last.w0
+        sections = [Section(s_end=p.s1, width=p.w0, thickness=p.h, taper_to=p.w1 if p.tapered else None)
+                    for p in pieces[:-1]]
+        if start > last.s0:
+            sections.append(Section(s_end=start, width=last.w0, thickness=last.h,
+                                    taper_to=w_split if last.tapered else None))
+        sections.append(Section(s_end=self.length, width=w_split, thickness=last.h * float(factor),
+                                taper_to=last.w1 if last.tapered else None))
+        return Reed.from_sections(self.length, sections, self.thickness, self.tip_radius, self.material,
+                                  self.grooves, self.name if name is None else name)
+
     def mass_per_length(self, s):
         """m(s) = rho_c A(s) [kg/m], the mass per unit length of eq 3.8."""
         A, _ = self.section(s)

@@ -91,6 +91,7 @@ class PumpResult:
     rtol: float
     atol: float
     trace: Trace | None = field(default=None, compare=False)
+    dynamics: dict = field(default_factory=dict)   # {position: {"kind": "modal", "modes": N} | {"kind": "fe", "dofs": n}}
     warnings: tuple = ()           # lumped.validity.ResultWarning: conditions of the model's equations the run left
 
     @property
@@ -138,6 +139,7 @@ class PumpResult:
             "cavitation_deg": math.degrees(self.cavitation_angle),
             "leakage_cc_per_rev": self.leakage_per_rev * 1e6,
             "method": "fast" if self.method == "fast" else "reference", "rtol": self.rtol, "atol": self.atol,
+            "dynamics": {pos: dict(d) for pos, d in self.dynamics.items()},
             "warnings": [w.to_dict() for w in self.warnings],
         }
 
@@ -298,6 +300,10 @@ def simulate(model="thesis-disc", speed_rpm: float | None = None, load_pressure:
     if kind == "fast":
         ensure_compiled()                 # compiling (or loading numba's cache) is never counted
     cpu0 = _time.process_time()
+    for pos in POSITIONS:
+        if kind == "fast" and getattr(m.valve(pos), "dynamics", None) == "fe":
+            raise InputError(f"valves.{pos}.dynamics", "the whole FE reed runs on the reference stepper only: "
+                             "give method='reference' (--method reference), or dynamics = \"modal\" for the fast one")
     problem = PumpProblem.build(m, speed, load, circuit, needle_area)
     stepper = STEPPERS[method](problem, rtol, atol, contact_atol=contact_atol, record=True, max_steps=max_steps)
     physics = _physics(kind + ("1" if kind == "fast" and problem.layout.one_dof else ""))
@@ -351,7 +357,20 @@ def _result(m: PumpModel, problem: PumpProblem, done, physics, method: str, rtol
         min_cylinder_pressure=float(p_cyl.min()), max_cylinder_pressure=float(p_cyl.max()),
         cavitation_angle=cav, rhs_evaluations=int(done.n_rhs), steps=int(done.n_steps), events=int(done.n_events),
         method="fast" if method == "fast" else ("reference" if method == "reference" else method),
-        rtol=rtol, atol=atol, trace=tr, warnings=tuple(warns))
+        rtol=rtol, atol=atol, trace=tr, dynamics=_dynamics(resolved), warnings=tuple(warns))
+
+
+def _dynamics(model) -> dict:
+    """The valves moved beyond one DOF: {position: {"kind": "modal", "modes": N} or {"kind": "fe", "dofs": n}}."""
+    out = {}
+    for pos in POSITIONS:
+        v = model.valve(pos)
+        dyn = getattr(v, "dynamics", None)
+        if dyn == "modal":
+            out[pos] = {"kind": "modal", "modes": int(v.modes)}
+        elif dyn == "fe":
+            out[pos] = {"kind": "fe", "dofs": int(v.dofs())}
+    return out
 
 
 def check_invariants(res: PumpResult, model: PumpModel) -> None:

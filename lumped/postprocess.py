@@ -174,15 +174,19 @@ def valve_runs(span, problem, rt: np.ndarray, losses_j, kinds) -> dict:
 
 
 def trace(spans, problem, npts: int, physics) -> Trace:
-    """The kept revolutions sampled at npts points each from the dense output."""
-    ts_all, rows = [], []
+    """The kept revolutions sampled at npts points each from the dense output; a valve of several DOFs adds
+    each coordinate's share of its opening, ``<position>_mode<i>_position`` = e_i q_i [m] (a modal reed's
+    modal participation; their sum is ``<position>_position``)."""
+    ts_all, rows, states = [], [], []
     for span in spans:
         ts = span.t0 + problem.period * np.arange(npts) / npts
         ys, modes = span.sample(ts)
         rows.append(physics.rates_table(ts, ys, modes, problem.p))
         ts_all.append(ts)
+        states.append(ys)
     t = np.concatenate(ts_all)
     rt = np.concatenate(rows)
+    ys = np.concatenate(states)
     signals = {
         "inlet_position": rt[:, COL["x_in"]], "delivery_position": rt[:, COL["x_del"]],
         "cylinder_pressure": rt[:, COL["p_cyl"]], "load_pressure": rt[:, COL["p_load"]],
@@ -190,5 +194,14 @@ def trace(spans, problem, npts: int, physics) -> Trace:
         "inlet_velocity": rt[:, COL["u_in"]], "delivery_velocity": rt[:, COL["u_del"]],
         "vapour_volume": rt[:, COL["vapour_volume"]],
     }
+    lay, p = problem.layout, problem.p
+    for v, pos in enumerate(POSITIONS):
+        # a modal reed's coordinates are its modes; an FE reed's are nodal DOFs (not worth a signal each)
+        if lay.scalars[v] or getattr(getattr(problem.model, pos), "dynamics", "") != "modal":
+            continue
+        w = int(p[BLOCK_OFFSET[v] + VALVE.tail])
+        q = ys[:, lay.positions(v)]
+        for i in range(lay.dofs[v]):
+            signals[f"{pos}_mode{i + 1}_position"] = q[:, i] * p[w + i]
     return Trace(t - spans[0].t0, problem.speed_rpm, signals)
 

@@ -116,8 +116,10 @@ def structure(valve, rho_oil: float) -> Structure:
         i1 = _opening_mode(b.tip)
         scale = sealing[i1] / load[i1]
     else:
-        fe = fe_reed(valve.reed, port, valve.fidelity or "beam", valve.mesh_size,
-                     fidelity_field=f"{where}.fidelity", port_field=f"{where}.port")
+        # the exact E-B model (analytic) has no element mesh: its FE reed is the beam's
+        fid = "beam" if (valve.fidelity or "analytic") == "analytic" else valve.fidelity
+        fe = fe_reed(valve.reed, port, fid, valve.mesh_size, fidelity_field=f"{where}.fidelity",
+                     port_field=f"{where}.port")
         wbar, areas = np.asarray(fe.wbar), np.asarray(fe.weights) * np.asarray(fe.widths)
         mass = np.array(fe.mass, dtype=float)
         if gamma_f > 0:

@@ -216,8 +216,9 @@ width = 15.875e-3
     for q in ("omega_n", "kappa", "gamma1", "gamma2", "gamma3", "h_eff"):
         assert getattr(b, q) == pytest.approx(getattr(a, q), rel=1e-12)
     fa, fb = beam.solve(one), beam.solve(two)
-    # the same mesh up to the step node (R_l L is 1 ulp off s_end): round-off of a 200-element beam
-    assert fb.omega_n == pytest.approx(fa.omega_n, rel=1e-8) and fb.kappa == pytest.approx(fa.kappa, rel=1e-8)
+    # the same mesh up to the step node (R_l L is 1 ulp off s_end): round-off of a 200-element beam, whose
+    # lowest eigenvalue may carry up to eps lambda_max / lambda_1 = 1.3e-4 (1.6e-8 seen between two machines' BLAS)
+    assert fb.omega_n == pytest.approx(fa.omega_n, rel=1e-6) and fb.kappa == pytest.approx(fa.kappa, rel=1e-6)
 
 
 def test_higher_analytic_modes_of_the_uniform_reed_are_the_classical_roots():

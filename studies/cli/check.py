@@ -35,6 +35,13 @@ def configure(p):
     p.add_argument("--out", default=None,
                    help="folder for plots (shapes, convergence) and VTU files of the solid modes")
     p.add_argument("--force", action="store_true", help="write into an existing folder valvelab did not make")
+    p.add_argument("--dynamics", action="store_true",
+                   help="instead of the fidelity check: the reed in the pump with one mode (eq 3.21), 2, 3 and 6 "
+                        "modes and the whole FE reed, on the six cases of Table 5.6, for this reed and three made "
+                        "from it (long and thin, an off-axis port, a heavy tip); how many modes each needs (slow)")
+    p.add_argument("--quick", action="store_true", help="with --dynamics: the first case of Table 5.6 only")
+    p.add_argument("--revolutions", type=flags.integer(2, 50), default=3, metavar="N",
+                   help="with --dynamics: revolutions per run (default 3)")
 
 
 def _fidelities(text: str) -> tuple[str, ...]:
@@ -47,6 +54,11 @@ def _fidelities(text: str) -> tuple[str, ...]:
 
 def run(args) -> dict:
     reed = load_reed(args.geometry)
+    if args.dynamics:
+        return _run_dynamics(reed, args)
+    for flag, given in (("--quick", args.quick), ("--revolutions", args.revolutions != 3)):
+        if given:
+            raise InputError(flag, "applies to the pump study (--dynamics)")
     fids = _fidelities(args.fidelities)
     from studies.cli.reed import check_modes_count
 
@@ -73,6 +85,27 @@ def run(args) -> dict:
         result["convergence"] = studies
     if out_dir is not None:
         result["files"] = _write_outputs(reed, fids, args.mesh_size, out_dir)
+    return result
+
+
+def _run_dynamics(reed, args) -> dict:
+    """``--dynamics``: studies.validation.reed_dynamics for this reed and the three made from it."""
+    from studies.validation import reed_dynamics as rd
+    from studies.validation.chain import cases
+
+    if args.convergence:
+        raise InputError("--convergence", "belongs to the fidelity check, not the pump study (--dynamics)")
+    out_dir = None
+    if args.out is not None:
+        from studies.outputs import prepare_output_dir
+
+        out_dir = prepare_output_dir(args.out, "--out", args.force, kind="check")
+    ops = cases(valve="reed")
+    study = rd.dynamics_study(rd.study_reeds(reed), ops[:1] if args.quick else ops, revolutions=args.revolutions,
+                              progress=True, traces=out_dir is not None)
+    result = {"geometry": args.geometry, "dynamics": rd.as_json(study)}
+    if out_dir is not None:
+        result["files"] = [str(p) for p in rd.plot(study, out_dir)]
     return result
 
 
@@ -123,6 +156,10 @@ def _write_outputs(reed, fids, mesh_size, out_dir) -> list[str]:
 
 
 def render(r: dict) -> str:
+    if "dynamics" in r:
+        from studies.validation.reed_dynamics import render as render_dynamics
+
+        return "\n".join([render_dynamics(r["dynamics"])] + [f"wrote {f}" for f in r.get("files", [])])
     text = render_check(r)
     for fid, st in r.get("convergence", {}).items():
         for q, c in st["quantities"].items():

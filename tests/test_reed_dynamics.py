@@ -1,0 +1,201 @@
+"""The modal and FE reed valve in the pump (lumped/reed_dynamics.py, lumped.reed_valve.reed_accelerations).
+
+Checked against independent numbers: the FE reed's own eigenvalues and static solution (dense
+linear algebra on its M, K), eq 3.21 (one mode), the reference stepper (scipy Radau on the Python
+physics) and the mass balance; and the model-file keys refused where they make no sense.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from scipy.linalg import expm
+
+from geometry.errors import InputError
+from lumped import load_model, simulate, with_values
+from lumped.layout import BLOCK_OFFSET, POSITIONS, opening
+from lumped.problem import PumpProblem
+from lumped.reed_dynamics import structure
+from lumped.reed_modes import fe_reed
+from lumped.valve import VALVE
+
+GEOMETRY = {"valves.geometry": "prototype", "valves.fidelity": "beam"}
+
+
+def _model(**delivery):
+    """thesis-reed with the prototype geometry (beam fidelity) and the delivery valve's keys given."""
+    return with_values(load_model("thesis-reed"), {**GEOMETRY, **{f"valves.delivery.{k}": v for k, v in delivery.items()}})
+
+
+def _packed(model):
+    """(A, B, g, e, q0) of the delivery valve as the pump packed them (lumped.reed_dynamics.tail)."""
+    pr = PumpProblem.build(model, 595.0, 2.76e6)
+    o = BLOCK_OFFSET[POSITIONS.index("delivery")]
+    n = pr.layout.dofs[1]
+    w = int(pr.p[o + VALVE.tail])
+    t = pr.p[w:]
+    e, g, q0 = t[:n], t[n:2 * n], t[2 * n:3 * n]
+    a = t[3 * n:3 * n + n * n].reshape(n, n)
+    b = t[3 * n + n * n:3 * n + 2 * n * n].reshape(n, n)
+    return a, b, g, e, q0, pr
+
+
+def test_the_fe_reeds_packed_frequencies_are_its_eigenvalues():
+    """eig(M^-1 K) of the packed FE reed = the generalised eigenvalues of its (M, K) (scipy eigh)."""
+    a, _, _, _, _, _ = _packed(_model(dynamics="fe"))
+    fe = fe_reed(_model().delivery.reed, None, "beam")
+    omega_fe, _ = fe.modes()
+    lam = np.sort(np.linalg.eigvals(a).real)
+    assert np.allclose(np.sqrt(lam[:6]), omega_fe[:6], rtol=1e-8)
+
+
+@pytest.mark.parametrize("port", [None, (8e-3, 20e-3, 4e-3, 2.5e-3)])
+def test_the_modal_static_opening_converges_to_the_fe_reeds(port):
+    """A static pressure on the port: x = e . A^-1 g dP of the packed modal reed with N = 1..6 modes against
+    the FE reed's e . K^-1 f dP (solved from its own matrices); the error shrinks with N, below 1e-3 at 6."""
+    keys = {} if port is None else dict(zip(("port.s_start", "port.s_end", "port.width", "port.y_center"), port))
+    a_fe, _, g_fe, e_fe, _, _ = _packed(_model(dynamics="fe", **keys))
+    x_fe = e_fe @ np.linalg.solve(a_fe, g_fe)
+    errors = []
+    for n in range(1, 7):
+        a, _, g, e, _, _ = _packed(_model(dynamics="modal", modes=n, **keys))
+        errors.append(abs(e @ np.linalg.solve(a, g) / x_fe - 1.0))
+    assert errors[-1] < 1e-3 and errors[-1] < errors[0], errors
+
+
+def test_a_free_modal_reed_follows_the_fe_reed():
+    """Released from its static deflection with no flow, contact or damping, the packed modal reed's
+    opening (exact solution of q'' = -A q) follows the FE reed's within 0.1 % of the amplitude over 20
+    periods with 6 modes (the FE reed's mesh for both)."""
+    fe_mesh = fe_reed(_model().delivery.reed, None, "beam").mesh_size
+
+    def history(model, t):
+        a, _, g, e, _, _ = _packed(model)
+        q_static = np.linalg.solve(a, g)                     # under a unit pressure
+        n = len(g)
+        big = np.block([[np.zeros((n, n)), np.eye(n)], [-a, np.zeros((n, n))]])
+        z0 = np.concatenate([q_static, np.zeros(n)])
+        step = expm(big * (t[1] - t[0]))
+        out, z = [], z0
+        for _ in t:
+            out.append(e @ z[:n])
+            z = step @ z
+        return np.array(out)
+
+    undamped = {"damping.internal": 0.0, "mesh_size": fe_mesh}
+    base = with_values(_model(), {"effects.fluid_damping": False})
+    modal = with_values(base, {**{f"valves.delivery.{k}": v for k, v in undamped.items()},
+                               "valves.delivery.dynamics": "modal", "valves.delivery.modes": 6})
+    fe = with_values(base, {**{f"valves.delivery.{k}": v for k, v in undamped.items()},
+                            "valves.delivery.dynamics": "fe"})
+    omega1 = structure(modal.delivery, 876.0).frequencies[0]
+    t = np.linspace(0.0, 20 * 2 * math.pi / omega1, 4001)
+    xm, xf = history(modal, t), history(fe, t)
+    assert np.max(np.abs(xm - xf)) < 1e-3 * np.max(np.abs(xf))
+
+
+def test_one_mode_of_the_modal_reed_is_eq_3_21():
+    """With one mode the modal reed is eq 3.21 with its integrals over the first mode shape: the same
+    delivery within 0.05 % and valve timing within 0.1 deg (the static shape eq 3.21 takes its gammas
+    from differs ~1 % in stiffness)."""
+    one = simulate(_model(), 595.0, 2.76e6, revolutions=3)
+    modal = simulate(_model(dynamics="modal", modes=1), 595.0, 2.76e6, revolutions=3)
+    assert modal.delivery_per_rev == pytest.approx(one.delivery_per_rev, rel=5e-4)
+    assert abs(modal.delivery.opening_angle - one.delivery.opening_angle) < math.radians(0.1)
+    assert modal.dynamics == {"delivery": {"kind": "modal", "modes": 1}} and one.dynamics == {}
+
+
+@pytest.mark.parametrize("speed, load", [(595.0, 2.76e6), (893.0, 4.5e6)])
+def test_the_modal_reed_on_both_steppers(speed, load):
+    """Three modes, an off-axis port: fast vs reference within 0.02 % and 0.1 deg; mass balance to 1e-9."""
+    m = _model(dynamics="modal", modes=3, **{"port.s_start": 8e-3, "port.s_end": 20e-3, "port.width": 4e-3,
+                                           "port.y_center": 2.5e-3})
+    r = simulate(m, speed, load, method="reference", revolutions=3)
+    f = simulate(m, speed, load, method="fast", revolutions=3)
+    assert f.delivery_per_rev == pytest.approx(r.delivery_per_rev, rel=2e-4)
+    for a, b in zip((f.inlet.opening_angle, f.delivery.opening_angle, f.delivery.closing_angle),
+                    (r.inlet.opening_angle, r.delivery.opening_angle, r.delivery.closing_angle)):
+        assert abs(a - b) < math.radians(0.1)
+    assert f.mass_balance_error < 1e-9 and r.mass_balance_error < 1e-9
+
+
+def test_the_opening_is_the_footprints_lift():
+    """x = e . q: with one mode and the whole face the tip deflection (e = tip), under an off-axis port a
+    torsion-free beam lifts the footprint by the width-mean deflection there."""
+    _, _, _, e, _, pr = _packed(_model(dynamics="modal", modes=1))
+    s = structure(pr.model.delivery, 876.0)
+    assert e[0] == pytest.approx(s.tip[0], rel=1e-12)
+    y = np.zeros(pr.layout.n_states)
+    y[pr.layout.positions(1)] = 1e-4
+    assert opening(y, pr.p, BLOCK_OFFSET[1])[0] == pytest.approx(1e-4 * e[0])
+
+
+def test_the_modal_participation_sums_to_the_opening():
+    """The trace's per-mode signals e_i q_i [m] add up to the opening (a conservation identity of x = e . q), and
+    the first mode carries most of it while the valve is open."""
+    r = simulate(_model(dynamics="modal", modes=3), 595.0, 2.76e6, revolutions=2, trace=True, trace_points=720)
+    s = r.trace.signals
+    parts = [s[f"delivery_mode{i}_position"] for i in (1, 2, 3)]
+    assert np.max(np.abs(sum(parts) - s["delivery_position"])) <= 1e-12 * np.max(s["delivery_position"])
+    is_open = s["delivery_position"] > 0.5 * np.max(s["delivery_position"])
+    assert np.all(np.abs(parts[0][is_open]) > 0.8 * s["delivery_position"][is_open])
+    assert "inlet_mode1_position" not in s          # the one-mode inlet has no modal signals
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("speed, load", [(595.0, 2.76e6), (893.0, 2.76e6)])
+def test_the_modal_reed_converges_to_the_fe_reed_in_the_pump(speed, load):
+    """The prototype reed at both positions: N = 3 and 6 modes against the whole FE reed on the reference
+    stepper, delivery within 0.01 % and timing within 0.05 deg; one mode (eq 3.21) within 0.1 %."""
+    fe = simulate(with_values(load_model("thesis-reed"), {**GEOMETRY, "valves.dynamics": "fe"}), speed, load,
+                  method="reference", revolutions=3)
+    for n in (3, 6):
+        m = simulate(with_values(load_model("thesis-reed"), {**GEOMETRY, "valves.dynamics": "modal",
+                                                             "valves.modes": n}), speed, load, method="reference",
+                     revolutions=3)
+        assert m.delivery_per_rev == pytest.approx(fe.delivery_per_rev, rel=1e-4)
+        assert abs(m.delivery.closing_angle - fe.delivery.closing_angle) < math.radians(0.05)
+    one = simulate(_model(), speed, load, method="reference", revolutions=3)
+    assert one.delivery_per_rev == pytest.approx(fe.delivery_per_rev, rel=1e-3)
+
+
+@pytest.mark.parametrize("keys, field", [
+    ({"modes": 0, "dynamics": "modal"}, "valves.delivery.modes"),
+    ({"modes": 7, "dynamics": "modal"}, "valves.delivery.modes"),
+    ({"modes": 3}, "valves.delivery.modes"),
+    ({"dynamics": "modal"}, "valves.delivery.modes"),
+    ({"dynamics": "modal", "modes": 2, "port.s_start": 0.02, "port.s_end": 0.03, "port.width": 0.005},
+     "valves.delivery.port.s_end"),
+    ({"dynamics": "modal", "modes": 2, "port.s_start": 0.005}, "valves.delivery.port.s_end"),
+    ({"dynamics": "spectral"}, "valves.delivery.dynamics"),
+])
+def test_bad_dynamics_keys_are_refused_naming_the_key(keys, field):
+    with pytest.raises(InputError) as exc:
+        _model(**keys)
+    assert exc.value.field == field
+
+
+def test_modal_needs_a_geometry_and_fe_the_reference_stepper():
+    with pytest.raises(InputError) as exc:
+        with_values(load_model("thesis-reed"), {"valves.delivery.dynamics": "modal", "valves.delivery.modes": 2})
+    assert exc.value.field == "valves.delivery.dynamics"
+    with pytest.raises(InputError) as exc:
+        simulate(_model(dynamics="fe"), 595.0, 2.76e6, method="fast")
+    assert exc.value.field == "valves.delivery.dynamics"
+
+
+def test_the_command_line_reports_the_dynamics(tmp_path, capsys):
+    from studies.cli import main
+
+    f = tmp_path / "modal.toml"
+    f.write_text('base = "thesis-reed"\n[valves]\ngeometry = "prototype"\n[valves.delivery]\ndynamics = "modal"\n'
+                 "modes = 2\n")
+    assert main(["pump", "--model", str(f), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["dynamics"] == {"delivery": {"kind": "modal", "modes": 2}}
+    f.write_text('base = "thesis-reed"\n[valves]\ngeometry = "prototype"\n[valves.delivery]\ndynamics = "fe"\n')
+    assert main(["pump", "--model", str(f), "--json"]) == 2
+    assert "valves.delivery.dynamics" in capsys.readouterr().err
