@@ -40,6 +40,10 @@ from lumped.valve import (
 #: the valve positions, in the order of their blocks, states, mode entries and switches
 POSITIONS = ("inlet", "delivery")
 N_VALVES = len(POSITIONS)
+#: per position: the volumes upstream and downstream of the valve (its pressure difference is up - down) and
+#: the suffix of its fields in lumped.rhs.Rates (x_in, mdot_del, ...)
+PORTS = {"inlet": ("tank", "cylinder"), "delivery": ("cylinder", "load")}
+RATES_TAG = {"inlet": "in", "delivery": "del"}
 
 # ----------------------------------------------------------------- states (declared by name)
 #: the pump's own states, first: the cylinder oil mass m_cyl [kg] (eq 4.5)
