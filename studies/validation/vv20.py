@@ -81,7 +81,7 @@ def verdict_words(row: dict) -> str:
     """The verdict in words: within the validation uncertainty, or a model-form error between a and b."""
     unit = f" {row['unit']}" if row.get("unit") not in (None, "", "-") else ""
     if row["verdict"] == "within":
-        return (f"within the validation uncertainty (|E| = {_fmt(abs(row['E']))} <= U_val = "
+        return (f"within the validation uncertainty (abs(E) = {_fmt(abs(row['E']))} <= U_val = "
                 f"{_fmt(row['U_val'])}{unit})")
     lo, hi = row["delta_model"]
     return f"model-form error between {_fmt(lo)} and {_fmt(hi)}{unit}"
