@@ -357,7 +357,19 @@ def _build_dispatch() -> None:
         lines += [f"    if k == {float(kind.id)}:", f"        {fname}({many})", "        return"]
     lines += ["    for j in range(n):", "        out[j] = math.nan"]
     code = compile("\n".join(lines), __file__, "exec")
+    old = {name: globals()[name] for name in ("valve_acceleration", "valve_accelerations")}
     exec(code, globals())  # noqa: S102 - generated from the registry above
+    # modules that imported the dispatchers by name (lumped.layout, lumped.jacobian) still hold the ones built
+    # before this kind registered, which the reference path would call: point them at the new ones
+    import sys
+
+    for mod in list(sys.modules.values()):
+        scope = getattr(mod, "__dict__", None)
+        if scope is None or not getattr(mod, "__name__", "").startswith("lumped."):
+            continue
+        for name, fn in old.items():
+            if scope.get(name) is fn:
+                scope[name] = globals()[name]
 
 
 def valve_acceleration(x, u, f, p, o, contact, regime):  # replaced by _build_dispatch() as kinds register
