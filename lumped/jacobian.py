@@ -32,7 +32,9 @@ from lumped.rhs import (
     cylinder_pressure, cylinder_volume_at, evaluate, leakage_mass_flow, load_pressure, load_side_density,
     needle_mass_flow, oil_density_slope, orifice_density,
 )
-from lumped.valve import VALVE, ValveInputs, mass_flow, valve_acceleration, valve_accelerations, valve_flow
+from lumped.valve import (
+    VALVE, ValveInputs, mass_flow, valve_acceleration, valve_accelerations, valve_accelerations_jacobian, valve_flow,
+)
 
 SQRT_EPS = 1.4901161193847656e-08
 
@@ -48,7 +50,7 @@ def _accel(x: float, u: float, dp: float, p_down: float, rho: float, ddp_dt: flo
 
 def _accels(y, x: float, u: float, dp: float, p_down: float, rho: float, ddp_dt: float, p, o: int, contact: int,
             regime: int, recompute: bool, flow, out) -> None:
-    """A several-DOF valve's accelerations at perturbed inputs (states y) into out."""
+    """A several-DOF valve's accelerations at perturbed inputs (states y) into out at its rates' slots."""
     qo, cd, aq, dqp, dqx = flow
     if recompute:
         qo, cd, aq, dqp, dqx = valve_flow(x, u, dp, rho, p[G.viscosity], p, o, contact)
@@ -133,35 +135,45 @@ def _valve_rows(t, y, p, mode, jac, yscratch, atol, rtol: float, o: int, v: int,
 def _multi_rows(y, p, mode, jac, yscratch, atol, rtol: float, o: int, x: float, u: float, dp: float, dp_m: float,
                 dp_l: float, pd: float, pd_m: float, pd_l: float, rho_v: float, r_m: float, r_l: float, ddt: float,
                 flow, hm: float, hml: float, complete: bool, contact: int, regime: int, rec: bool, n: int) -> None:
-    """The acceleration rows of a valve with n > 1 DOFs: columns by each position and rate, then by the
+    """The acceleration rows of a valve with n > 1 DOFs: columns by each position and rate (its kind's
+    partials where it has them and does not read the flow, else forward differences), then by the
     pressures (forward differences)."""
     i_load = load_index(p)
+    s = state_start(p, o)
+    r = s + n                                # the rows of its accelerations (its rates' slots)
     for j in range(n):
-        jac[position_index(p, o, j), accel_index(p, o, j)] = 1.0
-    a0 = np.empty(n)
-    a1 = np.empty(n)
+        jac[s + j, r + j] = 1.0
+    a0 = np.empty(y.shape[0])                # accelerations at the rates' slots r..r+n
+    a1 = np.empty(y.shape[0])
     _accels(y, x, u, dp, pd, rho_v, ddt, p, o, contact, regime, False, flow, a0)
-    for j in range(2 * n):
-        k = position_index(p, o, j)          # positions, then the rates right after them
-        h = SQRT_EPS * max(abs(y[k]), atol[k] / rtol)
-        w = opening_weight(p, o, j % n)
+    own = False
+    if not rec:
+        qo, cd, aq, dqp, dqx = flow
+        f = ValveInputs(dp, pd, p[G.vapour_pressure], rho_v, p[G.viscosity], qo, cd, aq, dqp, dqx, ddt)
+        own = valve_accelerations_jacobian(y, s, n, x, u, f, p, o, contact, regime, jac)
+    if not own:
         for i in range(y.shape[0]):
             yscratch[i] = y[i]
-        yscratch[k] = y[k] + h
-        if j < n:
-            _accels(yscratch, x + w * h, u, dp, pd, rho_v, ddt, p, o, contact, regime, rec, flow, a1)
-        else:
-            _accels(yscratch, x, u + w * h, dp, pd, rho_v, ddt, p, o, contact, regime, rec, flow, a1)
-        for i in range(n):
-            jac[accel_index(p, o, i), k] = (a1[i] - a0[i]) / h
+        for j in range(2 * n):
+            k = s + j                        # positions, then the rates right after them
+            h = SQRT_EPS * max(abs(y[k]), atol[k] / rtol)
+            w = opening_weight(p, o, j % n)
+            yscratch[k] = y[k] + h
+            if j < n:
+                _accels(yscratch, x + w * h, u, dp, pd, rho_v, ddt, p, o, contact, regime, rec, flow, a1)
+            else:
+                _accels(yscratch, x, u + w * h, dp, pd, rho_v, ddt, p, o, contact, regime, rec, flow, a1)
+            yscratch[k] = y[k]
+            for i in range(n):
+                jac[r + i, k] = (a1[r + i] - a0[r + i]) / h
     _accels(y, x, u, dp + dp_m * hm, pd + pd_m * hm, rho_v + r_m * hm, ddt, p, o, contact, regime, rec, flow, a1)
     for i in range(n):
-        jac[accel_index(p, o, i), S_MCYL] = (a1[i] - a0[i]) / hm
+        jac[r + i, S_MCYL] = (a1[r + i] - a0[r + i]) / hm
     if complete:
         _accels(y, x, u, dp + dp_l * hml, pd + pd_l * hml, rho_v + r_l * hml, ddt, p, o, contact, regime, rec,
                 flow, a1)
         for i in range(n):
-            jac[accel_index(p, o, i), i_load] = (a1[i] - a0[i]) / hml
+            jac[r + i, i_load] = (a1[r + i] - a0[r + i]) / hml
 
 
 def _mass_rows(jac, p, complete: bool, dmi, dmd, leak_m: float, nv_l: float) -> None:

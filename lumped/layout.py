@@ -34,7 +34,7 @@ from geometry.declare import specs
 from lumped.oil import Oil
 from lumped.pump import Circuit, Pump
 from lumped.valve import (
-    BLOCK_SIZE, CONTACT_NAMES, REGIME_NAMES, VALVE, kind_of, valve_acceleration, valve_accelerations,
+    BLOCK_SIZE, CONTACT_NAMES, FREE, REGIME_NAMES, VALVE, kind_of, valve_acceleration, valve_accelerations,
 )
 
 #: the valve positions, in the order of their blocks, states, mode entries and switches
@@ -313,7 +313,7 @@ def multi_rates(y, x: float, u: float, f, p, o: int, contact: int, regime: int, 
     """:func:`valve_rates` of a valve with n > 1 DOFs."""
     for j in range(n):
         dydt[s + j] = y[s + n + j]
-    valve_accelerations(y, s, n, x, u, f, p, o, contact, regime, dydt[s + n:s + 2 * n])
+    valve_accelerations(y, s, n, x, u, f, p, o, contact, regime, dydt)
     w = int(p[o + VALVE.tail])
     a = 0.0
     for j in range(n):
@@ -327,12 +327,15 @@ def accel_index(p, o: int, j: int) -> int:
 
 
 def valve_tolerances(p, mode, atol) -> None:
-    """Each valve's absolute tolerances (positions, rates) from the table in p for its contact state."""
+    """Each valve's absolute tolerances (positions, rates) from the table in p for its contact state; a
+    valve of several DOFs has its opening first (lumped.reed_dynamics.coordinates): a contact holds that
+    one, so the other positions keep the free flight's tolerance."""
     for v in range(N_VALVES):
         o = BLOCK_OFFSET[v]
         i = tol_slot(v, int(mode[CONTACT_SLOT[v]]))
+        free = tol_slot(v, FREE)
         for j in range(dofs(p, o)):
-            atol[position_index(p, o, j)] = p[i]
+            atol[position_index(p, o, j)] = p[i if j == 0 else free]
             atol[accel_index(p, o, j)] = p[i + 1]
 
 

@@ -269,8 +269,10 @@ def as_json(study: dict) -> dict:
     def clean(v):
         if isinstance(v, dict):
             return {k: clean(x) for k, x in v.items()}
-        if isinstance(v, list):
+        if isinstance(v, (list, tuple)):
             return [clean(x) for x in v]
+        if isinstance(v, np.generic):          # numpy scalars (a bool_ is no JSON bool)
+            v = v.item()
         return None if isinstance(v, float) and not math.isfinite(v) else v
 
     return clean({k: v for k, v in study.items() if k != "traces"})
