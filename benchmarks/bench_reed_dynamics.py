@@ -1,6 +1,6 @@
 """Cost of the modal reed in the pump: CPU per simulated second with N modes against one mode (eq 3.21).
 
-    python benchmarks/bench_reed_dynamics.py [--quick] [--repeat R] [--revolutions K] [--no-fe]
+    python benchmarks/bench_reed_dynamics.py [--quick] [--repeat R] [--revolutions K] [--no-fe] [--save]
 
 Prints one JSON object. The thesis reed pump with the prototype reed (beam fidelity) at both
 valves, on the six cases of Table 5.6 (``--quick``: the first), five revolutions each: the fast
@@ -9,7 +9,8 @@ modal reed with 1, 2, 3 and 6 modes, run in turn (interleaved, so that a change 
 load hits every model alike), R times each (default 5), the minimum CPU time counted; and the
 whole FE reed on the reference stepper once per case (``--no-fe`` leaves it out). Per model:
 CPU ms per simulated second (median over the cases), steps per revolution, and the ratio to one
-mode. The issue's target: three modes at most twice the one-mode cost (``target_met``).
+mode. The target: three modes at most twice the one-mode cost (``target_met``). ``--save`` writes
+benchmarks/results_reed_dynamics.json.
 """
 
 from __future__ import annotations
@@ -98,8 +99,12 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=5, help="runs of each fast model per case (minimum counted)")
     ap.add_argument("--revolutions", type=int, default=5)
     ap.add_argument("--no-fe", action="store_true", help="leave out the whole FE reed (reference stepper)")
+    ap.add_argument("--save", action="store_true", help="write benchmarks/results_reed_dynamics.json")
     a = ap.parse_args()
-    print(json.dumps(run(a.quick, a.repeat, a.revolutions, not a.no_fe), indent=2))
+    text = json.dumps(run(a.quick, a.repeat, a.revolutions, not a.no_fe), indent=2)
+    print(text)
+    if a.save:
+        (Path(__file__).resolve().parent / "results_reed_dynamics.json").write_text(text + "\n")
 
 
 if __name__ == "__main__":
