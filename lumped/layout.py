@@ -190,7 +190,7 @@ INLINE = ("mode_of", "state_start", "dofs", "is_scalar", "opening", "opening_wei
 #: calls) are not compiled into the hot path (~20 ns per call of :func:`opening` with them present, measured)
 ONE_DOF_ONLY = False
 #: True in the compiled physics (lumped.compiled): loops there; numpy in the Python reference, where an FE
-#: reed's ~100 states made the element-wise loops 40 % of a reference run's time (measured). The loop form
+#: reed's ~100 states made the element-wise loops a third of a reference run's time (measured). The loop form
 #: comes first, under ``if COMPILED:``: with the numpy form first, under ``if not COMPILED:``, the compiled
 #: stepper failed at its first step (numba 0.68; not chased further)
 COMPILED = False

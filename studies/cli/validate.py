@@ -250,7 +250,7 @@ def _summary_md(s: dict) -> str:
                      f"gamma1 = {sel['gamma1']:.4f}, h_eff = {sel['h_eff'] * 1e3:.4f} mm")
     rd = s.get("reed_dynamics", {})
     if rd.get("status") == "ok":
-        lines.append(f"   in the pump ({rd['note']}): {rd['verdict']}; reed_dynamics.md")
+        lines.append(f"   in the pump: {rd['verdict']}; {rd['note']} (reed_dynamics.md)")
     pc = s["steps"]["pump_cases"]
     lines.append(f"2. Pump cases: {pc['cases']}, all cyclic steady: {pc['all_cyclic_steady']}, "
                  f"max mass-balance error {pc['max_mass_balance_error']:.1e}, CPU s per simulated s "
