@@ -210,28 +210,38 @@ def dynamics_study(reeds: list[ReedCase] | None = None, cases=None, revolutions:
     rows, summaries, traces_out, numerics = [], [], {}, []
     counter = _Progress(sum(len(variants(r)) for r in reeds) * len(cases) + len(reeds), progress)
     for case in reeds:
-        sigma = _stress_per_tip(case.reed) if stress else None
-        case_rows = []
-        for op in cases:
-            first = op is cases[0]
-            by_label, tr = run_point(case, op, revolutions, method, trace=traces and first, progress=counter)
-            _against(by_label, case.reference)
-            for row in by_label.values():
-                if sigma is not None:
-                    row["peak_root_stress_mpa"] = sigma * max(row["inlet_peak_opening_mm"],
-                                                              row["delivery_peak_opening_mm"]) * 1e-3 / 1e6
-            case_rows += list(by_label.values())
-            if tr:
-                traces_out[case.name] = tr
-            if first:
-                numerics.append(_numerics(case, op, by_label[f"modal{MODES[-1]}"], revolutions, method))
-                counter(case.name, "numerics")
+        case_rows, tr, num = _study_reed(case, cases, revolutions, method, stress, traces, counter)
         rows += case_rows
-        summaries.append(_summary(case, case_rows, numerics[-1]))
+        numerics.append(num)
+        summaries.append(_summary(case, case_rows, num))
+        if tr:
+            traces_out[case.name] = tr
     counter.done()
     return {"reeds": summaries, "rows": rows, "numerics": numerics, "traces": traces_out,
             "tolerances": {"delivery_pct": DELIVERY_TOL * 100, "angle_deg": ANGLE_TOL_DEG, "method": method,
                            "fast_rtol": FAST_RTOL if method == "fast" else None}}
+
+
+def _study_reed(case: ReedCase, cases, revolutions: int, method: str, stress: bool, traces: bool,
+                counter) -> tuple[list, dict, dict]:
+    """One reed over the cases: (its rows, against its reference and with the peak root stress; the first case's
+    traces; the numerical part at the first case)."""
+    sigma = _stress_per_tip(case.reed) if stress else None
+    rows, traces_first, numerics = [], {}, None
+    for op in cases:
+        first = op is cases[0]
+        by_label, tr = run_point(case, op, revolutions, method, trace=traces and first, progress=counter)
+        _against(by_label, case.reference)
+        for row in by_label.values():
+            if sigma is not None:
+                row["peak_root_stress_mpa"] = sigma * max(row["inlet_peak_opening_mm"],
+                                                          row["delivery_peak_opening_mm"]) * 1e-3 / 1e6
+        rows += list(by_label.values())
+        if first:
+            traces_first = tr
+            numerics = _numerics(case, op, by_label[f"modal{MODES[-1]}"], revolutions, method)
+            counter(case.name, "numerics")
+    return rows, traces_first, numerics
 
 
 class _Progress:
