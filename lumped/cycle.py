@@ -297,13 +297,13 @@ def simulate(model="thesis-disc", speed_rpm: float | None = None, load_pressure:
         check_field(m.circuit, "needle_area", needle_area, "needle_area")
     if max_steps is not None:
         _int("max_steps", max_steps, 10, 100_000_000)
-    if kind == "fast":
-        ensure_compiled()                 # compiling (or loading numba's cache) is never counted
-    cpu0 = _time.process_time()
-    for pos in POSITIONS:
+    for pos in POSITIONS:                 # before compiling: bad input costs nothing
         if kind == "fast" and getattr(m.valve(pos), "dynamics", None) == "fe":
             raise InputError(f"valves.{pos}.dynamics", "the whole FE reed runs on the reference stepper only: "
                              "give method='reference' (--method reference), or dynamics = \"modal\" for the fast one")
+    if kind == "fast":
+        ensure_compiled()                 # compiling (or loading numba's cache) is never counted
+    cpu0 = _time.process_time()
     problem = PumpProblem.build(m, speed, load, circuit, needle_area)
     stepper = STEPPERS[method](problem, rtol, atol, contact_atol=contact_atol, record=True, max_steps=max_steps)
     physics = _physics(kind + ("1" if kind == "fast" and problem.layout.one_dof else ""))

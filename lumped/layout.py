@@ -34,7 +34,7 @@ from geometry.declare import specs
 from lumped.oil import Oil
 from lumped.pump import Circuit, Pump
 from lumped.valve import (
-    BLOCK_SIZE, CONTACT_NAMES, REGIME_NAMES, VALVE, kind_of, valve_acceleration, valve_accelerations,
+    BLOCK_SIZE, CONTACT_NAMES, FREE, REGIME_NAMES, VALVE, kind_of, valve_acceleration, valve_accelerations,
 )
 
 #: the valve positions, in the order of their blocks, states, mode entries and switches
@@ -193,6 +193,11 @@ INLINE = ("mode_of", "state_start", "dofs", "is_scalar", "opening", "opening_wei
 #: whose valves have one DOF each: numba folds the constant, so the several-DOF paths (their loops and
 #: calls) are not compiled into the hot path (~20 ns per call of :func:`opening` with them present, measured)
 ONE_DOF_ONLY = False
+#: True in the compiled physics (lumped.compiled): loops there; numpy in the Python reference, where an FE
+#: reed's ~100 states made the element-wise loops a third of a reference run's time (measured). The loop form
+#: comes first, under ``if COMPILED:``: with the numpy form first, under ``if not COMPILED:``, the compiled
+#: stepper failed at its first step (numba 0.68; not chased further)
+COMPILED = False
 
 
 def state_start(p, o: int) -> int:
@@ -231,12 +236,15 @@ def opening(y, p, o: int) -> tuple[float, float]:
 def multi_opening(y, p, o: int, s: int, n: int) -> tuple[float, float]:
     """:func:`opening` of a valve with n > 1 DOFs: its positions and rates weighted."""
     w = int(p[o + VALVE.tail])
-    x = 0.0
-    u = 0.0
-    for j in range(n):
-        x += p[w + j] * y[s + j]
-        u += p[w + j] * y[s + n + j]
-    return x, u
+    if COMPILED:
+        x = 0.0
+        u = 0.0
+        for j in range(n):
+            x += p[w + j] * y[s + j]
+            u += p[w + j] * y[s + n + j]
+        return x, u
+    e = np.asarray(p[w:w + n])
+    return float(e @ np.asarray(y[s:s + n])), float(e @ np.asarray(y[s + n:s + 2 * n]))
 
 
 def opening_weight(p, o: int, j: int) -> float:
@@ -315,14 +323,18 @@ def write_rates(dydt, p, o: int, u: float, a: float) -> None:
 
 def multi_rates(y, x: float, u: float, f, p, o: int, contact: int, regime: int, dydt, s: int, n: int) -> float:
     """:func:`valve_rates` of a valve with n > 1 DOFs."""
-    for j in range(n):
-        dydt[s + j] = y[s + n + j]
-    valve_accelerations(y, s, n, x, u, f, p, o, contact, regime, dydt[s + n:s + 2 * n])
     w = int(p[o + VALVE.tail])
-    a = 0.0
-    for j in range(n):
-        a += p[w + j] * dydt[s + n + j]
-    return a
+    if COMPILED:
+        for j in range(n):
+            dydt[s + j] = y[s + n + j]
+        valve_accelerations(y, s, n, x, u, f, p, o, contact, regime, dydt)
+        a = 0.0
+        for j in range(n):
+            a += p[w + j] * dydt[s + n + j]
+        return a
+    dydt[s:s + n] = y[s + n:s + 2 * n]
+    valve_accelerations(y, s, n, x, u, f, p, o, contact, regime, dydt)
+    return float(np.asarray(p[w:w + n]) @ np.asarray(dydt[s + n:s + 2 * n]))
 
 
 def accel_index(p, o: int, j: int) -> int:
@@ -331,12 +343,15 @@ def accel_index(p, o: int, j: int) -> int:
 
 
 def valve_tolerances(p, mode, atol) -> None:
-    """Each valve's absolute tolerances (positions, rates) from the table in p for its contact state."""
+    """Each valve's absolute tolerances (positions, rates) from the table in p for its contact state; a
+    valve of several DOFs on the fast path has its opening first (a modal reed: lumped.reed_dynamics.coordinates):
+    a contact holds that one, so the other positions keep the free flight's tolerance."""
     for v in range(N_VALVES):
         o = BLOCK_OFFSET[v]
         i = tol_slot(v, int(mode[CONTACT_SLOT[v]]))
+        free = tol_slot(v, FREE)
         for j in range(dofs(p, o)):
-            atol[position_index(p, o, j)] = p[i]
+            atol[position_index(p, o, j)] = p[i if j == 0 else free]
             atol[accel_index(p, o, j)] = p[i + 1]
 
 

@@ -117,6 +117,10 @@ def test_validate_full_run(cli, tmp_path):
     assert by[("prototype/solid", "kappa")]["verdict"] == "model_form_error"
     for name in ("validation.md", "reed_validation.md", "validation.png", "reed_validation.png"):
         assert (out / name).is_file(), name
+    # the one-mode reed against N modes and the whole FE reed in the pump (docs/reed_dynamics.md)
+    rd = obj["reed_dynamics"]
+    assert rd["status"] == "ok" and rd["reference"] == "fe" and rd["summary"]["one_mode_enough"]
+    assert (out / "reed_dynamics.md").is_file() and "is adequate" in rd["verdict"]
 
 
 def test_air_content_is_the_thesis_value_per_valve():

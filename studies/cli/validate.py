@@ -1,7 +1,8 @@
 """``valvelab validate``: the multi-fidelity chain and the 12 pump cases of chapter 5, written to ``out/``.
 
 Steps: 1. reed parameters, analytic vs FEA (``studies.validation.reed_check``), with the V&V 20
-table of the analytic model against each FEA fidelity; 2. the 12 pump cases of Tables 5.4 and
+table of the analytic model against each FEA fidelity, and the one-mode reed (eq 3.21) against N modes
+and the whole FE reed in the pump (``studies.validation.reed_dynamics.prototype_adequacy``); 2. the 12 pump cases of Tables 5.4 and
 5.6 to cyclic steady state, with their numerical, input and measurement uncertainty (ASME
 V&V 20, ``studies.validation.vv20``); 3. tables (Markdown and CSV) and plots (valve positions
 and pressures over three revolutions, the model's Figures 5.7-5.21; E with U_val); 4. a summary
@@ -89,6 +90,7 @@ def run(args) -> dict:
                          "reed_validation.md compares each fidelity with the analytic model (ASME V&V 20).")
         V.write_table([_plain(r) for r in rows], out / "reed_parameters",
                       "Prototype reed parameters by fidelity (step 1), beside the thesis's FEA", notes)
+    summary["reed_dynamics"] = _reed_dynamics(args, out, files)
     sel = chain["selected"]
     summary["steps"]["reed_parameters"] = {
         "status": chain["status"], "reason": chain["reason"], "fidelities": len(chain["rows"]),
@@ -197,6 +199,21 @@ def run(args) -> dict:
     return summary
 
 
+def _reed_dynamics(args, out: Path, files: list) -> dict:
+    """Step 1's pump check of the prototype reed: eq 3.21 against N modes and the whole FE reed
+    (studies.validation.reed_dynamics.prototype_adequacy), written to reed_dynamics.{md,csv}."""
+    if args.skip_reed_chain or args.valve == "disc":
+        return {"status": "skipped", "reason": "--skip-reed-chain" if args.skip_reed_chain else "--valve disc"}
+    from studies.validation import reed_dynamics as rd
+
+    _log("  the prototype reed in the pump: eq 3.21 against 1, 2, 3, 6 modes"
+         + (" (quick: no FE reed)" if args.quick else " and the whole FE reed (one case of Table 5.6)"))
+    t0 = time.time()
+    result = rd.prototype_adequacy(quick=args.quick, progress=True)
+    files += rd.write_adequacy(result, out / "reed_dynamics")
+    return {"status": "ok", "verdict": rd.adequacy_words(result), **result, "wall_seconds": round(time.time() - t0, 1)}
+
+
 def _pump_uncertainty(args, selected, results):
     """The V&V 20 table of the pump cases; the Monte Carlo on dask (--quick: in this process unless a cluster is named)."""
     from studies.sweeps.design.runner import Cluster
@@ -231,6 +248,9 @@ def _summary_md(s: dict) -> str:
         sel = rp["selected"]
         lines.append(f"   selected {sel['fidelity']}: kappa = {sel['kappa'] / 1e6:.4f} MPa/m, "
                      f"gamma1 = {sel['gamma1']:.4f}, h_eff = {sel['h_eff'] * 1e3:.4f} mm")
+    rd = s.get("reed_dynamics", {})
+    if rd.get("status") == "ok":
+        lines.append(f"   in the pump: {rd['verdict']}; {rd['note']} (reed_dynamics.md)")
     pc = s["steps"]["pump_cases"]
     lines.append(f"2. Pump cases: {pc['cases']}, all cyclic steady: {pc['all_cyclic_steady']}, "
                  f"max mass-balance error {pc['max_mass_balance_error']:.1e}, CPU s per simulated s "
@@ -275,6 +295,8 @@ def _summary_md(s: dict) -> str:
 
 def render(s: dict) -> str:
     out = [f"validation written to {s['out']}/"]
+    if s.get("reed_dynamics", {}).get("status") == "ok":
+        out.append(f"  {s['reed_dynamics']['verdict']}")
     pc = s["steps"]["pump_cases"]
     out.append(f"  {pc['cases']} pump cases, all cyclic steady: {pc['all_cyclic_steady']}, "
                "CPU s per simulated s: " + ", ".join(f"{k} {v:.2f}" for k, v in pc["cpu_seconds_per_simulated_second"].items()))
