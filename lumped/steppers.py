@@ -396,6 +396,18 @@ class RodasStepper(Stepper):
 
         self.h_event = np.zeros(EVENT_CODES)
 
+    def memory(self) -> dict:
+        """The step-size memory carried between revolutions (a warm start hands it to the next run)."""
+        return {"h": self.h, "h_event": self.h_event.copy(), "period": self.problem.period}
+
+    def restore(self, memory: dict | None) -> None:
+        """Start from another run's step-size memory (scaled by the ratio of the revolutions)."""
+        if not memory or memory.get("h") is None or len(memory["h_event"]) != len(self.h_event):
+            return
+        ratio = self.problem.period / memory["period"]
+        self.h = memory["h"] * ratio
+        self.h_event[:] = memory["h_event"] * ratio
+
     def advance(self, t0, t1, y, mode):
         from lumped import rodas
 
