@@ -343,16 +343,17 @@ def simulate(model="thesis-disc", speed_rpm: float | None = None, load_pressure:
     done = run(problem, stepper, y, mode, rule, physics, rtol=rtol, keep=trace_revolutions if trace else 0,
                progress=progress, label=f"{m.name} {speed:.0f} rpm ({kind})")
     cpu = _time.process_time() - cpu0
-    res = _result(m, problem, done, physics, method, rtol, atol, cpu, trace_points if trace else 0)
-    res = replace(res, start="warm" if warm else "cold", steady_tol=rule.tolerance(rtol),
-                  tdc_state=tdc_state(problem, done, physics.load_mass, stepper))
+    res = _result(m, problem, done, physics, method, rtol, atol, cpu, trace_points if trace else 0,
+                  start="warm" if warm else "cold", steady_tol=rule.tolerance(rtol),
+                  tdc=tdc_state(problem, done, physics.load_mass, stepper))
     if check:
         check_invariants(res, problem.model)
     return res
 
 
 def _result(m: PumpModel, problem: PumpProblem, done, physics, method: str, rtol: float, atol: float,
-            cpu: float, trace_points: int) -> "PumpResult":
+            cpu: float, trace_points: int, start: str = "cold", steady_tol: float = math.nan,
+            tdc=None) -> "PumpResult":
     """The :class:`PumpResult` of a finished run: the last revolution post-processed."""
     last = done.last
     span = last.span
@@ -388,7 +389,8 @@ def _result(m: PumpModel, problem: PumpProblem, done, physics, method: str, rtol
         min_cylinder_pressure=float(p_cyl.min()), max_cylinder_pressure=float(p_cyl.max()),
         cavitation_angle=cav, rhs_evaluations=int(done.n_rhs), steps=int(done.n_steps), events=int(done.n_events),
         method="fast" if method == "fast" else ("reference" if method == "reference" else method),
-        rtol=rtol, atol=atol, trace=tr, dynamics=_dynamics(resolved), warnings=tuple(warns))
+        rtol=rtol, atol=atol, trace=tr, dynamics=_dynamics(resolved), warnings=tuple(warns), start=start,
+        steady_tol=steady_tol, tdc_state=tdc)
 
 
 def _dynamics(model) -> dict:

@@ -10,6 +10,8 @@ use by :mod:`lumped.plugins`), so this layer never imports the one above it.
 
 from __future__ import annotations
 
+import functools
+
 from typing import Callable
 
 from geometry.errors import InputError
@@ -94,4 +96,16 @@ def reed_properties(reed, fidelity: str = "analytic", mesh_size=None, field: str
         raise InputError("reed", f"expected a geometry.Reed, a preset name or a reed TOML file, got {reed!r}")
     if mesh_size is not None:
         mesh_size = validate.number(mesh_size, "mesh_size", unit="m", positive=True)
-    return reed_model(fidelity, field)(check_reed(reed), mesh_size=mesh_size)
+    model = reed_model(fidelity, field)
+    reed = check_reed(reed)
+    try:
+        return _cached(model, reed, mesh_size)
+    except TypeError:            # an unhashable reed (a plug-in's): computed afresh
+        return model(reed, mesh_size=mesh_size)
+
+
+@functools.lru_cache(maxsize=64)
+def _cached(model, reed, mesh_size):
+    # a design study builds the same reed for both valves and every operating point: its properties are a
+    # pure function of the (frozen) geometry, the fidelity and the mesh size
+    return model(reed, mesh_size=mesh_size)
