@@ -88,7 +88,7 @@ def evaluate(design: dict, warm=None) -> dict:
     res = simulate(model, design.get("speed_rpm"), design.get("load_pressure"),
                    air_content=design.get("air_content"), stop=sweep_pump.stop_rule(design),
                    circuit=design.get("circuit"), method=design.get("method", "fast"),
-                   initial_state=sweep_pump.start_of(design, warm), **kw)
+                   initial_state=sweep_pump.start_of(design, warm, model), **kw)
     if warm is not None:
         warm.solved(res.tdc_state)
     # a valve that never reseats (held off its seat by the squeeze film's C2 u / x^3) has no timing:

@@ -339,27 +339,34 @@ def run_optimize(spec: DesignSpec, out, *, scheduler: str | None = None, workers
                                                     "(valves.<pos>.geometry)")
     catalogue = study.outputs_catalogue(spec)
     recheck = spec.recheck_dict
+    stages: dict = {}
     with runner.Cluster(scheduler, workers, client) as cluster:
         cluster.check_reachable()
         runner.prepare_study(out, spec, force, SUBFOLDERS)
         base_path = study.write_base_model(out, model) if model is not None else None
+        t0 = time.perf_counter()
         cal = study.calibrate(spec, model, base_path, cluster, out, progress) if study.needs_stress(spec) else None
+        stages["calibration"] = time.perf_counter() - t0
         fixed = study.fixed_inputs(spec, base_path)
         module = study.EVALUATE if spec.model_kind == "pump" else spec.model
         ev = Evaluator(spec, cluster, out, fixed, module, catalogue, batch_size, progress, cal)
         t_loop = time.perf_counter()
         front_keys, generations = (_nsga2 if r["algorithm"] == "nsga2" else _de)(spec, ev, progress)
         loop_wall = time.perf_counter() - t_loop
+        stages["loop"] = loop_wall
         n_workers = cluster.workers if cluster.client is not None else None
         front = [dict(ev.cache[k], key=k) for k in dict.fromkeys(front_keys)]
         # the baseline: the base model itself, fast (as in the loop)
         baseline = None
+        t0 = time.perf_counter()
         if spec.model_kind == "pump":
             baseline = _baseline(spec, model, base_path, cluster, out, cal, catalogue, progress)
+        stages["baseline"] = time.perf_counter() - t0
         do_fea = (spec.model_kind == "pump" and recheck.get("enabled", True) and bool(study.reed_positions(model))
                   and any(v.role == "key" for v in spec.variables))
         rechecked = _recheck(spec, model, base_path, cluster, out, cal, catalogue, front, baseline, do_fea,
-                             recheck.get("enabled", True) and spec.model_kind == "pump", progress)
+                             recheck.get("enabled", True) and spec.model_kind == "pump", progress, stages)
+    t0 = time.perf_counter()
     designs = _finish(spec, model, out, catalogue, rechecked, baseline)
     from studies.sweeps.design import report
 
@@ -372,6 +379,7 @@ def run_optimize(spec: DesignSpec, out, *, scheduler: str | None = None, workers
     if designs:
         files["parallel_plot"] = str(report.plot_parallel(out / "parallel.png", spec.variables, spec.objectives,
                                                           catalogue, designs, baseline))
+    stages["report"] = time.perf_counter() - t0
     wall = time.perf_counter() - t_start
     n_feasible = int(len(feas))
     result = {
@@ -392,6 +400,7 @@ def run_optimize(spec: DesignSpec, out, *, scheduler: str | None = None, workers
                      for d in designs + ([dict(baseline, name="baseline")] if baseline else [])
                      for w in d.get("warnings", [])],
         "files": files, "complete": True, "wall_seconds": wall, "loop_wall_seconds": loop_wall,
+        "stage_seconds": {k: round(v, 2) for k, v in stages.items()},
         "designs_per_hour": ev.computed / ev.eval_seconds * 3600.0 if ev.computed and ev.eval_seconds else None,
     }
     (out / "summary.json").write_text(json.dumps(_jsonable(result), indent=1, allow_nan=False))
@@ -467,8 +476,12 @@ def base_value(model, path: str):
         return None
 
 
-def _recheck(spec, model, base_path, cluster, out, cal, catalogue, front, baseline, do_fea, do_ref, progress):
-    """FEA check of each front design's reeds (and the baseline's), then the reference integrator at every point."""
+def _recheck(spec, model, base_path, cluster, out, cal, catalogue, front, baseline, do_fea, do_ref, progress,
+             stages: dict | None = None):
+    """FEA check of each front design's reeds (and the baseline's), then the reference integrator at every point
+    (each row started from the fast path's cycle of its design); ``stages`` receives their wall seconds."""
+    stages = {} if stages is None else stages
+    t0 = time.perf_counter()
     recheck = spec.recheck_dict
     n_check = recheck.get("max_designs", len(front)) if spec.model_kind == "pump" else len(front)
     # the front sorted by its first objective; with a cap, designs spread evenly along it are re-checked
@@ -500,6 +513,8 @@ def _recheck(spec, model, base_path, cluster, out, cal, catalogue, front, baseli
         dfb, _ = runner.evaluate_rows(cluster, Path(out) / "recheck-fea" / "baseline", study.FEA_TASKS, fixed,
                                       [{"task": "fea", **_base_factors(cal)}], progress=False, desc="baseline FEA")
         fea_base = dfb.to_dict("records")[0]
+    stages["recheck_fea"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
     if not do_ref:
         return [dict(rec, fea=f, inputs=i, final=None, rechecked=do_fea) for rec, f, i in zip(items, fea, inputs)] \
             + extra
@@ -546,6 +561,7 @@ def _recheck(spec, model, base_path, cluster, out, cal, catalogue, front, baseli
             baseline["final_solid"] = design_records(spec, catalogue, dfs, 1)[0]
         elif positions and do_fea:
             baseline["final_solid"] = brec
+    stages["recheck_reference"] = time.perf_counter() - t0
     return out_items + extra
 
 
