@@ -713,6 +713,16 @@ def interpolate(t, rec_t, rec_y, rec_q2, rec_q3):
 
 
 @numba.njit(cache=True, error_model="numpy")
+def sample_tags(t, rec_t, rec_tag):
+    """The mode tag (lumped.layout.mode_tag) of the recorded step each time of ``t`` falls in."""
+    last = len(rec_t) - 1
+    out = np.empty(len(t), dtype=rec_tag.dtype)
+    for k in range(len(t)):
+        out[k] = rec_tag[min(max(np.searchsorted(rec_t, t[k]), 1), last)]
+    return out
+
+
+@numba.njit(cache=True, error_model="numpy")
 def _interpolate(t, rec_t, rec_y, rec_q2, rec_q3):
     # compiled: the post-processors sample 1440 points of a revolution, a sixth of a sweep design's time in numpy
     n, m, last = len(t), rec_y.shape[1], len(rec_t) - 1

@@ -116,7 +116,13 @@ def _normalized(state) -> np.ndarray:
 
 def chain_order(features, groups=None) -> list[int]:
     """An order of the points (rows of ``features``) in which each follows a near one: within each group
-    (in order of first appearance), a greedy nearest-neighbour chain from the group's first point."""
+    (in order of first appearance), a greedy nearest-neighbour chain from the group's first point.
+
+    Examples
+    --------
+    >>> chain_order([[0.0], [10.0], [1.0], [11.0], [2.0]])
+    [0, 2, 4, 1, 3]
+    """
     X = np.asarray(features, dtype=float)
     n = len(X)
     if n == 0:
