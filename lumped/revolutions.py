@@ -30,10 +30,10 @@ from lumped.valve import VALVE
 
 
 #: the studies' steady-state tolerance. The test measures the change the *previous* revolution still
-#: made; the revolution map contracts so hard (a revolution's delivery error is 1e-4 of the one before
-#: in the median and at most 0.1 of it, or the integrator's noise, on the validation cases and random
-#: designs of every kind: benchmarks/periodic_solver.py) that when the change is below 1e-3 the last
-#: revolution's delivery is within 1e-4 of the cycle's (within 1e-6 in the median)
+#: made; the revolution map contracts so hard (a revolution's delivery error is at most a tenth of the
+#: one before, or the integrator's noise, and thousands of times smaller in the median, on the
+#: validation cases and random designs of every kind: benchmarks/periodic_solver.py, docs/performance.md)
+#: that when the change is below 1e-3 the last revolution's delivery is within 1e-4 of the cycle's
 STEADY_TOL = 1e-3
 
 

@@ -75,9 +75,9 @@ class WarmStarts:
         :meth:`lumped.revolutions.TdcState.normalized`) through the 2 d + 2 nearest solved designs of the
         group (d features), evaluated at ``features``; the nearest design's state where fewer than d + 2
         share its layout, or where the fit leaves their range by more than its width (an extrapolation
-        not to trust). On an optimiser's population the first revolution's delivery is then 5x closer
-        to the cycle than from the nearest design's state (2.1 revolutions a design instead of 2.8:
-        benchmarks/periodic_solver.py)."""
+        not to trust). On an optimiser-like population the first revolution's delivery is then an order
+        of magnitude closer to the cycle than from the nearest design's state, and most designs stop
+        after two revolutions (benchmarks/periodic_solver.py, docs/performance.md)."""
         g = self._groups.get(group)
         if not g or not g[1]:
             return None

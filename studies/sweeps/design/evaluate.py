@@ -78,6 +78,11 @@ def _model_for(design: dict):
     return _cache[key]["model"]
 
 
+def build_design_model(model_path: str, keys: dict):
+    """The PumpModel of ``model_path`` with the key paths ``keys`` (from this worker's cache when it built it)."""
+    return _model_for({"model": model_path, **keys})
+
+
 def evaluate(design: dict, warm=None) -> dict:
     """Simulate the design at its operating point and return the outputs (fast path unless ``method``);
     ``warm`` (:class:`studies.sweeps.locality.WarmSlot`): start from the nearest solved row's TDC state."""

@@ -340,7 +340,7 @@ def run_optimize(spec: DesignSpec, out, *, scheduler: str | None = None, workers
     catalogue = study.outputs_catalogue(spec)
     recheck = spec.recheck_dict
     stages: dict = {}
-    with runner.Cluster(scheduler, workers, client) as cluster:
+    with runner.Cluster(scheduler, workers, client) as cluster, _reed_cache(out):
         cluster.check_reachable()
         runner.prepare_study(out, spec, force, SUBFOLDERS)
         base_path = study.write_base_model(out, model) if model is not None else None
@@ -366,8 +366,9 @@ def run_optimize(spec: DesignSpec, out, *, scheduler: str | None = None, workers
                   and any(v.role == "key" for v in spec.variables))
         rechecked = _recheck(spec, model, base_path, cluster, out, cal, catalogue, front, baseline, do_fea,
                              recheck.get("enabled", True) and spec.model_kind == "pump", progress, stages)
-    t0 = time.perf_counter()
-    designs = _finish(spec, model, out, catalogue, rechecked, baseline)
+        t0 = time.perf_counter()
+        built = _build_on_workers(cluster, base_path, rechecked) if spec.model_kind == "pump" else {}
+    designs = _finish(spec, model, out, catalogue, rechecked, baseline, built)
     from studies.sweeps.design import report
 
     files = {}
@@ -610,7 +611,60 @@ def _final_constraints(spec, fin: dict, fea: dict | None, positions) -> dict:
     return cons
 
 
-def _finish(spec, model, out, catalogue, items, baseline) -> list[dict]:
+class _reed_cache:
+    """The study folder's ``.reed-cache/`` as lumped's FEA reed-property cache (lumped.reed_fidelity.CACHE_ENV) for
+    this process and the local workers it starts: a front design's solid FEA, run by the re-check, is then not run
+    again for its reference runs and its model file."""
+
+    def __init__(self, out: Path):
+        from lumped.reed_fidelity import CACHE_ENV
+
+        self.env, self.path, self.old = CACHE_ENV, str(Path(out).resolve() / ".reed-cache"), None
+
+    def __enter__(self):
+        import os
+
+        self.old = os.environ.get(self.env)
+        os.environ.setdefault(self.env, self.path)
+        return self
+
+    def __exit__(self, *exc):
+        import os
+
+        if self.old is None:
+            os.environ.pop(self.env, None)
+        else:
+            os.environ[self.env] = self.old
+
+
+def _file_keys(rec: dict) -> dict:
+    """The model-file keys of a re-checked design: its inputs and the fidelity it was re-checked with."""
+    return {**{k: v for k, v in rec["inputs"].items() if k not in ("speed_rpm", "load_pressure")},
+            **(rec.get("fidelity_keys") or {})}
+
+
+def _build_on_workers(cluster, base_path: str, items) -> dict:
+    """{repr(keys): PumpModel} of each design's model file, built on the workers: a design re-checked with the
+    solid FEA's reed parameters needs that FEA again to be built, and the worker that re-ran it at the operating
+    points still holds it (studies.sweeps.design.evaluate's model cache); built here it would cost a solid FEA
+    per design in this one process."""
+    from studies.sweeps.design.evaluate import build_design_model
+
+    keys = list({repr(sorted(_file_keys(rec).items())): _file_keys(rec) for rec in items}.items())
+    if not keys or cluster.client is None:
+        return {}
+    client = cluster.get()
+    futures = client.map(build_design_model, [base_path] * len(keys), [k for _, k in keys], pure=False)
+    out = {}
+    for (name, _), f in zip(keys, futures):
+        try:
+            out[name] = f.result()
+        except Exception:  # noqa: BLE001 - built again where the file is written, which reports the error
+            pass
+    return out
+
+
+def _finish(spec, model, out, catalogue, items, baseline, built: dict | None = None) -> list[dict]:
     """Design entries of the JSON: final objectives and constraints, the front re-sorted, model files written."""
     from lumped.model_file import to_toml, with_values
 
@@ -635,8 +689,7 @@ def _finish(spec, model, out, catalogue, items, baseline) -> list[dict]:
         if rec.get("final") is not None:
             e["fast_vs_reference_pct"] = {o.output: _pct(rec["objectives"][o.output], fin["objectives"][o.output])
                                           for o in spec.objectives} if fin["ok"] else None
-        e["_keys"] = {**{k: v for k, v in rec["inputs"].items() if k not in ("speed_rpm", "load_pressure")},
-                      **(rec.get("fidelity_keys") or {})} if spec.model_kind == "pump" else None
+        e["_keys"] = _file_keys(rec) if spec.model_kind == "pump" else None
         entries.append(e)
     # the front after the re-check, sorted by the first objective
     okm = [e["ok"] and e["constraints_met"] and all(v is not None for v in e["objectives"].values()) for e in entries]
@@ -680,7 +733,7 @@ def _finish(spec, model, out, catalogue, items, baseline) -> list[dict]:
         keys = e.pop("_keys")
         if base is not None:
             path = Path(out) / f"{e['name']}.toml"
-            m = with_values(base, keys)
+            m = (built or {}).get(repr(sorted(keys.items()))) or with_values(base, keys)
             from dataclasses import replace
 
             m = replace(m, name=e["name"])
