@@ -10,6 +10,8 @@ rtol 1e-3 and 1e-4):
   (warm); the ratio of the second revolution's error to the first's bounds how much the
   steady-state test's change (the previous revolution's) overstates the last revolution's error
   (lumped.revolutions.STEADY_TOL rests on it);
+- reference spread: what validate reports (delivery, peak openings) on the reference stepper,
+  revolution after revolution of one cycle (the reed cases of Table 5.6);
 - solvers: revolutions until the steady-state test passes (change of delivery and TDC state
   below tol) and the delivery's error against the cycle then, for three ways to the cycle on the
   TDC state x (each valve's coordinates and rates over its stop gap, the masses over one swept
@@ -205,6 +207,37 @@ def predictors(n_designs: int = 40, seed: int = 5) -> dict:
     return out
 
 
+def reference_spread(revolutions: int = 6) -> dict:
+    """How much what the validation reports moves between revolutions of one cycle: each reed case of Table 5.6
+    on the reference stepper from the fast path's cycle, ``revolutions`` revolutions one at a time; the spread
+    (max - min) of its delivery [cc] and of each valve's peak opening [mm] (the largest opening at the
+    stepper's step ends) over them."""
+    from lumped.cycle import simulate
+    from lumped.warmstart import fast_start
+    from studies.validation.chain import case_name, cases, thesis_model_of
+
+    out = []
+    for c in cases(valve="reed"):
+        m = thesis_model_of(c)
+        kw = dict(air_content=c["air_content"])
+        state = fast_start(m, c["speed_rpm"], c["load_pressure"], **kw)
+        d, pin, pdel = [], [], []
+        for _ in range(revolutions):
+            r = simulate(m, c["speed_rpm"], c["load_pressure"], method="reference", revolutions=2, initial_state=state,
+                         **kw)
+            state = r.tdc_state
+            d.append(r.delivery_per_rev * 1e6)
+            pin.append(r.inlet.peak_opening * 1e3)
+            pdel.append(r.delivery.peak_opening * 1e3)
+        out.append({"case": case_name(c), "delivery_cc": [min(d), max(d)], "inlet_peak_mm": [min(pin), max(pin)],
+                    "delivery_peak_mm": [min(pdel), max(pdel)]})
+    worst = max(out, key=lambda r: r["delivery_peak_mm"][1] - r["delivery_peak_mm"][0])
+    return {"revolutions": revolutions, "cases": out, "worst_peak_case": worst["case"],
+            "worst_peak_spread_mm": worst["delivery_peak_mm"][1] - worst["delivery_peak_mm"][0],
+            "worst_peak_range_mm": worst["delivery_peak_mm"],
+            "delivery_spread_max_cc": max(r["delivery_cc"][1] - r["delivery_cc"][0] for r in out)}
+
+
 def run(n_random: int = 12) -> dict:
     from lumped.cycle import simulate
 
@@ -260,6 +293,7 @@ def run(n_random: int = 12) -> dict:
         "contraction_ratio_median": float(np.median(ratios)) if ratios else None,
         "contraction_ratios": len(ratios),
         "solvers": summary, "fewest_revolutions_warm": best, "predictors": predictors(),
+        "reference_spread": reference_spread(),
         "contraction": contraction, "runs": solvers,
     }
 
