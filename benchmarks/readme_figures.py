@@ -32,9 +32,11 @@ def _pump(d: dict) -> list[str]:
 
 
 def _sweep(d: dict) -> list[str]:
+    steady = (f", {d['revolutions_mean']:.2f} revolutions per design until cyclic steady state"
+              if "revolutions_mean" in d else "")
     return [f"| sweep, {d['designs']} designs on {d['workers']} workers (`bench_sweep.py`) | "
-            f"{d['designs_per_hour']:,.0f} designs per hour ({d['wall_seconds']:.1f} s wall, cluster start included); "
-            f"{d.get('failed', 0)} failed |"]
+            f"{d['designs_per_hour']:,.0f} designs per hour ({d['wall_seconds']:.1f} s wall, cluster start included"
+            f"{steady}); {d.get('failed', 0)} failed |"]
 
 
 def _fea(d: dict) -> list[str]:

@@ -176,12 +176,12 @@ def mode_tag(mode) -> int:
     return t
 
 
+_POW3 = 3 ** np.arange(N_MODE)
+
+
 def modes_of_tags(tags: np.ndarray) -> np.ndarray:
     """Modes (rows) of the integers of :func:`mode_tag`."""
-    out = np.empty((len(tags), N_MODE))
-    for j in range(N_MODE):
-        out[:, j] = (tags // 3**j) % 3
-    return out
+    return ((np.asarray(tags)[:, None] // _POW3) % 3).astype(float)
 
 
 # ----------------------------------------------------------------- per-valve states (compiled code)
@@ -500,23 +500,44 @@ def _block_items(block) -> tuple:
     return tuple((n, i) for n, i in block._asdict().items() if n not in ("dofs", "state_start", "tail"))
 
 
+@functools.lru_cache(maxsize=None)
+def _packed_fields(cls) -> tuple:
+    """(field name, index in the packed array) of a component class's packed fields."""
+    return tuple((n, getattr(G, n)) for n, s in specs(cls) if s.packed)
+
+
 def pack_valve(valve, oil, out: np.ndarray, offset: int) -> np.ndarray | None:
     """Write a valve's block (COMMON, packed fields, derived quantities) at ``offset``; returns its
     variable-length data (or None), which :func:`pack` appends."""
+    try:
+        idx, vals, tail = _valve_block(valve, oil)     # a sweep packs the same valve and oil again and again
+    except TypeError:                                # an unhashable valve (a plug-in kind): packed afresh
+        idx, vals, tail = _valve_block.__wrapped__(valve, oil)
+    out[offset + idx] = vals
+    return None if tail is None else tail.copy()
+
+
+@functools.lru_cache(maxsize=256)
+def _valve_block(valve, oil) -> tuple:
+    """(offsets, values, tail) of a valve's block: a pure function of the (frozen) valve and oil."""
     kind = kind_of(valve)
     values = valve.common(oil).packed()
     values.update(valve.packed_extra(oil))
     values["kind_id"] = float(kind.id)
     values["orifice_start"] = 0.0          # scratch of the orifice solve, not a parameter
-    for name, idx in _block_items(kind.block):
+    idx, vals = [], []
+    for name, i in _block_items(kind.block):
         if name in values:
-            out[offset + idx] = _number(values[name])
+            v = _number(values[name])
         elif getattr(valve, name, None) is not None:
-            out[offset + idx] = _number(getattr(valve, name))
+            v = _number(getattr(valve, name))
         else:
             raise KeyError(f"{type(valve).__name__} gives no {name!r} (a {'common' if name in VALVE._fields else 'derived'} "
                            "packed quantity)")
-    return valve.tail(oil)
+        idx.append(i)
+        vals.append(v)
+    tail = valve.tail(oil)
+    return np.array(idx, dtype=int), np.array(vals), None if tail is None else np.asarray(tail, dtype=float)
 
 
 def pack(model, speed_rpm: float, load_pressure: float, circuit: str | None = None,
@@ -533,9 +554,8 @@ def pack(model, speed_rpm: float, load_pressure: float, circuit: str | None = No
     p = np.zeros(NP)
     pump, oil, circ = m.pump, m.oil, m.circuit
     for comp in (pump, oil, circ):
-        for n, s in specs(comp):
-            if s.packed:
-                p[getattr(G, n)] = _number(getattr(comp, n))
+        for n, i in _packed_fields(type(comp)):
+            p[i] = _number(getattr(comp, n))
     p[G.omega] = speed_rpm * 2.0 * math.pi / 60.0
     p[G.load_pressure] = load_pressure
     p[G.piston_area] = pump.piston_area
