@@ -16,7 +16,6 @@ from __future__ import annotations
 import hashlib
 import importlib
 import inspect
-import sys
 import types
 
 import numba
@@ -43,6 +42,9 @@ def _jit_physics(one_dof: bool) -> dict[str, types.ModuleType]:
     of the fast path's time when merely present, measured).
     """
     mods = {name: importlib.import_module(name) for name in physics_modules()}
+    # the symbol numba gives a function is its qualified name and a per-process counter: the flavour and
+    # the digest of the sources and kinds keep two different physics from sharing one in a cached solver
+    suffix = f"__jit{'1' if one_dof else 'n'}_{source_digest()}"
     mirrors = {name: types.ModuleType(f"{name}__jit{'1' if one_dof else 'n'}") for name in mods}
     jitted: dict[tuple[str, str], object] = {}
     scopes = []
@@ -52,7 +54,7 @@ def _jit_physics(one_dof: bool) -> dict[str, types.ModuleType]:
         for attr, fn in mod.__dict__.items():
             if isinstance(fn, types.FunctionType) and fn.__module__ == name:
                 new = types.FunctionType(fn.__code__, scope, fn.__name__, fn.__defaults__, fn.__closure__)
-                new.__qualname__ = f"{fn.__qualname__}__jit{'1' if one_dof else 'n'}"
+                new.__qualname__ = f"{fn.__qualname__}{suffix}"
                 new.__module__ = name
                 # the layout's index helpers are a few loads each: inlined where they are called
                 kw = {"inline": "always"} if attr in getattr(mod, "INLINE", ()) else {}
@@ -133,6 +135,6 @@ def source_digest(*extra: str) -> str:
 def _digest(extra: tuple) -> str:
     h = hashlib.sha256()
     for name in (*physics_modules(), "lumped.rodas", __name__, *extra):
-        h.update(inspect.getsource(sys.modules[name]).encode())
+        h.update(inspect.getsource(importlib.import_module(name)).encode())
     h.update(numba.__version__.encode())
     return h.hexdigest()[:12]

@@ -277,6 +277,17 @@ def _build_rodas(one_dof: bool):
     def fn(module, name):
         return compiled.function(module, name, one_dof)
 
+    digest = compiled.source_digest(__name__)
+    flavour = f"pump{'1' if one_dof else 'n'}_{digest}"
+
+    def jit(f):
+        # numba names a compiled function's symbol by its qualified name and a per-process counter: a
+        # solver loaded from the cache and one compiled here may then share a symbol for two different
+        # closures (one-DOF and several-DOF), and the loader binds the wrong one (a modal reed then ran
+        # one-DOF physics: step size underflow at t = 0, measured). The flavour and digest make it unique.
+        f.__qualname__ = f"{f.__qualname__}__{flavour}"
+        return numba.njit(error_model="numpy")(f)
+
     evaluate_c = fn("lumped.rhs", "evaluate")
     switch_values = fn("lumped.switching", "switch_values")
     apply_switch = fn("lumped.switching", "apply_switch")
@@ -287,7 +298,7 @@ def _build_rodas(one_dof: bool):
     mode_c = fn("lumped.layout", "mode_of")
     T, M, P = G.stash_t, G.stash_m, G.stash_p
 
-    @numba.njit(error_model="numpy")
+    @jit
     def _rhs(t, y, p, dydt):
         """dy/dt of the pump (lumped.rhs.evaluate) in the mode stored in p; keeps (t, m_cyl, P_cyl)."""
         r = evaluate_c(t, y, p, mode_c(p), dydt)
@@ -295,34 +306,33 @@ def _build_rodas(one_dof: bool):
         p[M] = y[S_MCYL]
         p[P] = r.p_cyl
 
-    @numba.njit(error_model="numpy")
+    @jit
     def _events(t, y, p, g):
         switch_values(t, y, p, mode_c(p), g)
 
-    @numba.njit(error_model="numpy")
+    @jit
     def _apply(k, t, y, p):
         return apply_switch(k, y, p, mode_c(p))
 
-    @numba.njit(error_model="numpy")
+    @jit
     def _retry(k, p):
         return redo(k, mode_c(p))
 
-    @numba.njit(error_model="numpy")
+    @jit
     def _jac(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h):
         pc = p[P] if (p[T] == t and p[M] == y[S_MCYL]) else np.nan
         return jac_c(t, y, p, mode_c(p), pc, jac, ft, yp, fp, atol, rtol, n_dyn)
 
-    @numba.njit(error_model="numpy")
+    @jit
     def _tolerances(p, atol):
         tols(p, mode_c(p), atol)
 
-    @numba.njit(error_model="numpy")
+    @jit
     def _tag(p):
         return tag(mode_c(p))
 
-    digest = compiled.source_digest(__name__)
     _drop_stale_cache(digest)
-    solver = rodas.specialize(_rhs, f"pump{'1' if one_dof else 'n'}_{digest}", events=_events, apply=_apply,
+    solver = rodas.specialize(_rhs, flavour, events=_events, apply=_apply,
                               tagger=_tag, jac=_jac, tolerances=_tolerances, retry=_retry)
     return solver, digest
 
