@@ -48,6 +48,8 @@ suppress_warnings = ["myst.header"]
 
 # ----------------------------------------------------------------- API reference from the docstrings
 autodoc_typehints = "none"                  # numpydoc's Parameters section says the types
+autodoc_default_options = {"no-value": True}   # a registry's repr is no documentation
+autodoc_preserve_defaults = True            # a default argument as written (LIBRARY), not its repr
 numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False
 numpydoc_xref_param_type = False
@@ -63,6 +65,7 @@ API_PACKAGES = {
     "studies.discrepancy": "Measured data, synthetic data and the discrepancy workflow.",
     "studies.sweeps": "Parameter sweeps on dask.",
     "studies.tables": "The thesis's tables, regenerated.",
+    "studies": "Output folders and the figures the commands draw.",
 }
 
 
@@ -77,12 +80,12 @@ def _canonical(obj, fallback: str) -> str:
 def _modules(package: str) -> list[str]:
     """The package's modules, subpackages' included (the command-line modules are CONTRACT.md's)."""
     pkg = importlib.import_module(package)
-    names = []
+    names = [package] if package.count(".") else []       # a subpackage's own __init__ defines things too
     for info in pkgutil.walk_packages(pkg.__path__, prefix=f"{package}."):
         if ".cli" in info.name or info.name.split(".")[-1].startswith("_"):
             continue
-        if any(info.name.startswith(f"{other}.") for other in API_PACKAGES if other != package
-               and other.startswith(f"{package}.")):
+        if any(info.name == other or info.name.startswith(f"{other}.") for other in API_PACKAGES
+               if other != package and other.startswith(f"{package}.")):
             continue
         names.append(info.name)
     return sorted(names)
@@ -94,41 +97,59 @@ def _write(path: Path, lines: list[str]) -> None:
         path.write_text(text)
 
 
+#: exported name (geometry.Reed) -> where it is defined and described (geometry.reed.Reed)
+ALIASES: dict[str, str] = {}
+
+
 def _write_api_pages() -> None:
-    """docs/api/: per package, a table of what it exports (``__all__``) linked to where each is defined,
-    and one page per module with its docstring and its documented members."""
+    """docs/api/: per package, a list of what it exports (``__all__``) linked to where each is defined, then
+    one page per module with its docstring and every member it defines (the one description of each)."""
     out = DOCS / "api"
     (out / "modules").mkdir(parents=True, exist_ok=True)
     index = ["API reference", "=============", "",
              "Generated from the numpydoc docstrings: per package what it exports (its ``__all__``), then",
-             "each of its modules with the functions and classes it defines.", "",
+             "each of its modules with its docstring and the functions and classes it defines.", "",
              ".. toctree::", "   :maxdepth: 1", ""]
     for name, what in API_PACKAGES.items():
         mod = importlib.import_module(name)
-        exported = sorted(getattr(mod, "__all__", []))
-        title = f"``{name}``"
-        lines = [title, "=" * len(title), "", what, ""]
+        lines = [f"``{name}``", "=" * (len(name) + 4), "", what, ""]
         rows = []
-        for n in exported:
+        for n in sorted(getattr(mod, "__all__", [])):
             obj = getattr(mod, n)
-            target = _canonical(obj, f"{name}.{n}")
-            if target.startswith(tuple(f"{p}." for p in API_PACKAGES)) or target.startswith(
-                    ("geometry.", "lumped.", "fea.", "instruments.", "studies.")):
-                role = "class" if isinstance(obj, type) else "func" if callable(obj) else "data"
-                rows.append(f"* :py:{role}:`{n} <{target}>`")
-            else:
-                rows.append(f"* ``{n}``")
+            target = _canonical(obj, "")
+            if callable(obj) and target.startswith(("geometry.", "lumped.", "fea.", "instruments.", "studies.")):
+                ALIASES[f"{name}.{n}"] = target
+                role = "class" if isinstance(obj, type) else "func"
+                summary = (obj.__doc__ or "").strip().split("\n")[0]
+                rows.append(f"* :py:{role}:`{n} <{target}>`: {_escape(summary)}")
+            else:                        # a registry or a constant: no page of its own
+                rows.append(f"* ``{n}``: {type(obj).__name__}" + (f" of {len(obj)} entries" if hasattr(obj, "__len__")
+                                                                  else ""))
         if rows:
             lines += ["Exports", "-------", ""] + rows + [""]
         modules = _modules(name)
-        lines += ["Modules", "-------", "", ".. toctree::", "   :maxdepth: 1", ""]
-        lines += [f"   modules/{m}" for m in modules]
+        lines += ["Modules", "-------", "", ".. toctree::", "   :maxdepth: 1", ""] + [f"   modules/{m}" for m in modules]
         for m in modules:
-            t = f"``{m}``"
-            _write(out / "modules" / f"{m}.rst", [t, "=" * len(t), "", f".. automodule:: {m}", "   :members:", ""])
+            # a package's page documents what it defines, not what it re-exports from its modules
+            _write(out / "modules" / f"{m}.rst", [f"``{m}``", "=" * (len(m) + 4), "", f".. automodule:: {m}",
+                                                  "   :members:", "   :ignore-module-all:", ""])
         _write(out / f"{name}.rst", lines)
         index.append(f"   {name}")
     _write(out / "index.rst", index)
+
+
+def _escape(text: str) -> str:
+    return text.replace("|", "\\|").replace("*", "\\*").replace("`", "")
+
+
+def _resolve_alias(app, env, node, contnode):
+    """A reference to an exported name (``geometry.Reed``, ``lumped.simulate``) resolves to its description."""
+    target = node.get("reftarget", "")
+    head = next((a for a in ALIASES if target == a or target.startswith(f"{a}.")), None)   # geometry.Reed.pieces too
+    if node.get("refdomain") != "py" or head is None:
+        return None
+    new = ALIASES[head] + target[len(head):]
+    return env.get_domain("py").resolve_xref(env, node["refdoc"], app.builder, node["reftype"], new, node, contnode)
 
 
 def _escape_bars(app, what, name, obj, options, lines) -> None:
@@ -142,6 +163,7 @@ def _escape_bars(app, what, name, obj, options, lines) -> None:
 
 def setup(app):
     app.connect("autodoc-process-docstring", _escape_bars, priority=900)   # after numpydoc's rewrite
+    app.connect("missing-reference", _resolve_alias)
 
 
 _write_api_pages()          # here, not in a hook: Sphinx lists the source files before any hook runs
