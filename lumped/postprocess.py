@@ -200,9 +200,10 @@ def trace(spans, problem, npts: int, physics) -> Trace:
         # a modal reed's coordinates are its modes; an FE reed's are nodal DOFs (not worth a signal each)
         if lay.scalars[v] or getattr(getattr(problem.model, pos), "dynamics", "") != "modal":
             continue
-        w = int(p[BLOCK_OFFSET[v] + VALVE.tail])
-        q = ys[:, lay.positions(v)]
+        from lumped.reed_dynamics import modal_shares
+
+        shares = modal_shares(problem.model.valve(pos), problem.model.oil.density, ys[:, lay.positions(v)])
         for i in range(lay.dofs[v]):
-            signals[f"{pos}_mode{i + 1}_position"] = q[:, i] * p[w + i]
+            signals[f"{pos}_mode{i + 1}_position"] = shares[:, i]
     return Trace(t - spans[0].t0, problem.speed_rpm, signals)
 
