@@ -113,7 +113,7 @@ def _mm_hint(v: float) -> str:
 
 
 def parse_reed(data: dict, source: str = "custom") -> Reed:
-    """Validated :class:`Reed` from the parsed TOML mapping (top-level table ``[reed]``).
+    """Validated :class:`~geometry.reed.Reed` from the parsed TOML mapping (top-level table ``[reed]``).
 
     The outline is either the one-step form (``width_root``, ``width_tip``,
     ``step_fraction``) or a list of ``[[reed.sections]]`` (CONTRACT.md, "Multi-section

@@ -1,6 +1,6 @@
 """The reference physics, compiled: numba copies of the very functions the reference path runs.
 
-:func:`_jit_physics` compiles every function of :data:`physics_modules` (oil, orifice,
+``_jit_physics`` compiles every function of :data:`physics_modules` (oil, orifice,
 valve kinds, pump kinematics, layout, right-hand side, switching, Jacobian) with ``numba.njit``: each function's own code
 object, its module globals re-pointed at the compiled siblings. Nothing is written
 twice; the fast stepper (``lumped.steppers.RodasStepper``) integrates these.

@@ -55,9 +55,13 @@ QUADRATURES = ("m_in", "m_out", "m_leak", "m_nv")
 S_MCYL = PUMP_STATES.index("m_cyl")
 
 # ----------------------------------------------------------------- mode and switching functions
-VALVE_MODE = ("contact", "regime")          # per valve: SEAT/FREE/STOP; POISEUILLE/ORIFICE
-PUMP_MODE = ("cavitation",)                 # the cylinder: LIQUID/CAVITATING
+#: per valve, the entries of the mode vector: contact SEAT/FREE/STOP; regime POISEUILLE/ORIFICE
+VALVE_MODE = ("contact", "regime")
+#: the pump's mode entries: the cylinder LIQUID/CAVITATING
+PUMP_MODE = ("cavitation",)
+#: per valve, its switching functions: seat and stop contact, the flow regime
 VALVE_SWITCHES = ("seat", "stop", "regime")
+#: the pump's switching functions
 PUMP_SWITCHES = ("cavitation",)
 LIQUID, CAVITATING = 0, 1
 CAVITATION_NAMES = ("liquid", "cavitating")
@@ -146,6 +150,7 @@ def _global_block():
     return collections.namedtuple("GlobalBlock", names)(*range(len(names)))
 
 
+#: the global block's named slots in the packed parameters (the operating point, derived pump quantities)
 G = _global_block()
 NG = 96                                   # length of the global block
 assert len(G) <= NG

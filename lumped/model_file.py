@@ -165,7 +165,7 @@ def _table(data: dict, key: str, where: str) -> dict:
 
 def parse_model(data: dict, source: str = "", base_dir: Path | None = None, name: str = "custom",
                 defaults_from: str | None = DEFAULT_BASE) -> PumpModel:
-    """A :class:`PumpModel` from a model-file table (see the module docstring)."""
+    """A :class:`~lumped.model.PumpModel` from a model-file table (see the module docstring)."""
     if not isinstance(data, dict):
         raise InputError("model", "expected a TOML table")
     for k in data:

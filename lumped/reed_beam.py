@@ -79,8 +79,9 @@ def stiffness_eq_3_40(youngs_modulus: float, thickness: float, width_root: float
                       width_tip: float, length_root: float, length_tip: float) -> float:
     """kappa [Pa/m] of a square-tipped stepped-width reed under uniform pressure (eq 3.40).
 
-    kappa = 24 E I1 / (3 W1 L1^4 + (4 W1 + 8 W2) L1^3 L2 + 18 W2 L1^2 L2^2
-                       + 12 W2 L1 L2^3 + 3 W1 L2^4),  I1 = W1 h^3 / 12.
+    kappa = 24 E I1 / (3 W1 L1^4 + (4 W1 + 8 W2) L1^3 L2 + 18 W2 L1^2 L2^2 + 12 W2 L1 L2^3 + 3 W1 L2^4),
+    I1 = W1 h^3 / 12.
+
     The thesis prints the last term as (3/2) W2 L2^4, which equals 3 W1 L2^4 only for
     W2 = 2 W1 (its reeds); the general term is 3 W2 L2^4 I1 / I2 = 3 W1 L2^4
     (docs/errata.md). Exact Euler-Bernoulli for a square tip.

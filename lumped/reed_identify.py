@@ -1,7 +1,9 @@
 """Free-vibration identification of a plucked reed (thesis section 3.8.2, Table 3.10).
 
-A reed plucked in air rings down as eq 3.67,
+A reed plucked in air rings down as eq 3.67::
+
     v(t) = C4 exp(-sigma t) sin(omega_d t + phi) (+ offset),  sigma = gamma1 c_c / (2 rho_c h_eff);
+
 fitting it by nonlinear least squares gives sigma and omega_d, hence the internal
 damping c_c (eq 3.67), the undamped frequency omega_n (eq 3.70) and the reed stiffness
 kappa (eq 3.73) once gamma1, rho_c and h_eff are known. Several runs are summarised

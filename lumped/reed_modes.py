@@ -169,7 +169,7 @@ def build_basis(reed: Reed, port: ReedPort | None, fidelity: str, omega, kinds, 
     across suffices. ``breaks``: extra s [m] where the shapes are not smooth (FE nodes).
     ``raw_load``: Gamma of the raw shapes [m^2] when the fidelity integrates it itself (an
     FE model's consistent load vector f . phi), instead of the face rule. The opening is
-    scaled to the first bending mode (:func:`_opening_mode`).
+    scaled to the first bending mode (``_opening_mode``).
     """
     omega = np.asarray(omega, dtype=float)
     n = len(omega)

@@ -58,6 +58,7 @@ EVENT_RETRY_WINDOW = 1e-3  # ... unless the crossing lies this close (step fract
 
 #: solver status codes
 OK, MAX_STEPS, STEP_TOO_SMALL, TOO_MANY_EVENTS = 0, 1, 2, 3
+#: each status code in words
 STATUS_TEXT = {OK: "ok", MAX_STEPS: "too many steps", STEP_TOO_SMALL: "step size underflow",
                TOO_MANY_EVENTS: "too many events (chatter)"}
 

@@ -98,6 +98,7 @@ class Stepper:
         raise NotImplementedError
 
     def advance(self, t0: float, t1: float, y: np.ndarray, mode: np.ndarray) -> Span:  # pragma: no cover
+        """Integrate from t0 to t1 [s] from state y in mode ``mode``, locating every switch on the way."""
         raise NotImplementedError
 
 

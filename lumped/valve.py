@@ -19,7 +19,7 @@ module that implements it (``lumped/disc_valve.py``, ``lumped/reed_valve.py``,
   (written into the pump's Jacobian; without it lumped.jacobian differences them);
 - its tolerances on the fast path and the shipped model that gives its defaults.
 
-:func:`check_valve_kind` (``lumped.conformance``) checks a kind against this contract.
+:func:`~lumped.conformance.check_valve_kind` checks a kind against this contract.
 The pump, the fast path, the effects and the command line find kinds here instead of
 branching on names.
 

@@ -369,7 +369,7 @@ def test_pump_sweep_on_local_cluster(client, tmp_path):
 def test_contract_example_sweep_file_is_valid():
     """The sweep file shown in CONTRACT.md parses and passes the pump model's checks."""
     text = (ROOT / "CONTRACT.md").read_text()
-    section = text[text.index("## Extensions: sweeps"):]
+    section = text[text.index("## Sweeps"):]
     block = section[section.index("```toml") + 7: section.index("```", section.index("```toml") + 7)]
     spec = spec_of(block)
     sweep.check_spec(spec, sweep.load_model("pump"))

@@ -1,4 +1,6 @@
-"""A sweep: eight load pressures on a grid, run on a dask cluster, read back as a table.
+"""
+A sweep: eight load pressures on a grid, run on a dask cluster, read back as a table
+====================================================================================
 
 Headline number: with air-free oil and a compliant-free disc valve the delivery per
 revolution falls linearly with load pressure at the slope of the oil's compressibility in
@@ -50,3 +52,18 @@ print(f"slope {slope:.4g} m^3/Pa per rev; closed form -V_dead/beta = {closed:.4g
 
 assert summary["designs"] == 8 and len(ok) == 8
 assert abs(slope / closed - 1.0) < 0.03, (slope, closed)
+
+# %%
+# Delivery against load pressure, with the closed-form compressibility slope
+import matplotlib.pyplot as plt
+
+p_mpa = ok["load_pressure"].to_numpy() / 1e6
+fig, ax = plt.subplots(figsize=(6, 3.5))
+ax.plot(p_mpa, ok["delivery_m3_per_rev"] * 1e6, "o", label="sweep (simulated)")
+mid = ok["delivery_m3_per_rev"].mean() * 1e6, ok["load_pressure"].mean()
+ax.plot(p_mpa, mid[0] + closed * (ok["load_pressure"] - mid[1]) * 1e6, "k--", label="slope -V_dead / beta")
+ax.set_xlabel("load pressure [MPa]")
+ax.set_ylabel("delivery [cc/rev]")
+ax.legend()
+fig.tight_layout()
+plt.show()

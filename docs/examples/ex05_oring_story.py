@@ -1,4 +1,6 @@
-"""The O-ring story of section 2.4.3.2, found again by the discrepancy workflow.
+"""
+The O-ring story of section 2.4.3.2, found again by the discrepancy workflow
+============================================================================
 
 The thesis's delivery valve sat on an O-ring (k_seat = 1.5e6 N/m) that its first model
 took for a rigid seat. Here synthetic "measurements" of the six disc runs of Tables

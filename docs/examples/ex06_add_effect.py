@@ -1,4 +1,6 @@
-"""Adding an effect: a trapped volume on the cylinder (a gauge port, a drilled passage).
+"""
+Adding an effect: a trapped volume on the cylinder (a gauge port, a drilled passage)
+====================================================================================
 
 One `register(Effect(...))`, as docs/extending.md says, and the effect works everywhere an
 effect does: in a model's effects, in `valvelab synth --effect`, in the discrepancy
@@ -40,3 +42,21 @@ print(f"delivery {before.delivery_per_rev * 1e6:.5f} -> {after.delivery_per_rev 
       f"drop {drop * 1e9:.3f} mm^3 (closed form {closed * 1e9:.3f} mm^3)")
 
 assert abs(drop / closed - 1.0) < 0.03, (drop, closed)
+
+# %%
+# The delivery drop against the closed form, for a few trapped volumes
+import matplotlib.pyplot as plt
+
+volumes = [0.5e-6, 1.0e-6, 2.0e-6, 4.0e-6]
+drops = [before.delivery_per_rev - simulate(
+    replace(base, effects=(Applied.of("trapped_volume", "pump", {"volume": v}),)), speed, load,
+    revolutions=4, max_revolutions=20).delivery_per_rev for v in volumes]
+fig, ax = plt.subplots(figsize=(6, 3.5))
+ax.plot([v * 1e6 for v in volumes], [d * 1e9 for d in drops], "o", label="simulated")
+ax.plot([v * 1e6 for v in volumes], [v * (load - base.pump.tank_pressure) / base.oil.bulk_modulus * 1e9
+                                     for v in volumes], "k--", label="V (p_load - p_tank) / beta")
+ax.set_xlabel("trapped volume [cc]")
+ax.set_ylabel("delivery lost [mm^3/rev]")
+ax.legend()
+fig.tight_layout()
+plt.show()

@@ -1,4 +1,6 @@
-"""Global sensitivity: which inputs move the thesis disc pump's delivery, by Sobol indices.
+"""
+Global sensitivity: which inputs move the thesis disc pump's delivery, by Sobol indices
+=======================================================================================
 
 Headline number: over 0.5-2 % entrained air and a dead volume of 20-24 cc the delivery is
 nearly linear in both, y ~ a1 x1 + a2 x2, so the first-order indices must be those of a
@@ -58,3 +60,21 @@ for k, r in indices.items():
     print(f"{k:18s} S1 {r['S1']:.3f} +- {r['S1_conf']:.3f}, ST {r['ST']:.3f}; linear model {linear[k]:.3f}")
     assert abs(r["S1"] - linear[k]) < max(0.05, r["S1_conf"]), (k, r, linear[k])
 assert result["failed"] == 0
+
+# %%
+# First-order and total Sobol indices with their bootstrap intervals, and the linear model's
+import matplotlib.pyplot as plt
+import numpy as np
+
+names = list(indices)
+xs = np.arange(len(names))
+fig, ax = plt.subplots(figsize=(6, 3.5))
+ax.bar(xs - 0.2, [indices[k]["S1"] for k in names], 0.4, yerr=[indices[k]["S1_conf"] for k in names],
+       label="S1 (SALib)", capsize=4)
+ax.bar(xs + 0.2, [indices[k]["ST"] for k in names], 0.4, label="ST (SALib)", color="tab:gray")
+ax.plot(xs - 0.2, [linear[k] for k in names], "k_", markersize=30, mew=2, label="linear model")
+ax.set_xticks(xs, names)
+ax.set_ylabel("Sobol index of the delivery [-]")
+ax.legend()
+fig.tight_layout()
+plt.show()

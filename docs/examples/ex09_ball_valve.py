@@ -1,4 +1,6 @@
-"""A third valve kind: the ball check valve, added as docs/extending.md says, and checked.
+"""
+A third valve kind: the ball check valve, added as docs/extending.md says, and checked
+======================================================================================
 
 `lumped/ball_valve.py` (the kind: parameters, acceleration, registration), one import line in
 `lumped/__init__.py` and the shipped model `thesis-ball` (the thesis pump of Table 5.4 with
@@ -48,3 +50,10 @@ assert 0.5 < m.volumetric_efficiency < 1.0
 report = check_valve_kind("ball", points=1, quick=True)
 print(report)
 assert report.passed
+
+# %%
+# The ball pump over its last revolution: openings and pressures
+import matplotlib.pyplot as plt
+
+r.plot()
+plt.show()

@@ -48,6 +48,7 @@ from functools import lru_cache
 from geometry.declare import specs
 from geometry.errors import InputError
 
+#: the sweep's output columns and their dtypes (CONTRACT.md, "Sweeps")
 OUTPUTS = {
     "delivery_m3_per_rev": "float64",
     "volumetric_efficiency": "float64",

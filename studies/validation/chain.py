@@ -154,7 +154,7 @@ def reed_parameter_chain(fidelities=("analytic", "beam", "plate", "solid"), quic
 
     Runs :func:`studies.validation.reed_check.multi_fidelity_check` on the prototype reed (``quick``:
     a 2 mm FEA mesh instead of each fidelity's converged default) and returns its rows,
-    the selected :class:`ReedProperties` that would feed the pump model, and why.
+    the selected :class:`~lumped.mode_function.ReedProperties` that would feed the pump model, and why.
     """
     from geometry import load_reed
     from studies.validation.reed_check import multi_fidelity_check

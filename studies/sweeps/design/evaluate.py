@@ -15,7 +15,7 @@ at the peak opening ``reed_stress_peak_pa``, the uncalibrated Euler-Bernoulli va
 ``reed_stress_eb_pa`` (the largest along the reed, before the calibration factor).
 
 The designs of a study run each operating point as its own row; the rows of one design reuse
-the model built for the first (:func:`_model_for`, a small cache: a batch visits its rows in a
+the model built for the first (``_model_for``, a small cache: a batch visits its rows in a
 nearest-neighbour chain, not in order).
 """
 

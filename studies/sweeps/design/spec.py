@@ -355,7 +355,7 @@ def _dotted(node) -> str | None:
 
 
 def expression_names(text: str, where: str) -> list[str]:
-    """The names an arithmetic expression reads; InputError for anything but numbers, names, + - * / **, calls
+    """The names an arithmetic expression reads; InputError for anything but numbers, names, ``+ - * / **``, calls
     of min, max, sqrt, exp, log, abs."""
     try:
         tree = ast.parse(text, mode="eval")
