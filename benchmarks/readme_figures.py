@@ -72,8 +72,18 @@ def _generic(name: str, d: dict) -> list[str]:
     return [f"| {name} (`bench_{name}.py`) | {text} |"]
 
 
+def _validation(d: dict) -> list[str]:
+    full, quick = d["validate_full"], d["validate_quick"]
+    forms = full["reed_model_form_errors"]
+    return [f"| the main job, `valvelab validate` (`bench_validation.py`) | {full['wall_seconds']:.0f} s wall "
+            f"({quick['wall_seconds']:.0f} s with `--quick`); ASME V&V 20: {full['pump_cases_within']} of "
+            f"{full['pump_cases']} pump cases with abs(E) <= U_val ({full['draws']} input draws); a model-form "
+            f"error of the analytic reed against {len(forms)} FEA quantities beyond U_val (plate and solid "
+            f"fidelities) |"]
+
+
 FORMATTERS = {"pump": _pump, "sweep": _sweep, "fea": _fea, "discrepancy": _discrepancy,
-              "reed_dynamics": _reed_dynamics}
+              "reed_dynamics": _reed_dynamics, "validation": _validation}
 
 
 def render(folder: Path = HERE) -> str:

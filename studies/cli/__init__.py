@@ -99,7 +99,7 @@ def _internal_error(command: str, exc: BaseException) -> int:
 
 def build_parser(selected: str | None = None) -> argparse.ArgumentParser:
     """The parser; only the ``selected`` command's module is imported (all of them for --help)."""
-    parser = _Parser(prog="valvelab", description="Hydraulic disc and reed check valve models.")
+    parser = _Parser(prog="valvelab", description="Hydraulic disc, reed and ball check valve models.")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for name, modname in COMMANDS.items():
         if selected is not None and name != selected:
