@@ -77,7 +77,9 @@ def _validation(d: dict) -> list[str]:
     forms = full["reed_model_form_errors"]
     return [f"| the main job, `valvelab validate` (`bench_validation.py`) | {full['wall_seconds']:.0f} s wall "
             f"({quick['wall_seconds']:.0f} s with `--quick`); ASME V&V 20: {full['pump_cases_within']} of "
-            f"{full['pump_cases']} pump cases with abs(E) <= U_val ({full['draws']} input draws); a model-form "
+            f"{full['pump_cases']} pump cases with abs(E) <= U_val ({full['draws']} input draws; worst "
+            + ", ".join(f"{v} E {w[1]:+.2f} % against U_val {w[2]:.2f} %" for v, w in full["worst"].items())
+            + f"); a model-form "
             f"error of the analytic reed against {len(forms)} FEA quantities beyond U_val (plate and solid "
             f"fidelities) |"]
 
