@@ -1,6 +1,6 @@
 """The candidate effects of CONTRACT.md for valvelab's pump model, and how a model resolves them.
 
-Each effect is one :meth:`LIBRARY.register <lumped.effects.Library.register>` call: its parameters (each bound to the declared
+Each effect is one ``LIBRARY.register`` call: its parameters (each bound to the declared
 component field it sets, with search bounds, a prior from ``lumped/data/effect_priors.toml``
 or computed for the model at hand, and a plausible range), the valve kinds it applies
 to, and its targets. Switching an effect on sets those fields on the target

@@ -7,7 +7,7 @@ from: a thesis equation, an FEA result, a correlation) and a plausibility range,
 plus a function ``apply(params, values, target) -> params`` that switches the effect
 on in the model's frozen parameter dataclasses (``dataclasses.replace``).
 
-Adding an effect is one new :meth:`Library.register` call with one new :class:`Effect`;
+Adding an effect is one new ``Library.register`` call with one new :class:`Effect`;
 the workflow, the synthetic-data generator and the report pick it up by name.
 The entries for the pump model of the thesis are in :mod:`lumped.effect_library`.
 """
