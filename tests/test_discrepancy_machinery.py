@@ -170,7 +170,7 @@ def test_confusion_tool_synthesises_and_fits_with_the_valves_asked_for(monkeypat
 
     seen = []
 
-    def fake_run_case(case, spec, valve, seed, simulate, library, settings):
+    def fake_run_case(case, spec, valve, seed, simulate, library, settings, **kw):
         seen.append((valve, simulate.model.label))
         return {"case": case, "seed": seed, "found": [], "expected": [], "correct": True}
 
