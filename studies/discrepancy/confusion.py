@@ -55,7 +55,10 @@ CASES = {
         "squeeze_film@delivery": [("squeeze_film", "delivery", _FILM)],
         "seat_compliance@delivery+piston_leakage": [("seat_compliance", "delivery", _SEAT),
                                                     ("piston_leakage", "pump", _LEAK)],
-        "seat_compliance@inlet+squeeze_film": [("seat_compliance", "inlet", _SEAT), ("squeeze_film", "both", _FILM)],
+        # a compliant seat beside a squeeze film on the other valve (a film on the seat's own valve makes the disc
+        # hover a micrometre above it for the whole cycle: the seat then changes nothing, docs/discrepancy.md)
+        "seat_compliance@inlet+squeeze_film@delivery": [("seat_compliance", "inlet", _SEAT),
+                                                        ("squeeze_film", "delivery", _FILM)],
         "entrained_air+piston_leakage": [("entrained_air", "pump", {"R": (0.008, 0.02)}),
                                          ("piston_leakage", "pump", _LEAK)],
         "none": [],
@@ -110,8 +113,8 @@ MISMATCH = {
         "entrained_air [air_isothermal]": ([("entrained_air", "pump", {"R": (0.008, 0.02)})], "air_isothermal"),
         "piston_leakage [leak_length]": ([("piston_leakage", "pump", {"clearance": (2.5e-5, 3.5e-5)})],
                                          "leak_length"),
-        "seat_compliance@inlet+squeeze_film [cd_error]": ([("seat_compliance", "inlet", _SEAT),
-                                                           ("squeeze_film", "both", _FILM)], "cd_error"),
+        "seat_compliance@inlet+squeeze_film@delivery [cd_error]": ([("seat_compliance", "inlet", _SEAT),
+                                                                    ("squeeze_film", "delivery", _FILM)], "cd_error"),
         "piston_leakage [sensor]": ([("piston_leakage", "pump", _LEAK)], "sensor"),
         "none [sensor]": ([], "sensor"),
         "none [cd_error]": ([], "cd_error"),

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from functools import lru_cache
 
 import numpy as np
 
@@ -49,10 +50,12 @@ class CycleTrace(Trace):
 #: default tolerance of the cylinder-pressure gap (GapScales.pressure_pa), from the leak/Cd study
 #: of docs/discrepancy.md ("Small leaks")
 PRESSURE_TOLERANCE_PA = 2.5e3
-#: the timing tolerance of the pressure's steep flanks [crank deg]: where a squeeze film lets go the
-#: delivery-opening spike (up to 5.9 MPa) moves by 0.5-1 deg between implementations or tolerances, and
-#: its few samples would outweigh every other residual by 10,000 units (docs/discrepancy.md, "The cost")
-PRESSURE_TIMING_DEG = 0.5
+#: the robust scale of the cylinder-pressure residual [noise deviations]: where a squeeze film lets go the
+#: delivery-opening spike (up to 5.9 MPa) moves by 0.5-1 deg between implementations or tolerances, and its
+#: few samples (residuals of 20-170 noise deviations) outweighed every other residual by 10,000 units; a
+#: Cauchy loss at 5 deviations keeps a residual of one deviation (a leak's pressure deficit) at 98 % of its
+#: square and takes a 100-deviation one to 1.5 % (docs/discrepancy.md, "The cost")
+PRESSURE_ROBUST = 5.0
 
 
 @dataclass(frozen=True)
@@ -68,9 +71,9 @@ class GapScales:
     delivery_frac: float = 5.0e-3
     #: cylinder-pressure RMS above the transducer noise [Pa] that weighs as one unit
     pressure_pa: float = PRESSURE_TOLERANCE_PA
-    #: timing tolerance of the cylinder pressure's steep flanks [crank deg]: a pressure sample on a slope dp/dtheta
-    #: weighs 1 / sqrt(1 + (dp/dtheta timing_deg / pressure_pa)^2) (:func:`pressure_weights`)
-    timing_deg: float = PRESSURE_TIMING_DEG
+    #: the cylinder-pressure residual's robust scale, in noise deviations: a sample weighs c^2 ln(1 + (z / c)^2)
+    #: noise variances instead of z^2 (:func:`robust_pressure`); 0 for plain least squares
+    pressure_robust: float = PRESSURE_ROBUST
 
 
 @dataclass(frozen=True)
@@ -98,7 +101,6 @@ class Folded:
     pressure_crank_deg: np.ndarray | None = None   # crank angles of the cylinder-pressure samples [deg]
     pressure_pa: np.ndarray | None = None          # measured cylinder pressure [Pa], absolute
     pressure_noise_pa: float = 0.0                 # its white-noise standard deviation [Pa]
-    pressure_slope: np.ndarray | None = None       # |dp/dtheta| of the measured trace above its noise [Pa/deg]
 
 
 def noise_std(x: np.ndarray) -> float:
@@ -127,23 +129,8 @@ def fold(run: Run) -> Folded:
     if tr.cylinder_pressure_pa is None:
         return Folded(crank, pos, noise)
     pc = np.asarray(tr.cylinder_pressure_pa, float)
-    return Folded(crank, pos, noise, th[order], pc[order], noise_std(pc), measured_slope(th[order], pc[order]))
+    return Folded(crank, pos, noise, th[order], pc[order], noise_std(pc))
 
-
-def measured_slope(theta: np.ndarray, p: np.ndarray, width_deg: float = 1.0) -> np.ndarray:
-    """|dp/dtheta| of a measured periodic trace [units/deg] over a ``width_deg`` moving average, less three
-    times what its noise alone gives (a robust scale of the slope over the revolution), floored at 0: the
-    steep flanks of the measurement, not its noise."""
-    n = p.size
-    if n < 8:
-        return np.zeros(n)
-    spacing = 360.0 / n
-    k = max(1, int(round(width_deg / spacing)))
-    sm = _smooth(theta, p, width_deg) if k > 1 else p
-    ext = np.concatenate([sm[-k:], sm, sm[:k]])
-    g = np.abs(ext[2 * k:] - ext[:-2 * k]) / (2 * k * spacing)
-    noise = 1.4826 * np.median(np.abs(g - np.median(g)))
-    return np.maximum(g - 3.0 * noise, 0.0)
 
 
 def _periodic_table(crank: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -347,11 +334,10 @@ class ValveGap:
 class PressureGap:
     """Gap of the cylinder pressure in one run (measured - modelled, absolute pressures)."""
 
-    rms_pa: float                       # of the weighted residual (pressure_weights)
-    noise_pa: float                     # the transducer noise under the same weights
+    rms_pa: float                       # of the residuals under the robust loss (robust_pressure)
+    noise_pa: float                     # the transducer noise under the same loss
     residual_pa: np.ndarray             # at the measured crank angles
     crank_deg: np.ndarray
-    weight: np.ndarray | None = None    # pressure_weights (None: 1)
 
     @property
     def excess_rms_pa(self) -> float:
@@ -437,39 +423,34 @@ def pressure_residual(folded: Folded, sim: CycleTrace) -> np.ndarray | None:
     return folded.pressure_pa - periodic_interp(folded.pressure_crank_deg, sim.crank_deg, sim.cylinder_pressure_pa)
 
 
-def pressure_weights(folded: Folded, sim: CycleTrace, scales: "GapScales") -> np.ndarray | None:
-    """Weights of the pressure residuals [-], 1 / sqrt(1 + (g timing_deg / pressure_pa)^2) normalised to a mean
-    square of 1 (so the noise weighs the same for every model): g [Pa/deg] is the steeper of the model's slope
-    and the measurement's (:func:`measured_slope`) at each sample. Errors in variables: a timing uncertainty of
-    timing_deg crank degrees on a slope g reads as a pressure uncertainty g timing_deg, so the flanks of a
-    delivery-opening spike (~1 MPa/deg) that two models place 0.5-1 deg apart weigh ~1/200 of a flat stretch,
-    while a spike one of them lacks still counts in full at its top (the other is flat there)."""
-    if folded.pressure_pa is None or sim.cylinder_pressure_pa is None or scales.timing_deg <= 0.0:
-        return None
-    c, p = _periodic_table(np.asarray(sim.crank_deg, float), np.asarray(sim.cylinder_pressure_pa, float))
-    g = np.abs(np.diff(p) / np.maximum(np.diff(c), 1e-12))
-    g = np.maximum(np.concatenate([[g[0]], g]), np.concatenate([g, [g[-1]]]))        # per knot: its steeper side
-    th = np.mod(folded.pressure_crank_deg, 360.0)
-    at = np.interp(th, c, g)
-    # a flank narrower than the sample spacing: the steepest knot between a sample and the next
-    idx = np.searchsorted(c, th)
-    at = np.maximum(at, g[np.clip(idx, 0, g.size - 1)])
-    if folded.pressure_slope is not None:
-        at = np.maximum(at, folded.pressure_slope)
-    w = 1.0 / np.sqrt(1.0 + (at * scales.timing_deg / scales.pressure_pa) ** 2)
-    return w / np.sqrt(np.mean(w * w))
+def robust_pressure(r: np.ndarray, noise_pa: float, c: float) -> tuple[np.ndarray, float]:
+    """(transformed residuals [Pa], their noise level [Pa]): the Cauchy (Lorentzian) loss of residuals z = r / noise,
+    c^2 ln(1 + (z / c)^2) noise variances per sample, as residuals of that square with r's sign, and the square
+    root of its mean for pure noise, E[c^2 ln(1 + Z^2 / c^2)] noise variances (Z standard normal; 0.947 at c =
+    5, by quadrature). ``c`` <= 0 or no noise: ``r`` and ``noise_pa`` unchanged."""
+    if c <= 0.0 or noise_pa <= 0.0:
+        return r, noise_pa
+    z = r / noise_pa
+    t = np.sign(r) * noise_pa * c * np.sqrt(np.log1p((z / c) ** 2))
+    return t, noise_pa * math.sqrt(_cauchy_noise(c))
+
+
+@lru_cache(maxsize=8)
+def _cauchy_noise(c: float) -> float:
+    """E[c^2 ln(1 + Z^2 / c^2)] for Z standard normal (Gauss-Hermite quadrature, 80 nodes)."""
+    x, w = np.polynomial.hermite_e.hermegauss(80)
+    return float(np.sum(w * c * c * np.log1p((x / c) ** 2)) / math.sqrt(2.0 * math.pi))
 
 
 def pressure_gap(folded: Folded, sim: CycleTrace, scales: "GapScales | None" = None) -> PressureGap | None:
     """The cylinder-pressure gap of one run (None where the run or the model has no pressure trace): the RMS and
-    the noise of the residuals weighted by :func:`pressure_weights` (``scales`` None: unweighted)."""
+    the noise of the residuals under the robust loss of ``scales`` (:func:`robust_pressure`; None: plain)."""
     r = pressure_residual(folded, sim)
     if r is None:
         return None
-    w = pressure_weights(folded, sim, scales) if scales is not None else None
-    if w is None:
-        return PressureGap(float(np.sqrt(np.mean(r**2))), folded.pressure_noise_pa, r, folded.pressure_crank_deg)
-    return PressureGap(float(np.sqrt(np.mean((w * r) ** 2))), folded.pressure_noise_pa, r, folded.pressure_crank_deg, w)
+    t, noise = (r, folded.pressure_noise_pa) if scales is None else \
+        robust_pressure(r, folded.pressure_noise_pa, scales.pressure_robust)
+    return PressureGap(float(np.sqrt(np.mean(t**2))), noise, r, folded.pressure_crank_deg)
 
 
 def pressure_windows(gap: RunGap, scales: GapScales) -> list[tuple]:
