@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 import time
 
@@ -210,7 +211,9 @@ def run_case(case: str, spec, valve: str, seed: int, simulate, library, settings
         form = maker.truth_form()
     t0 = time.time()
     runs, truth_doc = synthesize(maker, valve, conds, truth, noise, seed=seed, workers=settings.workers)
+    cpu0 = cpu_seconds()
     outcome = Workflow(runs, simulate, library, settings, progress=False, context=context).run()
+    cpu = cpu_seconds() - cpu0
     out = outcome.as_contract()
     found = sorted(out["effects_added"])
     want = expected_names(truth, library)
@@ -240,6 +243,7 @@ def run_case(case: str, spec, valve: str, seed: int, simulate, library, settings
         "held_out_cost_reduction_pct": None if not c0 or c1 is None else 100.0 * (1.0 - c1 / c0),
         "gap_before": out["gap_before"], "gap_after": out["gap_after"],
         "simulations": out["simulations"], "wall_seconds": time.time() - t0, "workflow_seconds": out["wall_seconds"],
+        "workflow_cpu_seconds": cpu, "load_average": os.getloadavg()[0],
         "accepted": [{k: row[k] for k in ("round", "effect", "target", "held_out_cost", "held_out_improvement_pct",
                                           "fit_improvement_pct", "delta_bic", "why_not_added")}
                      for row in out["ranking"] if row["accepted"] or row["rank"] == 1],
@@ -257,6 +261,14 @@ def effective(effect: str, param: str, value: float, form: dict | None, simulate
     if form and form.get("variant") == "leak_length" and (effect, param) == ("piston_leakage", "clearance"):
         return value * (simulate.model.pump.seal_length / form["L"]) ** (1.0 / 3.0)
     return value
+
+
+def cpu_seconds() -> float:
+    """CPU seconds of this process and its finished children (the workflow's worker pool ends with it)."""
+    import resource
+
+    a, b = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return a.ru_utime + a.ru_stime + b.ru_utime + b.ru_stime
 
 
 def matrix(results: list[dict]) -> dict:
@@ -288,6 +300,7 @@ def summarise(results: list[dict], label: str) -> dict:
     silent = [r for r in results if not r.get("found") and r.get("unexplained", {}).get("large")
               and not r["unexplained"].get("sentences")]
     secs = [r["workflow_seconds"] for r in results if r.get("workflow_seconds") is not None]
+    cpus = [r["workflow_cpu_seconds"] for r in results if r.get("workflow_cpu_seconds") is not None]
     return {
         "label": label, "runs": len(results), "correct": len(ok),
         "accuracy": len(ok) / len(results) if results else None,
@@ -299,7 +312,47 @@ def summarise(results: list[dict], label: str) -> dict:
         "silent_on_large_gap": len(silent),
         "median_workflow_seconds": float(np.median(secs)) if secs else None,
         "max_workflow_seconds": max(secs) if secs else None,
+        "median_workflow_cpu_seconds": float(np.median(cpus)) if cpus else None,
+        "max_workflow_cpu_seconds": max(cpus) if cpus else None,
+        "load_average": [min(r.get("load_average", 0.0) for r in results), max(r.get("load_average", 0.0) for r in results)]
+        if results else None,
     }
+
+
+def case_table(results: list[dict]) -> str:
+    """A markdown table per case: seeds named exactly (and on the right valve) out of run, what was named, the
+    largest parameter error, the held-out cost before -> after where named, and what nothing-named runs left."""
+    import collections
+
+    by: dict = collections.OrderedDict()
+    for r in results:
+        by.setdefault(r["case"], []).append(r)
+    lines = ["| hidden | right | named (seeds) | largest parameter error | held-out cost before -> after | gap left "
+             "where nothing is named |", "|---|---|---|---|---|---|"]
+
+    def label(r):
+        names = [n + ("" if r["targets"].get(n) in ("both", "pump", None) else f"@{r['targets'][n]}")
+                 for n in r.get("found", [])]
+        return "+".join(names) or "[]"
+
+    for case, rs in by.items():
+        ok = sum(1 for r in rs if r.get("correct"))
+        named = collections.Counter(label(r) for r in rs)
+        errs = [abs(e) for r in rs for e in r.get("relative_errors", {}).values()]
+        held = [r["held_out_cost"] for r in rs if r.get("found") and r.get("held_out_cost")
+                and None not in r["held_out_cost"]]
+        left = []
+        for r in rs:
+            if r.get("found"):
+                continue
+            u = r.get("unexplained") or {}
+            after = (u.get("cost") or {}).get("after")
+            left.append(("large, said: " if u.get("large") else "") + ("-" if after is None else f"{after:.3g} units"))
+        cells = [case, f"{ok}/{len(rs)}", ", ".join(f"{k} ({v})" for k, v in named.items()),
+                 f"{100 * max(errs):.1f} %" if errs else "-",
+                 "; ".join(f"{a:.3g} -> {b:.3g}" for a, b in held) or "-", "; ".join(left) or "-"]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
 
 
 def main(argv=None) -> int:
@@ -316,7 +369,24 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--no-nuisance", action="store_true",
                     help="fit no baseline nuisance (the discharge-coefficient factor)")
+    ap.add_argument("--tables", nargs="+", default=None, metavar="JSON",
+                    help="print the markdown tables of earlier runs' JSON (summary, matrix, per case) and stop")
     args = ap.parse_args(argv)
+    if args.tables:
+        for path in args.tables:
+            from pathlib import Path
+
+            d = json.loads(Path(path).read_text())
+            s = d["summary"]
+            print(f"**{s['label']}**: {s['correct']}/{s['runs']} named exactly and on the right valve; "
+                  f"{s['false_positives_clean']} false positives on {s['clean']} clean datasets; held-out cost "
+                  f"reduced by {s['min_held_out_cost_reduction_pct'] or float('nan'):.0f}-100 % where named "
+                  f"(median {s['median_held_out_cost_reduction_pct'] or float('nan'):.1f} %); workflow "
+                  f"{s['median_workflow_seconds'] or float('nan'):.1f} s median, "
+                  f"{s['max_workflow_seconds'] or float('nan'):.1f} s at most per dataset\n")
+            print(markdown(d["matrix"]) + "\n")
+            print(case_table(d["results"]) + "\n")
+        return 0
     if args.sensitivity:
         args.set = "sensitivity"
     if args.model is None:

@@ -11,7 +11,7 @@ How a revolution is computed (measured in docs/discrepancy.md, "Cost"):
 - **Warm starts.** A fit simulates the same run condition hundreds of times for neighbouring
   parameter values. The workflow passes the state at top dead centre of the nearest model already
   solved (:class:`studies.discrepancy.workflow.Simulations`); from a near neighbour's one revolution is the
-  cyclic steady state (from a 2 % neighbour: 0.02 um and 22 Pa RMS from a converged run); from another
+  cyclic steady state (from a neighbour 10 % away: within 0.2 um and 0.85 kPa RMS of a converged run); from another
   model's (the one it extends, the baseline) two and more, until the delivery and the state at TDC settle
   (REVOLUTIONS). Without one, from the baseline's cycle, not the pump at rest (a squeeze film started cold at
   900 rpm creeps on its seat for seconds).
@@ -69,8 +69,9 @@ MAX_REVOLUTIONS = 4
 STEADY_TOL = 1e-3
 TRUTH_STEADY_TOL = 1e-5
 TRUTH_MAX_REVOLUTIONS = 12
-#: revolutions from a near neighbour's state (Simulations: the same effects within a factor ~1.65): 0.02 um
-#: and 22 Pa RMS from the cyclic steady state
+#: revolutions from a near neighbour's state (Simulations: the same effects within a factor 1.1): within 0.2 um
+#: and 0.85 kPa RMS of the cyclic steady state (a leak, the slowest to settle; a film or a seat within 0.14 um and
+#: 0.3 kPa)
 WARM_REVOLUTIONS = 1
 #: evenly spaced trace samples per revolution, besides the integrator's steps and their midpoints
 TRACE_POINTS = 720
