@@ -11,9 +11,12 @@ applied on top of the hidden effects (``studies.discrepancy.confusion``, cases w
   the thesis's conditions (3 deg at 10 kPa, 12 deg at 30 kPa; at 100 kPa, an atmosphere, it never opens);
 - ``film_gap``: the residual film at seat contact is 0.3-0.6 um or 2-3 um thick, not the library's 1 um;
   the film's force grows as 1/h^3, so its release and the hover height differ;
-- ``jet_quasi_steady``: a flow force with the steady jet force only (no transient term, eq 2.37 left out),
-  a jet law the library's (eqs 2.36 and 2.37 with one jet angle and one oil column) cannot take;
-- ``jet_weak_steady``: the steady force at 40-70 % of eq 2.36 and the transient at 1.5-3 times eq 2.37;
+- ``jet_weak``: the steady force at 60-90 % of eq 2.36 (its momentum term rho q^2 / A_port too, which no jet
+  angle scales) and the transient at 50-80 % of eq 2.37 (its momentum term q u too, which no oil-column length
+  scales): a jet law the library's (eqs 2.36 and 2.37 with one jet angle and one oil column) takes only
+  approximately. (Without its transient term at all, the thesis disc's flow force leaves a gap within the
+  noise: held-out 0.9 units; stronger, at 1.5-3 times eq 2.37, it acts as an added mass of the oil column
+  beyond the plausible length and is named as one);
 - ``seat_underdamped``: a compliant seat damped at 10-40 % of critical; the library's seat is critically
   damped (eq 2.23), so the valve rings on it in the data;
 - ``air_isothermal``: the entrained air compressed isothermally (polytropic exponent 1.0, eq 4.9); the
@@ -63,12 +66,7 @@ def _film_gap(m, v):
     return _valves(m, squeeze_min_gap=v["h_r"])
 
 
-def _jet_quasi_steady(m, v):
-    return replace(m, **{p: replace(m.valve(p), flow_force_transient=0.0) for p in POSITIONS
-                         if getattr(m.valve(p), "flow_force_steady", 0.0) > 0.0})
-
-
-def _jet_weak_steady(m, v):
+def _jet_weak(m, v):
     return replace(m, **{p: replace(m.valve(p), flow_force_steady=v["steady"], flow_force_transient=v["transient"])
                          for p in POSITIONS if getattr(m.valve(p), "flow_force_steady", 0.0) > 0.0})
 
@@ -118,10 +116,8 @@ VARIANTS = {v.name: v for v in (
             _film_tension, {"sigma_t": (2e3, 1.5e4)}, kinds=("disc",)),
     Variant("film_gap", "the squeeze film's residual thickness at seat contact 0.3-0.6 um (the library's 1 um)",
             _film_gap, {"h_r": (3e-7, 6e-7)}, kinds=("disc",)),
-    Variant("jet_quasi_steady", "the flow force without its transient term (eq 2.37 left out)", _jet_quasi_steady, {},
-            kinds=("disc",)),
-    Variant("jet_weak_steady", "the steady flow force at 40-70 % of eq 2.36, the transient at 1.5-3 times eq 2.37",
-            _jet_weak_steady, {"steady": (0.4, 0.7), "transient": (1.5, 3.0)}, kinds=("disc",)),
+    Variant("jet_weak", "the steady flow force at 60-90 % of eq 2.36, the transient at 50-80 % of eq 2.37",
+            _jet_weak, {"steady": (0.6, 0.9), "transient": (0.5, 0.8)}, kinds=("disc",)),
     Variant("seat_underdamped", "a compliant seat damped at 10-40 % of critical (the library's: critical, eq 2.23)",
             _seat_underdamped, {"zeta": (0.1, 0.4)}, kinds=("disc", "ball")),
     Variant("air_isothermal", "the entrained air compressed isothermally (polytropic exponent 1.0, the model's 1.4)",

@@ -88,7 +88,7 @@ _SETTINGS_INTEGERS = {"n_grid": (2, 1000), "n_grid_dense": (2, 1000), "n_fine": 
 _SETTINGS_NUMBERS = {"min_rel_improvement": (0.0, 0.999, True), "min_abs_improvement": (0.0, 1e6, True),
                      "worse_fraction": (0.0, 1.0, False), "hopeless_units": (0.0, 1e6, False),
                      "placement_margin": (0.0, 1e6, False), "large_gap_units_per_run": (0.0, 1e6, True),
-                     "refine_fraction": (0.0, 1.0, False),
+                     "refine_fraction": (0.0, 1.0, False), "joint_fraction": (0.0, 1.0, False),
                      "decisive_fit_improvement": (0.0, 0.999, False), "decisive_abs_improvement": (0.0, 1e6, False),
                      "max_worse_units": (0.0, 1e6, False), "max_bic_increase": (-1e12, 1e12, False),
                      "brent_xatol": (0.0, 0.5, True), "nuisance_range": (0.0, 0.9, True),
@@ -135,7 +135,8 @@ class Settings:
                                        # better by this many units (Effect.placement)
     validation: bool = True            # the baseline's V&V 20 table per run (studies/discrepancy/validation.py)
     joint_search: bool = True          # a round that adds nothing while a large gap is left fits each candidate
-                                       # jointly with each added effect (Workflow._joint_candidate)
+                                       # jointly with each added effect (Workflow._joint_candidate), or pairs
+    joint_fraction: float = 0.1        # ... if more than this fraction of the baseline's gap is left
     large_gap_units_per_run: float = 2.0   # a gap left after the search above this many units per run, or
                                        # an output beyond its validation uncertainty in most runs, is
                                        # reported as large (Outcome.unexplained); clean and Cd +-3 % data
@@ -1241,7 +1242,8 @@ class Workflow:
             winner = next((f for f, ok in zip(order, verdicts) if ok), None)
             if winner is not None:
                 winner.accepted = True
-            if winner is None and st.joint_search and self._large(cur):
+            if winner is None and st.joint_search and self._large(cur) and \
+                    cur.fit_cost + (cur.held_cost or 0.0) > st.joint_fraction * (before.fit_cost + (before.held_cost or 0.0)):
                 # a large gap left: an effect may be masked by one added before it, fitted too strong in its
                 # absence (each candidate fitted with each added effect started from its prior), or two effects
                 # may explain it only together (pairs of the most promising candidates, one at its prior)
