@@ -136,7 +136,7 @@ class Settings:
     validation: bool = True            # the baseline's V&V 20 table per run (studies/discrepancy/validation.py)
     joint_search: bool = True          # a round that adds nothing while a large gap is left fits each candidate
                                        # jointly with each added effect (Workflow._joint_candidate), or pairs
-    joint_fraction: float = 0.1        # ... if more than this fraction of the baseline's gap is left
+    joint_fraction: float = 0.0        # ... if more than this fraction of the baseline's gap is left
     large_gap_units_per_run: float = 2.0   # a gap left after the search above this many units per run, or
                                        # an output beyond its validation uncertainty in most runs, is
                                        # reported as large (Outcome.unexplained); clean and Cd +-3 % data
@@ -1020,8 +1020,19 @@ class Workflow:
                 if stage_u is None:
                     i = int(np.argmin(costs))
                     if reject_above is not None and costs[i] >= reject_above:
-                        self.rejected = True          # hopeless: no grid point beats the base
-                        break
+                        # before calling it hopeless, the midpoints beside the best grid point: a leak's cost
+                        # goes with c^6 and its valley (a factor ~1.3 wide in c) fits between two grid points
+                        mids = np.unique([(grid[j] + grid[i]) / 2 for j in (i - 1, i + 1) if 0 <= j < grid.size])
+                        self.sims.many([(self.conds[r.name], model_of([u])) for u in mids for r in self.fit_runs])
+                        extra = [objective(model_of([u])) for u in mids]
+                        grid = np.concatenate([grid, mids])
+                        costs = list(costs) + extra
+                        order = np.argsort(grid)
+                        grid, costs = grid[order], [costs[k] for k in order]
+                        i = int(np.argmin(costs))
+                        if costs[i] >= reject_above:
+                            self.rejected = True          # hopeless: no grid point beats the base
+                            break
                     if coarse_only:
                         break
                     if relinearize([grid[i]]):
@@ -1260,19 +1271,22 @@ class Workflow:
                             f.seconds = time.perf_counter() - t1
                             joint.append(f)
                 if not any(a.name not in self.nuisance_effects for a in current):
+                    # W: the most promising by their coarse grids; the other: every candidate (a needle-prone one,
+                    # declared tight_tolerance, on a dense grid: the reed's added mass is hopeless on the coarse one)
                     best = sorted((f for f in fits if not f.failed and not f.rejected),
                                   key=lambda f: f.fit_cost)[:st.pair_top]
+                    others = [f for f in fits if not f.failed]
                     for w in best:
-                        for f0 in best:
+                        for f0 in others:
                             if f0 is w or f0.effect == w.effect:
                                 continue
                             eff, w_eff = self.library[f0.effect], self.library[w.effect]
                             t1 = time.perf_counter()
                             self.sims.stage = f"round {rnd}/{f0.effect}@{f0.target}+{w.effect}@{w.target}"
-                            f = self._pair_candidate(current, cur, w_eff, w.target, eff, f0.target, n_eff)
-                            if f is not None:
+                            fs = self._pair_candidate(current, cur, w_eff, w.target, eff, f0.target, n_eff)
+                            for f in fs:
                                 f.seconds = time.perf_counter() - t1
-                                joint.append(f)
+                            joint += fs
                 order = sorted(fits + joint, key=_rank_key)
                 verdicts = [self._significant(f) for f in order]
                 winner = next((f for f, ok in zip(order, verdicts) if ok), None)
@@ -1378,16 +1392,16 @@ class Workflow:
         candidates of the last round and the nuisances pinned to a bound."""
         st, sc = self.settings, self.settings.scales
         by_signal: dict = {}
-        for g in after.gaps:
+        for g in after.gaps:     # as RunGap.cost_parts: the mean square above the noise, by signal
             for v in g.valves:
                 by_signal[f"{v.valve} position"] = by_signal.get(f"{v.valve} position", 0.0) \
-                    + (v.excess_rms_m / sc.position_m) ** 2
+                    + (v.rms_m**2 - v.noise_m**2) / sc.position_m**2
             if g.delivery_error_pct is not None:
                 by_signal["delivery"] = by_signal.get("delivery", 0.0) \
                     + (g.delivery_error_pct / 100.0 / sc.delivery_frac) ** 2
             if g.pressure is not None:
                 by_signal["cylinder pressure"] = by_signal.get("cylinder pressure", 0.0) \
-                    + (g.pressure.excess_rms_pa / sc.pressure_pa) ** 2
+                    + (g.pressure.rms_pa**2 - g.pressure.noise_pa**2) / sc.pressure_pa**2
         total_after = after.fit_cost + (after.held_cost or 0.0)
         total_before = before.fit_cost + (before.held_cost or 0.0)
         limit = st.large_gap_units_per_run * len(self.runs)
@@ -1684,7 +1698,7 @@ class Workflow:
         return f
 
     def _pair_candidate(self, current: tuple, cur: Evaluation, w_eff: Effect, w_target: str, eff: Effect,
-                        target: str, n_eff: float) -> CandidateFit | None:
+                        target: str, n_eff: float) -> list[CandidateFit]:
         """Two effects not yet added, fitted together: W at its prior, the candidate's whole search on top of it
         (the Cd factor profiled), then W, the candidate and the nuisances polished jointly by least squares.
         For a gap two effects explain only together: the reed's added mass at 2-4 times its prior changes the
@@ -1699,11 +1713,11 @@ class Workflow:
             vals, cost, nuis, _ = self.fit(start, eff, target, start=eff.prior_values(vt, target), profile=True,
                                            dense=True)
         except (ArithmeticError, ValueError, RuntimeError) as exc:
-            return CandidateFit(eff.name, target, eff.prior_values(vt, target), {}, math.inf, None, math.inf,
-                                "fit failed", self.sims.count - n0, cur.fit_cost, cur.held_cost,
-                                failed=f"{type(exc).__name__}: {exc}", joint_with=w.key)
+            return [CandidateFit(eff.name, target, eff.prior_values(vt, target), {}, math.inf, None, math.inf,
+                                 "fit failed", self.sims.count - n0, cur.fit_cost, cur.held_cost,
+                                 failed=f"{type(exc).__name__}: {exc}", joint_with=w.key)]
         if not math.isfinite(cost):
-            return None
+            return []
         model = start + (Applied.of(eff.name, target, vals),)
         if self.nuisance_effects:
             model = self._profiled_model(self._at_origin(start) + model[-1:], self.last_jacobian)
@@ -1713,6 +1727,7 @@ class Workflow:
         f = self._judge(current, cur, eff, target, model, cost, nuis, base_fit, n0, n_eff, stage, refit=False,
                         extra_k=len(w_eff.parameters_for(vt, w_target)), pair=True)
         f.joint_with = w.key
+        out = [f]
         if f.held_cost is not None or f.failed is None:
             # each of the two must earn its place: the pair against each of them alone (the others as fitted)
             i_w = len(model) - 2
@@ -1728,9 +1743,20 @@ class Workflow:
                 if gain < self.settings.min_rel_improvement * base or gain < self.min_gain_units:
                     f.pair_why = (f"{who} adds too little to the other: the gap shrinks by {gain:.3g} units "
                                   f"({100 * gain / base if base else 0:.0f} %) with it")
+                    if drop == i_w:
+                        # W adds nothing: the candidate as fitted beside it is a candidate of its own (a start
+                        # from W's prior may have led its search to a valley its own search missed: the reed's
+                        # added mass, whose cost is low only within 3 % of the truth)
+                        self.sims.stage = f"{stage}/alone"
+                        m1 = model[:i_w] + model[i_w + 1:]
+                        c1, n1 = self.fit_objective(m1)
+                        g = self._judge(current, cur, eff, target, m1, c1, n1, base_fit, self.sims.count, n_eff,
+                                        stage, refit=False)
+                        g.joint_with = f"{w.key} (started beside it, alone)"
+                        out.append(g)
                     break
         self.sims.stage = stage
-        return f
+        return out
 
     def _significant(self, f: CandidateFit) -> bool:
         """Whether a candidate is added (see :meth:`verdict`)."""
