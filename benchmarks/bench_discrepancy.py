@@ -6,6 +6,7 @@ Run on demand from the repository root::
     python benchmarks/bench_discrepancy.py [--workers 2] [--seeds 1] [--valves disc,reed] [--set library]
                                            [--no-scaling] [--save] [--figure PATH]
     python benchmarks/bench_discrepancy.py --from disc.json reed.json      # the times a confusion run recorded
+    python benchmarks/bench_discrepancy.py --quick                          # two cases per valve: a look
 
 prints one JSON object: per dataset (case, seed) the workflow's wall seconds, simulations and what it named;
 the median and the largest against the targets (10 s median, 45 s at most, 2 cores); the load average before
@@ -53,7 +54,12 @@ def _stats(rows: list[dict]) -> dict:
             "median_within_target": med <= TARGET_MEDIAN_S, "max_within_target": mx <= TARGET_MAX_S}
 
 
-def confusion_datasets(valves, seeds: int, set_: str, workers: int, progress: bool = True) -> list[dict]:
+#: --quick: these cases only, and the scaling study on 4 and 6 runs
+QUICK_CASES = ("none", "piston_leakage")
+
+
+def confusion_datasets(valves, seeds: int, set_: str, workers: int, progress: bool = True,
+                       cases=None) -> list[dict]:
     """The workflow on each dataset of the confusion study (studies.discrepancy.confusion): its wall time."""
     from studies.discrepancy import confusion
     from studies.discrepancy.model_choice import choose
@@ -65,6 +71,8 @@ def confusion_datasets(valves, seeds: int, set_: str, workers: int, progress: bo
         pool = {"library": confusion.CASES[valve], "mismatch": confusion.MISMATCH[valve],
                 "all": {**confusion.CASES[valve], **confusion.MISMATCH[valve]}}[set_]
         for case, spec in pool.items():
+            if cases is not None and case not in cases:
+                continue
             for seed in range(1, seeds + 1):
                 r = confusion.run_case(case, spec, valve, seed, sim.simulate, sim.library, Settings(workers=workers),
                                        context=sim.context)
@@ -91,7 +99,7 @@ def from_confusion(paths) -> list[dict]:
     return rows
 
 
-def scaling(workers: int, figure: Path | None, progress: bool = True) -> list[dict]:
+def scaling(workers: int, figure: Path | None, progress: bool = True, largest: int | None = None) -> list[dict]:
     """Wall seconds and simulations of the O-ring story on 4-12 runs; a figure of both vs runs."""
     from lumped.effects import Applied
     from studies.discrepancy.model_choice import choose
@@ -101,7 +109,7 @@ def scaling(workers: int, figure: Path | None, progress: bool = True) -> list[di
     sim = choose(model="thesis-disc")
     truth = (Applied.of("seat_compliance", "delivery", {"k_seat": 1.5e6}),)
     out = []
-    for n in range(2, len(SCALING_CONDITIONS) + 1):
+    for n in range(2, (largest or len(SCALING_CONDITIONS)) + 1):
         conds = [Condition(s, p, v, 0.013) for s, p in SCALING_CONDITIONS[:n] for v in ("inlet", "delivery")]
         runs, _ = synthesize(sim.simulate, "disc", conds, truth, Noise(), seed=0, workers=workers)
         t0 = time.perf_counter()
@@ -150,7 +158,11 @@ def main() -> int:
     ap.add_argument("--from", dest="from_", nargs="+", default=None, metavar="JSON",
                     help="take the per-dataset times from confusion runs' JSON instead of running them")
     ap.add_argument("--no-scaling", action="store_true")
-    ap.add_argument("--figure", default=str(HERE / "discrepancy_cost_vs_runs.png"))
+    ap.add_argument("--quick", action="store_true",
+                    help=f"only the cases {', '.join(QUICK_CASES)}, seed 1, and the scaling on 4 and 6 runs (a look, "
+                         "not the targets)")
+    ap.add_argument("--figure", default=None,
+                    help="the scaling figure (default benchmarks/discrepancy_cost_vs_runs.png; none with --quick)")
     ap.add_argument("--save", action="store_true")
     args = ap.parse_args()
 
@@ -159,20 +171,23 @@ def main() -> int:
     load0 = os.getloadavg()
     compile_s = ensure_compiled()
     t0 = time.perf_counter()
-    rows = from_confusion(args.from_) if args.from_ else confusion_datasets(args.valves.split(","), args.seeds,
-                                                                            args.set, args.workers)
-    scale = [] if args.no_scaling else scaling(args.workers, Path(args.figure))
+    rows = from_confusion(args.from_) if args.from_ else confusion_datasets(
+        args.valves.split(","), 1 if args.quick else args.seeds, args.set, args.workers,
+        cases=QUICK_CASES if args.quick else None)
+    figure = Path(args.figure) if args.figure else (None if args.quick else HERE / "discrepancy_cost_vs_runs.png")
+    scale = [] if args.no_scaling else scaling(args.workers, figure, largest=3 if args.quick else None)
     out = {
         "benchmark": "discrepancy workflow per six-run dataset of the confusion study (studies.discrepancy.confusion)",
-        "source": "confusion JSON: " + ", ".join(args.from_) if args.from_ else
-                  f"run here: {args.valves}, {args.set} cases, seeds 1-{args.seeds}",
+        "source": ("confusion JSON: " + ", ".join(args.from_)) if args.from_ else
+                  (f"run here: {args.valves}, " + (f"cases {', '.join(QUICK_CASES)}, seed 1 (--quick)" if args.quick
+                                                   else f"{args.set} cases, seeds 1-{args.seeds}")),
         "workers": args.workers, "cpus": os.cpu_count(), "machine": platform.machine(),
         "compile_or_cache_seconds": compile_s, "load_average_before": load0, "load_average_after": os.getloadavg(),
         "seconds_in_all": time.perf_counter() - t0,
         "summary": _stats(rows),
         "by_valve": {v: _stats([r for r in rows if r["valve"] == v]) for v in sorted({r["valve"] for r in rows})},
         "datasets": rows,
-        "scaling": scale, "figure": None if args.no_scaling else _shown(Path(args.figure)),
+        "scaling": scale, "figure": None if (args.no_scaling or figure is None) else _shown(figure),
     }
     text = json.dumps(out, indent=1, default=float)
     print(text)

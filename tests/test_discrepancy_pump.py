@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from lumped.effects import Applied
-from studies.discrepancy.confusion import CASES, case_truth, run_case
+from studies.discrepancy.confusion import CASES, MISMATCH, case_truth, run_case
 from studies.discrepancy.workflow import RunCondition, Settings
 from studies.discrepancy.pump_sim import LIBRARY, for_valve_type, model_for, simulate
 
@@ -28,9 +28,13 @@ SETTINGS = Settings(workers=2)
 
 
 def check_found(r: dict):
-    assert r["found"] == r["expected"], r
+    assert r["correct"] and r["found"] == r["expected"], r
     for name, err in r["relative_errors"].items():
+        if name == "flow_force.theta_jet":
+            continue       # the data pin down the force, not the jet angle (docs/discrepancy.md): an effective angle
         assert abs(err) <= 0.2, (name, err, r["parameters"])
+    if not r["found"] and r["unexplained"]["large"]:
+        assert r["unexplained"]["sentences"], r                  # never silent on a large gap
     for a in r["truth"]:
         # a discharge coefficient off in the data is recovered as the baseline nuisance, not named
         if a["name"] == "discharge_scale":
@@ -121,8 +125,9 @@ def test_compliant_seat_sinks_by_the_pressure_force_over_k():
 @pytest.mark.slow  # the same story runs in the default suite as docs/examples/ex05_oring_story.py
 def test_thesis_oring_story():
     """Section 5.4.5: the delivery valve's O-ring compliance, found from the traces (k_seat 1.5e6 N/m)."""
+    sim = for_valve_type("disc")
     r = run_case("oring", [("seat_compliance", "delivery", {"k_seat": (1.5e6, 1.5e6)})], "disc", 0,
-                 simulate, LIBRARY, SETTINGS)
+                 sim, LIBRARY, SETTINGS, context=sim.model)
     check_found(r)
     assert r["targets"] == {"seat_compliance": "delivery"}
     assert r["gap_after"]["position_rms_m"] < 0.3 * r["gap_before"]["position_rms_m"]
@@ -132,7 +137,8 @@ def test_thesis_oring_story():
 @pytest.mark.parametrize("valve,case", [("disc", "none"), ("disc", "cd-3%"), ("reed", "piston_leakage"),
                                        ("reed", "fluid_damping (strong)")])
 def test_representative_cases(valve, case):
-    check_found(run_case(case, CASES[valve][case], valve, 1, simulate, LIBRARY, SETTINGS))
+    sim = for_valve_type(valve)
+    check_found(run_case(case, CASES[valve][case], valve, 1, sim, LIBRARY, SETTINGS, context=sim.model))
 
 
 def test_squeeze_film_model_is_smooth_in_its_coefficient():
@@ -159,10 +165,38 @@ def test_squeeze_film_model_is_smooth_in_its_coefficient():
 @pytest.mark.parametrize("case", list(CASES["disc"]))
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_hidden_effect_named_disc(case, seed):
-    check_found(run_case(case, CASES["disc"][case], "disc", seed, simulate, LIBRARY, SETTINGS))
+    sim = for_valve_type("disc")
+    check_found(run_case(case, CASES["disc"][case], "disc", seed, sim, LIBRARY, SETTINGS, context=sim.model))
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("case", list(CASES["reed"]))
 def test_hidden_effect_named_reed(case):
-    check_found(run_case(case, CASES["reed"][case], "reed", 1, simulate, LIBRARY, SETTINGS))
+    sim = for_valve_type("reed")
+    check_found(run_case(case, CASES["reed"][case], "reed", 1, sim, LIBRARY, SETTINGS, context=sim.model))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("valve,case", [("disc", c) for c in MISMATCH["disc"]] + [("reed", c) for c in MISMATCH["reed"]])
+def test_hidden_effect_named_in_data_of_another_model_form(valve, case):
+    """Data made with a model form the library lacks (studies/discrepancy/mismatch.py), seed 1: the hidden effect
+    named (nothing where nothing is hidden), its parameter within 20 % (a leak's effective clearance), the
+    held-out gap shrunk by 70 %, and what is left said when it is large."""
+    sim = for_valve_type(valve)
+    check_found(run_case(case, MISMATCH[valve][case], valve, 1, sim, LIBRARY, SETTINGS, context=sim.model))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model,case", [("disc_20mm_pump", c) for c in ("piston_leakage", "seat_compliance@inlet",
+                                                                        "squeeze_film", "none")]
+                         + [("reed_stiff_pump", c) for c in ("added_mass", "seat_compliance@delivery", "none")])
+def test_hidden_effect_named_on_another_pump(model, case):
+    """Two pumps that are not the thesis rigs, given as model files (docs/examples/): a 20 mm bore disc pump and
+    the reed pump with a 20 % thicker reed, at three conditions around their operating points."""
+    from pathlib import Path
+
+    from studies.discrepancy.model_choice import choose
+
+    sim = choose(model=str(Path(__file__).resolve().parents[1] / "docs" / "examples" / f"{model}.toml"))
+    kind = sim.context.label
+    check_found(run_case(case, CASES[kind][case], kind, 1, sim.simulate, sim.library, SETTINGS, context=sim.context))
