@@ -1,6 +1,7 @@
 """Cost of the modal reed in the pump: CPU per simulated second with N modes against one mode (eq 3.21).
 
-    python benchmarks/bench_reed_dynamics.py [--quick] [--repeat R] [--revolutions K] [--no-fe]
+    python benchmarks/bench_reed_dynamics.py [--quick] [--repeat R] [--revolutions K] [--no-fe] [--save]
+    python benchmarks/bench_reed_dynamics.py --markdown benchmarks/results_reed_dynamics.json
 
 Prints one JSON object. The thesis reed pump with the prototype reed (beam fidelity) at both
 valves, on the six cases of Table 5.6 (``--quick``: the first), five revolutions each: the fast
@@ -9,7 +10,8 @@ modal reed with 1, 2, 3 and 6 modes, run in turn (interleaved, so that a change 
 load hits every model alike), R times each (default 5), the minimum CPU time counted; and the
 whole FE reed on the reference stepper once per case (``--no-fe`` leaves it out). Per model:
 CPU ms per simulated second (median over the cases), steps per revolution, and the ratio to one
-mode. The issue's target: three modes at most twice the one-mode cost (``target_met``).
+mode. The target: three modes at most twice the one-mode cost (``target_met``). ``--save`` writes
+benchmarks/results_reed_dynamics.json; ``--markdown FILE`` prints a saved result as a Markdown table.
 """
 
 from __future__ import annotations
@@ -92,14 +94,38 @@ def run(quick: bool, repeat: int, revolutions: int, fe: bool) -> dict:
             "wall_seconds": round(time.perf_counter() - t0, 1)}
 
 
+def markdown(result: dict) -> str:
+    """A saved result as a Markdown table: per model the median CPU per simulated second, its ratio to one mode
+    (median and worst over the cases) and the median steps per revolution; the machine's load under it."""
+    lines = ["| model | CPU per simulated second [ms] (median) | ratio to one mode: median / worst | "
+             "steps per revolution (median) |", "|---|---|---|---|"]
+    for name, s in result["summary"].items():
+        steps = statistics.median(c["models"][name]["steps_per_revolution"] for c in result["cases"])
+        lines.append(f"| {name} | {s['median_cpu_ms_per_simulated_s']:.4g} | {s['median_ratio_to_one_mode']:.3g} / "
+                     f"{s['worst_ratio_to_one_mode']:.3g} | {steps:.0f} |")
+    lines += ["", f"{len(result['cases'])} cases of Table 5.6, {result['revolutions']} revolutions each from rest, "
+                  f"the least of {result['repeats']} runs; load average before/after "
+                  f"{result['load_average_before'][0]:.2f} / {result['load_average_after'][0]:.2f} on "
+                  f"{result['cpus']} CPUs; target ({result['target']}) met: {result['target_met']}."]
+    return "\n".join(lines)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="the first case of Table 5.6 only")
     ap.add_argument("--repeat", type=int, default=5, help="runs of each fast model per case (minimum counted)")
     ap.add_argument("--revolutions", type=int, default=5)
     ap.add_argument("--no-fe", action="store_true", help="leave out the whole FE reed (reference stepper)")
+    ap.add_argument("--save", action="store_true", help="write benchmarks/results_reed_dynamics.json")
+    ap.add_argument("--markdown", metavar="FILE", help="print a saved result (JSON) as a Markdown table and exit")
     a = ap.parse_args()
-    print(json.dumps(run(a.quick, a.repeat, a.revolutions, not a.no_fe), indent=2))
+    if a.markdown:
+        print(markdown(json.loads(Path(a.markdown).read_text())))
+        return
+    text = json.dumps(run(a.quick, a.repeat, a.revolutions, not a.no_fe), indent=2)
+    print(text)
+    if a.save:
+        (Path(__file__).resolve().parent / "results_reed_dynamics.json").write_text(text + "\n")
 
 
 if __name__ == "__main__":

@@ -32,9 +32,11 @@ def _pump(d: dict) -> list[str]:
 
 
 def _sweep(d: dict) -> list[str]:
+    steady = (f", {d['revolutions_mean']:.2f} revolutions per design until cyclic steady state"
+              if "revolutions_mean" in d else "")
     return [f"| sweep, {d['designs']} designs on {d['workers']} workers (`bench_sweep.py`) | "
-            f"{d['designs_per_hour']:,.0f} designs per hour ({d['wall_seconds']:.1f} s wall, cluster start included); "
-            f"{d.get('failed', 0)} failed |"]
+            f"{d['designs_per_hour']:,.0f} designs per hour ({d['wall_seconds']:.1f} s wall, cluster start included"
+            f"{steady}); {d.get('failed', 0)} failed |"]
 
 
 def _fea(d: dict) -> list[str]:
@@ -54,6 +56,16 @@ def _discrepancy(d: dict) -> list[str]:
             f"{s['median_cpu_seconds']:.1f} s CPU median, {s['median_simulations']:.0f} simulations{grow} |"]
 
 
+def _reed_dynamics(d: dict) -> list[str]:
+    s = d["summary"]
+    modal = ", ".join(f"{k.removeprefix('modal')} modes {v['median_ratio_to_one_mode']:.2f}x"
+                      for k, v in s.items() if k.startswith("modal") and k != "modal1")
+    return [f"| modal reed valve, fast path (`bench_reed_dynamics.py`) | CPU per simulated second against eq 3.21's "
+            f"one mode ({s['one-mode']['median_cpu_ms_per_simulated_s']:.1f} ms), median of the six Table 5.6 cases: "
+            f"{modal} (three modes worst {s['modal3']['worst_ratio_to_one_mode']:.2f}x; load average "
+            f"{d['load_average_before'][0]:.1f}) |"]
+
+
 def _generic(name: str, d: dict) -> list[str]:
     keys = [k for k in ("designs_per_hour", "wall_seconds", "seconds", "evaluations") if k in d]
     if not keys:
@@ -62,7 +74,8 @@ def _generic(name: str, d: dict) -> list[str]:
     return [f"| {name} (`bench_{name}.py`) | {text} |"]
 
 
-FORMATTERS = {"pump": _pump, "sweep": _sweep, "fea": _fea, "discrepancy": _discrepancy}
+FORMATTERS = {"pump": _pump, "sweep": _sweep, "fea": _fea, "discrepancy": _discrepancy,
+              "reed_dynamics": _reed_dynamics}
 
 
 def render(folder: Path = HERE) -> str:

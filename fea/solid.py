@@ -72,6 +72,20 @@ class SolidResult(ModalResult):
     mass: sp.csr_matrix = None   # the (half) model's mass matrix [kg], full vector DOFs
 
 
+#: the static solution (mesh, basis, displacement per unit pressure, free DOFs) of the last solve, keyed by
+#: (reed, element size, layers, half model): a design check asks the solid for kappa and then for the
+#: stress at the stop, which is the same solution scaled (fea.reed_stress.max_opening_stress)
+_LAST_STATIC: dict = {}
+
+
+def last_static(reed: Reed, h: float, layers: int, half: bool):
+    """(mesh, basis, u per 1 Pa, free DOFs) of the last :func:`solve` of this very model, or None."""
+    try:
+        return _LAST_STATIC.get((reed, float(h), int(layers), bool(half)))
+    except TypeError:        # an unhashable reed
+        return None
+
+
 def _scalar_basis(mesh, intorder=INTORDER) -> Basis:
     return Basis(mesh, ElementHex2(), intorder=intorder)
 
@@ -278,6 +292,8 @@ def solve(reed: Reed, mesh_size: float | None = None, layers: int | None = None,
     w = P @ u
     phi = P @ modes[:, bending]
     tm["post"] = time.perf_counter() - t0
+    _LAST_STATIC.clear()
+    _LAST_STATIC[(reed, h, layers, half)] = (sm, basis, u, len(free))
     return SolidResult(
         omega=np.sqrt(np.abs(vals)), kinds=kinds, bending_index=bending, kappa=1.0 / w[-1],
         s=s, psi_static=w / w[-1], psi_mode=phi / phi[-1], dofs=len(free), mesh_size=h, labels=labels,

@@ -410,9 +410,10 @@ class Reed:
         """Material thickness [m] at the face point (s, y): h(s) minus any pocket depth."""
         return self.thickness_profile(s) - self.groove_depth(s, y)
 
-    def _pockets(self, s: float) -> list[tuple[float, float, float]]:
-        """Pockets across the section at s as (y0, y1, depth), clipped to the outline, merged."""
-        half = float(self.width(s)) / 2
+    def _pockets(self, s: float, width: float | None = None) -> list[tuple[float, float, float]]:
+        """Pockets across the section at s as (y0, y1, depth), clipped to the outline (``width`` [m]: W(s), if
+        known), merged."""
+        half = float(self.width(s) if width is None else width) / 2
         by_depth: dict[float, list[tuple[float, float]]] = {}
         for g in self.grooves:
             for a, b in g.intervals(s):
@@ -443,11 +444,12 @@ class Reed:
         A = np.empty_like(s_arr)
         I = np.empty_like(s_arr)
         hs = np.atleast_1d(self.thickness_profile(s_arr))
+        Ws = np.atleast_1d(self.width(s_arr))       # vectorised: the same values as one s at a time
         for k, sk in enumerate(s_arr):
             h = float(hs[k])
-            W = float(self.width(sk))
+            W = float(Ws[k])
             parts = [(W * h, h / 2, W * h**3 / 12)]  # (area, centroid z, own I)
-            for y0, y1, d in self._pockets(sk):
+            for y0, y1, d in (self._pockets(sk, W) if self.grooves else ()):
                 w = y1 - y0
                 parts.append((-w * d, d / 2, -w * d**3 / 12))
             a = sum(p[0] for p in parts)

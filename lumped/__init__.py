@@ -5,7 +5,9 @@ The public face (see README.md, "Python"):
 - models: :func:`load_model` (a shipped name or a model file), :class:`PumpModel`,
   :func:`with_values` (change keys by path), :func:`to_toml`, :data:`SHIPPED`;
 - simulation: :func:`simulate` -> :class:`PumpResult` (``.to_dict()``, ``.to_frame()``, ``.plot()``),
-  its :class:`Trace` (``.fold()``, ``.to_frame()``, ``.plot()``);
+  its :class:`Trace` (``.fold()``, ``.to_frame()``, ``.plot()``); when to stop, :class:`StopRule`
+  (``StopRule.steady(tol)``: until cyclic steady state); where to start, :class:`TdcState`
+  (``PumpResult.tdc_state``, a warm start) and the pool :class:`WarmStarts` of a study;
 - reeds: :func:`reed_properties` (kappa, gamma1..3, h_eff of a reed by a registered fidelity);
 - valve kinds: :data:`KINDS` (disc, reed, ball), :class:`DiscValve`, :class:`ReedValve`, :class:`BallValve`;
   :func:`check_valve_kind` (a kind's conformance check);
@@ -27,8 +29,10 @@ from lumped.model import PumpModel
 from lumped.model_file import SHIPPED, load_model, to_toml, with_values
 from lumped.reed_fidelity import reed_properties
 from lumped.reed_valve import ReedValve
+from lumped.revolutions import StopRule, TdcState
 from lumped.trace import Trace
 from lumped.valve import KINDS
+from lumped.warmstart import WarmStarts, chain_order
 
 __all__ = ["BallValve", "DiscValve", "InvariantError", "KINDS", "LIBRARY", "PumpModel", "PumpResult", "ReedValve", "SHIPPED",
-           "Trace", "ValveResult", "check_valve_kind", "load_model", "reed_properties", "simulate", "to_toml", "with_values"]
+           "StopRule", "TdcState", "Trace", "ValveResult", "WarmStarts", "chain_order", "check_valve_kind", "load_model", "reed_properties", "simulate", "to_toml", "with_values"]

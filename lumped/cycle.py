@@ -22,11 +22,11 @@ from geometry.errors import InputError, ModelFailure
 from lumped import postprocess as post
 from lumped import validity
 from lumped import switching as sw
-from lumped.layout import CAVITATION_SLOT, N_MODE, POSITIONS
+from lumped.layout import CAVITATION_SLOT, N_MODE, POSITIONS, G
 from lumped.model import Operating, PumpModel
 from lumped.model_file import load_model
 from lumped.problem import PumpProblem
-from lumped.revolutions import StopRule, run
+from lumped.revolutions import StopRule, TdcState, run, tdc_state
 from lumped.steppers import DEFAULT_TOLERANCES, METHODS as STEPPERS, family
 from lumped.trace import Trace
 from lumped.valve import kind_of
@@ -93,6 +93,9 @@ class PumpResult:
     trace: Trace | None = field(default=None, compare=False)
     dynamics: dict = field(default_factory=dict)   # {position: {"kind": "modal", "modes": N} | {"kind": "fe", "dofs": n}}
     warnings: tuple = ()           # lumped.validity.ResultWarning: conditions of the model's equations the run left
+    start: str = "cold"            # "cold": today's start (valves seated, cylinder at the load pressure); "warm": a TdcState
+    steady_tol: float = math.nan   # the tolerance cycle_change was tested against (the stop rule's, floored at rtol)
+    tdc_state: object = field(default=None, compare=False, repr=False)   # lumped.revolutions.TdcState: the next start
 
     @property
     def valves(self) -> dict:
@@ -122,7 +125,8 @@ class PumpResult:
             "load_pressure_pa": self.load_pressure, "delivery_cc_per_rev": self.delivery_per_rev * 1e6,
             "revolutions": self.revolutions, "cpu_seconds": self.cpu_seconds,
             "mass_balance_error": self.mass_balance_error, "air_content": self.air_content, "circuit": self.circuit,
-            "cyclic_steady": self.cyclic_steady, "cycle_change": self.cycle_change,
+            "cyclic_steady": self.cyclic_steady, "cycle_change": self.cycle_change, "steady_tol": self.steady_tol,
+            "start": self.start,
             "deliveries_cc": [d * 1e6 for d in self.deliveries],
             "volumetric_efficiency": self.volumetric_efficiency,
             "cpu_seconds_per_simulated_second": self.cpu_per_simulated_second,
@@ -226,7 +230,8 @@ def simulate(model="thesis-disc", speed_rpm: float | None = None, load_pressure:
              circuit: str | None = None, rtol: float | None = None, atol: float | None = None,
              trace: bool = False, progress: bool = False, steady_tol: float = 1e-4, trace_revolutions: int = 1,
              trace_points: int = 2000, contact_atol: float | None = None, air_content: float | None = None,
-             needle_area: float | None = None, check: bool = True, max_steps: int | None = None) -> PumpResult:
+             needle_area: float | None = None, check: bool = True, max_steps: int | None = None,
+             stop: StopRule | None = None, initial_state: TdcState | None = None) -> PumpResult:
     """Simulate the pump of ``model`` at ``speed_rpm`` [rpm] and ``load_pressure`` [Pa, absolute].
 
     Parameters
@@ -243,6 +248,15 @@ def simulate(model="thesis-disc", speed_rpm: float | None = None, load_pressure:
         Revolutions from TDC; with ``max_revolutions``, continue until cyclic steady state
         (relative change of delivery and TDC state below ``steady_tol``, or the
         integrator's rtol if larger) or that many.
+    stop : StopRule
+        Instead of ``revolutions``, ``max_revolutions`` and ``steady_tol``:
+        ``StopRule.steady(tol)`` runs until the steady-state test passes (two revolutions at
+        least), as the studies do.
+    initial_state : TdcState
+        Start from this state at TDC (``PumpResult.tdc_state`` of a solved run, of this pump
+        or of a close design of the same layout and valve kinds; a warm start) instead of
+        today's start (valves seated, the cylinder full at the load pressure). A state of
+        another layout is not used (``PumpResult.start`` says which start was taken).
     rtol, atol : float
         Integrator tolerances, atol in units of each state's scale (stop gap, 1 m/s, mass per
         revolution); None: DEFAULT_TOLERANCES of the method.
@@ -284,6 +298,13 @@ def simulate(model="thesis-disc", speed_rpm: float | None = None, load_pressure:
         raise InputError("speed_rpm", f"missing: the model {m.name!r} has no [operating] speed_rpm")
     if load_pressure is None:
         raise InputError("load_pressure", f"missing: the model {m.name!r} has no [operating] load_pressure")
+    if stop is not None:
+        if not isinstance(stop, StopRule):
+            raise InputError("stop", f"expected a lumped.revolutions.StopRule, got {type(stop).__name__}")
+        revolutions, max_revolutions, steady_tol = stop.revolutions, stop.max_revolutions, stop.tol
+    if initial_state is not None and not isinstance(initial_state, TdcState):
+        raise InputError("initial_state", f"expected a lumped.revolutions.TdcState (PumpResult.tdc_state), "
+                                          f"got {type(initial_state).__name__}")
     speed, load, revs = _check(speed_rpm, load_pressure, revolutions, max_revolutions, circuit, method,
                                trace_revolutions, trace_points, steady_tol, contact_atol)
     if load < m.pump.tank_pressure:      # absolute pressures: the pump would be fed from above its outlet
@@ -297,31 +318,42 @@ def simulate(model="thesis-disc", speed_rpm: float | None = None, load_pressure:
         check_field(m.circuit, "needle_area", needle_area, "needle_area")
     if max_steps is not None:
         _int("max_steps", max_steps, 10, 100_000_000)
-    if kind == "fast":
-        ensure_compiled()                 # compiling (or loading numba's cache) is never counted
-    cpu0 = _time.process_time()
-    for pos in POSITIONS:
+    for pos in POSITIONS:                 # before compiling: bad input costs nothing
         if kind == "fast" and getattr(m.valve(pos), "dynamics", None) == "fe":
             raise InputError(f"valves.{pos}.dynamics", "the whole FE reed runs on the reference stepper only: "
                              "give method='reference' (--method reference), or dynamics = \"modal\" for the fast one")
+    if kind == "fast":
+        ensure_compiled()                 # compiling (or loading numba's cache) is never counted
+    cpu0 = _time.process_time()
     problem = PumpProblem.build(m, speed, load, circuit, needle_area)
     stepper = STEPPERS[method](problem, rtol, atol, contact_atol=contact_atol, record=True, max_steps=max_steps)
     physics = _physics(kind + ("1" if kind == "fast" and problem.layout.one_dof else ""))
-    y = problem.initial_state(physics.load_mass)
-    mode = np.zeros(N_MODE)
-    sw.initial_mode(0.0, y, problem.p, mode)
+    warm = initial_state is not None and initial_state.fits(problem)
+    if warm:
+        y, mode = initial_state.start(problem, physics.load_mass)
+        if problem.tune_needle and initial_state.needle_cda:
+            problem.p[G.needle_cda] = initial_state.needle_cda   # the tuning starts from the solved design's
+        if hasattr(stepper, "restore"):
+            stepper.restore(initial_state.memory)
+    else:
+        y = problem.initial_state(physics.load_mass)
+        mode = np.zeros(N_MODE)
+        sw.initial_mode(0.0, y, problem.p, mode)
     rule = StopRule(revs, max_revolutions, steady_tol)
     done = run(problem, stepper, y, mode, rule, physics, rtol=rtol, keep=trace_revolutions if trace else 0,
                progress=progress, label=f"{m.name} {speed:.0f} rpm ({kind})")
     cpu = _time.process_time() - cpu0
-    res = _result(m, problem, done, physics, method, rtol, atol, cpu, trace_points if trace else 0)
+    res = _result(m, problem, done, physics, method, rtol, atol, cpu, trace_points if trace else 0,
+                  start="warm" if warm else "cold", steady_tol=rule.tolerance(rtol),
+                  tdc=tdc_state(problem, done, physics.load_mass, stepper))
     if check:
         check_invariants(res, problem.model)
     return res
 
 
 def _result(m: PumpModel, problem: PumpProblem, done, physics, method: str, rtol: float, atol: float,
-            cpu: float, trace_points: int) -> "PumpResult":
+            cpu: float, trace_points: int, start: str = "cold", steady_tol: float = math.nan,
+            tdc=None) -> "PumpResult":
     """The :class:`PumpResult` of a finished run: the last revolution post-processed."""
     last = done.last
     span = last.span
@@ -357,7 +389,8 @@ def _result(m: PumpModel, problem: PumpProblem, done, physics, method: str, rtol
         min_cylinder_pressure=float(p_cyl.min()), max_cylinder_pressure=float(p_cyl.max()),
         cavitation_angle=cav, rhs_evaluations=int(done.n_rhs), steps=int(done.n_steps), events=int(done.n_events),
         method="fast" if method == "fast" else ("reference" if method == "reference" else method),
-        rtol=rtol, atol=atol, trace=tr, dynamics=_dynamics(resolved), warnings=tuple(warns))
+        rtol=rtol, atol=atol, trace=tr, dynamics=_dynamics(resolved), warnings=tuple(warns), start=start,
+        steady_tol=steady_tol, tdc_state=tdc)
 
 
 def _dynamics(model) -> dict:

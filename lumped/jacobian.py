@@ -32,7 +32,9 @@ from lumped.rhs import (
     cylinder_pressure, cylinder_volume_at, evaluate, leakage_mass_flow, load_pressure, load_side_density,
     needle_mass_flow, oil_density_slope, orifice_density,
 )
-from lumped.valve import VALVE, ValveInputs, mass_flow, valve_acceleration, valve_accelerations, valve_flow
+from lumped.valve import (
+    VALVE, ValveInputs, mass_flow, valve_acceleration, valve_accelerations, valve_accelerations_jacobian, valve_flow,
+)
 
 SQRT_EPS = 1.4901161193847656e-08
 
@@ -48,7 +50,7 @@ def _accel(x: float, u: float, dp: float, p_down: float, rho: float, ddp_dt: flo
 
 def _accels(y, x: float, u: float, dp: float, p_down: float, rho: float, ddp_dt: float, p, o: int, contact: int,
             regime: int, recompute: bool, flow, out) -> None:
-    """A several-DOF valve's accelerations at perturbed inputs (states y) into out."""
+    """A several-DOF valve's accelerations at perturbed inputs (states y) into out at its rates' slots."""
     qo, cd, aq, dqp, dqx = flow
     if recompute:
         qo, cd, aq, dqp, dqx = valve_flow(x, u, dp, rho, p[G.viscosity], p, o, contact)
@@ -93,10 +95,10 @@ def _multi_flow_columns(jac, row: int, sign: float, p, o: int, f_x: float, f_u: 
 
 def _valve_rows(t, y, p, mode, jac, yscratch, atol, rtol: float, o: int, v: int, dp: float, dp_m: float,
                 dp_l: float, pd: float, pd_m: float, pd_l: float, rho_v: float, r_m: float, r_l: float, ddt: float,
-                flow, hm: float, hml: float, complete: bool) -> float:
+                flow, hm: float, hml: float, complete: bool, a0, a1) -> float:
     """The valve's rows: positions move at their rates; its accelerations differenced (forward) by its
     states, m_cyl and m_load. Returns d(acceleration)/d(ddp_dt) of a one-DOF kind that reads the flow
-    (the transient flow force's chain; 0 otherwise)."""
+    (the transient flow force's chain; 0 otherwise). ``a0``, ``a1``: scratch the length of the state."""
     contact = int(mode[CONTACT_SLOT[v]])
     regime = int(mode[REGIME_SLOT[v]])
     rec = p[o + VALVE.flow_in_acceleration] > 0.5
@@ -126,42 +128,51 @@ def _valve_rows(t, y, p, mode, jac, yscratch, atol, rtol: float, o: int, v: int,
         hd = SQRT_EPS * max(abs(ddt), 1.0)
         return (_accel(x, u, dp, pd, rho_v, ddt + hd, p, o, contact, regime, False, qo, cd, aq, dqp, dqx) - a0) / hd
     _multi_rows(y, p, mode, jac, yscratch, atol, rtol, o, x, u, dp, dp_m, dp_l, pd, pd_m, pd_l, rho_v, r_m, r_l, ddt,
-                flow, hm, hml, complete, contact, regime, rec, n)
+                flow, hm, hml, complete, contact, regime, rec, n, a0, a1)
     return 0.0
 
 
 def _multi_rows(y, p, mode, jac, yscratch, atol, rtol: float, o: int, x: float, u: float, dp: float, dp_m: float,
                 dp_l: float, pd: float, pd_m: float, pd_l: float, rho_v: float, r_m: float, r_l: float, ddt: float,
-                flow, hm: float, hml: float, complete: bool, contact: int, regime: int, rec: bool, n: int) -> None:
-    """The acceleration rows of a valve with n > 1 DOFs: columns by each position and rate, then by the
-    pressures (forward differences)."""
+                flow, hm: float, hml: float, complete: bool, contact: int, regime: int, rec: bool, n: int, a0,
+                a1) -> None:
+    """The acceleration rows of a valve with n > 1 DOFs: columns by each position and rate (its kind's
+    partials where it has them and does not read the flow, else forward differences), then by the
+    pressures (forward differences). ``a0``, ``a1``: scratch for its accelerations at their rates' slots."""
     i_load = load_index(p)
+    s = state_start(p, o)
+    r = s + n                                # the rows of its accelerations (its rates' slots)
     for j in range(n):
-        jac[position_index(p, o, j), accel_index(p, o, j)] = 1.0
-    a0 = np.empty(n)
-    a1 = np.empty(n)
+        jac[s + j, r + j] = 1.0
     _accels(y, x, u, dp, pd, rho_v, ddt, p, o, contact, regime, False, flow, a0)
-    for j in range(2 * n):
-        k = position_index(p, o, j)          # positions, then the rates right after them
-        h = SQRT_EPS * max(abs(y[k]), atol[k] / rtol)
-        w = opening_weight(p, o, j % n)
+    own = False
+    if not rec:
+        qo, cd, aq, dqp, dqx = flow
+        f = ValveInputs(dp, pd, p[G.vapour_pressure], rho_v, p[G.viscosity], qo, cd, aq, dqp, dqx, ddt)
+        own = valve_accelerations_jacobian(y, s, n, x, u, f, p, o, contact, regime, jac)
+    if not own:
         for i in range(y.shape[0]):
             yscratch[i] = y[i]
-        yscratch[k] = y[k] + h
-        if j < n:
-            _accels(yscratch, x + w * h, u, dp, pd, rho_v, ddt, p, o, contact, regime, rec, flow, a1)
-        else:
-            _accels(yscratch, x, u + w * h, dp, pd, rho_v, ddt, p, o, contact, regime, rec, flow, a1)
-        for i in range(n):
-            jac[accel_index(p, o, i), k] = (a1[i] - a0[i]) / h
+        for j in range(2 * n):
+            k = s + j                        # positions, then the rates right after them
+            h = SQRT_EPS * max(abs(y[k]), atol[k] / rtol)
+            w = opening_weight(p, o, j % n)
+            yscratch[k] = y[k] + h
+            if j < n:
+                _accels(yscratch, x + w * h, u, dp, pd, rho_v, ddt, p, o, contact, regime, rec, flow, a1)
+            else:
+                _accels(yscratch, x, u + w * h, dp, pd, rho_v, ddt, p, o, contact, regime, rec, flow, a1)
+            yscratch[k] = y[k]
+            for i in range(n):
+                jac[r + i, k] = (a1[r + i] - a0[r + i]) / h
     _accels(y, x, u, dp + dp_m * hm, pd + pd_m * hm, rho_v + r_m * hm, ddt, p, o, contact, regime, rec, flow, a1)
     for i in range(n):
-        jac[accel_index(p, o, i), S_MCYL] = (a1[i] - a0[i]) / hm
+        jac[r + i, S_MCYL] = (a1[r + i] - a0[r + i]) / hm
     if complete:
         _accels(y, x, u, dp + dp_l * hml, pd + pd_l * hml, rho_v + r_l * hml, ddt, p, o, contact, regime, rec,
                 flow, a1)
         for i in range(n):
-            jac[accel_index(p, o, i), i_load] = (a1[i] - a0[i]) / hml
+            jac[r + i, i_load] = (a1[r + i] - a0[r + i]) / hml
 
 
 def _mass_rows(jac, p, complete: bool, dmi, dmd, leak_m: float, nv_l: float) -> None:
@@ -288,10 +299,11 @@ def pump_jacobian(t: float, y, p, mode, pc_hint: float, jac, ft, fscratch, yscra
     dpc_dt, dpl_dt = rates[2], rates[3]
 
     # ---- accelerations, differenced
+    # fscratch and ft are free until the end: the several-DOF valves' scratch
     a_d_in = _valve_rows(t, y, p, mode, jac, yscratch, atol, rtol, OFF_IN, 0, dp_in, dpm_in, 0.0, pc, pc_m, 0.0,
-                         rho_in, rm_in, rl_in, -dpc_dt, flow_in, hm, hml, complete)
+                         rho_in, rm_in, rl_in, -dpc_dt, flow_in, hm, hml, complete, fscratch, ft)
     a_d_del = _valve_rows(t, y, p, mode, jac, yscratch, atol, rtol, OFF_DEL, 1, dp_del, dpm_del, dpl_del, pl, 0.0,
-                          pl_ml, rho_del, rm_del, rl_del, dpc_dt - dpl_dt, flow_del, hm, hml, complete)
+                          pl_ml, rho_del, rm_del, rl_del, dpc_dt - dpl_dt, flow_del, hm, hml, complete, fscratch, ft)
     if a_d_in != 0.0 or a_d_del != 0.0:
         _transient_chain(jac, p, n_dyn, a_d_in, a_d_del, vol, dvol, rho_c, pc_m, pl_ml, rates, complete)
 

@@ -34,12 +34,16 @@ from geometry.declare import specs
 from lumped.oil import Oil
 from lumped.pump import Circuit, Pump
 from lumped.valve import (
-    BLOCK_SIZE, CONTACT_NAMES, REGIME_NAMES, VALVE, kind_of, valve_acceleration, valve_accelerations,
+    BLOCK_SIZE, CONTACT_NAMES, FREE, REGIME_NAMES, VALVE, kind_of, valve_acceleration, valve_accelerations,
 )
 
 #: the valve positions, in the order of their blocks, states, mode entries and switches
 POSITIONS = ("inlet", "delivery")
 N_VALVES = len(POSITIONS)
+#: per position: the volumes upstream and downstream of the valve (its pressure difference is up - down) and
+#: the suffix of its fields in lumped.rhs.Rates (x_in, mdot_del, ...)
+PORTS = {"inlet": ("tank", "cylinder"), "delivery": ("cylinder", "load")}
+RATES_TAG = {"inlet": "in", "delivery": "del"}
 
 # ----------------------------------------------------------------- states (declared by name)
 #: the pump's own states, first: the cylinder oil mass m_cyl [kg] (eq 4.5)
@@ -172,12 +176,12 @@ def mode_tag(mode) -> int:
     return t
 
 
+_POW3 = 3 ** np.arange(N_MODE)
+
+
 def modes_of_tags(tags: np.ndarray) -> np.ndarray:
     """Modes (rows) of the integers of :func:`mode_tag`."""
-    out = np.empty((len(tags), N_MODE))
-    for j in range(N_MODE):
-        out[:, j] = (tags // 3**j) % 3
-    return out
+    return ((np.asarray(tags)[:, None] // _POW3) % 3).astype(float)
 
 
 # ----------------------------------------------------------------- per-valve states (compiled code)
@@ -189,6 +193,11 @@ INLINE = ("mode_of", "state_start", "dofs", "is_scalar", "opening", "opening_wei
 #: whose valves have one DOF each: numba folds the constant, so the several-DOF paths (their loops and
 #: calls) are not compiled into the hot path (~20 ns per call of :func:`opening` with them present, measured)
 ONE_DOF_ONLY = False
+#: True in the compiled physics (lumped.compiled): loops there; numpy in the Python reference, where an FE
+#: reed's ~100 states made the element-wise loops a third of a reference run's time (measured). The loop form
+#: comes first, under ``if COMPILED:``: with the numpy form first, under ``if not COMPILED:``, the compiled
+#: stepper failed at its first step (numba 0.68; not chased further)
+COMPILED = False
 
 
 def state_start(p, o: int) -> int:
@@ -227,12 +236,15 @@ def opening(y, p, o: int) -> tuple[float, float]:
 def multi_opening(y, p, o: int, s: int, n: int) -> tuple[float, float]:
     """:func:`opening` of a valve with n > 1 DOFs: its positions and rates weighted."""
     w = int(p[o + VALVE.tail])
-    x = 0.0
-    u = 0.0
-    for j in range(n):
-        x += p[w + j] * y[s + j]
-        u += p[w + j] * y[s + n + j]
-    return x, u
+    if COMPILED:
+        x = 0.0
+        u = 0.0
+        for j in range(n):
+            x += p[w + j] * y[s + j]
+            u += p[w + j] * y[s + n + j]
+        return x, u
+    e = np.asarray(p[w:w + n])
+    return float(e @ np.asarray(y[s:s + n])), float(e @ np.asarray(y[s + n:s + 2 * n]))
 
 
 def opening_weight(p, o: int, j: int) -> float:
@@ -311,14 +323,18 @@ def write_rates(dydt, p, o: int, u: float, a: float) -> None:
 
 def multi_rates(y, x: float, u: float, f, p, o: int, contact: int, regime: int, dydt, s: int, n: int) -> float:
     """:func:`valve_rates` of a valve with n > 1 DOFs."""
-    for j in range(n):
-        dydt[s + j] = y[s + n + j]
-    valve_accelerations(y, s, n, x, u, f, p, o, contact, regime, dydt[s + n:s + 2 * n])
     w = int(p[o + VALVE.tail])
-    a = 0.0
-    for j in range(n):
-        a += p[w + j] * dydt[s + n + j]
-    return a
+    if COMPILED:
+        for j in range(n):
+            dydt[s + j] = y[s + n + j]
+        valve_accelerations(y, s, n, x, u, f, p, o, contact, regime, dydt)
+        a = 0.0
+        for j in range(n):
+            a += p[w + j] * dydt[s + n + j]
+        return a
+    dydt[s:s + n] = y[s + n:s + 2 * n]
+    valve_accelerations(y, s, n, x, u, f, p, o, contact, regime, dydt)
+    return float(np.asarray(p[w:w + n]) @ np.asarray(dydt[s + n:s + 2 * n]))
 
 
 def accel_index(p, o: int, j: int) -> int:
@@ -327,12 +343,15 @@ def accel_index(p, o: int, j: int) -> int:
 
 
 def valve_tolerances(p, mode, atol) -> None:
-    """Each valve's absolute tolerances (positions, rates) from the table in p for its contact state."""
+    """Each valve's absolute tolerances (positions, rates) from the table in p for its contact state; a
+    valve of several DOFs on the fast path has its opening first (a modal reed: lumped.reed_dynamics.coordinates):
+    a contact holds that one, so the other positions keep the free flight's tolerance."""
     for v in range(N_VALVES):
         o = BLOCK_OFFSET[v]
         i = tol_slot(v, int(mode[CONTACT_SLOT[v]]))
+        free = tol_slot(v, FREE)
         for j in range(dofs(p, o)):
-            atol[position_index(p, o, j)] = p[i]
+            atol[position_index(p, o, j)] = p[i if j == 0 else free]
             atol[accel_index(p, o, j)] = p[i + 1]
 
 
@@ -481,23 +500,44 @@ def _block_items(block) -> tuple:
     return tuple((n, i) for n, i in block._asdict().items() if n not in ("dofs", "state_start", "tail"))
 
 
+@functools.lru_cache(maxsize=None)
+def _packed_fields(cls) -> tuple:
+    """(field name, index in the packed array) of a component class's packed fields."""
+    return tuple((n, getattr(G, n)) for n, s in specs(cls) if s.packed)
+
+
 def pack_valve(valve, oil, out: np.ndarray, offset: int) -> np.ndarray | None:
     """Write a valve's block (COMMON, packed fields, derived quantities) at ``offset``; returns its
     variable-length data (or None), which :func:`pack` appends."""
+    try:
+        idx, vals, tail = _valve_block(valve, oil)     # a sweep packs the same valve and oil again and again
+    except TypeError:                                # an unhashable valve (a plug-in kind): packed afresh
+        idx, vals, tail = _valve_block.__wrapped__(valve, oil)
+    out[offset + idx] = vals
+    return None if tail is None else tail.copy()
+
+
+@functools.lru_cache(maxsize=256)
+def _valve_block(valve, oil) -> tuple:
+    """(offsets, values, tail) of a valve's block: a pure function of the (frozen) valve and oil."""
     kind = kind_of(valve)
     values = valve.common(oil).packed()
     values.update(valve.packed_extra(oil))
     values["kind_id"] = float(kind.id)
     values["orifice_start"] = 0.0          # scratch of the orifice solve, not a parameter
-    for name, idx in _block_items(kind.block):
+    idx, vals = [], []
+    for name, i in _block_items(kind.block):
         if name in values:
-            out[offset + idx] = _number(values[name])
+            v = _number(values[name])
         elif getattr(valve, name, None) is not None:
-            out[offset + idx] = _number(getattr(valve, name))
+            v = _number(getattr(valve, name))
         else:
             raise KeyError(f"{type(valve).__name__} gives no {name!r} (a {'common' if name in VALVE._fields else 'derived'} "
                            "packed quantity)")
-    return valve.tail(oil)
+        idx.append(i)
+        vals.append(v)
+    tail = valve.tail(oil)
+    return np.array(idx, dtype=int), np.array(vals), None if tail is None else np.asarray(tail, dtype=float)
 
 
 def pack(model, speed_rpm: float, load_pressure: float, circuit: str | None = None,
@@ -514,9 +554,8 @@ def pack(model, speed_rpm: float, load_pressure: float, circuit: str | None = No
     p = np.zeros(NP)
     pump, oil, circ = m.pump, m.oil, m.circuit
     for comp in (pump, oil, circ):
-        for n, s in specs(comp):
-            if s.packed:
-                p[getattr(G, n)] = _number(getattr(comp, n))
+        for n, i in _packed_fields(type(comp)):
+            p[i] = _number(getattr(comp, n))
     p[G.omega] = speed_rpm * 2.0 * math.pi / 60.0
     p[G.load_pressure] = load_pressure
     p[G.piston_area] = pump.piston_area

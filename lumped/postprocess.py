@@ -148,20 +148,21 @@ def mass_balance(problem, rev) -> float:
 def valve_runs(span, problem, rt: np.ndarray, losses_j, kinds) -> dict:
     """What the revolution measured of each valve (:class:`lumped.validity.ValveRun`) from the rates table
     ``rt`` (ENERGY_SAMPLES evenly spaced samples), the span's peaks and each valve's kind name."""
-    from lumped.layout import G
+    from lumped.layout import PORTS, RATES_TAG, G
     from lumped.validity import ValveRun
 
     p, n = problem.p, len(rt)
     dt = problem.period / n
-    pc, pl = rt[:, COL["p_cyl"]], rt[:, COL["p_load"]]
+    pressure = {"tank": p[G.tank_pressure], "cylinder": rt[:, COL["p_cyl"]], "load": rt[:, COL["p_load"]]}
     out = {}
     for v, pos in enumerate(POSITIONS):
         o = BLOCK_OFFSET[v]
-        tag = "in" if v == 0 else "del"
+        tag = RATES_TAG[pos]
         x = rt[:, COL[f"x_{tag}"]]
         rho = rt[:, COL[f"rho_{tag}"]]
         flow = rt[:, COL[f"mdot_{tag}"]] / rho
-        dp = (p[G.tank_pressure] - pc) if v == 0 else (pc - pl)
+        up, down = PORTS[pos]
+        dp = pressure[up] - pressure[down]
         peak = max(float(span.peaks[v]), float(x.max()))
         re = 4.0 * rho * np.abs(rt[:, COL[f"q_{tag}"]]) / (p[G.viscosity] * p[o + VALVE.perimeter])
         out[pos] = ValveRun(
@@ -199,9 +200,10 @@ def trace(spans, problem, npts: int, physics) -> Trace:
         # a modal reed's coordinates are its modes; an FE reed's are nodal DOFs (not worth a signal each)
         if lay.scalars[v] or getattr(getattr(problem.model, pos), "dynamics", "") != "modal":
             continue
-        w = int(p[BLOCK_OFFSET[v] + VALVE.tail])
-        q = ys[:, lay.positions(v)]
+        from lumped.reed_dynamics import modal_shares
+
+        shares = modal_shares(problem.model.valve(pos), problem.model.oil.density, ys[:, lay.positions(v)])
         for i in range(lay.dofs[v]):
-            signals[f"{pos}_mode{i + 1}_position"] = q[:, i] * p[w + i]
+            signals[f"{pos}_mode{i + 1}_position"] = shares[:, i]
     return Trace(t - spans[0].t0, problem.speed_rpm, signals)
 

@@ -42,7 +42,15 @@ the static tip deflection; docs/reed_dynamics.md).
 
 :func:`structure` assembles (M, C, K, b, e, q0, strips) for a valve; :func:`tail` packs A = M^-1 K,
 B = M^-1 C, g = M^-1 b and the drag's strips for the compiled accelerations
-(:func:`lumped.reed_valve.reed_accelerations`).
+(:func:`lumped.reed_valve.reed_accelerations`). A modal reed's are packed in the pump's coordinates
+z = S q (:func:`coordinates`): the opening x = e . q first, then the modes but the one with the largest
+weight in it. With the opening a state of its own, the fast path holds it, in contact with the seat or
+stop, to the contact's tolerance (nanometres into a stiff seat: lumped.steppers.tolerance_table), and the
+other coordinates, whose positions the contact does not hold, to the free flight's
+(lumped.layout.valve_tolerances): 6 % fewer steps with three modes, the timing as close to the reference
+stepper's (benchmarks/bench_reed_dynamics.py). The FE reed keeps its nodal DOFs (z = q): it runs on the
+reference stepper, whose tolerances are the states' scales, and a change of coordinates that mixes its
+DOFs would cost its eigenvalues 1e-8 of their precision.
 """
 
 from __future__ import annotations
@@ -97,60 +105,93 @@ def _rest(stiffness, load, opening, x0: float) -> np.ndarray:
 def structure(valve, rho_oil: float) -> Structure:
     """The matrices of a reed valve with ``dynamics`` "modal" or "fe" in oil of density rho_oil [kg/m^3]
     (cached: a model is packed for every simulation)."""
-    from lumped.reed_modes import _opening_mode, fe_reed, modal_basis
-
-    where = f"valves.{valve.position}"
-    port = valve.port
-    zeta = damping_ratio(valve)
-    gamma_f = valve.hydrodynamic_function
-    if valve.dynamics == "modal":
-        b = modal_basis(valve.reed, valve.fidelity or "analytic", valve.modes, port, valve.mesh_size,
-                        field=f"{where}.modes", fidelity_field=f"{where}.fidelity", port_field=f"{where}.port")
-        m, k = np.asarray(b.modal_mass), np.asarray(b.modal_stiffness)
-        mass = np.diag(m) + (b.added_mass(rho_oil, gamma_f, gamma_f) if gamma_f > 0 else 0.0)
-        stiffness = np.diag(k)
-        damping = np.diag(2.0 * zeta * np.sqrt(k * m))
-        load, sealing, tip = np.asarray(b.load), np.asarray(b.opening), np.asarray(b.tip)
-        wbar, areas = np.asarray(b.wbar).T, np.asarray(b.weights) * np.asarray(b.widths)
-        freqs, kinds = np.asarray(b.omega), tuple(b.kinds)
-        i1 = _opening_mode(b.tip)
-        scale = sealing[i1] / load[i1]
-    else:
-        # the exact E-B model (analytic) has no element mesh: its FE reed is the beam's
-        fid = "beam" if (valve.fidelity or "analytic") == "analytic" else valve.fidelity
-        fe = fe_reed(valve.reed, port, fid, valve.mesh_size, fidelity_field=f"{where}.fidelity",
-                     port_field=f"{where}.port")
-        wbar, areas = np.asarray(fe.wbar), np.asarray(fe.weights) * np.asarray(fe.widths)
-        mass = np.array(fe.mass, dtype=float)
-        if gamma_f > 0:
-            w2 = np.asarray(fe.weights) * np.asarray(fe.widths) ** 2
-            th = np.asarray(fe.theta)
-            mass = mass + rho_oil * (math.pi / 4 * gamma_f * (wbar.T * w2) @ wbar
-                                     + math.pi / 128 * gamma_f * (th.T * w2 * np.asarray(fe.widths) ** 2) @ th)
-        stiffness = np.array(fe.stiffness, dtype=float)
-        omega, phi = fe.modes()
-        mp = fe.mass @ phi
-        damping = mp @ np.diag(2.0 * zeta * omega) @ mp.T
-        load, sealing, tip = np.asarray(fe.load), np.asarray(fe.opening), np.asarray(fe.tip)
-        freqs, kinds = omega, ("fe",) * len(omega)
-        shapes = phi[:, :6] / np.abs(phi[:, :6]).max(axis=0)
-        i1 = _opening_mode(tip @ shapes)
-        scale = (sealing @ phi[:, i1]) / (load @ phi[:, i1])
+    parts = _modal(valve, rho_oil) if valve.dynamics == "modal" else _fe(valve, rho_oil)
+    mass, damping, stiffness, load, sealing, tip, wbar, areas, freqs, kinds, scale = parts
     opening = scale * load
     rest = _rest(stiffness, load, opening, valve.preload)
     return Structure(mass, damping, stiffness, load, opening, sealing, tip, rest, np.ascontiguousarray(wbar),
                      areas, freqs, kinds)
 
 
+def _modal(valve, rho_oil: float) -> tuple:
+    """The modal reed's (M, C, K, b, c, tip, wbar, areas, omega, names, c_1 / Gamma_1): diagonal modal mass and
+    stiffness, the added mass of the strips, every mode damped at eq 3.21's ratio."""
+    from lumped.reed_modes import _opening_mode, modal_basis
+
+    where = f"valves.{valve.position}"
+    zeta, gamma_f = damping_ratio(valve), valve.hydrodynamic_function
+    b = modal_basis(valve.reed, valve.fidelity or "analytic", valve.modes, valve.port, valve.mesh_size,
+                    field=f"{where}.modes", fidelity_field=f"{where}.fidelity", port_field=f"{where}.port")
+    m, k = np.asarray(b.modal_mass), np.asarray(b.modal_stiffness)
+    mass = np.diag(m) + (b.added_mass(rho_oil, gamma_f, gamma_f) if gamma_f > 0 else 0.0)
+    load, sealing = np.asarray(b.load), np.asarray(b.opening)
+    i1 = _opening_mode(b.tip)
+    return (mass, np.diag(2.0 * zeta * np.sqrt(k * m)), np.diag(k), load, sealing, np.asarray(b.tip),
+            np.asarray(b.wbar).T, np.asarray(b.weights) * np.asarray(b.widths), np.asarray(b.omega), tuple(b.kinds),
+            sealing[i1] / load[i1])
+
+
+def _fe(valve, rho_oil: float) -> tuple:
+    """The whole FE reed's (M, C, K, f, c, tip, wbar, areas, omega, names, c_1 / Gamma_1): its matrices, the
+    strips' added mass (flexural and torsional), C = M Phi diag(2 zeta omega) Phi^T M in its mass-normalised
+    modes."""
+    from lumped.reed_modes import _opening_mode, fe_reed
+
+    where = f"valves.{valve.position}"
+    zeta, gamma_f = damping_ratio(valve), valve.hydrodynamic_function
+    # the exact E-B model (analytic) has no element mesh: its FE reed is the beam's
+    fid = "beam" if (valve.fidelity or "analytic") == "analytic" else valve.fidelity
+    fe = fe_reed(valve.reed, valve.port, fid, valve.mesh_size, fidelity_field=f"{where}.fidelity",
+                 port_field=f"{where}.port")
+    wbar, widths = np.asarray(fe.wbar), np.asarray(fe.widths)
+    mass = np.array(fe.mass, dtype=float)
+    if gamma_f > 0:
+        w2, th = np.asarray(fe.weights) * widths ** 2, np.asarray(fe.theta)
+        mass = mass + rho_oil * (math.pi / 4 * gamma_f * (wbar.T * w2) @ wbar
+                                 + math.pi / 128 * gamma_f * (th.T * w2 * widths ** 2) @ th)
+    omega, phi = fe.modes()
+    mp = fe.mass @ phi
+    load, sealing, tip = np.asarray(fe.load), np.asarray(fe.opening), np.asarray(fe.tip)
+    shapes = phi[:, :6] / np.abs(phi[:, :6]).max(axis=0)
+    i1 = _opening_mode(tip @ shapes)
+    return (mass, mp @ np.diag(2.0 * zeta * omega) @ mp.T, np.array(fe.stiffness, dtype=float), load, sealing, tip,
+            wbar, np.asarray(fe.weights) * widths, omega, ("fe",) * len(omega),
+            (sealing @ phi[:, i1]) / (load @ phi[:, i1]))
+
+
+def coordinates(opening: np.ndarray, dynamics: str = "modal") -> tuple[np.ndarray, np.ndarray]:
+    """(S, T = S^-1): the pump's coordinates z = S q of a modal reed with opening weights e (x = e . q): z_0 = x,
+    then every q_j but the pivot, the j of the largest |e_j| (q_pivot = (x - sum of the others' e_j q_j) /
+    e_pivot); the identity for the FE reed."""
+    n = len(opening)
+    if dynamics != "modal":
+        return np.eye(n), np.eye(n)
+    pivot = int(np.argmax(np.abs(opening)))
+    s = np.zeros((n, n))
+    s[0] = opening
+    for k, j in enumerate(j for j in range(n) if j != pivot):
+        s[k + 1, j] = 1.0
+    return s, np.linalg.inv(s)
+
+
 def tail(valve, rho_oil: float) -> np.ndarray:
-    """The packed data of :func:`lumped.reed_valve.reed_accelerations`, row-major: [e (n) | g = M^-1 b (n) |
-    q0 (n) | A = M^-1 K (n^2) | B = M^-1 C (n^2) | D = M^-1 wbar^T diag(areas) (n K) | wbar (K n)]. The
-    opening weights e come first: lumped.layout reads them there."""
-    s = structure(valve, rho_oil)
-    minv = np.linalg.inv(s.mass)
-    parts = [s.opening, minv @ s.load, s.rest, (minv @ s.stiffness).ravel(), (minv @ s.damping).ravel(),
-             (minv @ (s.wbar.T * s.areas)).ravel(), s.wbar.ravel()]
+    """The packed data of :func:`lumped.reed_valve.reed_accelerations` in the coordinates z = S q
+    (:func:`coordinates`), row-major: [e T = (1, 0, ..) (n) | S g (n) | S q0 (n) | S A T (n^2) | S B T (n^2) |
+    S D (n K) | wbar T (K n)], with g = M^-1 b, A = M^-1 K, B = M^-1 C, D = M^-1 wbar^T diag(areas). The
+    opening weights come first: lumped.layout reads them there."""
+    st = structure(valve, rho_oil)
+    s, t = coordinates(st.opening, valve.dynamics)
+    minv = np.linalg.inv(st.mass)
+    parts = [st.opening @ t, s @ (minv @ st.load), s @ st.rest, (s @ minv @ st.stiffness @ t).ravel(),
+             (s @ minv @ st.damping @ t).ravel(), (s @ minv @ (st.wbar.T * st.areas)).ravel(), (st.wbar @ t).ravel()]
     return np.concatenate([np.asarray(a, dtype=float) for a in parts])
+
+
+def modal_shares(valve, rho_oil: float, z: np.ndarray) -> np.ndarray:
+    """Each mode's share e_i q_i [m] of the opening, from the pump's coordinates z (rows: samples; q = T z)."""
+    st = structure(valve, rho_oil)
+    _, t = coordinates(st.opening, valve.dynamics)
+    return (np.asarray(z) @ t.T) * st.opening
 
 
 def n_stations(valve, rho_oil: float) -> int:

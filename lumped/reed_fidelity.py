@@ -10,6 +10,8 @@ use by :mod:`lumped.plugins`), so this layer never imports the one above it.
 
 from __future__ import annotations
 
+import functools
+
 from typing import Callable
 
 from geometry.errors import InputError
@@ -94,4 +96,43 @@ def reed_properties(reed, fidelity: str = "analytic", mesh_size=None, field: str
         raise InputError("reed", f"expected a geometry.Reed, a preset name or a reed TOML file, got {reed!r}")
     if mesh_size is not None:
         mesh_size = validate.number(mesh_size, "mesh_size", unit="m", positive=True)
-    return reed_model(fidelity, field)(check_reed(reed), mesh_size=mesh_size)
+    model = reed_model(fidelity, field)
+    reed = check_reed(reed)
+    try:
+        return _cached(model, fidelity, reed, mesh_size)
+    except TypeError:            # an unhashable reed (a plug-in's): computed afresh
+        return model(reed, mesh_size=mesh_size)
+
+
+#: environment variable naming a folder where FEA reed properties are kept between processes (a design study
+#: sets it for its workers: the solid FEA of a front design is then run once, not in each stage and worker)
+CACHE_ENV = "VALVELAB_REED_CACHE"
+
+
+@functools.lru_cache(maxsize=64)
+def _cached(model, fidelity, reed, mesh_size):
+    # a design study builds the same reed for both valves and every operating point: its properties are a
+    # pure function of the (frozen) geometry, the fidelity and the mesh size
+    import os
+
+    folder = os.environ.get(CACHE_ENV)
+    if not folder or fidelity == "analytic":
+        return model(reed, mesh_size=mesh_size)
+    import hashlib
+    import pickle
+    from pathlib import Path
+
+    path = Path(folder) / (hashlib.sha256(repr((fidelity, reed, mesh_size)).encode()).hexdigest()[:32] + ".pkl")
+    try:
+        return pickle.loads(path.read_bytes())
+    except (OSError, pickle.UnpicklingError, EOFError, AttributeError):
+        pass
+    props = model(reed, mesh_size=mesh_size)
+    try:                         # written whole or not at all (another process may read it meanwhile)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        tmp.write_bytes(pickle.dumps(props))
+        os.replace(tmp, path)
+    except OSError:
+        pass
+    return props

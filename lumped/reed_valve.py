@@ -29,7 +29,8 @@ from geometry.declare import param, read_table
 from geometry.errors import InputError
 from geometry.reed import Reed
 from lumped.valve import (
-    SEAT, STOP, Common, ValveKind, ValveParams, check_discharge, contact_reaction, contact_state, kind_block, register,
+    SEAT, STOP, Common, ValveKind, ValveParams, check_discharge, contact_reaction, contact_slopes, contact_state,
+    kind_block, register,
 )
 
 CRITICAL = "critical damping of the modal equation (eq 2.23: 2 sqrt(gamma1 k rho_c h_eff) / gamma1), derived when left out"
@@ -403,6 +404,20 @@ def pressure_load_multiplier(x: float, plateau: float, n1: float, n0: float, d2:
     return r
 
 
+def pressure_load_multiplier_slope(x: float, plateau: float, n1: float, n0: float, d2: float, d1: float,
+                                   d0: float, x_zero: float) -> float:
+    """dX/dx [1/m] of eq 3.83 as :func:`pressure_load_multiplier` takes it: the rational function's
+    derivative, 0 where X is held at its plateau or at 0."""
+    if x >= x_zero:
+        return 0.0
+    den = ((x + d2) * x + d1) * x + d0
+    num = n1 * x + n0
+    r = num / den
+    if r > plateau or r < 0.0:
+        return 0.0
+    return (n1 * den - num * ((3.0 * x + 2.0 * d2) * x + d1)) / (den * den)
+
+
 def reed_acceleration(x: float, u: float, f, p, o: int, contact: int, regime: int) -> float:
     """Tip acceleration x'' [m/s^2] of the reed from eq 3.21 (per unit area, Pa)."""
     g1 = p[o + REED.gamma1]
@@ -419,15 +434,17 @@ def reed_acceleration(x: float, u: float, f, p, o: int, contact: int, regime: in
 COMPILED = False
 
 
-def reed_accelerations(y, s: int, n: int, x: float, u: float, f, p, o: int, contact: int, regime: int, out) -> None:
-    """q'' [m/s^2] of the modal or FE reed into out (lumped.reed_dynamics): M q'' + C q' + K (q - q0) =
-    b [dP X(x) + F_c(x, x')] - Q_drag, with A = M^-1 K, B = M^-1 C, g = M^-1 b packed in the tail; X of eq
-    3.83 and the seat and stop of eq 2.20 (per unit area) at the port's opening x = e . q, the drag of eq
-    3.21 on the width-mean rate of each strip."""
+def reed_accelerations(y, s: int, n: int, x: float, u: float, f, p, o: int, contact: int, regime: int,
+                       dydt) -> None:
+    """q'' [m/s^2] of the modal or FE reed into dydt[s + n:s + 2n] (lumped.reed_dynamics):
+    M q'' + C q' + K (q - q0) = b [dP X(x) + F_c(x, x')] - Q_drag, with A = M^-1 K, B = M^-1 C, g = M^-1 b
+    packed in the tail; X of eq 3.83 and the seat and stop of eq 2.20 (per unit area) at the port's opening
+    x = e . q, the drag of eq 3.21 on the width-mean rate of each strip."""
     w = int(p[o + REED.tail])
     g, q0 = w + n, w + 2 * n
     a_m = w + 3 * n
     b_m = a_m + n * n
+    r = s + n                                  # its rates, and where their derivatives go
     load = f.dp * pressure_load_multiplier(
         x, p[o + REED.multiplier_poiseuille], p[o + REED.multiplier_n1], p[o + REED.multiplier_n0],
         p[o + REED.multiplier_d2], p[o + REED.multiplier_d1], p[o + REED.multiplier_d0], p[o + REED.x_zero])
@@ -436,13 +453,13 @@ def reed_accelerations(y, s: int, n: int, x: float, u: float, f, p, o: int, cont
         for i in range(n):
             acc = p[g + i] * load
             for j in range(n):
-                acc -= p[a_m + i * n + j] * (y[s + j] - p[q0 + j]) + p[b_m + i * n + j] * y[s + n + j]
-            out[i] = acc
+                acc -= p[a_m + i * n + j] * (y[s + j] - p[q0 + j]) + p[b_m + i * n + j] * y[r + j]
+            dydt[r + i] = acc
     else:
         # the same in numpy: the reference stepper's Python physics (an FE reed has ~50 DOFs)
         pa = np.asarray(p)
-        q, v = np.asarray(y[s:s + n]), np.asarray(y[s + n:s + 2 * n])
-        out[:n] = pa[g:g + n] * load - pa[a_m:b_m].reshape(n, n) @ (q - pa[q0:q0 + n]) \
+        q, v = np.asarray(y[s:r]), np.asarray(y[r:r + n])
+        dydt[r:r + n] = pa[g:g + n] * load - pa[a_m:b_m].reshape(n, n) @ (q - pa[q0:q0 + n]) \
             - pa[b_m:b_m + n * n].reshape(n, n) @ v
     half_cd = p[o + REED.drag_half_cd]
     if half_cd > 0.0:
@@ -452,15 +469,55 @@ def reed_accelerations(y, s: int, n: int, x: float, u: float, f, p, o: int, cont
         for k in range(k_st):
             vk = 0.0
             for j in range(n):
-                vk += p[r_m + k * n + j] * y[s + n + j]
+                vk += p[r_m + k * n + j] * y[r + j]
             drag = half_cd * f.rho * abs(vk) * vk
             for i in range(n):
-                out[i] -= p[d_m + i * k_st + k] * drag
+                dydt[r + i] -= p[d_m + i * k_st + k] * drag
+
+
+def reed_accelerations_jacobian(y, s: int, n: int, x: float, u: float, f, p, o: int, contact: int, regime: int,
+                                jac) -> None:
+    """The partials of :func:`reed_accelerations` by the reed's positions q and rates q' into the pump's
+    Jacobian (rows s + n.., columns s.. and s + n..) [1/s^2, 1/s]:
+
+        dq''/dq = g L_x e^T - A,    dq''/dq' = g L_u e^T - B - D diag(C_D rho |wbar'_k|) W,
+
+    L(x, u) = dP X(x) + F_c(x, u) the load on the opening x = e . q (X of eq 3.83, F_c of eq 2.20 in the
+    contact state), wbar'_k = W_k . q' the strips' width-mean rates (lumped.reed_dynamics.tail's D, W).
+    Exact: the accelerations are linear in q and q' but for L and the drag."""
+    w = int(p[o + REED.tail])
+    g, a_m = w + n, w + 3 * n
+    b_m = a_m + n * n
+    fx, fu = contact_slopes(x, p, o, contact)
+    lx = fx + f.dp * pressure_load_multiplier_slope(
+        x, p[o + REED.multiplier_poiseuille], p[o + REED.multiplier_n1], p[o + REED.multiplier_n0],
+        p[o + REED.multiplier_d2], p[o + REED.multiplier_d1], p[o + REED.multiplier_d0], p[o + REED.x_zero])
+    r = s + n
+    for i in range(n):
+        gi = p[g + i]
+        for j in range(n):
+            ej = p[w + j]
+            jac[r + i, s + j] = gi * lx * ej - p[a_m + i * n + j]
+            jac[r + i, r + j] = gi * fu * ej - p[b_m + i * n + j]
+    half_cd = p[o + REED.drag_half_cd]
+    if half_cd > 0.0:
+        k_st = int(p[o + REED.n_stations])
+        d_m = b_m + n * n
+        r_m = d_m + n * k_st
+        for k in range(k_st):
+            vk = 0.0
+            for j in range(n):
+                vk += p[r_m + k * n + j] * y[r + j]
+            c = 2.0 * half_cd * f.rho * abs(vk)             # d(|v| v)/dv = 2 |v|
+            for i in range(n):
+                dik = p[d_m + i * k_st + k] * c
+                for j in range(n):
+                    jac[r + i, r + j] -= dik * p[r_m + k * n + j]
 
 
 KIND = register(ValveKind(
     name="reed", default_model="thesis-reed", params=ReedValve, acceleration=reed_acceleration, block=REED,
-    accelerations=reed_accelerations,
+    accelerations=reed_accelerations, accelerations_jacobian=reed_accelerations_jacobian,
     # a reed lifting off its seat at near-zero speed is the most sensitive timing: the lift-off
     # angle drifts by 1 deg at x100, so it keeps x1; its stop rebounds (the tip a few hundred
     # nanometres into the stop) need the opening to 3 x atol x the deflection: at the default

@@ -6,6 +6,15 @@ delivery (eq 4.17 at atmospheric density), the mass balance of the running total
 mean load pressure, the leakage and the change of the state at TDC from the revolution
 before. The complete circuit's needle valve is set here, like the experimenter's start-up
 procedure (section 5.5.2). :class:`StopRule` says when to stop.
+
+Where a run starts: today's start (:meth:`lumped.problem.PumpProblem.initial_state`: the
+cylinder full at the load pressure, the valves at rest on their seats), or a *warm start*,
+the state at TDC a solved run ended with (:class:`TdcState`, ``PumpResult.tdc_state``),
+carried over to the problem at hand by :meth:`TdcState.start`. The revolution map of these
+pumps contracts hard (a valve that reseats forgets its past): from today's start the first
+revolution's delivery is 3-10 % off and the second is within the integrator's noise of a
+40-revolution run, so a run from a close design's state is steady after its first revolution
+and the stop rule can confirm it with the second.
 """
 
 from __future__ import annotations
@@ -20,11 +29,23 @@ from lumped.layout import BLOCK_OFFSET, G, LOAD_STATES, S_MCYL
 from lumped.valve import VALVE
 
 
+#: the studies' steady-state tolerance. The test measures the change the *previous* revolution still
+#: made; the revolution map contracts so hard (a revolution's delivery error is at most a tenth of the
+#: one before, or the integrator's noise, and thousands of times smaller in the median, on the
+#: validation cases and random designs of every kind: benchmarks/periodic_solver.py, docs/performance.md)
+#: that when the change is below 1e-3 the last revolution's delivery is within 1e-4 of the cycle's
+STEADY_TOL = 1e-3
+
+
 @dataclass(frozen=True)
 class StopRule:
     """Run at least ``revolutions``; with ``max_revolutions`` (> revolutions) continue until the cyclic
     steady state (relative change of the delivery and of the state at TDC between the last two
-    revolutions below ``tol``, or the integrator's rtol if larger) or that many."""
+    revolutions below ``tol``, or the integrator's rtol if larger: :func:`cycle_change`) or that many.
+
+    :meth:`steady` is the rule of the studies: stop as soon as the test passes (two revolutions at
+    least, since the test compares two), at most ``max_revolutions``.
+    """
 
     revolutions: int = 5
     max_revolutions: int | None = None
@@ -33,6 +54,141 @@ class StopRule:
     @property
     def limit(self) -> int:
         return self.max_revolutions or self.revolutions
+
+    @classmethod
+    def steady(cls, tol: float = STEADY_TOL, max_revolutions: int = 40, min_revolutions: int = 2) -> "StopRule":
+        """Until the cyclic steady-state test passes at ``tol`` (floored at the integrator's rtol), at least
+        ``min_revolutions`` (>= 2), at most ``max_revolutions``."""
+        from geometry.errors import InputError
+
+        if isinstance(min_revolutions, bool) or not isinstance(min_revolutions, int) or min_revolutions < 2:
+            raise InputError("min_revolutions", f"expected an integer >= 2 (the test compares two), got {min_revolutions!r}")
+        if isinstance(max_revolutions, bool) or not isinstance(max_revolutions, int) or max_revolutions < min_revolutions:
+            raise InputError("max_revolutions", f"expected an integer >= {min_revolutions}, got {max_revolutions!r}")
+        if not isinstance(tol, (int, float)) or isinstance(tol, bool) or not 0.0 < tol < 0.1:
+            raise InputError("steady_tol", f"expected a number in (0, 0.1), got {tol!r}")
+        return cls(min_revolutions, max_revolutions, float(tol))
+
+    def tolerance(self, rtol: float) -> float:
+        """The tolerance the steady-state test uses with an integrator at ``rtol`` (below it the change of
+        a revolution is the integrator's noise, not the approach to the cycle)."""
+        return max(self.tol, rtol)
+
+
+@dataclass(frozen=True, eq=False)
+class TdcState:
+    """The state at top dead centre a run ended with: where the next revolution starts (a warm start).
+
+    ``y``: the state (running totals zero); ``mode``: its mode; ``reference``: today's start of the
+    problem it came from (:meth:`lumped.problem.PumpProblem.initial_state`), by which the oil masses
+    are carried over; ``gaps``: each valve's stop gap [m], by which its coordinates are;
+    ``signature``: the layout and the valve kinds (a state fits only a pump with the same ones);
+    ``needle_cda``: the complete circuit's tuned needle valve Cd A [m^2] (None: simplified);
+    ``period``: the revolution [s]; ``memory``: the stepper's step-size memory (fast path) or None.
+    """
+
+    y: np.ndarray
+    mode: np.ndarray
+    reference: np.ndarray
+    gaps: tuple
+    signature: tuple
+    needle_cda: float | None = None
+    period: float = 0.0
+    memory: dict | None = None
+
+    @staticmethod
+    def signature_of(problem) -> tuple:
+        """What a state must share with a problem to start it: the state layout and each valve's kind."""
+        from lumped.valve import kind_of
+
+        lay = problem.layout
+        return (lay.dofs, lay.scalars, lay.complete,
+                tuple(kind_of(problem.model.valve(pos)).name for pos in ("inlet", "delivery")))
+
+    def fits(self, problem) -> bool:
+        return self.signature == self.signature_of(problem)
+
+    def start(self, problem, load_mass) -> tuple[np.ndarray, np.ndarray]:
+        """(state, mode) to start ``problem`` from: each oil mass scaled by the ratio of the two problems'
+        start values (dead volume and density at the load pressure: the same cylinder density relative to
+        today's start), each valve's coordinates and rates by the ratio of the stop gaps (the same
+        fraction of the stroke), the running totals zero; the mode kept where its switching functions
+        hold, else decided from the state (:func:`mode_for`)."""
+        ref = problem.initial_state(load_mass)
+        y = self.y.copy()
+        for i in _mass_states(problem.layout):
+            if self.reference[i] != 0.0:
+                y[i] *= ref[i] / self.reference[i]
+        for v, o in enumerate(BLOCK_OFFSET):
+            ratio = problem.p[o + VALVE.stop_gap] / self.gaps[v]
+            if ratio != 1.0:
+                y[problem.layout.positions(v)] *= ratio
+                y[problem.layout.rates(v)] *= ratio
+        for i in problem.layout.quadratures.values():
+            y[i] = 0.0
+        return y, mode_for(problem, y, self.mode)
+
+
+    @property
+    def layout(self):
+        """The state layout (lumped.layout.StateLayout) this state belongs to."""
+        from lumped.layout import StateLayout
+
+        dofs, scalars, complete, _ = self.signature
+        return StateLayout(dofs, complete, scalars)
+
+    def normalized(self) -> np.ndarray:
+        """The state in units of where it came from: each oil mass over today's start of its problem, each
+        valve's coordinates and rates over its stop gap (what :meth:`start` carries over)."""
+        lay, y = self.layout, self.y.copy()
+        for i in _mass_states(lay):
+            if self.reference[i] != 0.0:
+                y[i] /= self.reference[i]
+        for v in range(len(self.gaps)):
+            y[lay.positions(v)] /= self.gaps[v]
+            y[lay.rates(v)] /= self.gaps[v]
+        return y
+
+    def with_normalized(self, yn: np.ndarray) -> "TdcState":
+        """This state's mode, signature and step memory with the state ``yn`` in normalized units
+        (:meth:`normalized`): e.g. a prediction from several solved designs."""
+        ref = np.zeros_like(self.reference)
+        for i in _mass_states(self.layout):
+            ref[i] = 1.0 if self.reference[i] != 0.0 else 0.0
+        return TdcState(np.array(yn, dtype=float), self.mode, ref, (1.0,) * len(self.gaps), self.signature,
+                        self.needle_cda, self.period, self.memory)
+
+
+def _mass_states(layout) -> tuple:
+    out = [S_MCYL]
+    if layout.complete:
+        out.append(layout.index(LOAD_STATES[0]))
+    return tuple(out)
+
+
+def mode_for(problem, y: np.ndarray, mode: np.ndarray | None = None) -> np.ndarray:
+    """A mode for state ``y`` at TDC in which every switching function holds (>= 0): ``mode`` if it does,
+    else the one :func:`lumped.switching.initial_mode` decides from the state, with any switch that
+    function still fires made at once (a valve at rest on a surface whose force already lets go)."""
+    from lumped import switching as sw
+    from lumped.layout import N_MODE, N_SWITCHES
+
+    p = problem.p
+    g = np.empty(N_SWITCHES + problem.layout.n_states)
+    if mode is not None:
+        m = np.array(mode, dtype=float)
+        sw.switch_values(0.0, y, p, m, g)
+        if np.all(g[:N_SWITCHES] >= 0.0):
+            return m
+    m = np.zeros(N_MODE)
+    sw.initial_mode(0.0, y, p, m)
+    for _ in range(2 * N_SWITCHES):
+        sw.switch_values(0.0, y, p, m, g)
+        bad = np.flatnonzero(g[:N_SWITCHES] < 0.0)
+        if not len(bad):
+            break
+        sw.apply_switch(int(bad[0]), y, p, m)
+    return m
 
 
 @dataclass
@@ -61,6 +217,8 @@ class Run:
     n_rhs: int = 0
     n_steps: int = 0
     n_events: int = 0
+    y_end: np.ndarray | None = None       # the state and mode the last revolution ended with (the next start)
+    mode_end: np.ndarray | None = None
 
     @property
     def last(self) -> Revolution:
@@ -142,7 +300,7 @@ def run(problem, stepper, y: np.ndarray, mode: np.ndarray, rule: StopRule, physi
         if k >= 1:
             out.change = cycle_change(problem, out.deliveries, tdc_states)
             settled = tuned_at is not None and k + 1 - tuned_at >= 2
-            out.steady = out.change < max(rule.tol, rtol) and (not problem.complete or settled)
+            out.steady = out.change < rule.tolerance(rtol) and (not problem.complete or settled)
         if keep:
             out.kept = (out.kept + [span])[-keep:]
         k += 1
@@ -153,7 +311,20 @@ def run(problem, stepper, y: np.ndarray, mode: np.ndarray, rule: StopRule, physi
             break
     if bar is not None:
         bar.close()
+    out.y_end, out.mode_end = y, mode
     return out
+
+
+def tdc_state(problem, done: Run, load_mass, stepper=None) -> TdcState:
+    """The :class:`TdcState` a finished run ended with (``load_mass``: lumped.rhs.load_mass, for the
+    reference start; ``stepper``: its step-size memory is kept when it has one)."""
+    y = done.y_end.copy()
+    for i in problem.layout.quadratures.values():
+        y[i] = 0.0
+    gaps = tuple(float(problem.p[o + VALVE.stop_gap]) for o in BLOCK_OFFSET)
+    memory = stepper.memory() if hasattr(stepper, "memory") else None
+    return TdcState(y, done.mode_end.copy(), problem.initial_state(load_mass), gaps, TdcState.signature_of(problem),
+                    float(problem.p[G.needle_cda]) if problem.complete else None, problem.period, memory)
 
 
 def _progress_bar(progress: bool, total: int, desc: str):

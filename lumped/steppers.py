@@ -396,6 +396,18 @@ class RodasStepper(Stepper):
 
         self.h_event = np.zeros(EVENT_CODES)
 
+    def memory(self) -> dict:
+        """The step-size memory carried between revolutions (a warm start hands it to the next run)."""
+        return {"h": self.h, "h_event": self.h_event.copy(), "period": self.problem.period}
+
+    def restore(self, memory: dict | None) -> None:
+        """Start from another run's step-size memory (scaled by the ratio of the revolutions)."""
+        if not memory or memory.get("h") is None or len(memory["h_event"]) != len(self.h_event):
+            return
+        ratio = self.problem.period / memory["period"]
+        self.h = memory["h"] * ratio
+        self.h_event[:] = memory["h_event"] * ratio
+
     def advance(self, t0, t1, y, mode):
         from lumped import rodas
 
@@ -423,12 +435,14 @@ class RodasStepper(Stepper):
         def sampler(ts):
             rec_t, rec_y, rec_q2, rec_q3, rec_tag = rec
             ys = rodas.interpolate(ts, rec_t, rec_y, rec_q2, rec_q3)
-            i = np.clip(np.searchsorted(rec_t, ts, side="left"), 1, len(rec_t) - 1)
-            return ys, modes_of_tags(rec_tag[i])
+            return ys, modes_of_tags(rodas.sample_tags(ts, rec_t, rec_tag))
 
         y_end = r.y_stops[-1].copy()
         mode_end = mode_of(q).copy()
         return Span(t0, t1, y_end, mode_end, len(r.ev_t), int(r.n_rhs), int(r.n_steps), sampler, details)
+
+
+_QUARTERS = np.array([[0.25], [0.5], [0.75]])
 
 
 def _peaks(layout, p, rec_y, rec_q2, rec_q3) -> tuple[float, ...]:
@@ -441,11 +455,9 @@ def _peaks(layout, p, rec_y, rec_q2, rec_q3) -> tuple[float, ...]:
         q2 = layout.openings(rec_q2, p, v)[0]
         q3 = layout.openings(rec_q3, p, v)[0]
         b = float(x.max())
-        y0, y1, q2, q3 = x[:-1], x[1:], q2[1:], q3[1:]
-        for s in (0.25, 0.5, 0.75):
-            val = y0 * (1 - s) + s * (y1 + (1 - s) * (q2 + s * q3))
-            if len(val):
-                b = max(b, float(val.max()))
+        if len(x) > 1:
+            s = _QUARTERS
+            b = max(b, float((x[:-1] * (1 - s) + s * (x[1:] + (1 - s) * (q2[1:] + s * q3[1:]))).max()))
         best.append(max(b, 0.0))
     return tuple(best)
 

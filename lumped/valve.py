@@ -12,7 +12,11 @@ module that implements it (``lumped/disc_valve.py``, ``lumped/reed_valve.py``,
   (pressures, density, the orifice flow and its partials) and the flat parameter array
   ``p`` read at the kind's block offset ``o`` (floats and arrays only: numba compiles it);
   a kind with several mechanical degrees of freedom (the modal reed) adds
-  ``accelerations(y, s, n, x, u, f, p, o, contact, regime, out)``;
+  ``accelerations(y, s, n, x, u, f, p, o, contact, regime, dydt)``, its n accelerations written into
+  the state derivative at its rates' slots ``dydt[s + n:s + 2n]`` (its positions are ``y[s:s + n]``,
+  its rates ``y[s + n:s + 2n]``), and may add their partials by
+  its positions and rates, ``accelerations_jacobian(y, s, n, x, u, f, p, o, contact, regime, jac)``
+  (written into the pump's Jacobian; without it lumped.jacobian differences them);
 - its tolerances on the fast path and the shipped model that gives its defaults.
 
 :func:`check_valve_kind` (``lumped.conformance``) checks a kind against this contract.
@@ -247,7 +251,8 @@ class ValveKind:
     ``params``: the parameter class (:class:`ValveParams`); ``acceleration``: du/dt of the
     opening (numba-compilable; see the module docstring), ``accelerations``: the several-DOF form
     (None: the kind has one); ``block``: the offsets of its packed quantities
-    (:func:`kind_block`); ``default_model``: the shipped model whose valves give the keys a model
+    (:func:`kind_block`); ``accelerations_jacobian``: their partials by the valve's positions and
+    rates (None: differenced); ``default_model``: the shipped model whose valves give the keys a model
     file leaves out for this kind; ``contact_position_atol``: the fast path's opening tolerance in
     contact, in units of atol x the contact deflection (lumped.steppers.tolerance_table);
     ``free_velocity_atol``: the fast path's velocity tolerance in free flight, in units of atol x
@@ -263,6 +268,7 @@ class ValveKind:
     block: tuple
     default_model: str = ""
     accelerations: Callable | None = None
+    accelerations_jacobian: Callable | None = None
     contact_velocity_atol: float = 1.0
     contact_position_atol: float = 30.0
     free_velocity_atol: float = 100.0
@@ -274,7 +280,7 @@ class ValveKind:
 KINDS: dict[str, ValveKind] = {}
 #: inlined where called in the compiled physics (lumped.compiled): the dispatch is a few compares, and
 #: inlined the ValveInputs it passes on stay in registers
-INLINE = ("valve_acceleration",)
+INLINE = ("valve_acceleration", "valve_accelerations", "valve_accelerations_jacobian")
 #: length of every valve block of the flat parameter array (a kind may use up to this many)
 BLOCK_SIZE = 96
 
@@ -331,13 +337,15 @@ def kind_names() -> tuple[str, ...]:
 
 
 def _build_dispatch() -> None:
-    """(Re)generate :func:`valve_acceleration` and :func:`valve_accelerations`: if-chains over the kinds.
+    """(Re)generate :func:`valve_acceleration`, :func:`valve_accelerations` and
+    :func:`valve_accelerations_jacobian`: if-chains over the kinds.
 
     Generated (rather than written) so that a kind is one registry entry; numba compiles
     the generated functions like any other (lumped.compiled), each kind's function inlined.
     """
     one = "x, u, f, p, o, contact, regime"
-    many = "y, s, n, x, u, f, p, o, contact, regime, out"
+    many = "y, s, n, x, u, f, p, o, contact, regime, dydt"
+    jac = "y, s, n, x, u, f, p, o, contact, regime, jac"
     lines = [f"def valve_acceleration({one}):",
              '    """du/dt [m/s^2] of the opening of the one-DOF valve at block offset o, by its kind (generated)."""',
              "    k = p[o + VALVE.kind_id]"]
@@ -347,7 +355,8 @@ def _build_dispatch() -> None:
         lines += [f"    if k == {float(kind.id)}:", f"        return {fname}({one})"]
     lines += ["    return math.nan", "",
               f"def valve_accelerations({many}):",
-              '    """The n accelerations [m/s^2] of a several-DOF valve into out (generated dispatch)."""',
+              '    """The n accelerations [m/s^2] of a several-DOF valve into dydt[s + n:s + 2n] (generated '
+              'dispatch)."""',
               "    k = p[o + VALVE.kind_id]"]
     for kind in KINDS.values():
         if kind.accelerations is None:
@@ -355,9 +364,32 @@ def _build_dispatch() -> None:
         fname = f"_accels_{kind.name}"
         globals()[fname] = kind.accelerations
         lines += [f"    if k == {float(kind.id)}:", f"        {fname}({many})", "        return"]
-    lines += ["    for j in range(n):", "        out[j] = math.nan"]
+    lines += ["    for j in range(n):", "        dydt[s + n + j] = math.nan", "",
+              f"def valve_accelerations_jacobian({jac}):",
+              '    """The partials of a several-DOF valve\'s accelerations by its states into jac; False: the '
+              'kind has none (generated dispatch)."""',
+              "    k = p[o + VALVE.kind_id]"]
+    for kind in KINDS.values():
+        if kind.accelerations_jacobian is None:
+            continue
+        fname = f"_accels_jac_{kind.name}"
+        globals()[fname] = kind.accelerations_jacobian
+        lines += [f"    if k == {float(kind.id)}:", f"        {fname}({jac})", "        return True"]
+    lines += ["    return False"]
     code = compile("\n".join(lines), __file__, "exec")
+    old = {name: globals()[name] for name in ("valve_acceleration", "valve_accelerations")}
     exec(code, globals())  # noqa: S102 - generated from the registry above
+    # modules that imported the dispatchers by name (lumped.layout, lumped.jacobian) still hold the ones built
+    # before this kind registered, which the reference path would call: point them at the new ones
+    import sys
+
+    for mod in list(sys.modules.values()):
+        scope = getattr(mod, "__dict__", None)
+        if scope is None or not getattr(mod, "__name__", "").startswith("lumped."):
+            continue
+        for name, fn in old.items():
+            if scope.get(name) is fn:
+                scope[name] = globals()[name]
 
 
 def valve_acceleration(x, u, f, p, o, contact, regime):  # replaced by _build_dispatch() as kinds register
@@ -365,10 +397,15 @@ def valve_acceleration(x, u, f, p, o, contact, regime):  # replaced by _build_di
     return math.nan
 
 
-def valve_accelerations(y, s, n, x, u, f, p, o, contact, regime, out):  # replaced by _build_dispatch()
+def valve_accelerations(y, s, n, x, u, f, p, o, contact, regime, dydt):  # replaced by _build_dispatch()
     """The accelerations of a several-DOF valve (no kind registered yet: nan)."""
     for j in range(n):
-        out[j] = math.nan
+        dydt[s + n + j] = math.nan
+
+
+def valve_accelerations_jacobian(y, s, n, x, u, f, p, o, contact, regime, jac):  # replaced by _build_dispatch()
+    """The partials of a several-DOF valve's accelerations (no kind registered yet: none)."""
+    return False
 
 
 # --------------------------------------------------------------------------- shared physics
@@ -397,6 +434,17 @@ def contact_reaction(x: float, u: float, p, o: int, contact: int) -> float:
     """F_c of eq 2.20 for the valve at block offset o (N for the disc, Pa for the reed)."""
     return contact_force(x, u, p[o + VALVE.seat_k], p[o + VALVE.seat_c], p[o + VALVE.stop_k],
                          p[o + VALVE.stop_c], p[o + VALVE.stop_gap], contact)
+
+
+def contact_slopes(x: float, p, o: int, contact: int) -> tuple[float, float]:
+    """(dF_c/dx, dF_c/du) of :func:`contact_reaction` (eq 2.20) in a contact state (units of k and c)."""
+    if contact < 0:
+        contact = contact_state(x, p[o + VALVE.stop_gap])
+    if contact == SEAT:
+        return -p[o + VALVE.seat_k], -p[o + VALVE.seat_c]
+    if contact == STOP:
+        return -p[o + VALVE.stop_k], -p[o + VALVE.stop_c]
+    return 0.0, 0.0
 
 
 def displacement_area(u: float, a1: float, a2: float, f1: float, f2: float, contact: int) -> float:

@@ -104,6 +104,13 @@ def test_model_file_example_runs(cli, tmp_path):
     assert r["valve"] == "disc/reed"
 
 
+def test_reed_dynamics_example_runs(cli, tmp_path):
+    """The reed dynamics keys, on the thesis reed pump: the pump JSON's dynamics as CONTRACT.md shows it."""
+    (tmp_path / "modal.toml").write_text('base = "thesis-reed"\n' + block("toml", "[valves.delivery]\nkind"))
+    r = ok(cli, "pump", "--model", "modal.toml", "--revolutions", "2", cwd=tmp_path)
+    assert r["dynamics"] == {"delivery": {"kind": "modal", "modes": 3}}
+
+
 def test_sweep_file_example_is_accepted(tmp_path):
     from studies.sweeps import sweep
 

@@ -47,6 +47,19 @@ def test_the_conformance_check_catches_a_broken_kind(monkeypatch):
         dataclasses.replace(load_model("thesis-ball").inlet.common(None), area_2=-1.0)
 
 
+def test_a_kind_registered_late_reaches_the_reference_physics():
+    """The generated dispatch is rebuilt when a kind registers (after lumped.layout and lumped.jacobian imported
+    it by name): those modules must call the new one, or the reference path gets nan for the new kind."""
+    import lumped.jacobian
+    import lumped.layout
+    import lumped.valve as valve
+
+    valve._build_dispatch()                     # what a late register() does
+    for mod in (lumped.layout, lumped.jacobian):
+        assert mod.valve_acceleration is valve.valve_acceleration, mod.__name__
+        assert mod.valve_accelerations is valve.valve_accelerations, mod.__name__
+
+
 def test_extending_counts_its_files():
     """The doc states the files an extension takes: a kind 3, an effect 2, a reed shape 1."""
     text = (ROOT / "docs" / "extending.md").read_text()

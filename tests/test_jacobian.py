@@ -25,8 +25,9 @@ EFFECTS = {"none": {}, **{name: {f"effects.{name}": True} for name in LIBRARY.na
            "entrained_air": {"oil.air_content": 0.02}, "air_free": {"oil.air_content": 0.0}}
 DESIGNS = (*KINDS, "mixed", "ball/reed", "modal")
 #: the design "modal": the reed pump with the prototype geometry and a three-mode delivery valve under an
-#: off-axis port (lumped/reed_dynamics.py)
+#: off-axis port (lumped/reed_dynamics.py), with the drag of eq 3.21 on (its partials are the reed's own)
 MODAL = {"valves.geometry": "prototype", "valves.delivery.dynamics": "modal", "valves.delivery.modes": 3,
+         "valves.delivery.damping.drag": True, "valves.delivery.damping.drag_coefficient": 1.2,
          "valves.delivery.port.s_start": 8e-3, "valves.delivery.port.s_end": 20e-3,
          "valves.delivery.port.width": 4e-3, "valves.delivery.port.y_center": 2.5e-3}
 

@@ -62,6 +62,13 @@ def test_figures_are_generated_from_the_benchmark_json():
     assert r.returncode == 0, r.stderr
 
 
+def test_performance_page_is_generated_from_the_benchmark_json():
+    """docs/performance.md holds what benchmarks/performance_doc.py makes of the results JSON."""
+    r = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "performance_doc.py"), "--check"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+
+
 def test_there_are_examples_to_run():
     assert any(not SLOW.search(c) for c in COMMANDS) and any(SLOW.search(c) for c in COMMANDS)
 

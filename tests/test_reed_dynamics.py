@@ -199,3 +199,89 @@ def test_the_command_line_reports_the_dynamics(tmp_path, capsys):
     f.write_text('base = "thesis-reed"\n[valves]\ngeometry = "prototype"\n[valves.delivery]\ndynamics = "fe"\n')
     assert main(["pump", "--model", str(f), "--json"]) == 2
     assert "valves.delivery.dynamics" in capsys.readouterr().err
+
+
+def test_the_opening_is_the_first_packed_coordinate():
+    """The modal reed's packed coordinates z = S q put the opening first (weights (1, 0, ..)): S T = I, and the
+    packed matrices are the modal ones in those coordinates (the eigenvalues of A are the modal omega^2)."""
+    from lumped.reed_dynamics import coordinates
+
+    m = _model(dynamics="modal", modes=3)
+    a, _, g, e, _, pr = _packed(m)
+    s = structure(pr.model.delivery, 876.0)
+    assert np.allclose(e, [1.0, 0.0, 0.0])
+    sm, tm = coordinates(s.opening)
+    assert np.allclose(sm @ tm, np.eye(3), atol=1e-14)
+    lam = np.sort(np.linalg.eigvals(a).real)
+    a_modal = np.linalg.solve(s.mass, s.stiffness)
+    assert np.allclose(lam, np.sort(np.linalg.eigvals(a_modal).real), rtol=1e-10)
+    # the static opening under a unit pressure is a property of the reed, not of its coordinates
+    assert e @ np.linalg.solve(a, g) == pytest.approx(s.opening @ np.linalg.solve(s.stiffness, s.load), rel=1e-10)
+
+
+def test_the_validation_chains_check_of_the_prototype_reed(tmp_path):
+    """validate's part (quick: the six-mode reed the reference, saying so): eq 3.21 within 0.1 % delivery and
+    0.5 deg of six modes at the fastest case of Table 5.6, the numerics far below; its Markdown and CSV."""
+    from studies.validation import reed_dynamics as rd
+
+    r = rd.prototype_adequacy(quick=True, progress=False)
+    assert r["reference"] == "modal6" and r["quick"] and "cheaper" in r["note"]
+    assert [row["model"] for row in r["rows"]] == ["one-mode", "modal1", "modal2", "modal3", "modal6"]
+    s = r["summary"]
+    assert s["one_mode_enough"] and s["one_mode_worst_delivery_pct"] < 0.1
+    assert s["numerical_pct"] < 0.1 * s["one_mode_worst_delivery_pct"]
+    files = rd.write_adequacy(r, tmp_path / "reed_dynamics")
+    text = (tmp_path / "reed_dynamics.md").read_text()
+    assert "adequate for the prototype reed" in text and len(files) == 2
+    assert json.dumps(r)                              # plain JSON types only
+
+
+def test_the_study_tables_follow_its_runs(tmp_path):
+    """The study's machinery on one reed, one case, three models (eq 3.21, one and two modes; two the reference):
+    every table row is a run, the verdict follows the numbers, and the files are written."""
+    from studies.validation import reed_dynamics as rd
+    from studies.validation.chain import cases
+
+    case = rd.ReedCase("prototype", _model().delivery.reed, "beam", {}, "test")
+    op = cases(valve="reed")[0]
+    models = rd.variants(case, modes=(1, 2), fe=False)
+    by_label, _ = rd.run_point(case, op, revolutions=2, method="fast", models=models)
+    rd._against(by_label, "modal2")
+    assert by_label["modal2"]["delivery_vs_reference_pct"] == 0.0
+    # one mode of the modal reed is eq 3.21 with its integrals over the first mode (within 0.05 %)
+    assert abs(by_label["modal1"]["delivery_cc"] / by_label["one-mode"]["delivery_cc"] - 1.0) < 5e-4
+    summary = rd._summary(case, list(by_label.values()), reference="modal2")
+    assert summary["modes_needed"] == (1 if rd._within(rd._worst(list(by_label.values()), "modal1")) else None)
+    study = {"reeds": [summary], "rows": list(by_label.values()), "numerics": [], "traces": {},
+             "tolerances": {"delivery_pct": 0.1, "angle_deg": 0.5, "method": "fast", "fast_rtol": rd.FAST_RTOL}}
+    md = rd.markdown(study)
+    assert md.count("| eq 3.21 (one mode) |") == 2 and "| modal1 |" in md
+    files = rd.write_outputs(study, tmp_path)
+    assert json.loads((tmp_path / "reed_dynamics.json").read_text())["reeds"][0]["reed"] == "prototype"
+    assert len(files) == 3
+
+
+def test_check_flags_of_the_pump_study_need_it(capsys):
+    from studies.cli import main
+
+    assert main(["check", "prototype", "--markdown"]) == 2
+    err = capsys.readouterr().err
+    assert "--markdown" in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("keys, field", [
+    ('dynamics = "modal"\nmodes = 0\n', "valves.delivery.modes"),
+    ('dynamics = "modal"\nmodes = 7\n', "valves.delivery.modes"),
+    ('dynamics = "modal"\nmodes = 2\nport.s_start = 0.02\nport.s_end = 0.03\nport.width = 0.005\n',
+     "valves.delivery.port.s_end"),
+    ('dynamics = "fe"\n', "valves.delivery.dynamics"),
+])
+def test_bad_dynamics_keys_exit_2_on_the_command_line(tmp_path, capsys, keys, field):
+    """Before any simulation: exit 2, one line on stderr naming the key (the default method is the fast one)."""
+    from studies.cli import main
+
+    f = tmp_path / "bad.toml"
+    f.write_text('base = "thesis-reed"\n[valves]\ngeometry = "prototype"\n[valves.delivery]\n' + keys)
+    assert main(["pump", "--model", str(f), "--json"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and field in captured.err and len(captured.err.strip().splitlines()) == 1

@@ -1,7 +1,8 @@
 """``valvelab validate``: the multi-fidelity chain and the 12 pump cases of chapter 5, written to ``out/``.
 
 Steps: 1. reed parameters, analytic vs FEA (``studies.validation.reed_check``), with the V&V 20
-table of the analytic model against each FEA fidelity; 2. the 12 pump cases of Tables 5.4 and
+table of the analytic model against each FEA fidelity, and the one-mode reed (eq 3.21) against N modes
+and the whole FE reed in the pump (``studies.validation.reed_dynamics.prototype_adequacy``); 2. the 12 pump cases of Tables 5.4 and
 5.6 to cyclic steady state, with their numerical, input and measurement uncertainty (ASME
 V&V 20, ``studies.validation.vv20``); 3. tables (Markdown and CSV) and plots (valve positions
 and pressures over three revolutions, the model's Figures 5.7-5.21; E with U_val); 4. a summary
@@ -26,7 +27,9 @@ def configure(p):
     p.add_argument("--out", default="out", help="output folder (default out/)")
     p.add_argument("--quick", action="store_true", help="fewer revolutions, one traced revolution, coarse FEA (tests)")
     p.add_argument("--force", action="store_true", help="write into a non-empty folder valvelab did not create")
-    p.add_argument("--jobs", type=flags.integer(1, 256), default=None, help="processes for the pump cases (default 1 or $VALVELAB_JOBS)")
+    p.add_argument("--jobs", type=flags.integer(1, 256), default=None,
+                   help="processes for the pump cases, the reed chain and the plots (default one per core, at most 4, "
+                        "or $VALVELAB_JOBS)")
     p.add_argument("--valve", choices=("disc", "reed"), default=None, help="only the cases of one valve type")
     p.add_argument("--skip-reed-chain", action="store_true", help="skip step 1 (reed parameters by fidelity)")
     p.add_argument("--no-uncertainty", action="store_true",
@@ -42,16 +45,48 @@ def _log(msg: str) -> None:
     sys.stderr.flush()
 
 
+def _reed_step(quick: bool, uncertainty: bool, progress: bool) -> tuple[dict, object]:
+    """Step 1: the reed parameters by fidelity and (with the uncertainty) the V&V 20 table of the analytic model
+    against each FEA fidelity; runs beside the pump cases (in a process of its own when there are jobs)."""
+    from studies.validation import chain as V
+
+    chain = V.reed_parameter_chain(quick=quick, progress=progress)
+    reed_table = None
+    if chain["rows"] and uncertainty and len(chain["rows"]) > 1:
+        from geometry import load_reed
+        from studies.validation.vv20 import reed_validation
+
+        if progress:
+            _log("  V&V 20: analytic against each FEA fidelity (GCI of each mesh, thickness tolerance)")
+        reed_table = reed_validation(load_reed("prototype"), chain["rows"], quick=quick, progress=progress)
+    return chain, reed_table
+
+
 def run(args) -> dict:
+    from concurrent.futures import ProcessPoolExecutor
+
+    jobs = None if args.jobs is None else args.jobs
+    if jobs is not None and jobs < 1:
+        raise InputError("--jobs", f"must be at least 1, got {jobs}")
+    if args.scheduler is not None and args.workers is not None:
+        raise InputError("--workers", "applies to the local cluster only; the scheduler at --scheduler has its own")
+    from studies.validation import chain as V
+
+    jobs = V.default_jobs() if jobs is None else jobs
+    # the pump cases, the reed chain (its FEA) and the plots share one pool of processes
+    pool = ProcessPoolExecutor(max_workers=jobs) if jobs > 1 else None
+    try:
+        return _run(args, jobs, pool)
+    finally:
+        if pool is not None:
+            pool.shutdown(cancel_futures=True)
+
+
+def _run(args, jobs: int, pool) -> dict:
     from studies.validation import chain as V
     from studies.outputs import prepare_output_dir
     from studies.tables.pump import REED_NOTE, table_2_3
 
-    jobs = V.default_jobs() if args.jobs is None else args.jobs
-    if jobs < 1:
-        raise InputError("--jobs", f"must be at least 1, got {jobs}")
-    if args.scheduler is not None and args.workers is not None:
-        raise InputError("--workers", "applies to the local cluster only; the scheduler at --scheduler has its own")
     uncertainty = not args.no_uncertainty
     out = prepare_output_dir(args.out, "--out", args.force, kind="validate")
     t_start = time.time()
@@ -59,20 +94,33 @@ def run(args) -> dict:
     files = []
     reed_table = None
 
-    # 1. reed parameters by fidelity
+    # 1. reed parameters by fidelity (beside step 2 when there is a pool)
     chain = {"status": "skipped", "reason": "--skip-reed-chain", "rows": [], "selected": None}
+    reed_future = None
     if not args.skip_reed_chain and args.valve != "disc":
-        _log("step 1/4: reed parameters of the prototype reed, analytic vs FEA")
-        chain = V.reed_parameter_chain(quick=args.quick, progress=True)
-        if chain["status"] != "ok":
-            _log(f"  {chain['reason']}: the pump uses Table 3.13 only")
-    if chain["rows"]:
-        if uncertainty and len(chain["rows"]) > 1:
-            from geometry import load_reed
-            from studies.validation.vv20 import reed_validation
+        _log("step 1/4: reed parameters of the prototype reed, analytic vs FEA"
+             + (" (beside step 2)" if pool is not None else ""))
+        if pool is not None:
+            reed_future = pool.submit(_reed_step, args.quick, uncertainty, False)
+        else:
+            chain, reed_table = _reed_step(args.quick, uncertainty, True)
 
-            _log("  V&V 20: analytic against each FEA fidelity (GCI of each mesh, thickness tolerance)")
-            reed_table = reed_validation(load_reed("prototype"), chain["rows"], quick=args.quick, progress=True)
+    # 2. the pump cases
+    selected = V.cases(valve=args.valve)
+    _log(f"step 2/4: {len(selected)} pump cases to cyclic steady state ({'quick' if args.quick else 'full'}), "
+         "each from the fast path's cycle")
+    results = V.run_cases(selected, quick=args.quick, progress=True, jobs=jobs, pool=pool)
+    plots = []
+    for c, r in zip(selected, results):
+        fig = V.FIGURES[(c["valve"], c["measured_valve"], c["condition"])]
+        path = out / f"fig_{fig.replace('.', '_')}_{V.case_name(c)}.png"
+        plots.append(pool.submit(V.plot_case, c, r, path) if pool is not None else (c, r, path))
+    if reed_future is not None:
+        chain, reed_table = reed_future.result()
+    if chain["status"] not in ("ok", "skipped"):
+        _log(f"  {chain['reason']}: the pump uses Table 3.13 only")
+    if chain["rows"]:
+        if reed_table is not None:
             files += reed_table.write(out / "reed_validation")
             files.append(reed_table.plot(out / "reed_validation.png", relative=True))
         rows, notes = V.reed_parameter_table(chain)
@@ -89,6 +137,7 @@ def run(args) -> dict:
                          "reed_validation.md compares each fidelity with the analytic model (ASME V&V 20).")
         V.write_table([_plain(r) for r in rows], out / "reed_parameters",
                       "Prototype reed parameters by fidelity (step 1), beside the thesis's FEA", notes)
+    summary["reed_dynamics"] = _reed_dynamics(args, out, files)
     sel = chain["selected"]
     summary["steps"]["reed_parameters"] = {
         "status": chain["status"], "reason": chain["reason"], "fidelities": len(chain["rows"]),
@@ -98,17 +147,15 @@ def run(args) -> dict:
             **{k: finite_or_none(getattr(sel, k)) for k in ("omega_n", "kappa", "gamma1", "gamma2", "gamma3", "h_eff")}},
     }
 
-    # 2. the pump cases
-    selected = V.cases(valve=args.valve)
-    _log(f"step 2/4: {len(selected)} pump cases to cyclic steady state ({'quick' if args.quick else 'full'})")
-    results = V.run_cases(selected, quick=args.quick, progress=True, jobs=jobs)
     geo_results = {}
     reed_sel = [c for c in selected if c["valve"] == "reed"]
     if sel is not None and reed_sel:
         _log(f"  and the {len(reed_sel)} reed cases with kappa, gammas, h_eff of the {sel.fidelity} model")
         model = V.reed_model_from(sel)
+        # an auxiliary column: the fast path (within 0.1 %), cheap in this process; five revolutions from
+        # today's start as ever (its last digits are the fast path's revolution-to-revolution noise)
         rs = V.run_cases(reed_sel, params_for=lambda c: model, quick=args.quick, trace=False, progress=True,
-                         jobs=jobs, method="fast")     # an auxiliary column: the fast path (within 0.1 %)
+                         method="fast", settings=None if args.quick else V.LEGACY)
         geo_results = {V.case_name(c): r for c, r in zip(reed_sel, rs)}
     pump_table = extra = None
     t_unc = time.time()
@@ -132,17 +179,15 @@ def run(args) -> dict:
         notes = []
         if valve == "reed":
             _log("  reed cases again with Table 5.1's dead volume (docs/errata.md)")
-            V.add_table_5_1_column([c for c, _ in pairs], rows, quick=args.quick, progress=True, jobs=jobs)
+            V.add_table_5_1_column([c for c, _ in pairs], rows, quick=args.quick, progress=True)
             notes = [REED_NOTE]
         files += V.write_table(rows, out / f"table_{table.replace('.', '_')}",
                                f"Table {table}: {valve} valve pump delivery (cc/rev)", notes)
         tables[table] = rows
     t23 = table_2_3()
     files += V.write_table(t23["rows"], out / "table_2_3", "Table 2.3: disc valve parameters", t23["notes"])
-    for c, r in zip(selected, results):
-        fig = V.FIGURES[(c["valve"], c["measured_valve"], c["condition"])]
-        name = f"fig_{fig.replace('.', '_')}_{V.case_name(c)}.png"
-        files.append(V.plot_case(c, r, out / name))
+    for p in plots:
+        files.append(p.result() if pool is not None else V.plot_case(*p))
 
     # 4. summary
     _log("step 4/4: summary")
@@ -197,6 +242,21 @@ def run(args) -> dict:
     return summary
 
 
+def _reed_dynamics(args, out: Path, files: list) -> dict:
+    """Step 1's pump check of the prototype reed: eq 3.21 against N modes and the whole FE reed
+    (studies.validation.reed_dynamics.prototype_adequacy), written to reed_dynamics.{md,csv}."""
+    if args.skip_reed_chain or args.valve == "disc":
+        return {"status": "skipped", "reason": "--skip-reed-chain" if args.skip_reed_chain else "--valve disc"}
+    from studies.validation import reed_dynamics as rd
+
+    _log("  the prototype reed in the pump: eq 3.21 against 1, 2, 3, 6 modes"
+         + (" (quick: no FE reed)" if args.quick else " and the whole FE reed (one case of Table 5.6)"))
+    t0 = time.time()
+    result = rd.prototype_adequacy(quick=args.quick, progress=True)
+    files += rd.write_adequacy(result, out / "reed_dynamics")
+    return {"status": "ok", "verdict": rd.adequacy_words(result), **result, "wall_seconds": round(time.time() - t0, 1)}
+
+
 def _pump_uncertainty(args, selected, results):
     """The V&V 20 table of the pump cases; the Monte Carlo on dask (--quick: in this process unless a cluster is named)."""
     from studies.sweeps.design.runner import Cluster
@@ -231,6 +291,9 @@ def _summary_md(s: dict) -> str:
         sel = rp["selected"]
         lines.append(f"   selected {sel['fidelity']}: kappa = {sel['kappa'] / 1e6:.4f} MPa/m, "
                      f"gamma1 = {sel['gamma1']:.4f}, h_eff = {sel['h_eff'] * 1e3:.4f} mm")
+    rd = s.get("reed_dynamics", {})
+    if rd.get("status") == "ok":
+        lines.append(f"   in the pump: {rd['verdict']}; {rd['note']} (reed_dynamics.md)")
     pc = s["steps"]["pump_cases"]
     lines.append(f"2. Pump cases: {pc['cases']}, all cyclic steady: {pc['all_cyclic_steady']}, "
                  f"max mass-balance error {pc['max_mass_balance_error']:.1e}, CPU s per simulated s "
@@ -275,6 +338,8 @@ def _summary_md(s: dict) -> str:
 
 def render(s: dict) -> str:
     out = [f"validation written to {s['out']}/"]
+    if s.get("reed_dynamics", {}).get("status") == "ok":
+        out.append(f"  {s['reed_dynamics']['verdict']}")
     pc = s["steps"]["pump_cases"]
     out.append(f"  {pc['cases']} pump cases, all cyclic steady: {pc['all_cyclic_steady']}, "
                "CPU s per simulated s: " + ", ".join(f"{k} {v:.2f}" for k, v in pc["cpu_seconds_per_simulated_second"].items()))

@@ -7,7 +7,7 @@ Inputs, each a factor or a fixed value (SI units; names in CONTRACT.md, "Sweeps"
   of that valve type);
 - operating point: ``speed_rpm``, ``load_pressure`` [Pa, absolute] (default: the model's
   ``[operating]``), ``air_content`` (R of eq 4.11; default: the model's);
-- run settings: ``revolutions`` (default 5), ``method`` ("fast", the default, or
+- run settings: how many revolutions (below), ``method`` ("fast", the default, or
   "reference"), ``rtol``, ``atol``, ``circuit``;
 - any key of the model file by its path (:func:`lumped.model_file.with_values`):
   ``pump.dead_volume``, ``valves.delivery.spring.stiffness``, ``valves.spring.stiffness``
@@ -16,10 +16,22 @@ Inputs, each a factor or a fixed value (SI units; names in CONTRACT.md, "Sweeps"
   The names of the first sweep files (``inlet.<field>``, ``delivery.<field>``,
   ``valves.<field>`` with the Python field names, ``effect.<name>``) are translated.
 
+How many revolutions: by default each design runs until the cyclic steady-state test passes
+(:meth:`lumped.revolutions.StopRule.steady`: the relative change of the delivery and of the
+state at TDC between the last two revolutions below ``steady_tol``, default 1e-3, or the
+integrator's rtol if larger; the last revolution is then within 1e-4 of the cycle, the map
+contracting by a factor 10 or more per revolution), two revolutions at least and ``max_revolutions`` (default
+:data:`MAX_REVOLUTIONS`) at most, and starts from the TDC state of the nearest design already
+solved in its batch (a warm start, :mod:`studies.sweeps.locality`; the batch's first design
+starts from today's start; ``warm_start = false``: every design from today's start, so that its
+answer does not depend on the batch it ran in). ``revolutions`` alone is a fixed count, as in
+the first sweep files; with ``max_revolutions`` it is the least number.
+
 Outputs: delivery per revolution (eq 4.17), volumetric efficiency, per valve the peak
 opening, opening and closing crank angles (rad from TDC), stop contacts, the largest
 impact speeds on the seat and the stop, the energy dissipated by throttling per revolution, then the
-cylinder pressure extremes, cyclic steady state, mass balance error, CPU seconds, and
+cylinder pressure extremes, cyclic steady state, its residual ``cycle_change``, the revolutions
+run, ``warm_started`` (whether the design started from a neighbour's state), mass balance error, CPU seconds, and
 ``warnings``: the result's validity warnings (lumped.validity) as JSON text, ``[]`` when none.
 ``status`` is "ok", or "not_cyclic" when the last two revolutions still differ by more
 than the steady tolerance (or than rtol, if larger), or "outside" when the input
@@ -60,6 +72,7 @@ OUTPUTS = {
     "cycle_change": "float64",
     "mass_balance_error": "float64",
     "revolutions_run": "int64",
+    "warm_started": "bool",
     "cpu_seconds": "float64",
     "warnings": "string",
 }
@@ -67,8 +80,13 @@ OUTPUTS = {
 ON_WARNING = ("flag", "exclude")
 MAIN_RESPONSES = ("delivery_m3_per_rev", "volumetric_efficiency", "delivery_peak_opening_m")
 REQUIRED = ()
-OPERATING = ("model", "valve", "speed_rpm", "load_pressure", "air_content", "revolutions", "method", "rtol",
-             "atol", "circuit", "on_warning")
+OPERATING = ("model", "valve", "speed_rpm", "load_pressure", "air_content", "revolutions", "max_revolutions",
+             "steady_tol", "warm_start", "method", "rtol", "atol", "circuit", "on_warning")
+#: the most revolutions a design runs to reach cyclic steady state (unless ``max_revolutions``)
+MAX_REVOLUTIONS = 10
+#: the steady-state test's tolerance (floored at the integrator's rtol) unless ``steady_tol``: lumped's
+#: STEADY_TOL (the last revolution's delivery then within 1e-4 of the cycle's)
+from lumped.revolutions import STEADY_TOL  # noqa: E402
 
 
 # --------------------------------------------------------------------------- names of the first sweep files
@@ -142,10 +160,16 @@ def check(name: str, value) -> None:
     elif name == "air_content":
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < 0.5:
             raise InputError(name, f"must be a volume fraction in [0, 0.5), got {value!r}")
-    elif name == "revolutions":
+    elif name in ("revolutions", "max_revolutions"):
         _positive(name, value, integer=True)
         if not 2 <= value <= 100_000:
             raise InputError(name, f"must be from 2 (cyclic steady state compares two) to 100000, got {value!r}")
+    elif name == "warm_start":
+        if not isinstance(value, bool):
+            raise InputError(name, f"must be true or false, got {value!r}")
+    elif name == "steady_tol":
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value < 0.1:
+            raise InputError(name, f"must be in (0, 0.1), got {value!r}")
     elif name in ("rtol", "atol"):
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value < 0.1:
             raise InputError(name, f"must be in (0, 0.1), got {value!r}")
@@ -218,16 +242,51 @@ def build_model(design: dict):
     return with_values(model, values)
 
 
-def evaluate(design: dict) -> dict:
-    """Simulate one design (fast path by default) and return the sweep outputs."""
+def stop_rule(design: dict):
+    """The :class:`lumped.revolutions.StopRule` of a design's run settings: until cyclic steady state (at
+    least ``revolutions``, default 2; at most ``max_revolutions``, default :data:`MAX_REVOLUTIONS`), or a
+    fixed count when only ``revolutions`` is given."""
+    from lumped.revolutions import StopRule
+
+    tol = float(design.get("steady_tol", STEADY_TOL))
+    if "revolutions" in design and "max_revolutions" not in design:
+        return StopRule(int(design["revolutions"]), None, tol)
+    least = int(design.get("revolutions", 2))
+    most = int(design.get("max_revolutions", max(MAX_REVOLUTIONS, least)))
+    if most < least:
+        raise InputError("max_revolutions", f"must be at least revolutions ({least}), got {most}")
+    return StopRule(least, most, tol)
+
+
+def evaluate(design: dict, warm=None) -> dict:
+    """Simulate one design (fast path by default) and return the sweep outputs; ``warm``
+    (:class:`studies.sweeps.locality.WarmSlot`): start from the nearest solved design's TDC state."""
     from lumped.cycle import simulate
 
     model = build_model(design)
     kw = {k: design[k] for k in ("rtol", "atol") if k in design}
     res = simulate(model, design.get("speed_rpm"), design.get("load_pressure"),
-                   air_content=design.get("air_content"), revolutions=int(design.get("revolutions", 5)),
-                   circuit=design.get("circuit"), method=design.get("method", "fast"), **kw)
+                   air_content=design.get("air_content"), stop=stop_rule(design),
+                   circuit=design.get("circuit"), method=design.get("method", "fast"),
+                   initial_state=start_of(design, warm, model), **kw)
+    if warm is not None:
+        warm.solved(res.tdc_state)
     return outputs_of(res, design.get("on_warning", "flag"))
+
+
+def start_of(design: dict, warm, model=None):
+    """The TDC state a design starts from: on the reference stepper, the fast path's cycle of the design itself
+    (:func:`lumped.warmstart.fast_start`: a few milliseconds, and the reference is steady after its first
+    revolution); else the state predicted from its batch's solved designs (None: today's start, also with
+    the input ``warm_start = false``)."""
+    if design.get("warm_start", True) is False:
+        return None
+    if design.get("method", "fast") != "fast" and model is not None:
+        from lumped.warmstart import fast_start
+
+        return fast_start(model, design.get("speed_rpm"), design.get("load_pressure"),
+                          air_content=design.get("air_content"), circuit=design.get("circuit"))
+    return None if warm is None else warm.state()
 
 
 def outputs_of(res, on_warning: str = "flag") -> dict:
@@ -240,6 +299,7 @@ def outputs_of(res, on_warning: str = "flag") -> dict:
         "max_cylinder_pressure_pa": res.max_cylinder_pressure,
         "cyclic_steady": res.cyclic_steady, "cycle_change": res.cycle_change,
         "mass_balance_error": res.mass_balance_error, "revolutions_run": res.revolutions,
+        "warm_started": res.start == "warm",
         "cpu_seconds": res.cpu_seconds,
         "status": "ok" if res.cyclic_steady else "not_cyclic",
         "warnings": json.dumps([w.to_dict() for w in res.warnings]),

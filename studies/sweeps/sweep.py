@@ -388,6 +388,19 @@ def sample_designs(spec: SweepSpec) -> list[dict]:
 
 
 # --------------------------------------------------------------------------- evaluation
+def _local_order(todo: list, group: int) -> list:
+    """``todo`` ((id, inputs) pairs) reordered so that consecutive designs are near each other (runs of
+    ``group`` consecutive ones kept together, placed by their first)."""
+    from studies.sweeps.locality import features, locality_order
+
+    runs: dict = {}
+    for i, d in todo:                         # design ids i // group belong together (whatever is left of them)
+        runs.setdefault(i // group, []).append((i, d))
+    runs = list(runs.values())
+    X, groups = features([run[0][1] for run in runs])
+    return [pair for j in locality_order(X, groups) for pair in runs[j]]
+
+
 
 
 def evaluate_batch(model_name: str, fixed: dict, batch: list[tuple[int, dict]]) -> list[dict]:
@@ -398,12 +411,24 @@ def evaluate_batch(model_name: str, fixed: dict, batch: list[tuple[int, dict]]) 
     """
     model = load_model(model_name)
     rows = []
-    for design_id, inputs in batch:
+    order, slots = range(len(batch)), None
+    if accepts_warm(model):
+        # each design starts from the nearest one already solved in this batch (lumped.warmstart), visited
+        # in a nearest-neighbour chain
+        from lumped.warmstart import WarmStarts, chain_order
+        from studies.sweeps.locality import WarmSlot, features
+
+        X, groups = features([inputs for _, inputs in batch])
+        order = chain_order(X, groups)
+        pool = WarmStarts()
+        slots = [WarmSlot(pool, X[i], groups[i]) for i in range(len(batch))]
+    for i in order:
+        design_id, inputs = batch[i]
         design = {**fixed, **inputs}
         row = {"design_id": int(design_id), **design}
         t0 = time.process_time()
         try:
-            out = dict(model.evaluate(design))
+            out = dict(model.evaluate(design) if slots is None else model.evaluate(design, warm=slots[i]))
             row.update({k: out.get(k) for k in model.OUTPUTS})
             row["status"] = str(out.get("status", "ok"))
             row["error"] = out.get("error")
@@ -587,9 +612,27 @@ def default_workers() -> int:
     return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
 
 
-def _default_batch(n_todo: int, n_workers: int) -> int:
-    # ~20 tasks per worker balances the load; capped so a kill loses little work
+#: most designs per dask task (a task of pump designs then takes a second or two: a kill loses little work)
+MAX_BATCH = 400
+
+
+def _default_batch(n_todo: int, n_workers: int, warm: bool = False) -> int:
+    # ~20 tasks per worker balances the load; a model that warm-starts a design from its batch's
+    # neighbours (:func:`accepts_warm`) gets ~8 larger tasks per worker, so that most designs have a
+    # close neighbour in their batch and the per-task costs (scheduling, a Parquet part) stay small
+    if warm:
+        return max(1, min(MAX_BATCH, math.ceil(n_todo / (8 * n_workers))))
     return max(1, min(50, math.ceil(n_todo / (20 * n_workers))))
+
+
+def accepts_warm(model) -> bool:
+    """Whether a sweep model's ``evaluate`` takes ``warm`` (a :class:`studies.sweeps.locality.WarmSlot`)."""
+    import inspect
+
+    try:
+        return "warm" in inspect.signature(model.evaluate).parameters
+    except (TypeError, ValueError):
+        return False
 
 
 def _prepare_folder(out: Path, spec: SweepSpec, fmt: str, force: bool, digest: str | None = None):
@@ -696,6 +739,7 @@ def run_sweep(
     progress: bool = True,
     designs: list[dict] | None = None,
     desc: str = "sweep",
+    group: int = 1,
 ) -> dict:
     """Run (or resume) a sweep into folder ``out``; return a summary dict.
 
@@ -706,6 +750,12 @@ def run_sweep(
     ``designs``: run these designs ({factor: value}, in order) instead of sampling the spec's
     (the samplers of ``valvelab sensitivity`` and ``optimize``); the folder's digest then covers
     them, so a rerun resumes only with the very same list. ``desc``: the progress bar's label.
+    ``group``: runs of that many consecutive designs belong together (a design's operating points) and
+    stay together in a batch.
+
+    A model whose ``evaluate`` takes ``warm`` (:func:`accepts_warm`, the pump) has its designs sent in
+    batches of near designs (:func:`studies.sweeps.locality.locality_order`) and each design started
+    from the nearest one solved before it in its batch (:func:`evaluate_batch`).
     """
     check_run_arguments(spec, out, fmt=fmt, scheduler=scheduler, n_workers=n_workers, batch_size=batch_size,
                         force=force, retry_failed=retry_failed, progress=progress, designs=designs)
@@ -722,6 +772,9 @@ def run_sweep(
     keep = done if not retry_failed else done[done["status"] != "error"]
     finished = set(int(i) for i in keep["design_id"])
     todo = [(i, d) for i, d in enumerate(designs) if i not in finished]
+    warm = accepts_warm(model)
+    if warm and len(todo) > 1:
+        todo = _local_order(todo, max(1, group))
     summary = {
         "model": spec.model, "sampler": spec.sampler, "designs": len(designs), "out": str(out),
         "format": fmt, "skipped": len(designs) - len(todo), "computed": 0,
@@ -751,7 +804,7 @@ def run_sweep(
                 client = Client(own_cluster)
         workers = max(1, len(client.scheduler_info().get("workers", {})) or (n_workers or 1))
         summary["workers"] = workers
-        bs = batch_size or _default_batch(len(todo), workers)
+        bs = batch_size or _default_batch(len(todo), workers, warm) * max(1, group)
         batches = [todo[i : i + bs] for i in range(0, len(todo), bs)]
         fixed = spec.fixed_dict
         from tqdm import tqdm

@@ -30,9 +30,13 @@ FIGURES = {
     ("reed", "delivery", "medium_speed"): "5.20", ("reed", "delivery", "high_speed"): "5.21",
 }
 
-#: run settings: (revolutions, max_revolutions, trace revolutions)
-FULL = dict(revolutions=5, max_revolutions=12, trace_revolutions=3)
-QUICK = dict(revolutions=3, max_revolutions=3, trace_revolutions=1)
+#: run settings: at least ``revolutions`` (the traced ones), then until cyclic steady state
+#: (lumped.revolutions.StopRule, STEADY_TOL), at most ``max_revolutions``; each case starts from the
+#: fast path's cycle (lumped.warmstart.fast_start), so the reference is steady from its first revolution
+FULL = dict(revolutions=3, max_revolutions=12, trace_revolutions=3)
+QUICK = dict(revolutions=2, max_revolutions=3, trace_revolutions=1)
+#: the settings before the warm start (five revolutions from today's start): benchmarks compare with them
+LEGACY = dict(revolutions=5, max_revolutions=12, trace_revolutions=3)
 
 
 def cases(valve: str | None = None, table: str | None = None) -> list[dict]:
@@ -56,37 +60,56 @@ def thesis_model_of(case: dict) -> PumpModel:
 
 
 def run_case(case: dict, *, params: PumpModel | None = None, quick: bool = False, trace: bool = True,
-             progress: bool = False, method: str = "reference") -> PumpResult:
+             progress: bool = False, method: str = "reference", settings: dict | None = None,
+             warm: bool = True) -> PumpResult:
     """Simulate one validation case to cyclic steady state (the thesis model unless ``params``).
 
     ``method``: the stepper of :func:`lumped.cycle.simulate`, "reference" (scipy Radau, the
     validation's default) or "fast" (compiled, delivery within 0.1 % of the reference).
+    ``settings``: FULL (default), QUICK (``quick``) or LEGACY; ``warm``: the reference starts from
+    the fast path's cycle (:func:`lumped.warmstart.fast_start`), else from today's start. The
+    steady-state test then passes at once, so the run is its ``revolutions`` traced revolutions.
     """
-    s = QUICK if quick else FULL
+    from lumped.revolutions import STEADY_TOL, StopRule
+    from lumped.warmstart import fast_start
+
+    s = settings or (QUICK if quick else FULL)
     model = params if params is not None else thesis_model_of(case)
-    return simulate(model, case["speed_rpm"], case["load_pressure"], air_content=case["air_content"],
-                    revolutions=s["revolutions"], max_revolutions=s["max_revolutions"], trace=trace,
-                    trace_revolutions=s["trace_revolutions"], progress=progress, method=method)
+    legacy = s is LEGACY
+    start = None
+    if warm and not legacy and method != "fast":
+        start = fast_start(model, case["speed_rpm"], case["load_pressure"], air_content=case["air_content"])
+    stop = StopRule(s["revolutions"], s["max_revolutions"], 1e-4 if legacy else STEADY_TOL)
+    return simulate(model, case["speed_rpm"], case["load_pressure"], air_content=case["air_content"], stop=stop,
+                    trace=trace, trace_revolutions=s["trace_revolutions"], progress=progress, method=method,
+                    initial_state=start)
 
 
 def _run_one(args):
-    case, params, quick, trace, method = args
-    return run_case(case, params=params, quick=quick, trace=trace, method=method)
+    case, params, quick, trace, method, settings, warm = args
+    return run_case(case, params=params, quick=quick, trace=trace, method=method, settings=settings, warm=warm)
 
 
 def run_cases(selected: list[dict], *, params_for=None, quick: bool = False, trace: bool = True,
-              progress: bool = False, jobs: int = 1, method: str = "reference") -> list[PumpResult]:
-    """Simulate the cases (in ``jobs`` processes), progress as a count on stderr.
+              progress: bool = False, jobs: int = 1, method: str = "reference", settings: dict | None = None,
+              warm: bool = True, pool=None) -> list[PumpResult]:
+    """Simulate the cases (in ``jobs`` processes, or on the executor ``pool``), progress as a count on stderr.
 
-    ``params_for(case) -> PumpModel | None`` overrides the thesis configuration per case.
+    ``params_for(case) -> PumpModel | None`` overrides the thesis configuration per case; ``settings``,
+    ``warm``: as :func:`run_case`.
     """
-    work = [(c, params_for(c) if params_for else None, quick, trace, method) for c in selected]
+    work = [(c, params_for(c) if params_for else None, quick, trace, method, settings, warm) for c in selected]
     bar = None
     if progress:
         from tqdm import tqdm
         bar = tqdm(total=len(work), desc="pump cases", unit="case", file=sys.stderr)
     results: list[PumpResult] = []
-    if jobs > 1:
+    if pool is not None:
+        for r in pool.map(_run_one, work):
+            results.append(r)
+            if bar:
+                bar.update(1)
+    elif jobs > 1:
         with ProcessPoolExecutor(max_workers=jobs) as ex:
             for r in ex.map(_run_one, work):
                 results.append(r)
@@ -120,6 +143,7 @@ def table_rows(selected: list[dict], results: list[PumpResult]) -> list[dict]:
             "vs_thesis_model_pct": round((modeled - thesis) / thesis * 100, 3),
             "abs_error_worse_than_thesis_pp": round(abs(err) - abs(thesis_err), 3),
             "cyclic_steady": r.cyclic_steady, "revolutions": r.revolutions,
+            "cycle_change": float(f"{r.cycle_change:.2g}"),
         })
     return rows
 
@@ -226,7 +250,7 @@ def add_table_5_1_column(selected: list[dict], rows: list[dict], quick: bool = F
     if not pairs:
         return
     res = run_cases([c for c, _ in pairs], params_for=table_5_1_dead_volume_model, quick=quick, trace=False,
-                    progress=progress, jobs=jobs, method=method)
+                    progress=progress, jobs=jobs, method=method, settings=None if quick or method != "fast" else LEGACY)
     for (c, row), r in zip(pairs, res):
         d = r.delivery_per_rev * 1e6
         row[TABLE_5_1_COLUMN] = round(d, 5)
@@ -291,9 +315,10 @@ def error_summary(rows: list[dict]) -> dict:
 
 
 def default_jobs() -> int:
-    """Processes for the case runs: 1 unless VALVELAB_JOBS says otherwise (the machine is shared)."""
+    """Processes for the case runs: one per core (at most 4) unless VALVELAB_JOBS says otherwise."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     try:
-        return max(1, int(os.environ.get("VALVELAB_JOBS", "1")))
+        return max(1, int(os.environ.get("VALVELAB_JOBS", str(min(4, cores)))))
     except ValueError:
         return 1
 

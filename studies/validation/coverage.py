@@ -34,14 +34,14 @@ def coverage_study(case: dict | None = None, *, draws: int = 200, seed: int = 0,
     """Fractions of ``draws`` synthetic measurements with each verdict (see the module docstring)."""
     from lumped.cycle import simulate
     from lumped.model_file import with_values
-    from studies.validation.chain import FULL, case_name, cases, thesis_model_of
+    from studies.validation.chain import LEGACY, case_name, cases, thesis_model_of
     from studies.validation.numerical import numerical_uncertainty, output_values
     from studies.validation.vv20 import vv20_row
 
     case = case or cases(valve="disc")[0]
     nominal = with_values(thesis_model_of(case), {"oil.air_content": case["air_content"]})
     known = replace(nominal, uncertainties=())
-    run = dict(revolutions=FULL["revolutions"], max_revolutions=FULL["max_revolutions"])
+    run = dict(revolutions=LEGACY["revolutions"], max_revolutions=LEGACY["max_revolutions"])
     sp, lp = case["speed_rpm"], case["load_pressure"]
     ref = simulate(known, sp, lp, method="reference", **run)
     S = ref.delivery_per_rev * 1e6

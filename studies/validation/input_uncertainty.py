@@ -5,8 +5,11 @@ Each operating point draws its model's declarations (``[uncertainty."KEY"]``,
 CDF of each declaration's normal or uniform distribution), sets the keys
 (:func:`lumped.model_file.with_values`) and runs the compiled stepper at rtol 1e-4 (the
 sweeps' design tolerance: its numerical noise, ~1e-5 relative in delivery, is far below
-u_input) to cyclic steady state. The simulations run on a dask cluster like the sweeps
-(:class:`studies.sweeps.design.runner.Cluster`), or in this process.
+u_input) until the cyclic steady-state test passes (:meth:`lumped.revolutions.StopRule.steady`,
+two revolutions at least), each draw of a task started from the state predicted from the draws
+solved before it (a warm start, :class:`lumped.warmstart.WarmStarts`, the draws visited in a
+nearest-neighbour chain of their standard scores). The simulations run on a dask cluster like
+the sweeps (:class:`studies.sweeps.design.runner.Cluster`), or in this process.
 
 u_input of an output is the standard deviation of its draws. How well the sample knows
 it is measured, not assumed: :data:`SCRAMBLES` independent scrambles of the Sobol sequence
@@ -43,8 +46,10 @@ FIRST_POWER, MAX_POWER, QUICK_POWER = 4, 7, 3
 TARGET_PRECISION = 0.10
 #: the contributors reported per output
 TOP = 3
-#: draws per dask task
-BATCH = 16
+#: draws per dask task (a warm start comes from the draws before it in its task)
+BATCH = 64
+#: at most this many revolutions per draw (unless the point's max_revolutions is larger)
+DRAW_MAX_REVOLUTIONS = 12
 
 
 @dataclass(frozen=True)
@@ -55,7 +60,7 @@ class Point:
     model: object
     speed_rpm: float
     load_pressure: float
-    revolutions: int = 5
+    revolutions: int = 2
     max_revolutions: int | None = 12
     circuit: str | None = None
 
@@ -84,20 +89,33 @@ class InputUncertainty:
 
 def evaluate_draws(model, speed_rpm: float, load_pressure: float, decls, keys: dict, zs, settings: dict,
                    outputs=tuple(OUTPUTS)) -> list[dict | None]:
-    """The outputs of ``model`` at each draw of standard scores ``zs`` (None for a failed run); runs on a worker."""
+    """The outputs of ``model`` at each draw of standard scores ``zs`` (None for a failed run); runs on a worker.
+
+    ``settings``: ``revolutions`` (at least, default 2), ``max_revolutions``, ``circuit``; each draw runs
+    until the cyclic steady-state test passes, warm-started from the draws solved before it."""
     from lumped.cycle import simulate
     from lumped.model_file import with_values
+    from lumped.revolutions import StopRule
     from lumped.uncertainty import sample_values
+    from lumped.warmstart import WarmStarts, chain_order
     from studies.validation.numerical import output_values
 
-    out = []
-    for z in zs:
+    settings = dict(settings)
+    least = max(2, int(settings.pop("revolutions", 2) or 2))
+    most = max(least, int(settings.pop("max_revolutions", None) or DRAW_MAX_REVOLUTIONS))
+    stop = StopRule.steady(max_revolutions=most, min_revolutions=least)
+    zs = [np.asarray(z, dtype=float) for z in zs]
+    pool = WarmStarts()
+    out: list = [None] * len(zs)
+    for i in chain_order(np.array(zs)) if zs else []:
         try:
-            m = with_values(model, sample_values(model, decls, z, keys))
-            r = simulate(m, speed_rpm, load_pressure, method="fast", rtol=MC_RTOL, atol=MC_ATOL, **settings)
-            out.append(output_values(r, {k: OUTPUTS[k] for k in outputs}))
+            m = with_values(model, sample_values(model, decls, zs[i], keys))
+            r = simulate(m, speed_rpm, load_pressure, method="fast", rtol=MC_RTOL, atol=MC_ATOL, stop=stop,
+                         initial_state=pool.predict(zs[i]), **settings)
+            pool.add(zs[i], r.tdc_state)
+            out[i] = output_values(r, {k: OUTPUTS[k] for k in outputs})
         except Exception:  # noqa: BLE001 - a draw the model cannot run is counted as missing, by design
-            out.append(None)
+            out[i] = None
     return out
 
 
@@ -193,14 +211,18 @@ def propagate(points, *, quick: bool = False, seed: int = 0, cluster=None, progr
         tasks = []
         for s in active:
             n = n_next if s.n == 0 else s.n          # doubling keeps each scramble's sequence balanced
-            for r, z in s.next_draws(n):
-                for k in range(0, len(z), BATCH):
-                    tasks.append((s, r, z[k:k + BATCH]))
+            # the new draws of every scramble together, cut into tasks: a draw's warm start is the state
+            # predicted from the draws solved before it in its task
+            flat = [(r, zz) for r, z in s.next_draws(n) for zz in z]
+            for k in range(0, len(flat), BATCH):
+                part = flat[k:k + BATCH]
+                tasks.append((s, [r for r, _ in part], [zz for _, zz in part]))
         if bar is not None and bar.n + sum(len(t[2]) for t in tasks) > bar.total:
             bar.total = bar.n + sum(len(t[2]) for t in tasks)
             bar.refresh()
-        for (s, r, _), rows in zip(tasks, _run(tasks, cluster, bar, outputs)):
-            s.y[r] += rows
+        for (s, rs, _), rows in zip(tasks, _run(tasks, cluster, bar, outputs)):
+            for r, row in zip(rs, rows):
+                s.y[r].append(row)
         for s in active:
             if quick or s.n >= 2**MAX_POWER:
                 s.done = True

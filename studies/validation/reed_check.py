@@ -42,8 +42,10 @@ def _run(fidelity: str, reed: Reed, mesh_size, modes: int = 0):
     from fea.fidelities import get
 
     size = None if fidelity == "analytic" else mesh_size
-    if not modes:
-        return get(fidelity).reed_properties(reed, mesh_size=size), None
+    if not modes:     # through lumped's cache: a design study reuses a front design's FEA in its later stages
+        from lumped.reed_fidelity import reed_properties
+
+        return reed_properties(reed, fidelity, mesh_size=size), None
     props, result = get(fidelity).properties_and_modes(reed, modes, mesh_size=size)
     return props, result.first(modes)
 

@@ -81,7 +81,7 @@ def verdict_words(row: dict) -> str:
     """The verdict in words: within the validation uncertainty, or a model-form error between a and b."""
     unit = f" {row['unit']}" if row.get("unit") not in (None, "", "-") else ""
     if row["verdict"] == "within":
-        return (f"within the validation uncertainty (|E| = {_fmt(abs(row['E']))} <= U_val = "
+        return (f"within the validation uncertainty (abs(E) = {_fmt(abs(row['E']))} <= U_val = "
                 f"{_fmt(row['U_val'])}{unit})")
     lo, hi = row["delta_model"]
     return f"model-form error between {_fmt(lo)} and {_fmt(hi)}{unit}"
@@ -222,6 +222,15 @@ class ValidationTable:
 
 
 # --------------------------------------------------------------------------- the thesis's pump cases
+#: the tolerance ladder's levels run at least this many revolutions from today's start (then until cyclic
+#: steady state, at most max_revolutions): u_num is the difference of the levels, down to 1e-6 of the
+#: delivery, and a level's last digits move with the revolution it stops at (the fast path's
+#: revolution-to-revolution noise), so the ladder (36 fast runs, about a second) keeps the counts it was
+#: measured with
+LADDER = dict(revolutions=5, max_revolutions=12)
+LADDER_QUICK = dict(revolutions=3, max_revolutions=3)
+
+
 def pump_validation(selected, results, *, quick: bool = False, cluster=None, progress: bool = False,
                     seed: int = 0) -> tuple[ValidationTable, dict]:
     """The V&V 20 table of the thesis's pump cases (Tables 5.4, 5.6) and the prediction uncertainty of every output.
@@ -250,8 +259,9 @@ def pump_validation(selected, results, *, quick: bool = False, cluster=None, pro
         if progress:
             print(f"  numerical uncertainty (tolerance ladder): {n}", file=sys.stderr, flush=True)
         unum[n] = numerical_uncertainty(models[n], c["speed_rpm"], c["load_pressure"], reported=S[n], quick=quick,
-                                        revolutions=st["revolutions"], max_revolutions=st["max_revolutions"])
-    points = [Point(n, models[n], c["speed_rpm"], c["load_pressure"], st["revolutions"], st["max_revolutions"])
+                                        **(LADDER_QUICK if quick else LADDER))
+    # the draws run until cyclic steady state (two revolutions at least), each from its neighbours' state
+    points = [Point(n, models[n], c["speed_rpm"], c["load_pressure"], 2, st["max_revolutions"])
               for n, c in zip(names, selected)]
     draws: dict = {}
     uin = propagate(points, quick=quick, cluster=cluster, progress=progress, seed=seed, draws=draws)

@@ -3,7 +3,9 @@
 The inputs are those of :mod:`studies.sweeps.pump` (``model``, ``speed_rpm``, ``load_pressure`` [Pa],
 ``revolutions``, ``method``, ``rtol``, ``atol`` and model-file key paths) plus:
 
-- ``max_revolutions``: continue past ``revolutions`` until cyclic steady state, at most this many;
+- ``max_revolutions``: continue past ``revolutions`` until cyclic steady state, at most this many
+  (:func:`studies.sweeps.pump.stop_rule`); each row starts from the TDC state of the nearest row
+  solved before it in its batch (a warm start, :mod:`studies.sweeps.locality`);
 - ``stress_calibration_inlet`` / ``stress_calibration_delivery``: the calibration factor of that
   reed valve's bending stress estimate (:mod:`studies.sweeps.design.stress`; 0 or absent: no stress).
 
@@ -12,8 +14,9 @@ The outputs are the sweep's (:data:`studies.sweeps.pump.OUTPUTS`) plus per valve
 at the peak opening ``reed_stress_peak_pa``, the uncalibrated Euler-Bernoulli values
 ``reed_stress_eb_pa`` (the largest along the reed, before the calibration factor).
 
-The designs of a study run each operating point as its own row; consecutive rows of one
-design reuse the model built for the first (:func:`_model_for`).
+The designs of a study run each operating point as its own row; the rows of one design reuse
+the model built for the first (:func:`_model_for`, a small cache: a batch visits its rows in a
+nearest-neighbour chain, not in order).
 """
 
 from __future__ import annotations
@@ -28,7 +31,9 @@ OUTPUTS = {**sweep_pump.OUTPUTS, **{f"{pos}_{k}": "float64" for pos in ("inlet",
 MAIN_RESPONSES = sweep_pump.MAIN_RESPONSES
 REQUIRED = ("model",)
 
-_cache: dict = {"key": None, "model": None}
+_cache: dict = {}
+#: models (and their stress outputs) kept per worker process
+CACHE_SIZE = 64
 
 
 def check(name: str, value) -> None:
@@ -50,48 +55,58 @@ def model_values(design: dict) -> dict:
     return {translate(k): v for k, v in design.items() if k not in OPERATING and k not in EXTRA}
 
 
+def _model_key(design: dict) -> tuple:
+    return (design["model"], tuple((k, repr(v)) for k, v in model_values(design).items()))
+
+
 def _model_for(design: dict):
     from lumped.model_file import load_model, with_values
 
-    values = model_values(design)
-    key = (design["model"], tuple((k, repr(v)) for k, v in values.items()))
-    if _cache["key"] != key:
+    key = _model_key(design)
+    if key not in _cache:
+        values = model_values(design)
         if any(k.endswith("fidelity") and v in ("beam", "plate", "solid") for k, v in values.items()) or \
                 any(getattr(v, "fidelity", None) in ("beam", "plate", "solid")
                     for v in (load_model(design["model"], field="model").valve(p) for p in ("inlet", "delivery"))):
             from studies.sweeps.design.fea_tasks import ensure_gmsh
 
             ensure_gmsh()
-        _cache["model"] = None
-        _cache["key"] = key
-        _cache["model"] = with_values(load_model(design["model"], field="model"), values)
-    if _cache["model"] is None:  # the build raised for this key before
-        _cache["key"] = None
-        return _model_for(design)
-    return _cache["model"]
+        model = with_values(load_model(design["model"], field="model"), values)   # raises: nothing cached
+        if len(_cache) >= CACHE_SIZE:
+            del _cache[next(iter(_cache))]
+        _cache[key] = {"model": model, "stress": {}}
+    return _cache[key]["model"]
 
 
-def evaluate(design: dict) -> dict:
-    """Simulate the design at its operating point and return the outputs (fast path unless ``method``)."""
+def build_design_model(model_path: str, keys: dict):
+    """The PumpModel of ``model_path`` with the key paths ``keys`` (from this worker's cache when it built it)."""
+    return _model_for({"model": model_path, **keys})
+
+
+def evaluate(design: dict, warm=None) -> dict:
+    """Simulate the design at its operating point and return the outputs (fast path unless ``method``);
+    ``warm`` (:class:`studies.sweeps.locality.WarmSlot`): start from the nearest solved row's TDC state."""
     from lumped.cycle import simulate
 
     model = _model_for(design)
     kw = {k: design[k] for k in ("rtol", "atol") if k in design}
     res = simulate(model, design.get("speed_rpm"), design.get("load_pressure"),
-                   air_content=design.get("air_content"), revolutions=int(design.get("revolutions", 5)),
-                   max_revolutions=design.get("max_revolutions"), circuit=design.get("circuit"),
-                   method=design.get("method", "fast"), **kw)
+                   air_content=design.get("air_content"), stop=sweep_pump.stop_rule(design),
+                   circuit=design.get("circuit"), method=design.get("method", "fast"),
+                   initial_state=sweep_pump.start_of(design, warm, model), **kw)
+    if warm is not None:
+        warm.solved(res.tdc_state)
     # a valve that never reseats (held off its seat by the squeeze film's C2 u / x^3) has no timing:
     # lumped.cycle reports its angles as None, which the outputs keep as missing
     out = sweep_pump.outputs_of(res, design.get("on_warning", "flag"))
     from studies.sweeps.design.stress import lift_deflection, reed_outputs
 
     cal = {pos: float(design.get(f"stress_calibration_{pos}", 0.0) or 0.0) for pos in ("inlet", "delivery")}
-    skey = (_cache["key"], tuple(cal.items()))
-    if _cache.get("stress_key") != skey:   # design-level: once per design, not per operating point
-        _cache["stress_key"], _cache["stress"] = None, reed_outputs(model, cal)
-        _cache["stress_key"] = skey
-    row = dict(_cache["stress"])
+    stress = _cache[_model_key(design)]["stress"]
+    skey = tuple(cal.items())
+    if skey not in stress:                 # design-level: once per design, not per operating point
+        stress[skey] = reed_outputs(model, cal)
+    row = dict(stress[skey])
     for pos in ("inlet", "delivery"):
         at_stop, peak = row[f"{pos}_reed_stress_pa"], getattr(res, pos).peak_opening
         if at_stop is not None and peak is not None:

@@ -339,28 +339,36 @@ def run_optimize(spec: DesignSpec, out, *, scheduler: str | None = None, workers
                                                     "(valves.<pos>.geometry)")
     catalogue = study.outputs_catalogue(spec)
     recheck = spec.recheck_dict
-    with runner.Cluster(scheduler, workers, client) as cluster:
+    stages: dict = {}
+    with runner.Cluster(scheduler, workers, client) as cluster, _reed_cache(out):
         cluster.check_reachable()
         runner.prepare_study(out, spec, force, SUBFOLDERS)
         base_path = study.write_base_model(out, model) if model is not None else None
+        t0 = time.perf_counter()
         cal = study.calibrate(spec, model, base_path, cluster, out, progress) if study.needs_stress(spec) else None
+        stages["calibration"] = time.perf_counter() - t0
         fixed = study.fixed_inputs(spec, base_path)
         module = study.EVALUATE if spec.model_kind == "pump" else spec.model
         ev = Evaluator(spec, cluster, out, fixed, module, catalogue, batch_size, progress, cal)
         t_loop = time.perf_counter()
         front_keys, generations = (_nsga2 if r["algorithm"] == "nsga2" else _de)(spec, ev, progress)
         loop_wall = time.perf_counter() - t_loop
+        stages["loop"] = loop_wall
         n_workers = cluster.workers if cluster.client is not None else None
         front = [dict(ev.cache[k], key=k) for k in dict.fromkeys(front_keys)]
         # the baseline: the base model itself, fast (as in the loop)
         baseline = None
+        t0 = time.perf_counter()
         if spec.model_kind == "pump":
             baseline = _baseline(spec, model, base_path, cluster, out, cal, catalogue, progress)
+        stages["baseline"] = time.perf_counter() - t0
         do_fea = (spec.model_kind == "pump" and recheck.get("enabled", True) and bool(study.reed_positions(model))
                   and any(v.role == "key" for v in spec.variables))
         rechecked = _recheck(spec, model, base_path, cluster, out, cal, catalogue, front, baseline, do_fea,
-                             recheck.get("enabled", True) and spec.model_kind == "pump", progress)
-    designs = _finish(spec, model, out, catalogue, rechecked, baseline)
+                             recheck.get("enabled", True) and spec.model_kind == "pump", progress, stages)
+        t0 = time.perf_counter()
+        built = _build_on_workers(cluster, base_path, rechecked) if spec.model_kind == "pump" else {}
+    designs = _finish(spec, model, out, catalogue, rechecked, baseline, built)
     from studies.sweeps.design import report
 
     files = {}
@@ -372,6 +380,7 @@ def run_optimize(spec: DesignSpec, out, *, scheduler: str | None = None, workers
     if designs:
         files["parallel_plot"] = str(report.plot_parallel(out / "parallel.png", spec.variables, spec.objectives,
                                                           catalogue, designs, baseline))
+    stages["report"] = time.perf_counter() - t0
     wall = time.perf_counter() - t_start
     n_feasible = int(len(feas))
     result = {
@@ -392,6 +401,7 @@ def run_optimize(spec: DesignSpec, out, *, scheduler: str | None = None, workers
                      for d in designs + ([dict(baseline, name="baseline")] if baseline else [])
                      for w in d.get("warnings", [])],
         "files": files, "complete": True, "wall_seconds": wall, "loop_wall_seconds": loop_wall,
+        "stage_seconds": {k: round(v, 2) for k, v in stages.items()},
         "designs_per_hour": ev.computed / ev.eval_seconds * 3600.0 if ev.computed and ev.eval_seconds else None,
     }
     (out / "summary.json").write_text(json.dumps(_jsonable(result), indent=1, allow_nan=False))
@@ -467,8 +477,12 @@ def base_value(model, path: str):
         return None
 
 
-def _recheck(spec, model, base_path, cluster, out, cal, catalogue, front, baseline, do_fea, do_ref, progress):
-    """FEA check of each front design's reeds (and the baseline's), then the reference integrator at every point."""
+def _recheck(spec, model, base_path, cluster, out, cal, catalogue, front, baseline, do_fea, do_ref, progress,
+             stages: dict | None = None):
+    """FEA check of each front design's reeds (and the baseline's), then the reference integrator at every point
+    (each row started from the fast path's cycle of its design); ``stages`` receives their wall seconds."""
+    stages = {} if stages is None else stages
+    t0 = time.perf_counter()
     recheck = spec.recheck_dict
     n_check = recheck.get("max_designs", len(front)) if spec.model_kind == "pump" else len(front)
     # the front sorted by its first objective; with a cap, designs spread evenly along it are re-checked
@@ -500,6 +514,8 @@ def _recheck(spec, model, base_path, cluster, out, cal, catalogue, front, baseli
         dfb, _ = runner.evaluate_rows(cluster, Path(out) / "recheck-fea" / "baseline", study.FEA_TASKS, fixed,
                                       [{"task": "fea", **_base_factors(cal)}], progress=False, desc="baseline FEA")
         fea_base = dfb.to_dict("records")[0]
+    stages["recheck_fea"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
     if not do_ref:
         return [dict(rec, fea=f, inputs=i, final=None, rechecked=do_fea) for rec, f, i in zip(items, fea, inputs)] \
             + extra
@@ -546,6 +562,7 @@ def _recheck(spec, model, base_path, cluster, out, cal, catalogue, front, baseli
             baseline["final_solid"] = design_records(spec, catalogue, dfs, 1)[0]
         elif positions and do_fea:
             baseline["final_solid"] = brec
+    stages["recheck_reference"] = time.perf_counter() - t0
     return out_items + extra
 
 
@@ -594,7 +611,60 @@ def _final_constraints(spec, fin: dict, fea: dict | None, positions) -> dict:
     return cons
 
 
-def _finish(spec, model, out, catalogue, items, baseline) -> list[dict]:
+class _reed_cache:
+    """The study folder's ``.reed-cache/`` as lumped's FEA reed-property cache (lumped.reed_fidelity.CACHE_ENV) for
+    this process and the local workers it starts: a front design's solid FEA, run by the re-check, is then not run
+    again for its reference runs and its model file."""
+
+    def __init__(self, out: Path):
+        from lumped.reed_fidelity import CACHE_ENV
+
+        self.env, self.path, self.old = CACHE_ENV, str(Path(out).resolve() / ".reed-cache"), None
+
+    def __enter__(self):
+        import os
+
+        self.old = os.environ.get(self.env)
+        os.environ.setdefault(self.env, self.path)
+        return self
+
+    def __exit__(self, *exc):
+        import os
+
+        if self.old is None:
+            os.environ.pop(self.env, None)
+        else:
+            os.environ[self.env] = self.old
+
+
+def _file_keys(rec: dict) -> dict:
+    """The model-file keys of a re-checked design: its inputs and the fidelity it was re-checked with."""
+    return {**{k: v for k, v in rec["inputs"].items() if k not in ("speed_rpm", "load_pressure")},
+            **(rec.get("fidelity_keys") or {})}
+
+
+def _build_on_workers(cluster, base_path: str, items) -> dict:
+    """{repr(keys): PumpModel} of each design's model file, built on the workers: a design re-checked with the
+    solid FEA's reed parameters needs that FEA again to be built, and the worker that re-ran it at the operating
+    points still holds it (studies.sweeps.design.evaluate's model cache); built here it would cost a solid FEA
+    per design in this one process."""
+    from studies.sweeps.design.evaluate import build_design_model
+
+    keys = list({repr(sorted(_file_keys(rec).items())): _file_keys(rec) for rec in items}.items())
+    if not keys or cluster.client is None:
+        return {}
+    client = cluster.get()
+    futures = client.map(build_design_model, [base_path] * len(keys), [k for _, k in keys], pure=False)
+    out = {}
+    for (name, _), f in zip(keys, futures):
+        try:
+            out[name] = f.result()
+        except Exception:  # noqa: BLE001 - built again where the file is written, which reports the error
+            pass
+    return out
+
+
+def _finish(spec, model, out, catalogue, items, baseline, built: dict | None = None) -> list[dict]:
     """Design entries of the JSON: final objectives and constraints, the front re-sorted, model files written."""
     from lumped.model_file import to_toml, with_values
 
@@ -619,8 +689,7 @@ def _finish(spec, model, out, catalogue, items, baseline) -> list[dict]:
         if rec.get("final") is not None:
             e["fast_vs_reference_pct"] = {o.output: _pct(rec["objectives"][o.output], fin["objectives"][o.output])
                                           for o in spec.objectives} if fin["ok"] else None
-        e["_keys"] = {**{k: v for k, v in rec["inputs"].items() if k not in ("speed_rpm", "load_pressure")},
-                      **(rec.get("fidelity_keys") or {})} if spec.model_kind == "pump" else None
+        e["_keys"] = _file_keys(rec) if spec.model_kind == "pump" else None
         entries.append(e)
     # the front after the re-check, sorted by the first objective
     okm = [e["ok"] and e["constraints_met"] and all(v is not None for v in e["objectives"].values()) for e in entries]
@@ -664,7 +733,7 @@ def _finish(spec, model, out, catalogue, items, baseline) -> list[dict]:
         keys = e.pop("_keys")
         if base is not None:
             path = Path(out) / f"{e['name']}.toml"
-            m = with_values(base, keys)
+            m = (built or {}).get(repr(sorted(keys.items()))) or with_values(base, keys)
             from dataclasses import replace
 
             m = replace(m, name=e["name"])

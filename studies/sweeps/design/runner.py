@@ -170,11 +170,11 @@ def evaluate_rows(cluster: Cluster, folder: Path, model_module: str, fixed: dict
     if batch_size is None:
         n_groups = math.ceil(len(rows) / group)
         # a few tasks per worker balance the load; small batches (an optimiser generation) are not split finer
-        per = max(1, min(max(1, 50 // group), math.ceil(n_groups / (4 * cluster.workers))))
+        per = max(1, min(max(1, sweep.MAX_BATCH // group), math.ceil(n_groups / (4 * cluster.workers))))
         batch_size = per * group
     else:
         batch_size = max(group, (batch_size // group) * group)
-    summary = sweep.run_sweep(spec, folder, client=client, designs=rows, batch_size=batch_size,
+    summary = sweep.run_sweep(spec, folder, client=client, designs=rows, batch_size=batch_size, group=group,
                               progress=progress, desc=desc)
     mod = sweep.load_model(model_module)
     df = sweep.open_store(folder, spec, mod, "parquet").read()

@@ -54,9 +54,9 @@ GEOMETRY_UNITS = {"length": "m", "thickness": "m", "width_root": "m", "width_tip
 
 RUN_KEYS = {
     "sensitivity": {"outputs", "method", "samples", "seed", "num_levels", "num_resamples", "conf_level",
-                    "revolutions", "max_revolutions", "integrator", "rtol", "atol", "on_warning"},
+                    "revolutions", "max_revolutions", "steady_tol", "integrator", "rtol", "atol", "on_warning"},
     "optimize": {"objectives", "aggregate", "algorithm", "population", "generations", "seed", "revolutions",
-                 "max_revolutions", "integrator", "rtol", "atol", "max_evaluations", "on_warning"},
+                 "max_revolutions", "steady_tol", "integrator", "rtol", "atol", "max_evaluations", "on_warning"},
 }
 SHARED_RUN_KEYS = {"sensitivity": {"objectives"}, "optimize": {"outputs", "samples"}}
 TOP_KEYS = {
@@ -459,9 +459,16 @@ def _parse_run(run: dict, command: str) -> dict:
         raise InputError(f"run.{k}", f"unknown key{hint}; expected some of {', '.join(sorted(RUN_KEYS[command]))}")
     out = {}
     out["seed"] = _int(run.get("seed", 0), "run.seed", 0, 2**32 - 1)
-    out["revolutions"] = _int(run.get("revolutions", 5), "run.revolutions", 2, 10_000)
-    out["max_revolutions"] = _int(run.get("max_revolutions", 4 * out["revolutions"]), "run.max_revolutions",
+    # at least `revolutions`, then until the cyclic steady-state test passes (lumped.revolutions.StopRule;
+    # each row warm-started from a solved neighbour's state: two revolutions for most)
+    out["revolutions"] = _int(run.get("revolutions", 2), "run.revolutions", 2, 10_000)
+    out["max_revolutions"] = _int(run.get("max_revolutions", max(20, 4 * out["revolutions"])), "run.max_revolutions",
                                   out["revolutions"], 100_000)
+    from lumped.revolutions import STEADY_TOL
+
+    out["steady_tol"] = _num(run.get("steady_tol", STEADY_TOL), "run.steady_tol", positive=True)
+    if not out["steady_tol"] < 0.1:
+        raise InputError("run.steady_tol", f"must be below 0.1, got {out['steady_tol']:g}")
     integ = run.get("integrator", "fast")
     if integ not in ("fast", "reference"):
         raise InputError("run.integrator", f"expected 'fast' or 'reference', got {integ!r}")

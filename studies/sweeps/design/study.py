@@ -121,7 +121,7 @@ def fixed_inputs(spec: DesignSpec, base_path: str | None) -> dict:
         return {k: (list(v) if isinstance(v, tuple) else v) for k, v in spec.fixed}
     r = spec.run_dict
     out = {"model": base_path, "revolutions": r["revolutions"], "max_revolutions": r["max_revolutions"],
-           "method": r["integrator"], "rtol": r["rtol"], "atol": r["atol"]}
+           "steady_tol": r["steady_tol"], "method": r["integrator"], "rtol": r["rtol"], "atol": r["atol"]}
     if "on_warning" in r:
         out["on_warning"] = r["on_warning"]
     return out
