@@ -532,8 +532,8 @@ class Simulations:
         job's (the baseline for a first candidate, the model it extends in a later round) the largest
         subset, nearest in the parameters they share; else the nearest of the same effects, else the latest
         of the structure nearest to it. Measured (thesis and bench pumps, one revolution from the state
-        given): from a near neighbour within 0.2 um and 0.85 kPa RMS of the cyclic steady state ("near": the
-        simulator runs one revolution); from the model it extends, or another, the simulator runs until the
+        given): from a converged near neighbour within 0.2 um and 0.85 kPa RMS of the cyclic steady state ("near":
+        the simulator runs pump_sim.WARM_REVOLUTIONS, two, since neighbours are chained); from the model it extends, or another, the simulator runs until the
         cycle settles (studies/discrepancy/pump_sim.py)."""
         cond, model = job
         key, vec = _structure(model)
@@ -602,7 +602,7 @@ class Simulations:
 
 
 #: a model of the same effects within this L1 distance of the logarithms of its parameters is a near neighbour
-#: (a factor 1.1 in one parameter): one revolution from its state is the cyclic steady state; farther, the
+#: (a factor 1.1 in one parameter): the simulator runs two revolutions from its state; farther, the
 #: simulator runs until the cycle settles (Simulations._warm_state). A leak relaxes the cylinder's mass slowly:
 #: one revolution from a neighbour 1.1x away leaves 0.5-0.85 kPa RMS, 1.65x away 5-9 kPa, 3x away 45-85 kPa
 #: (a squeeze film's or a seat's neighbours: within 0.4 kPa and 2 um at 3x)
