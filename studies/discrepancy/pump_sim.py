@@ -11,8 +11,7 @@ How a revolution is computed (measured in docs/discrepancy.md, "Cost"):
 - **Warm starts.** A fit simulates the same run condition hundreds of times for neighbouring
   parameter values. The workflow passes the state at top dead centre of the nearest model already
   solved (:class:`studies.discrepancy.workflow.Simulations`); from a near neighbour's two revolutions
-  (WARM_REVOLUTIONS; the neighbour itself may have been started from another, so one revolution let the
-  error of a chain of them build up); from another
+  (WARM_REVOLUTIONS: with one, a fit on the reed read its cost 7.7 units low); from another
   model's (the one it extends, the baseline) two and more, until the delivery and the state at TDC settle
   (REVOLUTIONS). Without one, from the baseline's cycle, not the pump at rest (a squeeze film started cold at
   900 rpm creeps on its seat for seconds).
@@ -72,10 +71,11 @@ TRUTH_STEADY_TOL = 1e-5
 TRUTH_MAX_REVOLUTIONS = 12
 #: revolutions from a near neighbour's state (Simulations: the same effects within a factor 1.1). One revolution
 #: from a converged neighbour is within 0.2 um and 0.85 kPa RMS of the cyclic steady state (a leak, the slowest
-#: to settle), but a fit's neighbours are chained (each started from the one before): on the reed with a strong
-#: fluid damping (c_f 14,740 Pa s/m) the chain's fit cost at c_f 10,464 and Cd 0.989 read 65.3 units where the
-#: settled cycle gives 73.0 (truth: 63.4), and the fit stopped there (c_f -29 %). Two revolutions: c_f -1.3 %,
-#: the held-out cost as at the truth, 30 % more simulations (docs/discrepancy.md, "Cost")
+#: to settle; a chain of six 6 % steps on the reed within 0.15 kPa), yet inside a whole fit it was not enough: on
+#: the reed with a strong fluid damping (c_f 14,740 Pa s/m, seed 1) the fit cost at c_f 10,464 and Cd 0.989 read
+#: 65.3 units from the fit's warm starts where the settled cycle gives 73.0 (the truth 63.4), and the fit
+#: stopped there (c_f -29 %). With two: c_f -1.3 %, the held-out cost that of the truth, 30 % more
+#: simulations; a disc flow force (seed 2) named right instead of an added mass
 WARM_REVOLUTIONS = 2
 #: evenly spaced trace samples per revolution, besides the integrator's steps and their midpoints
 TRACE_POINTS = 720
