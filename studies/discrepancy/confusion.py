@@ -370,12 +370,19 @@ def main(argv=None) -> int:
                     help="fit no baseline nuisance (the discharge-coefficient factor)")
     ap.add_argument("--tables", nargs="+", default=None, metavar="JSON",
                     help="print the markdown tables of earlier runs' JSON (summary, matrix, per case) and stop")
+    ap.add_argument("--merge", action="store_true",
+                    help="with --tables: one set of tables for all the JSON given (e.g. seeds run apart), "
+                         "labelled as the first")
     args = ap.parse_args(argv)
     if args.tables:
-        for path in args.tables:
-            from pathlib import Path
+        from pathlib import Path
 
-            d = json.loads(Path(path).read_text())
+        docs = [json.loads(Path(path).read_text()) for path in args.tables]
+        if args.merge:
+            results = [r for d in docs for r in d["results"]]
+            docs = [{"summary": summarise(results, docs[0]["summary"]["label"]), "matrix": matrix(results),
+                     "results": results}]
+        for d in docs:
             s = d["summary"]
             print(f"**{s['label']}**: {s['correct']}/{s['runs']} named exactly and on the right valve; "
                   f"{s['false_positives_clean']} false positives on {s['clean']} clean datasets; held-out cost "
