@@ -5,6 +5,7 @@ these check the fitting, nuisance handling, held-out scoring, significance and
 stopping logic in a fraction of a second per simulation.
 """
 
+import json
 import math
 from dataclasses import replace
 
@@ -278,3 +279,28 @@ def test_warm_starts_come_from_the_nearest_model_of_the_same_effects_or_the_one_
     assert not near and list(state) == [1.0, 1.0]          # farther than WARM_NEAR: from the model it extends
     state, near = sims._warm_state((c, (cd, Applied.of("piston_leakage", "pump", {"clearance": 4e-5}))))
     assert not near and list(state) == [1.0, 1.0]          # another effect: from the model it extends
+
+
+def test_confusion_tables_merge_seeds_run_apart(tmp_path, capsys):
+    """--tables --merge: the datasets of several saved runs counted as one study (seeds run apart): the counts
+    add up and every case's row holds the datasets of both files."""
+    from studies.discrepancy.confusion import main
+
+    def result(case, seed, found, expected):
+        return {"case": case, "seed": seed, "found": found, "expected": expected, "correct": found == expected,
+                "targets": {n: "pump" for n in found}, "relative_errors": {}, "held_out_cost": [10.0, 1.0],
+                "held_out_cost_reduction_pct": 90.0 if found else None,
+                "unexplained": {"large": False, "sentences": []}, "workflow_seconds": 1.0 + seed,
+                "workflow_cpu_seconds": 1.0, "load_average": 1.0}
+
+    files = []
+    for seeds in ((1,), (2, 3)):
+        rs = [result("piston_leakage", s, ["piston_leakage"] if s != 3 else [], ["piston_leakage"]) for s in seeds]
+        rs += [result("none", s, [], []) for s in seeds]
+        p = tmp_path / f"s{seeds[0]}.json"
+        p.write_text(json.dumps({"summary": {"label": "pump (disc), library"}, "matrix": {}, "results": rs}))
+        files.append(str(p))
+    assert main(["--tables", *files, "--merge"]) == 0
+    out = capsys.readouterr().out
+    assert "**pump (disc), library**: 5/6 named exactly" in out and "0 false positives on 3 clean" in out
+    assert "| piston_leakage | 2/3 |" in out and "| none | 3/3 |" in out
