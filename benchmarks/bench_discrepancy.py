@@ -184,6 +184,10 @@ def main() -> int:
         "workers": args.workers, "cpus": os.cpu_count(), "machine": platform.machine(),
         "compile_or_cache_seconds": compile_s, "load_average_before": load0, "load_average_after": os.getloadavg(),
         "seconds_in_all": time.perf_counter() - t0,
+        # the load while the datasets ran (with --from: when the confusion study ran, not now)
+        "load_average_datasets": [min(r["load_average"] for r in rows if r.get("load_average") is not None),
+                                  max(r["load_average"] for r in rows if r.get("load_average") is not None)]
+        if any(r.get("load_average") is not None for r in rows) else None,
         "summary": _stats(rows),
         "by_valve": {v: _stats([r for r in rows if r["valve"] == v]) for v in sorted({r["valve"] for r in rows})},
         "datasets": rows,
