@@ -45,13 +45,21 @@ def _fea(d: dict) -> list[str]:
             f"({min(dofs):,}-{max(dofs):,} DOFs per reed), peak memory {d['peak_rss_mb']:.0f} MB |"]
 
 
+def _load(d: dict) -> str:
+    """The load average the datasets ran at (a range), else the load before the benchmark."""
+    lo_hi = d.get("load_average_datasets")
+    return f"{lo_hi[0]:.1f}-{lo_hi[1]:.1f}" if lo_hi else f"{d['load_average_before'][0]:.1f}"
+
+
 def _discrepancy(d: dict) -> list[str]:
-    k = d["parameters"].get("seat_compliance", {}).get("k_seat")
-    found = ", ".join(d["effects_added"]) or "nothing"
-    return [f"| discrepancy workflow, 6 disc runs, O-ring hidden (`bench_discrepancy.py`) | "
-            f"{d['workflow_wall_seconds']:.1f} s wall on {d['workers']} workers, {d['simulations']} simulations "
-            f"({d['simulations_per_second']:.0f}/s); found {found}" + (f", k_seat {k:.3g} N/m (truth 1.5e6)" if k else "")
-            + f"; held-out position RMS -{d['held_out_position_rms_reduction_pct']:.0f} % |"]
+    s = d["summary"]
+    sc = d.get("scaling") or []
+    grow = (f"; {sc[0]['runs']} to {sc[-1]['runs']} runs: {sc[0]['workflow_seconds']:.1f} to "
+            f"{sc[-1]['workflow_seconds']:.1f} s" if len(sc) > 1 else "")
+    return [f"| discrepancy workflow per six-run dataset of the confusion study, {s['datasets']} datasets "
+            f"(`bench_discrepancy.py`) | median {s['median_seconds']:.1f} s, at most {s['max_seconds']:.1f} s wall on "
+            f"{d['workers']} workers (targets 10 and 45 s; load average {_load(d)}); "
+            f"{s['median_cpu_seconds']:.1f} s CPU median, {s['median_simulations']:.0f} simulations{grow} |"]
 
 
 def _reed_dynamics(d: dict) -> list[str]:

@@ -22,6 +22,9 @@ from functools import cache
 
 from geometry.data_files import package_toml
 from lumped.effects import BOTH_VALVES, PER_VALVE, PUMP, Effect, Library, Parameter
+
+#: an effect fitted on both valves, then tried on each alone (Effect.placement)
+ONE_OR_BOTH = BOTH_VALVES + PER_VALVE
 from lumped.model import POSITIONS, PumpModel
 
 LIBRARY = Library()
@@ -120,8 +123,8 @@ register(Effect(
         field="squeeze_c2", prior_from=_c2_prior, relative=True,
         source="eq 2.15 with the disc geometry and the oil viscosity; a factor 10 either way covers the bevel "
                "angle (sin^4), a film that is not uniform (seat flatness) and the oil's temperature"),),
-    apply=lambda m, v, t: set_fields(m, t, squeeze_c2=v["C2"]), valve_types=("disc",), targets=BOTH_VALVES,
-    tight_tolerance=True,
+    apply=lambda m, v, t: set_fields(m, t, squeeze_c2=v["C2"]), valve_types=("disc",), targets=ONE_OR_BOTH,
+    tight_tolerance=True, placement=True,
 ))
 
 
@@ -156,7 +159,7 @@ register(Effect(
     ),
     apply=lambda m, v, t: set_fields(m, t, flow_force_steady=1.0, flow_force_transient=1.0,
                                      jet_angle=v["theta_jet"], transient_length=v["L_t"]),
-    valve_types=("disc",), targets=BOTH_VALVES,
+    valve_types=("disc",), targets=ONE_OR_BOTH, placement=True,
 ))
 
 
@@ -206,6 +209,21 @@ register(Effect(
         source="eq 3.80 from the Naik et al. (2003) correlation at R_k = 2250; approximate by the "
                "thesis's own account, a wall nearby raises it"),),
     apply=lambda m, v, t: set_fields(m, t, fluid_damping_coefficient=v["c_f"]),
+    valve_types=("reed",), targets=BOTH_VALVES,
+))
+
+
+# --------------------------------------------------------------------------- quadratic_drag
+register(Effect(
+    name="quadratic_drag",
+    summary="the reed's quadratic fluid drag, the gamma2 rho |x'| x' C_D / 2 term of eq 3.21 (the thesis's model "
+            "leaves it off and uses the linear c_f, Table 3.13)",
+    parameters=(Parameter(
+        "C_D", "-", prior=priors()["quadratic_drag"]["C_D"], bounds=(0.01, 100.0), plausible=(0.1, 10.0),
+        field="drag_coefficient",
+        source="drag coefficient of a plate moving broadside, ~1 unconfined (section 3.8.2.2); confinement between "
+               "the seat and the manifold raises it"),),
+    apply=lambda m, v, t: set_fields(m, t, drag=True, drag_coefficient=v["C_D"]),
     valve_types=("reed",), targets=BOTH_VALVES,
 ))
 

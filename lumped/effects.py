@@ -82,7 +82,9 @@ class Parameter:
         return lo + u * (hi - lo)
 
     def plausibility(self, value: float, bound_tol: float = 0.01) -> str | None:
-        """None if ``value`` is plausible, else the reason (on a search bound, outside the range)."""
+        """None if ``value`` is plausible, else the reason: on a search bound, outside the plausible range, or
+        at its edge (within ``bound_tol`` of its width, in the search's log or linear scale: a fit pinned to
+        the edge of the plausible range wants to go beyond it, whatever the wider search range allows)."""
         u = self.to_unit(value)
         if u <= bound_tol or u >= 1.0 - bound_tol:
             return f"{self.name} = {value:.4g} {self.unit} ran into the search bound {self.bounds}"
@@ -90,6 +92,11 @@ class Parameter:
         if not lo <= value <= hi:
             return (f"{self.name} = {value:.4g} {self.unit} is outside the physically plausible range "
                     f"{lo:.3g}-{hi:.3g} ({self.source})")
+        ulo, uhi = self.to_unit(lo), self.to_unit(hi)
+        edge = bound_tol * (uhi - ulo)
+        if (ulo > bound_tol and u - ulo <= edge) or (uhi < 1.0 - bound_tol and uhi - u <= edge):
+            return (f"{self.name} = {value:.4g} {self.unit} sits at the edge of the physically plausible range "
+                    f"{lo:.3g}-{hi:.3g}: the fit wants to go beyond it ({self.source})")
         return None
 
 
@@ -113,6 +120,8 @@ class Effect:
     states the air content). ``tight_tolerance``: a model with the effect is simulated at tight
     integrator tolerances by the discrepancy workflow (its response is steep in the effect's
     parameters, so a fit at the fast path's default tolerances reads integration noise as evidence).
+    ``placement``: the workflow searches the effect at ``targets[0]`` and then tries its other targets
+    (one valve instead of both) at the fitted values, keeping the one the data prefer.
     """
 
     name: str
@@ -126,6 +135,7 @@ class Effect:
     applicable: Callable[[list], str | None] | None = None
     variants: dict = field(default_factory=dict)
     tight_tolerance: bool = False
+    placement: bool = False
 
     def parameters_for(self, context=None, target: str | None = None) -> tuple[Parameter, ...]:
         """The parameters of the effect for a context: a valve type (kind name) or a model.
@@ -254,7 +264,7 @@ class Library:
             if why:
                 excluded[e.name] = why
                 continue
-            out += [(e, t) for t in targets]
+            out += [(e, t) for t in (targets[:1] if e.placement else targets)]
         return out, excluded
 
     def apply(self, params, model: tuple[Applied, ...]):

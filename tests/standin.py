@@ -25,7 +25,9 @@ SEAT_AREA = 1.77e-4   # m^2, disc face area (thesis Table 2.3)
 class ToyParams:
     k_seat_inlet: float = math.inf
     k_seat_delivery: float = math.inf
-    lag_deg: float = 0.0          # closing lag per 1000 rpm
+    lag_deg: float = 0.0          # closing lag per 1000 rpm, both valves
+    lag_inlet: float = 0.0        # ... of one valve (the placed closing lag)
+    lag_delivery: float = 0.0
     leak_per_mpa: float = 0.0     # delivery lost per MPa of load
     air: float = 0.0
     cd_scale: float = 1.0         # a model error (not a candidate)
@@ -43,6 +45,12 @@ LIB.register(Effect(
 LIB.register(Effect(
     "closing_lag", "inertia-like closing lag", (Parameter("lag_deg", "deg", 1.0, (0.05, 100.0), (0.05, 30.0), "toy"),),
     lambda p, v, t: replace(p, lag_deg=v["lag_deg"]), targets=BOTH_VALVES))
+LIB.register(Effect(
+    "opening_lag", "a lag of the opening, on one valve or both (placed: fitted on both, then tried on each)",
+    (Parameter("lag_deg", "deg", 1.0, (0.05, 100.0), (0.05, 30.0), "toy"),),
+    lambda p, v, t: replace(p, **({"lag_inlet": v["lag_deg"], "lag_delivery": v["lag_deg"]} if t == "both"
+                                  else {f"lag_{t}": v["lag_deg"]})),
+    targets=BOTH_VALVES + PER_VALVE, placement=True))
 LIB.register(Effect(
     "piston_leakage", "leakage", (Parameter("leak_per_mpa", "1/MPa", 1e-3, (1e-5, 0.1), (1e-5, 0.05), "toy"),),
     lambda p, v, t: replace(p, leak_per_mpa=v["leak_per_mpa"]), targets=PUMP))
@@ -72,8 +80,10 @@ def simulate(cond, model) -> CycleTrace:
     w = cond.speed_rpm / 1000.0
     air_delay = 400.0 * p.air * P
     cd = p.cd_scale
-    xi, fi = _lift(GRID, 8 + 3 * P + air_delay, 183 + 8 * w + p.lag_deg * w, 1.0e-3 * (0.7 + 0.3 * w) / cd)
-    xd, fd = _lift(GRID, 205 + 6 * P + air_delay, 362 + 6 * w + p.lag_deg * w, 0.8e-3 * (0.6 + 0.4 * w) / cd**0.5)
+    xi, fi = _lift(GRID, 8 + 3 * P + air_delay + p.lag_inlet * w, 183 + 8 * w + p.lag_deg * w,
+                   1.0e-3 * (0.7 + 0.3 * w) / cd)
+    xd, fd = _lift(GRID, 205 + 6 * P + air_delay + p.lag_delivery * w, 362 + 6 * w + p.lag_deg * w,
+                   0.8e-3 * (0.6 + 0.4 * w) / cd**0.5)
     # closed valves pressed into a compliant seat by the pressure across them
     xi = xi - (1 - np.minimum(fi * 4, 1)) * np.where(GRID > 180, 1.0, 0.3) * P * 1e6 * SEAT_AREA / p.k_seat_inlet
     xd = xd - (1 - np.minimum(fd * 4, 1)) * np.where(GRID < 190, 1.0, 0.3) * P * 1e6 * SEAT_AREA / p.k_seat_delivery

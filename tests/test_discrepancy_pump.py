@@ -20,17 +20,21 @@ import numpy as np
 import pytest
 
 from lumped.effects import Applied
-from studies.discrepancy.confusion import CASES, case_truth, run_case
+from studies.discrepancy.confusion import CASES, MISMATCH, case_truth, run_case
 from studies.discrepancy.workflow import RunCondition, Settings
-from studies.discrepancy.pump_sim import LIBRARY, REVOLUTIONS, for_valve_type, model_for, simulate
+from studies.discrepancy.pump_sim import LIBRARY, for_valve_type, model_for, simulate
 
 SETTINGS = Settings(workers=2)
 
 
 def check_found(r: dict):
-    assert r["found"] == r["expected"], r
+    assert r["correct"] and r["found"] == r["expected"], r
     for name, err in r["relative_errors"].items():
+        if name == "flow_force.theta_jet":
+            continue       # the data pin down the force, not the jet angle (docs/discrepancy.md): an effective angle
         assert abs(err) <= 0.2, (name, err, r["parameters"])
+    if not r["found"] and r["unexplained"]["large"]:
+        assert r["unexplained"]["sentences"], r                  # never silent on a large gap
     for a in r["truth"]:
         # a discharge coefficient off in the data is recovered as the baseline nuisance, not named
         if a["name"] == "discharge_scale":
@@ -45,16 +49,55 @@ def check_found(r: dict):
         assert any(x is not None and x >= 70 for x in reductions), r
 
 
-def test_cyclic_steady_after_the_revolutions_simulated():
-    # the workflow simulates REVOLUTIONS revolutions per run; one more changes nothing it measures
+def test_a_warm_started_revolution_is_the_cyclic_steady_state():
+    """The workflow simulates two revolutions from a near neighbour's state at top dead centre, two or more from
+    anywhere else (studies/discrepancy/pump_sim.py): both within 1e-4 of the delivery and, at the measurement
+    times, 1 um and 1 kPa RMS of eight revolutions of the pump started at rest (the noise is 10 um, 10 kPa)."""
     from lumped.cycle import simulate as pump
+    from studies.discrepancy.gap import periodic_interp
+    from studies.discrepancy.pump_sim import FIT_RTOL, WARM_REVOLUTIONS
+
     c = RunCondition("r", "disc", 743.0, 2.81e6, 0.013)
-    m = model_for(c, (Applied.of("seat_compliance", "delivery", {"k_seat": 1.5e6}),))
-    a = pump(m, c.speed_rpm, c.load_pressure_pa, revolutions=REVOLUTIONS, trace=True, trace_points=720)
-    b = pump(m, c.speed_rpm, c.load_pressure_pa, revolutions=REVOLUTIONS + 2, trace=True, trace_points=720)
-    assert a.delivery_per_rev == pytest.approx(b.delivery_per_rev, rel=1e-4)
-    for v in ("inlet_position", "delivery_position"):
-        assert np.max(np.abs(getattr(a.trace, v) - getattr(b.trace, v))) < 2e-6   # 2 um << 10 um noise
+    seat = lambda k: (Applied.of("seat_compliance", "delivery", {"k_seat": k}),)
+    ref = pump(model_for(c, seat(1.5e6)), c.speed_rpm, c.load_pressure_pa, revolutions=8, rtol=FIT_RTOL,
+               atol=FIT_RTOL / 100, trace=True, trace_points=7200).trace
+    sim = for_valve_type("disc")
+    cold = sim(c, seat(1.5e6))                                   # via the baseline's cycle, until steady
+    warm = sim(c, seat(1.5e6), (sim(c, seat(1.55e6)).state, True))   # from a 3 % neighbour
+    assert warm.revolutions == WARM_REVOLUTIONS and cold.revolutions >= 2
+    th = np.linspace(0.0, 360.0, 3000, endpoint=False)
+    for tr in (cold, warm):
+        assert tr.delivery_m3_per_rev == pytest.approx(
+            pump(model_for(c, seat(1.5e6)), c.speed_rpm, c.load_pressure_pa, revolutions=8, rtol=FIT_RTOL,
+                 atol=FIT_RTOL / 100).delivery_per_rev, rel=1e-4)
+        for v in ("inlet", "delivery"):
+            d = periodic_interp(th, tr.crank_deg, tr.positions[v]) - periodic_interp(th, ref.crank_deg,
+                                                                                       getattr(ref, f"{v}_position"))
+            assert np.sqrt(np.mean(d**2)) < 1e-6
+        d = periodic_interp(th, tr.crank_deg, tr.cylinder_pressure_pa) - periodic_interp(th, ref.crank_deg,
+                                                                                          ref.cylinder_pressure)
+        assert np.sqrt(np.mean(d**2)) < 1e3
+
+
+def test_the_trace_is_sampled_finely_enough_to_interpolate():
+    """The simulated trace is kept at the integrator's steps, their midpoints and 720 even angles: linear
+    interpolation between them is within 0.5 kPa and 0.3 um RMS of the same integration's dense output at 20,000
+    angles (a squeeze film's delivery-opening spike included; 1,440 even points left up to 9 kPa)."""
+    from lumped.cycle import simulate as pump
+    from studies.discrepancy.gap import periodic_interp
+    from studies.discrepancy.pump_sim import TIGHT_RTOL, revolution
+
+    c = RunCondition("r", "disc", 593.0, 2.76e6, 0.013)
+    m = model_for(c, (Applied.of("squeeze_film", "both", {"C2": 7.4e-11}),))
+    tr = revolution(m, c.speed_rpm, c.load_pressure_pa, None, TIGHT_RTOL, 200_000)
+    dense = pump(m, c.speed_rpm, c.load_pressure_pa, revolutions=tr.revolutions, rtol=TIGHT_RTOL,
+                 atol=TIGHT_RTOL / 100, trace=True, trace_points=20_000).trace
+    th = dense.crank_deg
+    dp = periodic_interp(th, tr.crank_deg, tr.cylinder_pressure_pa) - np.asarray(dense.cylinder_pressure)
+    assert np.sqrt(np.mean(dp**2)) < 500.0
+    for v in ("inlet", "delivery"):
+        dx = periodic_interp(th, tr.crank_deg, tr.positions[v]) - np.asarray(getattr(dense, f"{v}_position"))
+        assert np.sqrt(np.mean(dx**2)) < 3e-7
 
 
 def test_baseline_uses_each_valve_types_thesis_pump():
@@ -82,8 +125,9 @@ def test_compliant_seat_sinks_by_the_pressure_force_over_k():
 @pytest.mark.slow  # the same story runs in the default suite as docs/examples/ex05_oring_story.py
 def test_thesis_oring_story():
     """Section 5.4.5: the delivery valve's O-ring compliance, found from the traces (k_seat 1.5e6 N/m)."""
+    sim = for_valve_type("disc")
     r = run_case("oring", [("seat_compliance", "delivery", {"k_seat": (1.5e6, 1.5e6)})], "disc", 0,
-                 simulate, LIBRARY, SETTINGS)
+                 sim, LIBRARY, SETTINGS, context=sim.model)
     check_found(r)
     assert r["targets"] == {"seat_compliance": "delivery"}
     assert r["gap_after"]["position_rms_m"] < 0.3 * r["gap_before"]["position_rms_m"]
@@ -93,20 +137,26 @@ def test_thesis_oring_story():
 @pytest.mark.parametrize("valve,case", [("disc", "none"), ("disc", "cd-3%"), ("reed", "piston_leakage"),
                                        ("reed", "fluid_damping (strong)")])
 def test_representative_cases(valve, case):
-    check_found(run_case(case, CASES[valve][case], valve, 1, simulate, LIBRARY, SETTINGS))
+    sim = for_valve_type(valve)
+    check_found(run_case(case, CASES[valve][case], valve, 1, sim, LIBRARY, SETTINGS, context=sim.model))
 
 
 def test_squeeze_film_model_is_smooth_in_its_coefficient():
     """The workflow's simulator must respond smoothly to a parameter, or a fit's finite differences and
     the held-out test read integration error as evidence: with a squeeze film, C2 x (1 -+ 1e-2) must move
-    the cylinder-pressure trace antisymmetrically (second difference below 20 % of the first; 1-5 % measured,
-    65-138 % at the fast path's default rtol of 1e-3, studies/discrepancy/pump_sim.py)."""
+    the cylinder-pressure trace antisymmetrically (second difference below 20 % of the first; 65-138 % at the fast
+    path's default rtol of 1e-3, studies/discrepancy/pump_sim.py)."""
     truth, conds = case_truth(CASES["disc"]["squeeze_film"], "disc", 3)
     c = next(c for c in conds if c.speed_rpm == 591.0 and c.load_pressure_pa == 3.67e6)
     c2 = truth[0].value_dict["C2"]
+    from studies.discrepancy.gap import periodic_interp
+
     sim = for_valve_type("disc")
-    p = [sim(c, (Applied.of("squeeze_film", "both", {"C2": c2 * f}),)).cylinder_pressure_pa
-         for f in (1 - 1e-2, 1.0, 1 + 1e-2)]
+    th = np.linspace(0.0, 360.0, 3600, endpoint=False)
+    p = []
+    for f in (1 - 1e-2, 1.0, 1 + 1e-2):
+        tr = sim(c, (Applied.of("squeeze_film", "both", {"C2": c2 * f}),))
+        p.append(periodic_interp(th, tr.crank_deg, tr.cylinder_pressure_pa))
     first, second = p[2] - p[0], p[2] - 2 * p[1] + p[0]
     assert np.sqrt(np.mean(second**2)) < 0.2 * np.sqrt(np.mean(first**2))
 
@@ -115,10 +165,38 @@ def test_squeeze_film_model_is_smooth_in_its_coefficient():
 @pytest.mark.parametrize("case", list(CASES["disc"]))
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_hidden_effect_named_disc(case, seed):
-    check_found(run_case(case, CASES["disc"][case], "disc", seed, simulate, LIBRARY, SETTINGS))
+    sim = for_valve_type("disc")
+    check_found(run_case(case, CASES["disc"][case], "disc", seed, sim, LIBRARY, SETTINGS, context=sim.model))
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("case", list(CASES["reed"]))
 def test_hidden_effect_named_reed(case):
-    check_found(run_case(case, CASES["reed"][case], "reed", 1, simulate, LIBRARY, SETTINGS))
+    sim = for_valve_type("reed")
+    check_found(run_case(case, CASES["reed"][case], "reed", 1, sim, LIBRARY, SETTINGS, context=sim.model))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("valve,case", [("disc", c) for c in MISMATCH["disc"]] + [("reed", c) for c in MISMATCH["reed"]])
+def test_hidden_effect_named_in_data_of_another_model_form(valve, case):
+    """Data made with a model form the library lacks (studies/discrepancy/mismatch.py), seed 1: the hidden effect
+    named (nothing where nothing is hidden), its parameter within 20 % (a leak's effective clearance), the
+    held-out gap shrunk by 70 %, and what is left said when it is large."""
+    sim = for_valve_type(valve)
+    check_found(run_case(case, MISMATCH[valve][case], valve, 1, sim, LIBRARY, SETTINGS, context=sim.model))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model,case", [("disc_20mm_pump", c) for c in ("piston_leakage", "seat_compliance@inlet",
+                                                                        "squeeze_film", "none")]
+                         + [("reed_stiff_pump", c) for c in ("added_mass", "seat_compliance@delivery", "none")])
+def test_hidden_effect_named_on_another_pump(model, case):
+    """Two pumps that are not the thesis rigs, given as model files (docs/examples/): a 20 mm bore disc pump and
+    the reed pump with a 20 % thicker reed, at three conditions around their operating points."""
+    from pathlib import Path
+
+    from studies.discrepancy.model_choice import choose
+
+    sim = choose(model=str(Path(__file__).resolve().parents[1] / "docs" / "examples" / f"{model}.toml"))
+    kind = sim.context.label
+    check_found(run_case(case, CASES[kind][case], kind, 1, sim.simulate, sim.library, SETTINGS, context=sim.context))

@@ -20,7 +20,7 @@ def model_for(cond, effects):
     return resolve(pump_sim.model_for(cond, effects))
 
 CONTRACT_EFFECTS = ("seat_compliance", "squeeze_film", "flow_force", "added_mass", "fluid_damping",
-                    "piston_leakage", "entrained_air")
+                    "quadratic_drag", "piston_leakage", "entrained_air")
 
 
 def cond(valve="disc", air=None):
@@ -90,6 +90,35 @@ def test_fluid_damping_and_leakage():
     assert k == pytest.approx(math.pi * 15.88e-3 * 2e-5**3 / (12 * MU * 20e-3), rel=1e-9)
     m = model_for(cond(), (Applied.of("piston_leakage", "pump", {"clearance": 2e-5}),))
     assert m.pump.leakage_coefficient(MU) == pytest.approx(k)
+
+
+def test_quadratic_drag_is_eq_3_21s_drag_term():
+    """quadratic_drag switches on the gamma2 rho |x'| x' C_D / 2 term of eq 3.21 on both reeds (the thesis model
+    leaves it off): the packed coefficient is gamma2 C_D / 2 (Table 3.8's gamma2 = 0.6986), prior C_D = 1."""
+    from lumped.layout import BLOCK_OFFSET, pack
+    from lumped.reed_valve import REED
+
+    eff = LIBRARY["quadratic_drag"]
+    assert eff.prior_values("reed") == {"C_D": 1.0} and not eff.applies_to("disc", "both")
+    m = model_for(cond("reed"), (Applied.of("quadratic_drag", "both", {"C_D": 2.5}),))
+    assert m.inlet.drag and m.delivery.drag and m.inlet.drag_coefficient == 2.5
+    p = pack(m, 593.0, 2.79e6)
+    for o in BLOCK_OFFSET:
+        assert p[o + REED.drag_term] == pytest.approx(0.5 * 0.6986 * 2.5)
+    assert pack(model_for(cond("reed"), ()), 593.0, 2.79e6)[BLOCK_OFFSET[0] + REED.drag_term] == 0.0
+
+
+def test_squeeze_film_and_flow_force_take_one_valve_or_both():
+    for name, values in (("squeeze_film", {"C2": 7e-11}), ("flow_force", {"theta_jet": 1.1, "L_t": 0.01})):
+        assert LIBRARY[name].placement and LIBRARY[name].targets == ("both", "inlet", "delivery")
+        field = "squeeze_c2" if name == "squeeze_film" else "flow_force_steady"
+        one = model_for(cond(), (Applied.of(name, "delivery", values),))
+        both = model_for(cond(), (Applied.of(name, "both", values),))
+        assert getattr(one.delivery, field) > 0 and getattr(one.inlet, field) == 0
+        assert getattr(both.delivery, field) > 0 and getattr(both.inlet, field) > 0
+    # the workflow searches them at "both" and tries each valve from there (Effect.placement)
+    targets = [t for e, t in LIBRARY.candidates("disc")[0] if e.name == "squeeze_film"]
+    assert targets == ["both"]
 
 
 def test_entrained_air_only_when_not_stated():

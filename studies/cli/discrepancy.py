@@ -10,6 +10,7 @@ from geometry.errors import InputError
 from studies.cli import flags
 from studies.discrepancy.workflow import Settings, Workflow
 from studies.discrepancy.report import write_report
+from studies.discrepancy.validation import sentence as validation_sentence
 from studies.discrepancy.gap import GapScales
 from studies.discrepancy.measured import read_dataset
 from studies.discrepancy.model_choice import choose
@@ -114,6 +115,10 @@ def render(r: dict) -> str:
         return f"position RMS {p}, delivery error {d}"
 
     lines = [f"dataset {r['dataset']}: {len(r['runs'])} runs"]
+    v = r.get("validation") or {}
+    if v:
+        lines += ["outputs of the baseline beyond their validation uncertainty (|E| > U_val, ASME V&V 20):"]
+        lines += [f"  - {validation_sentence(b)}" for b in v.get("beyond", [])] or ["  none"]
     lines += ["disagreements of the baseline:"]
     lines += [f"  - {s}" for s in r["disagreements"]] or ["  none beyond the tolerances"]
     if r["effects_added"]:
@@ -127,6 +132,8 @@ def render(r: dict) -> str:
     if r["held_out"]:
         lines.append(f"held out ({', '.join(r['held_out']['runs'])}): before {gap(r['held_out']['gap_before'])}; "
                      f"after {gap(r['held_out']['gap_after'])}")
+    for s in (r.get("unexplained") or {}).get("sentences", []):
+        lines.append(f"left unexplained: {s}")
     if r["report"]:
         lines.append(f"report: {r['report']}")
     return "\n".join(lines)

@@ -60,7 +60,7 @@ def parse_effect(spec: str, library, valve_type) -> Applied:
     if name not in library:
         raise InputError("--effect", f"unknown effect {name!r}; expected one of {', '.join(library.names())}")
     eff = library[name]
-    target = target or eff.targets[-1]
+    target = target or ("both" if "both" in eff.targets else eff.targets[-1])
     if target not in eff.targets:
         raise InputError("--effect", f"{name}: target {target!r}; expected one of {', '.join(eff.targets)}")
     if not eff.applies_to(valve_type, target):

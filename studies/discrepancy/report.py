@@ -2,7 +2,9 @@
 
 Written into a folder valvelab owns (``studies/outputs.py``): ``summary.json`` (the
 command's JSON), ``ranking.csv`` and ``ranking.md`` (every candidate of every round),
-``disagreements.txt``, ``traces_<run>.png`` (measured vs baseline vs augmented
+``disagreements.txt`` (the baseline's outputs beyond their validation uncertainty first, and what
+the final model leaves unexplained), ``validation.csv``/``validation.md`` (the baseline's V&V 20 table
+per run and output), ``traces_<run>.png`` (measured vs baseline vs augmented
 position over crank angle, with the residuals below), ``residuals.png`` (all runs'
 residuals vs crank angle before and after) and ``gap_bars.png`` (position RMS and
 delivery error before/after, on fitted and held-out runs).
@@ -22,6 +24,7 @@ import pandas as pd  # noqa: E402
 
 from studies.discrepancy.workflow import Outcome  # noqa: E402
 from studies.discrepancy.gap import fold, predict, summary, window_sentences  # noqa: E402
+from studies.discrepancy.validation import sentence  # noqa: E402
 from studies.outputs import prepare_output_dir  # noqa: E402
 
 
@@ -143,8 +146,18 @@ def write_report(folder, outcome: Outcome, runs, result: dict, force: bool = Fal
     lines += [f"Baseline nuisance: {s}" for s in outcome.nuisance_sentences()]
     lines += ["Disagreements left after adding them:"]
     lines += [f"  - {s}" for s in outcome.disagreements_after] or ["  (none beyond the tolerances)"]
+    lines += ["", "Left unexplained:"]
+    lines += [f"  - {s}" for s in outcome.unexplained.get("sentences", [])] or ["  (nothing beyond the noise)"]
     lines += ["", *[f"note: {n}" for n in outcome.notes]]
+    if outcome.validation is not None:
+        lines = lines[:1] + [f"  - beyond the validation uncertainty: {sentence(b)}"
+                             for b in outcome.validation["beyond"]] + lines[1:]
     (out / "disagreements.txt").write_text("\n".join(lines) + "\n")
+    if outcome.validation is not None:
+        vv = pd.DataFrame([{k: r.get(k) for k in ("run", "output", "unit", "S", "D", "E", "u_num", "u_input", "u_D",
+                                                    "u_val", "U_val", "verdict")} for r in outcome.validation["rows"]])
+        vv.to_csv(out / "validation.csv", index=False)
+        (out / "validation.md").write_text("# The baseline against each run (ASME V&V 20)\n\n" + _markdown(vv))
     for run in runs:
         if run.trace is not None and run.name in outcome.before.sims:
             _trace_plot(out / f"traces_{run.name}.png", run, outcome)

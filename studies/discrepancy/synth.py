@@ -44,6 +44,11 @@ class Noise:
     time_offset_s: float | None = None  # sensor lag behind the crank angle; None: drawn within +-0.2 ms
     sample_rate_hz: float = 1.0e4       # the thesis's DAQ rate (section 5.4.1)
     revolutions: int = 1                # revolutions written per run
+    vibration_m: float = 0.0            # rig vibration on the position readings: amplitude [m] ...
+    vibration_hz: float = 0.0           # ... at this frequency [Hz] (not a multiple of the shaft's), random phase
+    drift_m: float = 0.0                # linear drift of the position readings over the record [m]
+    pressure_gain_error: float = 0.0    # relative gain error of the cylinder-pressure transducer
+    stated_uncertainties: bool = True   # run.toml states the delivery's and the positions' standard uncertainty
 
 
 @dataclass(frozen=True)
@@ -90,8 +95,9 @@ def check_synthesis(simulator, valve_type, conditions, truth, noise, seed, worke
         raise InputError("truth", f"expected a tuple of lumped.effects.Applied, got {truth!r}")
     if not isinstance(noise, Noise):
         raise InputError("noise", f"expected a studies.discrepancy.synth.Noise, got {noise!r}")
-    for f in ("position_m", "pressure_pa", "delivery_frac"):
+    for f in ("position_m", "pressure_pa", "delivery_frac", "vibration_m", "vibration_hz", "drift_m"):
         validate.number(getattr(noise, f), f"noise.{f}", bounds=(0.0, 1e9))
+    validate.number(noise.pressure_gain_error, "noise.pressure_gain_error", bounds=(-0.2, 0.2))
     validate.number(noise.sample_rate_hz, "noise.sample_rate_hz", unit="Hz", bounds=(1e3, 1e7))
     validate.number(noise.revolutions, "noise.revolutions", integer=True, bounds=(1, 1000))
     if noise.time_offset_s is not None:
@@ -123,7 +129,9 @@ def synthesize(simulator, valve_type: str, conditions: list[Condition], truth: t
     conds = [RunCondition(run_name(i, c), valve_type, float(c.speed_rpm), float(c.load_pressure_pa),
                           c.air_content) for i, c in enumerate(conditions)]
     floor = pressure_floor(simulator)
-    with Simulations(simulator, workers) as sims:
+    # the truth at the reference's accuracy where the simulator offers it (PumpSimulator.accurate)
+    truth_sim = simulator.accurate() if callable(getattr(simulator, "accurate", None)) else simulator
+    with Simulations(truth_sim, workers) as sims:
         results = sims.many([(rc, tuple(truth)) for rc in conds])
     runs = []
     for c, rc, sim in zip(conditions, conds, results):
@@ -139,20 +147,29 @@ def synthesize(simulator, valve_type: str, conditions: list[Condition], truth: t
         for v in valves:
             x = periodic_interp(theta - shift, sim.crank_deg, sim.positions[v])
             positions[v] = (1.0 + scale_err[v]) * x + rng.normal(0.0, noise.position_m, n)
+            if noise.vibration_m > 0.0:
+                positions[v] += noise.vibration_m * np.sin(2 * np.pi * noise.vibration_hz * t + rng.uniform(0, 2 * np.pi))
+            if noise.drift_m > 0.0:
+                positions[v] += noise.drift_m * rng.choice((-1.0, 1.0)) * (t / t[-1] - 0.5)
         pcyl = None
         if sim.cylinder_pressure_pa is not None:
-            pcyl = (periodic_interp(theta, sim.crank_deg, sim.cylinder_pressure_pa)
+            pcyl = ((1.0 + noise.pressure_gain_error) * periodic_interp(theta, sim.crank_deg, sim.cylinder_pressure_pa)
                     + rng.normal(0.0, noise.pressure_pa, n))
             # an absolute transducer reads no lower than the bottom of its range: the noise is cut
             # at the oil's vapour pressure, below which the liquid's pressure cannot fall
             pcyl = np.maximum(pcyl, floor)
         pload = c.load_pressure_pa + rng.normal(0.0, noise.pressure_pa, n)
         delivery = sim.delivery_m3_per_rev * (1.0 + rng.normal(0.0, noise.delivery_frac))
+        stated = {}
+        if noise.stated_uncertainties:
+            # what the experimenter knows of the instruments: the meter's scatter and the sensor's scale
+            stated = {"delivery_uncertainty_cc": float(noise.delivery_frac * delivery * 1e6),
+                      "position_uncertainty_rel": LTS_SCALE_UNCERTAINTY}
         runs.append(Run(
             name=rc.name, valve_type=valve_type, speed_rpm=float(c.speed_rpm),
             load_pressure_pa=float(c.load_pressure_pa), measured_valve=c.measured_valve,
             delivery_cc_per_rev=float(delivery * 1e6), air_content=c.air_content,
-            trace=Trace.measured(t, positions, pcyl, pload, c.speed_rpm),
+            trace=Trace.measured(t, positions, pcyl, pload, c.speed_rpm), **stated,
         ))
     truth_doc = {
         "seed": int(seed),
@@ -162,8 +179,13 @@ def synthesize(simulator, valve_type: str, conditions: list[Condition], truth: t
                      "time_offset_s": offset},
         "noise": {"position_m": noise.position_m, "pressure_pa": noise.pressure_pa,
                   "delivery_frac": noise.delivery_frac, "sample_rate_hz": noise.sample_rate_hz,
-                  "revolutions": noise.revolutions},
+                  "revolutions": noise.revolutions, "vibration_m": noise.vibration_m,
+                  "vibration_hz": noise.vibration_hz, "drift_m": noise.drift_m,
+                  "pressure_gain_error": noise.pressure_gain_error},
     }
+    form = getattr(simulator, "truth_form", None)
+    if callable(form):
+        truth_doc["model_form"] = form()        # a model-form mismatch (studies.discrepancy.mismatch)
     return runs, truth_doc
 
 
