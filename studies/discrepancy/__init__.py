@@ -3,7 +3,7 @@
 - :mod:`~studies.discrepancy.measured`: the measured-data format (run folders, traces);
 - :mod:`~studies.discrepancy.synth`: synthetic data from a model with hidden effects;
 - :mod:`~studies.discrepancy.gap`: gap metrics between a trace and a simulated cycle;
-- :mod:`~studies.discrepancy.workflow`: the search over candidate effects (:class:`Workflow`);
+- :mod:`~studies.discrepancy.workflow`: the search over candidate effects (:class:`~studies.discrepancy.workflow.Workflow`);
 - :mod:`~studies.discrepancy.pump_sim`, :mod:`~studies.discrepancy.model_choice`: the model
   the workflow simulates; :mod:`~studies.discrepancy.report`: the report folder;
 - :mod:`~studies.discrepancy.confusion`: confusion matrices over seeds

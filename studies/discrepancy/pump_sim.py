@@ -3,7 +3,7 @@
 A :class:`PumpSimulator` wraps a pump model (a shipped one or the user's model file).
 Its baseline (CONTRACT.md) is :func:`lumped.effect_library.baseline` of that model (every
 candidate effect off: its own effects dropped, air-free oil) with the air content of
-run.toml when the run states it; candidate effects are applied from :data:`LIBRARY`
+run.toml when the run states it; candidate effects are applied from ``lumped.effect_library.LIBRARY``
 (``lumped/effect_library.py``) with priors computed for that model.
 
 How a revolution is computed (measured in docs/discrepancy.md, "Cost"):

@@ -500,7 +500,7 @@ class Simulations:
     """Cached, optionally parallel simulations (one cache entry per run condition and model).
 
     A simulator that declares ``warm_start`` is handed, with each job, the state at top dead centre of the
-    nearest model already solved at the same condition (:func:`model_distance`), chosen from the
+    nearest model already solved at the same condition (L1 distance of the logarithms of their parameters), chosen from the
     simulations of earlier batches only, so that the result does not depend on which worker ran what.
     ``stage`` labels the simulations for the cost accounting (``tally``: label -> [simulations, seconds]).
     """
@@ -938,7 +938,7 @@ class Workflow:
         """Fit ``effect`` at ``target`` on top of ``base``: (values, fit cost, nuisance, simulations used).
 
         ``profile``: the baseline nuisances in ``base`` are profiled out at every value tried
-        (:meth:`_profile`); the cost returned is then the profiled one. ``narrow``: a local refit around
+        (``_profile``); the cost returned is then the profiled one. ``narrow``: a local refit around
         ``start`` (that many units of each parameter's search range either side). ``reject_margin``: a
         candidate none of whose coarse grid points costs that much less than ``base`` (profiled the same
         way) is hopeless and not refined (the fine grid, Brent's method or the pattern search would only
