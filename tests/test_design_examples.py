@@ -18,7 +18,8 @@ from studies.sweeps.design.spec import load_spec
 from studies.sweeps.design.study import check_variables
 
 ROOT = Path(__file__).resolve().parents[1]
-EXAMPLES = sorted((ROOT / "docs" / "examples").glob("*.toml"))
+#: the design specs among the examples (a `[variables]` table); the others are a sweep spec and model files
+EXAMPLES = [p for p in sorted((ROOT / "docs" / "examples").glob("*.toml")) if "\n[variables]" in p.read_text()]
 DESIGN_DOCS = [ROOT / "docs" / "sensitivity.md", ROOT / "docs" / "optimization.md"]
 
 
