@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import pytest
 
@@ -88,6 +89,24 @@ def test_shipped_models_round_trip_through_model_show(name, tmp_path):
         leaf = k["path"].split(".")[-1]
         assert leaf in text
     assert "Table 5.1" in text and "# m^3," in text or "m^3" in text
+
+
+ROOT = Path(__file__).resolve().parents[1]
+#: the example pumps of the docs and the tests' own (model files, not specs)
+EXAMPLE_MODELS = [ROOT / "docs" / "examples" / "disc_20mm_pump.toml", ROOT / "docs" / "examples" / "reed_stiff_pump.toml",
+                  ROOT / "tests" / "data" / "bench-pump.toml"]
+
+
+@pytest.mark.parametrize("path", EXAMPLE_MODELS, ids=lambda p: p.stem)
+def test_example_models_round_trip_through_model_show_and_check(path, tmp_path, capsys):
+    """model show --toml of an example pump is a file that model check accepts and that loads back the same."""
+    m = load_model(path)
+    f = tmp_path / "copy.toml"
+    f.write_text(to_toml(m))
+    rc, out, err = _run_cli(["model", "check", str(f), "--no-fea"], capsys)
+    assert rc == 0, err
+    back = load_model(f)
+    assert resolve(back) == replace(resolve(m), name=back.name, source=back.source)
 
 
 def test_thesis_models_are_the_thesis_configurations():
