@@ -58,7 +58,7 @@ def _discrepancy(d: dict) -> list[str]:
             f"{sc[-1]['workflow_seconds']:.1f} s" if len(sc) > 1 else "")
     return [f"| discrepancy workflow per six-run dataset of the confusion study, {s['datasets']} datasets "
             f"(`bench_discrepancy.py`) | median {s['median_seconds']:.1f} s, at most {s['max_seconds']:.1f} s wall on "
-            f"{d['workers']} workers (targets 10 and 45 s; load average {_load(d)}); "
+            f"{d['workers']} worker{'s' if d['workers'] != 1 else ''} (targets 10 and 45 s; load average {_load(d)}); "
             f"{s['median_cpu_seconds']:.1f} s CPU median, {s['median_simulations']:.0f} simulations{grow} |"]
 
 
