@@ -467,12 +467,19 @@ def reed_accelerations(y, s: int, n: int, x: float, u: float, f, p, o: int, cont
         d_m = b_m + n * n
         r_m = d_m + n * k_st
         for k in range(k_st):
-            vk = 0.0
-            for j in range(n):
-                vk += p[r_m + k * n + j] * y[r + j]
+            vk = strip_rate(p, y, r_m, r, n, k)
             drag = half_cd * f.rho * abs(vk) * vk
             for i in range(n):
                 dydt[r + i] -= p[d_m + i * k_st + k] * drag
+
+
+def strip_rate(p, y, r_m: int, r: int, n: int, k: int) -> float:
+    """Width-mean rate wbar'_k = W_k . q' [m/s] of the reed's strip k, from the modal rates y[r:r + n]
+    (W at p[r_m:], lumped.reed_dynamics.tail): the velocity eq 3.21's quadratic drag acts on."""
+    vk = 0.0
+    for j in range(n):
+        vk += p[r_m + k * n + j] * y[r + j]
+    return vk
 
 
 def reed_accelerations_jacobian(y, s: int, n: int, x: float, u: float, f, p, o: int, contact: int, regime: int,
@@ -505,9 +512,7 @@ def reed_accelerations_jacobian(y, s: int, n: int, x: float, u: float, f, p, o: 
         d_m = b_m + n * n
         r_m = d_m + n * k_st
         for k in range(k_st):
-            vk = 0.0
-            for j in range(n):
-                vk += p[r_m + k * n + j] * y[r + j]
+            vk = strip_rate(p, y, r_m, r, n, k)
             c = 2.0 * half_cd * f.rho * abs(vk)             # d(|v| v)/dv = 2 |v|
             for i in range(n):
                 dik = p[d_m + i * k_st + k] * c

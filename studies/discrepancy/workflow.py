@@ -1685,6 +1685,25 @@ class Workflow:
                             held_parts=held_parts, base_held_parts=kind_ev.held_parts, fit_parts=fit_parts,
                             base_fit_parts=kind_ev.fit_parts)
 
+    def _failed_fit(self, eff: Effect, target: str, exc: Exception, cur: Evaluation, n0: int,
+                    w: Applied) -> CandidateFit:
+        """The record of a candidate whose fit beside the effect ``w`` raised ``exc`` (at its prior, no gain)."""
+        return CandidateFit(eff.name, target, eff.prior_values(self.context, target), {}, math.inf, None, math.inf,
+                            "fit failed", self.sims.count - n0, cur.fit_cost, cur.held_cost,
+                            failed=f"{type(exc).__name__}: {exc}", joint_with=w.key)
+
+    def _polished_jointly(self, start: tuple, w: Applied, eff: Effect, target: str, vals: dict,
+                          stage: str) -> tuple:
+        """(model, fit cost, nuisances) of ``start`` + the candidate at ``vals``, the nuisances profiled, then
+        W, the candidate and the nuisances polished together by least squares."""
+        model = start + (Applied.of(eff.name, target, vals),)
+        if self.nuisance_effects:
+            model = self._profiled_model(self._at_origin(start) + model[-1:], self.last_jacobian)
+        self.sims.stage = f"{stage}/polish"
+        model = self.polish(model, {w.name, eff.name, *self.nuisance_effects})
+        cost, nuis = self.fit_objective(model)
+        return model, cost, nuis
+
     def _joint_candidate(self, current: tuple, cur: Evaluation, i_w: int, eff: Effect, target: str,
                          n_eff: float) -> CandidateFit | None:
         """A candidate fitted with the added effect ``current[i_w]`` (W) started from W's prior instead of its
@@ -1708,19 +1727,12 @@ class Workflow:
             vals, cost, nuis, _ = self.fit(start, eff, target, start=eff.prior_values(vt, target), profile=True,
                                            reject_margin=self.settings.hopeless_units, dense=True)
         except (ArithmeticError, ValueError, RuntimeError) as exc:
-            return CandidateFit(eff.name, target, eff.prior_values(vt, target), {}, math.inf, None, math.inf,
-                                "fit failed", self.sims.count - n0, cur.fit_cost, cur.held_cost,
-                                failed=f"{type(exc).__name__}: {exc}", joint_with=w.key)
+            return self._failed_fit(eff, target, exc, cur, n0, w)
         if self.rejected or not math.isfinite(cost):
             return CandidateFit(eff.name, target, vals, eff.report(vals, vt, target), cost, None, math.inf,
                                 eff.plausibility(vals, vt, target), self.sims.count - n0, base_fit, cur.held_cost,
                                 rejected=True, joint_with=w.key)
-        model = start + (Applied.of(eff.name, target, vals),)
-        if self.nuisance_effects:
-            model = self._profiled_model(self._at_origin(start) + model[-1:], self.last_jacobian)
-        self.sims.stage = f"{stage}/polish"
-        model = self.polish(model, {w.name, eff.name, *self.nuisance_effects})
-        cost, nuis = self.fit_objective(model)
+        model, cost, nuis = self._polished_jointly(start, w, eff, target, vals, stage)
         f = self._judge(current, cur, eff, target, model, cost, nuis, base_fit, n0, n_eff, stage, refit=False)
         f.joint_with = w.key
         return f
@@ -1743,17 +1755,10 @@ class Workflow:
             if self.rejected:
                 return []           # nothing on top of W at its prior: no pair
         except (ArithmeticError, ValueError, RuntimeError) as exc:
-            return [CandidateFit(eff.name, target, eff.prior_values(vt, target), {}, math.inf, None, math.inf,
-                                 "fit failed", self.sims.count - n0, cur.fit_cost, cur.held_cost,
-                                 failed=f"{type(exc).__name__}: {exc}", joint_with=w.key)]
+            return [self._failed_fit(eff, target, exc, cur, n0, w)]
         if not math.isfinite(cost):
             return []
-        model = start + (Applied.of(eff.name, target, vals),)
-        if self.nuisance_effects:
-            model = self._profiled_model(self._at_origin(start) + model[-1:], self.last_jacobian)
-        self.sims.stage = f"{stage}/polish"
-        model = self.polish(model, {w.name, eff.name, *self.nuisance_effects})
-        cost, nuis = self.fit_objective(model)
+        model, cost, nuis = self._polished_jointly(start, w, eff, target, vals, stage)
         f = self._judge(current, cur, eff, target, model, cost, nuis, base_fit, n0, n_eff, stage, refit=False,
                         extra_k=len(w_eff.parameters_for(vt, w_target)), pair=True)
         f.joint_with = w.key
