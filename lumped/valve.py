@@ -336,6 +336,21 @@ def kind_names() -> tuple[str, ...]:
     return tuple(KINDS)
 
 
+def _if_chain(name: str, args: str, doc: str, attr: str, prefix: str, call: list[str], default: list[str]) -> list[str]:
+    """Source lines of ``def name(args)``: for each registered kind with a function ``attr``, ``if k == id:``
+    then ``call`` (``{f}``: that function, bound in this module's globals as prefix + kind name; ``{a}``: the
+    arguments); else ``default``."""
+    lines = [f"def {name}({args}):", f'    """{doc}"""', "    k = p[o + VALVE.kind_id]"]
+    for kind in KINDS.values():
+        fn = getattr(kind, attr)
+        if fn is None:
+            continue
+        fname = f"{prefix}{kind.name}"
+        globals()[fname] = fn
+        lines += [f"    if k == {float(kind.id)}:", *(f"        {c.format(f=fname, a=args)}" for c in call)]
+    return [*lines, *(f"    {d}" for d in default), ""]
+
+
 def _build_dispatch() -> None:
     """(Re)generate :func:`valve_acceleration`, :func:`valve_accelerations` and
     :func:`valve_accelerations_jacobian`: if-chains over the kinds.
@@ -346,38 +361,19 @@ def _build_dispatch() -> None:
     one = "x, u, f, p, o, contact, regime"
     many = "y, s, n, x, u, f, p, o, contact, regime, dydt"
     jac = "y, s, n, x, u, f, p, o, contact, regime, jac"
-    lines = [f"def valve_acceleration({one}):",
-             '    """du/dt [m/s^2] of the opening of the one-DOF valve at block offset o, by its kind (generated)."""',
-             "    k = p[o + VALVE.kind_id]"]
-    for kind in KINDS.values():
-        fname = f"_accel_{kind.name}"
-        globals()[fname] = kind.acceleration
-        lines += [f"    if k == {float(kind.id)}:", f"        return {fname}({one})"]
-    lines += ["    return math.nan", "",
-              f"def valve_accelerations({many}):",
-              '    """The n accelerations [m/s^2] of a several-DOF valve into dydt[s + n:s + 2n] (generated '
-              'dispatch)."""',
-              "    k = p[o + VALVE.kind_id]"]
-    for kind in KINDS.values():
-        if kind.accelerations is None:
-            continue
-        fname = f"_accels_{kind.name}"
-        globals()[fname] = kind.accelerations
-        lines += [f"    if k == {float(kind.id)}:", f"        {fname}({many})", "        return"]
-    lines += ["    for j in range(n):", "        dydt[s + n + j] = math.nan", "",
-              f"def valve_accelerations_jacobian({jac}):",
-              '    """The partials of a several-DOF valve\'s accelerations by its states into jac; False: the '
-              'kind has none (generated dispatch)."""',
-              "    k = p[o + VALVE.kind_id]"]
-    for kind in KINDS.values():
-        if kind.accelerations_jacobian is None:
-            continue
-        fname = f"_accels_jac_{kind.name}"
-        globals()[fname] = kind.accelerations_jacobian
-        lines += [f"    if k == {float(kind.id)}:", f"        {fname}({jac})", "        return True"]
-    lines += ["    return False"]
+    lines = [
+        *_if_chain("valve_acceleration", one, "du/dt [m/s^2] of the opening of the one-DOF valve at block offset o, "
+                   "by its kind (generated).", "acceleration", "_accel_", ["return {f}({a})"], ["return math.nan"]),
+        *_if_chain("valve_accelerations", many, "The n accelerations [m/s^2] of a several-DOF valve into "
+                   "dydt[s + n:s + 2n] (generated dispatch).", "accelerations", "_accels_", ["{f}({a})", "return"],
+                   ["for j in range(n):", "    dydt[s + n + j] = math.nan"]),
+        *_if_chain("valve_accelerations_jacobian", jac, "The partials of a several-DOF valve's accelerations by its "
+                   "states into jac; False: the kind has none (generated dispatch).", "accelerations_jacobian",
+                   "_accels_jac_", ["{f}({a})", "return True"], ["return False"]),
+    ]
     code = compile("\n".join(lines), __file__, "exec")
-    old = {name: globals()[name] for name in ("valve_acceleration", "valve_accelerations")}
+    old = {name: globals()[name] for name in ("valve_acceleration", "valve_accelerations",
+                                                "valve_accelerations_jacobian")}
     exec(code, globals())  # noqa: S102 - generated from the registry above
     # modules that imported the dispatchers by name (lumped.layout, lumped.jacobian) still hold the ones built
     # before this kind registered, which the reference path would call: point them at the new ones
