@@ -21,10 +21,12 @@ How many revolutions: by default each design runs until the cyclic steady-state 
 state at TDC between the last two revolutions below ``steady_tol``, default 1e-3, or the
 integrator's rtol if larger; the last revolution is then within 1e-4 of the cycle, the map
 contracting by a factor 10 or more per revolution), two revolutions at least and ``max_revolutions`` (default
-:data:`MAX_REVOLUTIONS`) at most, and starts from the TDC state of the nearest design already
-solved in its batch (a warm start, :mod:`studies.sweeps.locality`; the batch's first design
+:data:`MAX_REVOLUTIONS`) at most, and starts from the TDC state predicted from the nearest designs
+already solved in its batch (a warm start, :mod:`studies.sweeps.locality`; the batch's first design
 starts from today's start; ``warm_start = false``: every design from today's start, so that its
-answer does not depend on the batch it ran in). ``revolutions`` alone is a fixed count, as in
+answer does not depend on the batch it ran in). A warm-started design stops after one revolution
+when the state at TDC it ends with is within a fifth of ``steady_tol`` of the one it started from
+(``StopRule(single=True)``: the start was then the cycle's; ``cycle_change`` is that residual). ``revolutions`` alone is a fixed count, as in
 the first sweep files; with ``max_revolutions`` it is the least number.
 
 Outputs: delivery per revolution (eq 4.17), volumetric efficiency, per valve the peak
@@ -245,8 +247,9 @@ def build_model(design: dict):
 
 def stop_rule(design: dict):
     """The :class:`lumped.revolutions.StopRule` of a design's run settings: until cyclic steady state (at
-    least ``revolutions``, default 2; at most ``max_revolutions``, default :data:`MAX_REVOLUTIONS`), or a
-    fixed count when only ``revolutions`` is given."""
+    least ``revolutions``, default 2, or one from a warm start when ``revolutions`` is not given; at most
+    ``max_revolutions``, default :data:`MAX_REVOLUTIONS`), or a fixed count when only ``revolutions`` is
+    given."""
     from lumped.revolutions import StopRule
 
     tol = float(design.get("steady_tol", STEADY_TOL))
@@ -256,7 +259,8 @@ def stop_rule(design: dict):
     most = int(design.get("max_revolutions", max(MAX_REVOLUTIONS, least)))
     if most < least:
         raise InputError("max_revolutions", f"must be at least revolutions ({least}), got {most}")
-    return StopRule(least, most, tol)
+    # without a least count, a warm-started design may stop after one revolution (StopRule.single)
+    return StopRule(least, most, tol, single="revolutions" not in design)
 
 
 def evaluate(design: dict, warm=None) -> dict:
