@@ -179,7 +179,7 @@ def run(n_designs: int = 100_000, workers: int | None = None, sizes=(1000, 10_00
     return {
         "benchmark": "sweep", "machine": platform.machine(), "cores": os.cpu_count(), "workers": workers,
         "load_average_before_after": [round(load0[0], 2), round(os.getloadavg()[0], 2)],
-        "settings": "until cyclic steady state (steady_tol 1e-3, floored at rtol 1e-3), warm-started in batches; a warm start may stop after one revolution (its TDC state within 2e-4 of where it started)",
+        "settings": "until cyclic steady state (steady_tol 1e-3, floored at rtol 1e-3), warm-started in batches",
         **after,
         "target_designs_per_hour": TARGET_DESIGNS_PER_HOUR,
         "meets_target": after["designs_per_hour"] >= TARGET_DESIGNS_PER_HOUR,

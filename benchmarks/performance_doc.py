@@ -80,7 +80,7 @@ def section_steady(d: dict | None) -> list[str]:
 def section_sweep(d: dict | None) -> list[str]:
     out = ["## Sweeps", "", "`python benchmarks/bench_sweep.py --save` (100,000 Sobol designs over valve type, speed "
            "450-950 rpm, load 1.5-4.5 MPa, air 0-3 %; fast path; a fresh LocalCluster of 2 workers, its start "
-           "included; the former five revolutions from today's start, on the designs stated; each size of the "
+           "included; the same sweep with the former five revolutions from today's start; each size of the "
            "figure; 200 designs against 40-revolution runs):", ""]
     if d is None:
         return out + ["(not measured yet)", ""]

@@ -7,8 +7,7 @@ input over its range) and ``PumpResult.tdc_state``; before the next it asks for 
 nearest design solved so far (:meth:`WarmStarts.nearest`), which :func:`lumped.cycle.simulate`
 takes as ``initial_state``. With :meth:`lumped.revolutions.StopRule.steady` the run then stops as
 soon as the cyclic steady-state test passes, usually after two revolutions instead of three
-from today's start (the first revolution from today's start is 3-10 % off in delivery), or after
-one with ``StopRule(single=True)`` when the start was already the cycle's (a sweep's designs).
+from today's start (the first revolution from today's start is 3-10 % off in delivery).
 :func:`chain_order` orders a batch so that each design follows a close one.
 
 The answer of a warm-started design differs from a cold-started one by what the steady-state
