@@ -25,7 +25,6 @@ is the piston pump (:mod:`studies.sweeps.pump`); any importable module name work
 
 from __future__ import annotations
 
-import gc
 import hashlib
 import itertools
 import math
@@ -404,18 +403,6 @@ def _local_order(todo: list, group: int) -> list:
 
 
 
-_HEAP_FROZEN = [False]
-
-
-def _freeze_heap_once() -> None:
-    """Leave the objects a worker holds once it has evaluated a design (modules, compiled code, models) out of
-    the garbage collector's full collections for good (gc.freeze): each such collection otherwise walks them
-    all, ~0.3 s in a pump sweep's worker, about 0.7 ms per design; what the designs allocate is still collected."""
-    if not _HEAP_FROZEN[0]:
-        gc.freeze()
-        _HEAP_FROZEN[0] = True
-
-
 def evaluate_batch(model_name: str, fixed: dict, batch: list[tuple[int, dict]]) -> list[dict]:
     """Evaluate (design_id, inputs) pairs with one model; runs on a dask worker.
 
@@ -451,7 +438,6 @@ def evaluate_batch(model_name: str, fixed: dict, batch: list[tuple[int, dict]]) 
             row["error"] = f"{type(exc).__name__}: {exc}"
         row["eval_seconds"] = time.process_time() - t0
         rows.append(row)
-        _freeze_heap_once()
     return rows
 
 
