@@ -72,6 +72,7 @@ class PumpResult:
     revolutions: int
     cyclic_steady: bool
     cycle_change: float            # relative change of delivery and TDC state between the last two revolutions
+                                   # (one revolution: of the TDC state and the cylinder mass over it, first_change)
     cpu_seconds: float
     simulated_seconds: float
     mass_balance_error: float      # |dm_cyl - (m_in - m_out - m_leak)| / the mass through the valves, last revolution
@@ -94,7 +95,8 @@ class PumpResult:
     dynamics: dict = field(default_factory=dict)   # {position: {"kind": "modal", "modes": N} | {"kind": "fe", "dofs": n}}
     warnings: tuple = ()           # lumped.validity.ResultWarning: conditions of the model's equations the run left
     start: str = "cold"            # "cold": today's start (valves seated, cylinder at the load pressure); "warm": a TdcState
-    steady_tol: float = math.nan   # the tolerance cycle_change was tested against (the stop rule's, floored at rtol)
+    steady_tol: float = math.nan   # the tolerance cycle_change was tested against (the stop rule's, floored at rtol;
+                                   # one revolution: SINGLE_FRACTION of it)
     tdc_state: object = field(default=None, compare=False, repr=False)   # lumped.revolutions.TdcState: the next start
 
     @property
@@ -339,12 +341,12 @@ def simulate(model="thesis-disc", speed_rpm: float | None = None, load_pressure:
         y = problem.initial_state(physics.load_mass)
         mode = np.zeros(N_MODE)
         sw.initial_mode(0.0, y, problem.p, mode)
-    rule = StopRule(revs, max_revolutions, steady_tol)
+    rule = StopRule(revs, max_revolutions, steady_tol, stop.single if stop is not None else False)
     done = run(problem, stepper, y, mode, rule, physics, rtol=rtol, keep=trace_revolutions if trace else 0,
-               progress=progress, label=f"{m.name} {speed:.0f} rpm ({kind})")
+               progress=progress, label=f"{m.name} {speed:.0f} rpm ({kind})", warm=warm)
     cpu = _time.process_time() - cpu0
     res = _result(m, problem, done, physics, method, rtol, atol, cpu, trace_points if trace else 0,
-                  start="warm" if warm else "cold", steady_tol=rule.tolerance(rtol),
+                  start="warm" if warm else "cold", steady_tol=done.tol if done.tol else rule.tolerance(rtol),
                   tdc=tdc_state(problem, done, physics.load_mass, stepper))
     if check:
         check_invariants(res, problem.model)

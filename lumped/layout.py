@@ -181,14 +181,6 @@ def mode_tag(mode) -> int:
     return t
 
 
-_POW3 = 3 ** np.arange(N_MODE)
-
-
-def modes_of_tags(tags: np.ndarray) -> np.ndarray:
-    """Modes (rows) of the integers of :func:`mode_tag`."""
-    return ((np.asarray(tags)[:, None] // _POW3) % 3).astype(float)
-
-
 # ----------------------------------------------------------------- per-valve states (compiled code)
 #: helpers the compiled physics inlines (lumped.compiled): a few loads each, called in every rhs
 INLINE = ("mode_of", "state_start", "dofs", "is_scalar", "opening", "opening_weight", "valve_rates", "accel_index",

@@ -13,8 +13,10 @@ the state at TDC a solved run ended with (:class:`TdcState`, ``PumpResult.tdc_st
 carried over to the problem at hand by :meth:`TdcState.start`. The revolution map of these
 pumps contracts hard (a valve that reseats forgets its past): from today's start the first
 revolution's delivery is 3-10 % off and the second is within the integrator's noise of a
-40-revolution run, so a run from a close design's state is steady after its first revolution
-and the stop rule can confirm it with the second.
+40-revolution run, so a run from a close design's state is steady after its first revolution.
+The stop rule can confirm it with the second or, with ``StopRule(single=True)``, with the first
+alone: the state at TDC it ends with is then compared with the state it started from
+(:func:`first_change`).
 """
 
 from __future__ import annotations
@@ -35,6 +37,12 @@ from lumped.valve import VALVE
 #: validation cases and random designs of every kind: benchmarks/periodic_solver.py, docs/performance.md)
 #: that when the change is below 1e-3 the last revolution's delivery is within 1e-4 of the cycle's
 STEADY_TOL = 1e-3
+#: the one-revolution test's tolerance as a fraction of the steady-state tolerance. It compares states only
+#: (a first revolution's delivery has no predecessor): a valve's opening at TDC changed by 1e-3 of its gap
+#: moved the delivery by up to ~1e-4 on random designs, hence the margin. Measured on the 100,000-design
+#: sweep of benchmarks/bench_sweep.py: 95.5 % of the designs stopped after one revolution, but only 193 of
+#: 200 random ones were within 1e-4 of 40-revolution runs (199 with two revolutions), so no study uses it
+SINGLE_FRACTION = 0.2
 
 
 @dataclass(frozen=True)
@@ -43,22 +51,30 @@ class StopRule:
     steady state (relative change of the delivery and of the state at TDC between the last two
     revolutions below ``tol``, or the integrator's rtol if larger: :func:`cycle_change`) or that many.
 
+    ``single``: a run that starts from a solved state (a warm start) may stop after its first revolution,
+    when the state at TDC it ends with is within ``SINGLE_FRACTION`` x the tolerance of the state it
+    started from (:func:`first_change`: the start is then a fixed point of the revolution map to that
+    tolerance, and the revolution run from it is the cycle's).
+
     :meth:`steady` is the rule of the studies: stop as soon as the test passes (two revolutions at
-    least, since the test compares two), at most ``max_revolutions``.
+    least, since the test compares two; one with ``single`` from a warm start), at most ``max_revolutions``.
     """
 
     revolutions: int = 5
     max_revolutions: int | None = None
     tol: float = 1e-4
+    single: bool = False
 
     @property
     def limit(self) -> int:
         return self.max_revolutions or self.revolutions
 
     @classmethod
-    def steady(cls, tol: float = STEADY_TOL, max_revolutions: int = 40, min_revolutions: int = 2) -> "StopRule":
+    def steady(cls, tol: float = STEADY_TOL, max_revolutions: int = 40, min_revolutions: int = 2,
+               single: bool = False) -> "StopRule":
         """Until the cyclic steady-state test passes at ``tol`` (floored at the integrator's rtol), at least
-        ``min_revolutions`` (>= 2), at most ``max_revolutions``."""
+        ``min_revolutions`` (>= 2), at most ``max_revolutions``; ``single``: a warm start may stop after
+        its first revolution (see the class)."""
         from geometry.errors import InputError
 
         if isinstance(min_revolutions, bool) or not isinstance(min_revolutions, int) or min_revolutions < 2:
@@ -67,7 +83,7 @@ class StopRule:
             raise InputError("max_revolutions", f"expected an integer >= {min_revolutions}, got {max_revolutions!r}")
         if not isinstance(tol, (int, float)) or isinstance(tol, bool) or not 0.0 < tol < 0.1:
             raise InputError("steady_tol", f"expected a number in (0, 0.1), got {tol!r}")
-        return cls(min_revolutions, max_revolutions, float(tol))
+        return cls(min_revolutions, max_revolutions, float(tol), bool(single))
 
     def tolerance(self, rtol: float) -> float:
         """The tolerance the steady-state test uses with an integrator at ``rtol`` (below it the change of
@@ -214,6 +230,7 @@ class Run:
     kept: list = field(default_factory=list)
     steady: bool = False
     change: float = math.inf
+    tol: float = 0.0                      # what ``change`` was tested against (0: not tested)
     n_rhs: int = 0
     n_steps: int = 0
     n_events: int = 0
@@ -229,21 +246,36 @@ class Run:
         return tuple(r.delivery for r in self.revolutions)
 
 
-def cycle_change(problem, deliveries, states) -> float:
-    """Largest relative change between the last two revolutions: delivery, cylinder mass, each valve's
-    opening at TDC (per stop gap), the load line's mass."""
+def tdc_change(problem, a: np.ndarray, b: np.ndarray) -> float:
+    """Largest relative difference of two states at TDC: cylinder mass (per swept mass), each valve's
+    opening (per stop gap), the load line's mass (per swept mass)."""
     from lumped.layout import opening
 
     p, m_rev = problem.p, problem.m_rev
-    d1, d0 = deliveries[-1], deliveries[-2]
-    a, b = states[-1], states[-2]
-    ch = [abs(d1 - d0) / max(abs(d1), 1e-300), abs(a[S_MCYL] - b[S_MCYL]) / m_rev]
+    ch = [abs(a[S_MCYL] - b[S_MCYL]) / m_rev]
     for o in BLOCK_OFFSET:
         ch.append(abs(opening(a, p, o)[0] - opening(b, p, o)[0]) / p[o + VALVE.stop_gap])
     if problem.complete:
         i = problem.layout.index(LOAD_STATES[0])
         ch.append(abs(a[i] - b[i]) / m_rev)
     return float(max(ch))
+
+
+def cycle_change(problem, deliveries, states) -> float:
+    """Largest relative change between the last two revolutions: delivery, cylinder mass, each valve's
+    opening at TDC (per stop gap), the load line's mass (:func:`tdc_change`)."""
+    d1, d0 = deliveries[-1], deliveries[-2]
+    return max(abs(d1 - d0) / max(abs(d1), 1e-300), tdc_change(problem, states[-1], states[-2]))
+
+
+def first_change(problem, y_start: np.ndarray, y_end: np.ndarray, delivered: float) -> float:
+    """The residual of the revolution map at a start: the largest relative change of the state at TDC over
+    one revolution (:func:`tdc_change`), and the cylinder's mass change over the mass delivered (at the
+    cycle it is zero, and any drift adds to the delivery one to one: m_out = m_in - m_leak - dm_cyl)."""
+    from lumped.postprocess import MASS_FLOOR
+
+    drift = abs(y_end[S_MCYL] - y_start[S_MCYL]) / max(abs(delivered), MASS_FLOOR * problem.m_rev)
+    return max(drift, tdc_change(problem, y_end, y_start))
 
 
 def mean_load_pressure(problem, span, physics) -> float:
@@ -259,9 +291,10 @@ def mean_load_pressure(problem, span, physics) -> float:
 
 
 def run(problem, stepper, y: np.ndarray, mode: np.ndarray, rule: StopRule, physics, *, rtol: float,
-        keep: int = 0, progress: bool = False, label: str = "") -> Run:
+        keep: int = 0, progress: bool = False, label: str = "", warm: bool = False) -> Run:
     """Revolutions from TDC (state ``y``, mode ``mode``) until ``rule`` stops them; the last ``keep``
-    spans are kept for a trace."""
+    spans are kept for a trace. ``warm``: ``y`` is a solved state (``rule.single`` may then stop the run
+    after one revolution)."""
     lay, p = problem.layout, problem.p
     q = lay.quadratures
     i_in, i_out, i_leak, i_nv = q["m_in"], q["m_out"], q["m_leak"], q["m_nv"]
@@ -270,6 +303,8 @@ def run(problem, stepper, y: np.ndarray, mode: np.ndarray, rule: StopRule, physi
     out = Run()
     tdc_states = [y.copy()]
     tuned_at = None if problem.tune_needle else 0
+    # the needle valve's tuning (complete circuit) needs revolutions of its own: no single revolution there
+    single = rule.single and warm and not problem.complete
     bar = _progress_bar(progress, rule.limit, label)
     k = 0
     while k < rule.limit:
@@ -300,14 +335,19 @@ def run(problem, stepper, y: np.ndarray, mode: np.ndarray, rule: StopRule, physi
         if k >= 1:
             out.change = cycle_change(problem, out.deliveries, tdc_states)
             settled = tuned_at is not None and k + 1 - tuned_at >= 2
-            out.steady = out.change < rule.tolerance(rtol) and (not problem.complete or settled)
+            out.tol = rule.tolerance(rtol)
+            out.steady = out.change < out.tol and (not problem.complete or settled)
+        elif single:
+            out.change = first_change(problem, tdc_states[0], y, d_out)
+            out.tol = SINGLE_FRACTION * rule.tolerance(rtol)
+            out.steady = out.change < out.tol
         if keep:
             out.kept = (out.kept + [span])[-keep:]
         k += 1
         if bar is not None:
             bar.update(1)
             bar.set_postfix_str(f"{out.revolutions[-1].delivery * 1e6:.4f} cc/rev")
-        if k >= rule.revolutions and out.steady:
+        if (k >= rule.revolutions or (single and k == 1)) and out.steady:
             break
     if bar is not None:
         bar.close()

@@ -190,8 +190,10 @@ class Rates(NamedTuple):
     vapour_volume: float   # volume not filled by liquid while cavitating [m^3]
 
 
-def evaluate(t: float, y, p, mode, dydt) -> Rates:
-    """Everything the pump equations give at time t [s] (t = 0 at TDC) for state y; dy/dt into ``dydt``.
+def evaluate(t: float, y, p, mode, dydt, accelerations: bool = True) -> Rates:
+    """Everything the pump equations give at time t [s] (t = 0 at TDC) for state y; dy/dt into ``dydt``
+    (``accelerations=False``: the valves' accelerations and their rates are not computed, ``a_in`` and
+    ``a_del`` are NaN).
 
     The mass balance of eq 4.5 with the valve mass flows of eqs 4.3-4.4, cylinder
     pressure from eq 4.11 inverted by Newton (eqs 4.12-4.16) or held at the vapour
@@ -235,8 +237,10 @@ def evaluate(t: float, y, p, mode, dydt) -> Rates:
     p_vap = p[G.vapour_pressure]
     f_in = ValveInputs(dp_in, pc, p_vap, rho_in, mu, qo_in, cd_in, aq_in, dqp_in, dqx_in, -dpc)
     f_del = ValveInputs(dp_del, pl, p_vap, rho_del, mu, qo_del, cd_del, aq_del, dqp_del, dqx_del, dpc - dpl)
-    a_in = valve_rates(y, x_in, u_in, f_in, p, OFF_IN, c_in, int(mode[MODE.inlet_regime]), dydt)
-    a_del = valve_rates(y, x_del, u_del, f_del, p, OFF_DEL, c_del, int(mode[MODE.delivery_regime]), dydt)
+    a_in = a_del = math.nan
+    if accelerations:
+        a_in = valve_rates(y, x_in, u_in, f_in, p, OFF_IN, c_in, int(mode[MODE.inlet_regime]), dydt)
+        a_del = valve_rates(y, x_del, u_del, f_del, p, OFF_DEL, c_del, int(mode[MODE.delivery_regime]), dydt)
     vap = 0.0
     if cav == CAVITATING and p[G.rho_vapour] > 0.0:
         vap = vol - m / p[G.rho_vapour]
@@ -268,11 +272,15 @@ N_RATES = len(RATES_FIELDS)
 
 
 def rates_table(ts, ys, modes, p) -> np.ndarray:
-    """:func:`evaluate` at sampled times, states and modes: one row per sample, columns RATES_FIELDS."""
+    """:func:`evaluate` at sampled times, states and modes: one row per sample, columns RATES_FIELDS.
+
+    The valves' accelerations (columns ``a_in``, ``a_del``) are left NaN: no post-processor reads them, and
+    the valve forces they need are a third of an evaluation's cost (the table is 1,440 of them a revolution).
+    """
     out = np.empty((ts.shape[0], N_RATES))
     scratch = np.empty(ys.shape[1])
     for i in range(ts.shape[0]):
-        r = evaluate(ts[i], ys[i], p, modes[i], scratch)
+        r = evaluate(ts[i], ys[i], p, modes[i], scratch, False)
         for j in range(N_RATES):
             out[i, j] = r[j]
     return out

@@ -32,7 +32,7 @@ from geometry.errors import ModelFailure
 from lumped import switching as sw
 from lumped.layout import (
     BLOCK_OFFSET, G, MODE_AT, N_MODE, N_SWITCHES, N_TOL, N_VALVES, S_MCYL, TOL_AT, event, mode_of, mode_tag,
-    modes_of_tags, opening, tol_slot, valve_tolerances,
+    opening, tol_slot, valve_tolerances,
 )
 from lumped.rhs import evaluate
 from lumped.valve import FREE, KINDS, SEAT, STOP, VALVE
@@ -446,7 +446,7 @@ class RodasStepper(Stepper):
         def sampler(ts):
             rec_t, rec_y, rec_q2, rec_q3, rec_tag = rec
             ys = rodas.interpolate(ts, rec_t, rec_y, rec_q2, rec_q3)
-            return ys, modes_of_tags(rodas.sample_tags(ts, rec_t, rec_tag))
+            return ys, rodas.sample_modes(ts, rec_t, rec_tag, N_MODE)
 
         y_end = r.y_stops[-1].copy()
         mode_end = mode_of(q).copy()

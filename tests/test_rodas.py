@@ -208,3 +208,17 @@ def test_first_step_after_an_event_is_remembered_between_calls():
     assert second.n_rejected <= first.n_rejected < plain.n_rejected
     assert np.allclose(second.ev_t, plain.ev_t, rtol=0, atol=1e-6)
     assert np.allclose(second.y_stops, plain.y_stops, rtol=1e-4, atol=1e-6)
+
+
+def test_sampled_modes_decode_the_step_tags_of_the_layout():
+    """Each sample's mode is the mode the stepper tagged its step with (lumped.layout.mode_tag, the encoder),
+    a sample at a step's end belonging to that step."""
+    from lumped.layout import N_MODE, mode_tag
+
+    rng = np.random.default_rng(3)
+    modes = rng.integers(0, 3, size=(6, N_MODE)).astype(float)
+    rec_t = np.arange(6, dtype=float)
+    rec_tag = np.array([mode_tag(m) for m in modes], dtype=np.int64)
+    t = np.array([0.0, 0.5, 1.0, 2.25, 4.999, 5.0])
+    got = rodas.sample_modes(t, rec_t, rec_tag, N_MODE)
+    assert np.array_equal(got, modes[[1, 1, 1, 3, 5, 5]])

@@ -73,6 +73,33 @@ def test_cold_start_needs_three_revolutions_a_warm_one_two():
     assert abs(again.deliveries[0] / r.delivery_per_rev - 1) < 1e-4
 
 
+def test_single_revolution_from_a_cycle_state_matches_a_40_revolution_run_and_a_poor_start_runs_on():
+    """With ``single`` (the sweep's settings: the fast path's rtol, STEADY_TOL), a run from the design's own
+    cycle state stops after one revolution, its delivery within 1e-4 plus the long run's noise of 40
+    revolutions from today's start, its residual below a fifth of the tolerance; from the state of a design
+    1 % faster (the delivery valve, half open at TDC, a few 1e-3 of its gap elsewhere) the one-revolution
+    test fails and the run goes on to the two-revolution test; a cold start never stops at one."""
+    from lumped.revolutions import SINGLE_FRACTION, STEADY_TOL
+
+    m = load_model("thesis-disc")
+    rule = StopRule.steady(STEADY_TOL, single=True)
+    own = simulate(m, 600, 2.76e6, stop=StopRule.steady(STEADY_TOL, max_revolutions=10, min_revolutions=4))
+    one = simulate(m, 600, 2.76e6, stop=rule, initial_state=own.tdc_state)
+    long = simulate(m, 600, 2.76e6, revolutions=40)
+    tail = np.array(long.deliveries[-10:])
+    noise = (tail.max() - tail.min()) / abs(tail.mean())
+    assert one.start == "warm" and one.revolutions == 1 and one.cyclic_steady
+    assert one.cycle_change < one.steady_tol == pytest.approx(SINGLE_FRACTION * STEADY_TOL)
+    assert abs(one.delivery_per_rev / long.delivery_per_rev - 1) <= 1e-4 + noise, (one.deliveries, noise)
+    far = simulate(m, 600 * 1.01, 2.76e6, stop=StopRule.steady(STEADY_TOL))
+    poor = simulate(m, 600, 2.76e6, stop=rule, initial_state=far.tdc_state)
+    assert poor.start == "warm" and poor.revolutions >= 2 and poor.cyclic_steady
+    assert poor.steady_tol == STEADY_TOL
+    assert abs(poor.delivery_per_rev / long.delivery_per_rev - 1) <= 1e-4 + noise
+    cold = simulate(m, 600, 2.76e6, stop=rule)
+    assert cold.start == "cold" and cold.revolutions >= 2
+
+
 def test_carried_state_scales_masses_and_gaps():
     """The cylinder mass is carried as the same fraction of today's start (the dead volume doubled doubles
     it), a valve's coordinates as the same fraction of its stop gap, and the running totals restart at 0."""

@@ -21,11 +21,14 @@ How many revolutions: by default each design runs until the cyclic steady-state 
 state at TDC between the last two revolutions below ``steady_tol``, default 1e-3, or the
 integrator's rtol if larger; the last revolution is then within 1e-4 of the cycle, the map
 contracting by a factor 10 or more per revolution), two revolutions at least and ``max_revolutions`` (default
-:data:`MAX_REVOLUTIONS`) at most, and starts from the TDC state of the nearest design already
-solved in its batch (a warm start, :mod:`studies.sweeps.locality`; the batch's first design
+:data:`MAX_REVOLUTIONS`) at most, and starts from the TDC state predicted from the nearest designs
+already solved in its batch (a warm start, :mod:`studies.sweeps.locality`; the batch's first design
 starts from today's start; ``warm_start = false``: every design from today's start, so that its
-answer does not depend on the batch it ran in). ``revolutions`` alone is a fixed count, as in
-the first sweep files; with ``max_revolutions`` it is the least number.
+answer does not depend on the batch it ran in). A warm-started design may stop after its first
+revolution, when the state at TDC it ends with is the state it started from to a fifth of the
+tolerance (:class:`lumped.revolutions.StopRule` ``single``; ``one_revolution = false``: two at
+least). ``revolutions`` alone is a fixed count, as in the first sweep files; with
+``max_revolutions`` it is the least number (and no run stops after one).
 
 Outputs: delivery per revolution (eq 4.17), volumetric efficiency, per valve the peak
 opening, opening and closing crank angles (rad from TDC), stop contacts, the largest
@@ -82,7 +85,7 @@ ON_WARNING = ("flag", "exclude")
 MAIN_RESPONSES = ("delivery_m3_per_rev", "volumetric_efficiency", "delivery_peak_opening_m")
 REQUIRED = ()
 OPERATING = ("model", "valve", "speed_rpm", "load_pressure", "air_content", "revolutions", "max_revolutions",
-             "steady_tol", "warm_start", "method", "rtol", "atol", "circuit", "on_warning")
+             "steady_tol", "warm_start", "one_revolution", "method", "rtol", "atol", "circuit", "on_warning")
 #: the most revolutions a design runs to reach cyclic steady state (unless ``max_revolutions``)
 MAX_REVOLUTIONS = 10
 #: the steady-state test's tolerance (floored at the integrator's rtol) unless ``steady_tol``: lumped's
@@ -165,7 +168,7 @@ def check(name: str, value) -> None:
         _positive(name, value, integer=True)
         if not 2 <= value <= 100_000:
             raise InputError(name, f"must be from 2 (cyclic steady state compares two) to 100000, got {value!r}")
-    elif name == "warm_start":
+    elif name in ("warm_start", "one_revolution"):
         if not isinstance(value, bool):
             raise InputError(name, f"must be true or false, got {value!r}")
     elif name == "steady_tol":
@@ -256,7 +259,12 @@ def stop_rule(design: dict):
     most = int(design.get("max_revolutions", max(MAX_REVOLUTIONS, least)))
     if most < least:
         raise InputError("max_revolutions", f"must be at least revolutions ({least}), got {most}")
-    return StopRule(least, most, tol)
+    # a warm start may stop after one revolution when its TDC state is a fixed point of the revolution map
+    # (StopRule single): against a sharp reference (rtol 1e-5) it is as accurate as two revolutions and as a
+    # 40-revolution run at the sweep's rtol, whose own error it sits in (docs/performance.md, "Sweeps");
+    # ``one_revolution = false``: two revolutions at least
+    single = bool(design.get("one_revolution", True)) and least <= 2
+    return StopRule(least, most, tol, single)
 
 
 def evaluate(design: dict, warm=None) -> dict:
