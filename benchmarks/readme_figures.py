@@ -34,6 +34,9 @@ def _pump(d: dict) -> list[str]:
 def _sweep(d: dict) -> list[str]:
     steady = (f", {d['revolutions_mean']:.2f} revolutions per design until cyclic steady state"
               if "revolutions_mean" in d else "")
+    target = d.get("target_designs_per_hour")
+    if target:
+        steady += f"; target {target:,.0f}: {'met' if d.get('meets_target') else 'not met'}"
     return [f"| sweep, {d['designs']} designs on {d['workers']} workers (`bench_sweep.py`) | "
             f"{d['designs_per_hour']:,.0f} designs per hour ({d['wall_seconds']:.1f} s wall, cluster start included"
             f"{steady}); {d.get('failed', 0)} failed |"]

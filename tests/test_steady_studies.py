@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from geometry.errors import InputError
 from lumped import simulate
 from studies.sweeps import sweep
 from studies.sweeps.locality import features, locality_order
@@ -44,6 +45,31 @@ def test_sweep_revolution_inputs():
     assert all(r["revolutions_run"] == 3 and not r["warm_started"] for r in fixed)
     least = sweep.evaluate_batch("pump", {"revolutions": 3, "max_revolutions": 6}, batch)
     assert all(3 <= r["revolutions_run"] <= 6 for r in least)
+
+
+def test_close_designs_stop_after_one_revolution_within_the_integrators_error():
+    """A batch of close designs (a sweep's dense corner): the warm-started ones mostly stop after one revolution
+    (the one-revolution test), each delivery within the steady tolerance (1e-3) of a sharp reference (rtol 1e-5,
+    12 revolutions), as close to it as the same batch run with two revolutions at least; ``one_revolution =
+    false`` gives two at least, a non-boolean exits as an input error."""
+    rng = np.random.default_rng(5)
+    batch = [(i, {"valve": "disc", "speed_rpm": float(rng.uniform(590, 610)),
+                  "load_pressure": float(rng.uniform(2.7e6, 2.8e6)), "air_content": 0.01}) for i in range(12)]
+    one = {r["design_id"]: r for r in sweep.evaluate_batch("pump", {}, batch)}
+    two = {r["design_id"]: r for r in sweep.evaluate_batch("pump", {"one_revolution": False}, batch)}
+    assert sum(r["revolutions_run"] == 1 for r in one.values()) >= 8
+    assert all(r["revolutions_run"] >= 2 for r in two.values())
+    err1, err2 = [], []
+    for i, d in batch:
+        sharp = simulate(build_model(d), d["speed_rpm"], d["load_pressure"], air_content=d["air_content"],
+                         revolutions=12, rtol=1e-5).delivery_per_rev
+        err1.append(abs(one[i]["delivery_m3_per_rev"] / sharp - 1))
+        err2.append(abs(two[i]["delivery_m3_per_rev"] / sharp - 1))
+    assert max(err1) < 1e-3 and max(err2) < 1e-3
+    assert np.median(err1) <= 2 * np.median(err2) + 1e-5
+    with pytest.raises(InputError, match="one_revolution"):
+        from studies.sweeps.pump import check
+        check("one_revolution", 1)
 
 
 def test_locality_order_keeps_neighbours_together_and_groups_apart():
