@@ -43,8 +43,9 @@ STEADY_TOL = 1e-3
 #: 8,000-design sweep (benchmarks/bench_sweep.py's space) 92 % stopped after one revolution; against a sharp
 #: reference (rtol 1e-5) their deliveries were as close (183 of 300 within 1e-4, 95 % within 2.0e-4) as with
 #: two revolutions (178; 2.2e-4) and as 40 revolutions at the same rtol 1e-3 (182; 2.3e-4): what separates
-#: them from a 40-revolution run is the integrator's error at rtol 1e-3, not the stop. A tighter fraction
-#: (0.05) changed none of that and stopped 54 % after one. The sweeps use it (studies/sweeps/pump.py)
+#: them from a 40-revolution run is the integrator's error at rtol 1e-3, not the stop (against that run: 12 of
+#: 300 beyond 1e-4, 5 with two revolutions; a fraction of 0.05 stopped 54 % after one and left 8). The
+#: sweeps use it (studies/sweeps/pump.py)
 SINGLE_FRACTION = 0.2
 
 
