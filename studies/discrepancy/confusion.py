@@ -247,6 +247,7 @@ def run_case(case: str, spec, valve: str, seed: int, simulate, library, settings
                                           "fit_improvement_pct", "delta_bic", "why_not_added")}
                      for row in out["ranking"] if row["accepted"] or row["rank"] == 1],
         "held_out_cost": [c0, c1],
+        "dropped": out.get("effects_dropped", []),
         "unexplained": {k: unexp.get(k) for k in ("large", "cost", "sentences", "partial_candidates")},
         "beyond_validation_before": [b["output"] for b in (out.get("validation") or {}).get("beyond", [])],
         "cost": out.get("cost"),
