@@ -304,3 +304,41 @@ def test_confusion_tables_merge_seeds_run_apart(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "**pump (disc), library**: 5/6 named exactly" in out and "0 false positives on 3 clean" in out
     assert "| piston_leakage | 2/3 |" in out and "| none | 3/3 |" in out
+
+
+def test_the_backward_step_drops_an_effect_the_others_made_redundant():
+    """An effect added before the right one (a stand-in) is dropped once the right one is in: taken out, the
+    others refitted, the acceptance rule would not add it back; effects that are there both stay."""
+    truth = (Applied.of("seat_compliance", "inlet", {"k_seat": 3e6}),
+             Applied.of("piston_leakage", "pump", {"leak_per_mpa": 0.02}))
+    runs, _ = synthesize(standin.simulate, "disc", THESIS_DISC, truth, Noise(), seed=4)
+    wf = Workflow(runs, standin.simulate, standin.LIB, Settings(), progress=False)
+    cd = Applied.of("discharge_scale", "pump", {"scale": 1.0})
+    # both hidden effects in the model: neither is dropped (each loses the held-out gap when taken out)
+    rows, dropped = [], set()
+    model = (cd, truth[0], truth[1])
+    current, _ = wf._backward(model, wf.evaluate(model), 2, rows, dropped, keep=None)
+    assert sorted(a.name for a in current) == ["discharge_scale", "piston_leakage", "seat_compliance"]
+    assert not dropped and len(rows) == 2 and not any(r["dropped"] for r in rows)
+    # a closing lag added before them (it stands in for nothing here): dropped, the two kept
+    rows, dropped = [], set()
+    model = (cd, Applied.of("closing_lag", "both", {"lag_deg": 0.5}), truth[0], truth[1])
+    current, ev = wf._backward(model, wf.evaluate(model), 3, rows, dropped, keep="piston_leakage")
+    assert sorted(a.name for a in current) == ["discharge_scale", "piston_leakage", "seat_compliance"]
+    assert dropped == {"closing_lag"}
+    gone = [r for r in rows if r["dropped"]]
+    assert [r["effect"] for r in gone] == ["closing_lag"] and gone[0]["why_dropped"]
+    assert ev.held_cost <= gone[0]["held_out_cost"]          # the model without it explains the held-out runs
+
+
+def test_a_dropped_effect_is_reported_and_never_added_again(monkeypatch):
+    """The whole search with the backward step: every removal tried is in `backward`, a dropped effect in
+    `effects_dropped`, and it is not among the effects named."""
+    truth = (Applied.of("seat_compliance", "inlet", {"k_seat": 3e6}),
+             Applied.of("piston_leakage", "pump", {"leak_per_mpa": 0.02}))
+    out = find(truth, seed=4)
+    assert sorted(out["effects_added"]) == ["piston_leakage", "seat_compliance"]
+    assert out["backward"] and all(not r["dropped"] for r in out["backward"]) and out["effects_dropped"] == []
+    assert {r["effect"] for r in out["backward"]} == {"piston_leakage", "seat_compliance"}   # the end's pass too
+    off = find(truth, seed=4, backward=False)
+    assert off["backward"] == [] and sorted(off["effects_added"]) == ["piston_leakage", "seat_compliance"]
