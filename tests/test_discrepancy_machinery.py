@@ -342,3 +342,19 @@ def test_a_dropped_effect_is_reported_and_never_added_again(monkeypatch):
     assert {r["effect"] for r in out["backward"]} == {"piston_leakage", "seat_compliance"}   # the end's pass too
     off = find(truth, seed=4, backward=False)
     assert off["backward"] == [] and sorted(off["effects_added"]) == ["piston_leakage", "seat_compliance"]
+
+
+def test_confusion_tables_set_a_low_held_out_reduction_against_the_clean_dataset_of_its_seed():
+    """A right name with a held-out reduction below 70 % is listed beside what the clean dataset of the same seed
+    and data form leaves (the part no candidate takes): (100 - 40) of (100 - 40) = 100 % of the part above it."""
+    from studies.discrepancy.confusion import low_reductions
+
+    def result(case, seed, found, held):
+        return {"case": case, "seed": seed, "found": found, "expected": found, "correct": True,
+                "held_out_cost": held, "held_out_cost_reduction_pct": 100 * (1 - held[1] / held[0]) if found else None}
+
+    rs = [result("piston_leakage [sensor]", 1, ["piston_leakage"], [100.0, 40.0]),
+          result("none [sensor]", 1, [], [40.0, 40.0]), result("piston_leakage", 1, ["piston_leakage"], [50.0, 1.0])]
+    text = low_reductions(rs)
+    assert text.count("\n") == 0 and "piston_leakage [sensor], seed 1: held-out cost 100 -> 40 (60 %)" in text
+    assert "leaves 40 held out, so 100 % of the part above it is explained" in text
