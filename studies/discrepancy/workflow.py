@@ -20,7 +20,9 @@ effects -> one simulated revolution) and a library of candidate effects
    effective number of independent residuals, from their autocorrelation);
 5. adds the best candidate if it shrinks the held-out gap significantly (by a
    fraction and by an absolute amount), refits the added effects jointly, and
-   repeats until no candidate helps.
+   repeats until no candidate helps;
+6. after each addition (and at the end) takes each earlier-added effect out again, refits the
+   others jointly and drops it when the same rule would not add it back (the backward step).
 
 The result is a :class:`Outcome`; ``studies/cli/discrepancy.py`` turns it into the
 contract's JSON and ``studies/discrepancy/report.py`` into a report folder.
@@ -1850,7 +1852,7 @@ class Workflow:
                 rows.append(_json_safe(row))
             if best is None:
                 return current, cur
-            f, current, cur, _ = best    # (a trial met before was kept then, and is again: one rule)
+            f, current, cur, _ = best
             dropped.add(f.effect)
             self._log(f"round {rnd}: dropping {f.key}: without it (the others refitted) {f.why_not_added}")
 
