@@ -151,8 +151,9 @@ def write_report(folder, outcome: Outcome, runs, result: dict, force: bool = Fal
     lines += ["", "Residual windows of the baseline, per run:"]
     lines += [f"  - {s}" for s in window_sentences(outcome.findings_before)] or ["  (none)"]
     lines += ["", "Effects added: " + (", ".join(a.key for a in outcome.model) or "none")]
-    lines += [f"Effect dropped again in round {r['round']}: {r['effect']}@{r['target']} (without it, the others "
-              f"refitted: {r['why_dropped']})" for r in outcome.backward if r["dropped"]]
+    lines += [f"Effect dropped again in round {r['round']}: {r['effect']}"
+              f"{'' if r['target'] in ('both', 'pump') else '@' + r['target']} (without it, the others refitted: "
+              f"{r['why_dropped']})" for r in outcome.backward if r["dropped"]]
     lines += [f"Baseline nuisance: {s}" for s in outcome.nuisance_sentences()]
     lines += ["Disagreements left after adding them:"]
     lines += [f"  - {s}" for s in outcome.disagreements_after] or ["  (none beyond the tolerances)"]
