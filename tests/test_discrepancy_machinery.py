@@ -87,10 +87,17 @@ def test_nothing_hidden_nothing_added():
     assert plain["gap_after"] == plain["gap_before"]
 
 
-def test_two_hidden_effects_both_named():
+def test_two_hidden_effects_both_named(tmp_path):
+    from studies.discrepancy.report import write_report
+
     truth = (Applied.of("seat_compliance", "inlet", {"k_seat": 3e6}),
              Applied.of("piston_leakage", "pump", {"leak_per_mpa": 0.02}))
-    out = find(truth, seed=4)
+    runs, _ = synthesize(standin.simulate, "disc", THESIS_DISC, truth, Noise(), seed=4)
+    outcome = Workflow(runs, standin.simulate, standin.LIB, Settings(), progress=False).run()
+    out = outcome.as_contract()
+    rep = write_report(tmp_path / "rep", outcome, runs, out)
+    assert "# The backward step" in (rep / "ranking.md").read_text()       # the removals tried, both kept
+    assert "dropped again" not in (rep / "disagreements.txt").read_text()
     assert sorted(out["effects_added"]) == ["piston_leakage", "seat_compliance"]
     assert out["targets"]["seat_compliance"] == "inlet"
     # the backward step took each out once (the first after the second was added, the second at the end)
