@@ -384,13 +384,14 @@ def _fmt(key: str, value) -> str:
         tomli_w.dumps({"x": value}).strip().replace("x = ", f"{key} = ", 1)
 
 
-def _comment(spec, extra: str = "") -> str:
+def _comment(spec, extra: str = "", origin: str | None = None) -> str:
     unit = "" if spec.unit in ("-", "") else spec.unit + ", "
-    return f"  # {unit}{spec.source}{extra}"
+    return f"  # {unit}{_labelled(spec.source, origin)}{extra}"
 
 
-def to_toml(model: PumpModel, comments: bool = True) -> str:
-    """The complete resolved model as a model file, each key with its unit and source (model show).
+def to_toml(model: PumpModel, comments: bool = True, origins: dict | None = None) -> str:
+    """The complete resolved model as a model file, each key with its unit and source (model show); with
+    ``origins`` (:func:`file_keys`), a key a model file sets is labelled as that file's.
 
     Examples
     --------
@@ -399,6 +400,7 @@ def to_toml(model: PumpModel, comments: bool = True) -> str:
     ...                                          source=load_model("thesis-reed").source)
     True
     """
+    origins = origins or {}
     lines = [f"# valvelab model {model.name!r}" + (f" (from {model.source})" if model.source else ""),
              "# complete and resolved: every key with its unit and source; copy it and edit", ""]
     lines.append(_fmt("name", model.name))
@@ -409,7 +411,7 @@ def to_toml(model: PumpModel, comments: bool = True) -> str:
             continue
         lines += ["", f"[{sec}]"]
         for s, v in rows:
-            lines.append(_fmt(s.key, v) + (_comment(s) if comments else ""))
+            lines.append(_fmt(s.key, v) + (_comment(s, origin=origins.get(f"{sec}.{s.key}")) if comments else ""))
     for pos in POSITIONS:
         v = model.valve(pos)
         kind = kind_of(v)
@@ -432,10 +434,11 @@ def to_toml(model: PumpModel, comments: bool = True) -> str:
                 if comments:
                     lines.append(f"# {_fmt(s.key, val)}  ({s.unit}, from geometry {v.geometry!r})")
                 continue
+            c = _comment(s, origin=origins.get(f"valves.{pos}.{s.key}")) if comments else ""
             if isinstance(val, dict):
-                lines.append(f"{s.key} = {_inline(val)}" + (_comment(s) if comments else ""))
+                lines.append(f"{s.key} = {_inline(val)}" + c)
             else:
-                lines.append(_fmt(s.key, val) + (_comment(s) if comments else ""))
+                lines.append(_fmt(s.key, val) + c)
         if comments:
             for k, (n, s) in _derived_rows(v):
                 lines.append(f"# {k} = {n:.6g}  ({s})")
@@ -446,7 +449,9 @@ def to_toml(model: PumpModel, comments: bool = True) -> str:
         lines += ["", f"[{head}]" + (f"  # {e.summary}" if comments else "")]
         for k, val in a.values:
             p = params.get(k)
-            c = f"  # {p.unit}, prior {p.prior:.4g}: {p.source}" if (comments and p) else ""
+            f = origins.get(f"{head}.{k}")
+            c = "" if not (comments and p) else (f"  # {p.unit}, model file {f}" if f else
+                                                 f"  # {p.unit}, prior {p.prior:.4g}: {p.source}")
             lines.append(_fmt(k, val) + c)
     if model.uncertainties:                     # declared input uncertainties (lumped/uncertainty.py)
         lines += ["", tomli_w.dumps({"uncertainty": _uncertainty.uncertainty_table(model.uncertainties)}).strip()]
@@ -587,8 +592,46 @@ def _del_nested(d: dict, parts: list) -> None:
     d.pop(parts[-1], None)
 
 
-def key_paths(model: PumpModel) -> list[dict]:
-    """Every numeric key of ``model`` by path with its unit, source and value (sweep variables)."""
+def file_keys(model: PumpModel) -> dict:
+    """{key path: model file name} of the keys ``model``'s own file (and each file of its ``base`` chain) sets; {}
+    for a shipped model. The file nearest the model wins; a key inherited from a shipped model is not in it."""
+    src = model.source
+    if not src or not Path(src).is_file() or any(Path(src).name == f for f in SHIPPED.values()):
+        return {}
+    out: dict = {}
+    chain = []
+    path = Path(src)
+    while path is not None and path.is_file() and str(path.resolve()) not in chain:
+        chain.append(str(path.resolve()))
+        data = read_toml(path, "model")
+        own = {}
+        for sec in ("pump", "oil", "circuit", "operating"):
+            own.update({f"{sec}.{k}": path.name for k in flatten(data.get(sec) or {})})
+        valves = data.get("valves") or {}
+        for k in flatten({k: v for k, v in valves.items() if k not in POSITIONS}):
+            own.update({f"valves.{pos}.{k}": path.name for pos in POSITIONS})
+        for pos in POSITIONS:
+            own.update({f"valves.{pos}.{k}": path.name for k in flatten(valves.get(pos) or {})})
+        own.update({f"effects.{k}": path.name for k in flatten(data.get("effects") or {})})
+        out = {**own, **out}                        # the nearer file's keys win
+        base = data.get("base")
+        path = None if not isinstance(base, str) or base in SHIPPED or base in KINDS else \
+            (Path(base) if Path(base).is_absolute() else Path(chain[-1]).parent / base)
+    return out
+
+
+def _labelled(source: str, file: str | None) -> str:
+    """A key's declared ``source`` or, for a key a model file sets, its description with that file instead of the
+    declared citation: "d_piston (Table 5.1)" -> "d_piston (model file mine.toml)"."""
+    if file is None:
+        return source
+    head = source.rsplit(" (", 1)[0] if source.endswith(")") else source
+    return f"{head} (model file {file})"
+
+
+def key_paths(model: PumpModel, origins: dict | None = None) -> list[dict]:
+    """Every numeric key of ``model`` by path with its unit, source and value (sweep variables); with ``origins``
+    (:func:`file_keys`), a key a model file sets is labelled as that file's."""
     out = []
     for sec in ("pump", "oil", "circuit", "operating"):
         comp = getattr(model, sec)
@@ -608,6 +651,8 @@ def key_paths(model: PumpModel) -> list[dict]:
         head = f"effects.{a.name}" + ("" if a.target in ("both", "pump") else f".{a.target}")
         for p in LIBRARY[a.name].parameters_for(model, a.target):
             out.append({"path": f"{head}.{p.name}", "unit": p.unit, "source": p.source, "value": a.value_dict[p.name]})
+    for d in out:
+        d["source"] = _labelled(d["source"], (origins or {}).get(d["path"]))
     return out
 
 

@@ -369,3 +369,28 @@ def test_a_new_parameter_is_one_declaration_plus_its_value(wobbly_kind, tmp_path
     with pytest.raises(InputError, match="valves.inlet.wobble.damping"):       # validation
         with_values(m, {"valves.inlet.wobble.damping": 1e6})
     assert model_table(m)["valves"]["inlet"]["wobble"]["damping"] == 2.5
+
+
+def test_model_show_labels_the_keys_a_model_file_sets(tmp_path, capsys):
+    """A key the user's model file sets is labelled as that file's, also through a base chain; a key inherited
+    from a shipped model keeps its declared source (a 20 mm bore is not Table 5.1's)."""
+    (tmp_path / "bigger.toml").write_text('base = "thesis-disc"\n[pump]\ndead_volume = 3.4e-5\n')
+    (tmp_path / "mine.toml").write_text('base = "bigger.toml"\n[pump]\npiston_diameter = 20.0e-3\n'
+                                        '[valves]\nspring.stiffness = 300.0\n[valves.inlet]\nflow.f1 = 0.8\n')
+    rc, out, err = _run_cli(["model", "show", str(tmp_path / "mine.toml"), "--json"], capsys)
+    assert rc == 0, err
+    src = {k["path"]: k["source"] for k in json.loads(out)["keys"]}
+    assert "model file mine.toml" in src["pump.piston_diameter"] and "Table 5.1" not in src["pump.piston_diameter"]
+    assert "model file bigger.toml" in src["pump.dead_volume"] and "Table 5.1" not in src["pump.dead_volume"]
+    assert src["pump.crank_radius"] == "r (Table 5.1)"                          # inherited: the shipped source
+    assert all("model file mine.toml" in src[f"valves.{p}.spring.stiffness"] for p in ("inlet", "delivery"))
+    assert "model file mine.toml" in src["valves.inlet.flow.f1"]
+    assert "model file" not in src["valves.delivery.flow.f1"]
+    rc, out, err = _run_cli(["model", "show", str(tmp_path / "mine.toml"), "--toml"], capsys)
+    assert rc == 0, err
+    line = next(s for s in out.splitlines() if s.startswith("piston_diameter"))
+    assert "model file mine.toml" in line and "Table 5.1" not in line
+    assert next(s for s in out.splitlines() if s.startswith("crank_radius")).endswith("(Table 5.1)")
+    # a shipped model: every key keeps its declared source
+    rc, out, err = _run_cli(["model", "show", "thesis-disc", "--json"], capsys)
+    assert not any("model file" in k["source"] for k in json.loads(out)["keys"])

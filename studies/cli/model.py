@@ -18,14 +18,15 @@ def configure(p):
 
 
 def run(args) -> dict:
-    from lumped.model_file import describe, key_paths, load_model, model_table, to_toml
+    from lumped.model_file import describe, file_keys, key_paths, load_model, model_table, to_toml
 
     model = load_model(args.model, field="model")
     if args.action == "show":
+        origins = file_keys(model)          # a key the user's file sets is the file's, not its declared source
         out = {"model": model.name, "source": model.source, "table": _plain(model_table(model)),
-               "keys": key_paths(model)}
+               "keys": key_paths(model, origins)}
         if args.toml:
-            out["toml"] = to_toml(model)
+            out["toml"] = to_toml(model, origins=origins)
         return out
     if args.toml:
         raise InputError("--toml", "applies to model show")

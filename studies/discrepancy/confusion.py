@@ -247,6 +247,7 @@ def run_case(case: str, spec, valve: str, seed: int, simulate, library, settings
                                           "fit_improvement_pct", "delta_bic", "why_not_added")}
                      for row in out["ranking"] if row["accepted"] or row["rank"] == 1],
         "held_out_cost": [c0, c1],
+        "dropped": out.get("effects_dropped", []),
         "unexplained": {k: unexp.get(k) for k in ("large", "cost", "sentences", "partial_candidates")},
         "beyond_validation_before": [b["output"] for b in (out.get("validation") or {}).get("beyond", [])],
         "cost": out.get("cost"),
@@ -354,6 +355,28 @@ def case_table(results: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def low_reductions(results: list[dict], below: float = 70.0) -> str:
+    """The datasets named right whose held-out cost fell by less than ``below`` per cent, each beside what the
+    clean dataset of the same seed and data form (``none``, ``none [form]``) leaves held out: the part no
+    candidate can take (noise, rig vibration, a sensor's gain) against the part the effect made."""
+    clean = {(r["case"], r["seed"]): r for r in results if r.get("expected") == []}
+    lines = []
+    for r in results:
+        red = r.get("held_out_cost_reduction_pct")
+        if not r.get("correct") or not r.get("found") or red is None or red >= below:
+            continue
+        form = r["case"].rsplit(" [", 1)[1].rstrip("]") if r["case"].endswith("]") else None
+        c = clean.get((f"none [{form}]" if form else "none", r["seed"]))
+        b, a = r["held_out_cost"]
+        left = None if c is None else c["held_out_cost"][1]
+        tail = "" if left is None else (f"; the clean dataset of this seed{' and form' if form else ''} leaves "
+                                        f"{left:.3g} held out, so {100 * (b - a) / (b - left):.0f} % of the part "
+                                        f"above it is explained" if b > left else
+                                        f"; the clean dataset of this seed leaves {left:.3g} held out")
+        lines.append(f"- {r['case']}, seed {r['seed']}: held-out cost {b:.3g} -> {a:.3g} ({red:.0f} %){tail}")
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m studies.discrepancy.confusion", description=__doc__.splitlines()[0])
     ap.add_argument("--valve", default=None, choices=sorted(CASES),
@@ -392,6 +415,9 @@ def main(argv=None) -> int:
                   f"{s['max_workflow_seconds'] or float('nan'):.1f} s at most per dataset\n")
             print(markdown(d["matrix"]) + "\n")
             print(case_table(d["results"]) + "\n")
+            low = low_reductions(d["results"])
+            if low:
+                print("Held-out cost reduced by less than 70 % where named right:\n\n" + low + "\n")
         return 0
     if args.sensitivity:
         args.set = "sensitivity"

@@ -137,12 +137,23 @@ def write_report(folder, outcome: Outcome, runs, result: dict, force: bool = Fal
     (out / "summary.json").write_text(json.dumps(result, indent=2, allow_nan=False) + "\n")
     df = _ranking_frame(outcome.ranking)
     df.to_csv(out / "ranking.csv", index=False)
-    (out / "ranking.md").write_text("# Candidate effects, every round\n\n" + _markdown(df))
+    text = "# Candidate effects, every round\n\n" + _markdown(df)
+    if outcome.backward:
+        bw = pd.DataFrame([{k: r.get(k) for k in ("round", "effect", "target", "held_out_cost", "held_out_cost_without",
+                                                   "fit_improvement_pct", "delta_bic", "dropped", "why_dropped")}
+                           for r in outcome.backward])
+        text += ("\n# The backward step: each added effect taken out, the others refitted\n\n"
+                 "An effect is dropped when the acceptance rule would not add it back (its `why_dropped`).\n\n"
+                 + _markdown(bw))
+    (out / "ranking.md").write_text(text)
     lines = ["Disagreements of the baseline model:"]
     lines += [f"  - {s}" for s in outcome.disagreements_before] or ["  (none beyond the tolerances)"]
     lines += ["", "Residual windows of the baseline, per run:"]
     lines += [f"  - {s}" for s in window_sentences(outcome.findings_before)] or ["  (none)"]
     lines += ["", "Effects added: " + (", ".join(a.key for a in outcome.model) or "none")]
+    lines += [f"Effect dropped again in round {r['round']}: {r['effect']}"
+              f"{'' if r['target'] in ('both', 'pump') else '@' + r['target']} (without it, the others refitted: "
+              f"{r['why_dropped']})" for r in outcome.backward if r["dropped"]]
     lines += [f"Baseline nuisance: {s}" for s in outcome.nuisance_sentences()]
     lines += ["Disagreements left after adding them:"]
     lines += [f"  - {s}" for s in outcome.disagreements_after] or ["  (none beyond the tolerances)"]

@@ -20,7 +20,9 @@ effects -> one simulated revolution) and a library of candidate effects
    effective number of independent residuals, from their autocorrelation);
 5. adds the best candidate if it shrinks the held-out gap significantly (by a
    fraction and by an absolute amount), refits the added effects jointly, and
-   repeats until no candidate helps.
+   repeats until no candidate helps;
+6. after each addition (and at the end) takes each earlier-added effect out again, refits the
+   others jointly and drops it when the same rule would not add it back (the backward step).
 
 The result is a :class:`Outcome`; ``studies/cli/discrepancy.py`` turns it into the
 contract's JSON and ``studies/discrepancy/report.py`` into a report folder.
@@ -137,6 +139,11 @@ class Settings:
     joint_search: bool = True          # a round that adds nothing while a large gap is left fits each candidate
                                        # jointly with each added effect (Workflow._joint_candidate), or pairs
     joint_fraction: float = 0.0        # ... if more than this fraction of the baseline's gap is left
+    backward: bool = True              # after each addition (and at the end) each earlier-added effect is taken
+                                       # out, the others refitted jointly, and dropped when the acceptance rule
+                                       # would not add it back (Workflow._backward): a stand-in added first (the
+                                       # stiffer reed's quadratic drag for a fluid damping) goes once the right
+                                       # effect is in
     large_gap_units_per_run: float = 2.0   # a gap left after the search above this many units per run, or
                                        # an output beyond its validation uncertainty in most runs, is
                                        # reported as large (Outcome.unexplained); clean and Cd +-3 % data
@@ -196,7 +203,7 @@ class Settings:
             if not b[0] < b[1]:
                 raise InputError(name, f"expected low < high, got {b!r}")
             object.__setattr__(self, name, b)
-        for name in ("validation", "joint_search"):
+        for name in ("validation", "joint_search", "backward"):
             validate.boolean(getattr(self, name), name)
         for name in ("holdout", "nuisance_effects"):
             v = getattr(self, name)
@@ -341,6 +348,7 @@ class Outcome:
     validation: dict | None = None       # the baseline's V&V 20 rows per run and output, before and after
     unexplained: dict = field(default_factory=dict)      # what the final model leaves (Workflow._unexplained)
     cost: dict = field(default_factory=dict)             # simulations and seconds per stage and candidate
+    backward: list = field(default_factory=list)         # every removal tried by the backward step (rows)
 
     def as_contract(self) -> dict:
         """The contract's JSON keys plus the details behind them."""
@@ -398,6 +406,9 @@ class Outcome:
                 for gb, ga in zip(self.before.gaps, self.after.gaps)
             ],
             "ranking": self.ranking,
+            "effects_dropped": [{k: r[k] for k in ("round", "effect", "target", "parameters", "why_dropped")}
+                                for r in self.backward if r["dropped"]],
+            "backward": self.backward,
             "validation": _json_safe(self.validation),
             "unexplained": self.unexplained,
             "cost": _json_safe(self.cost),
@@ -685,6 +696,7 @@ class Workflow:
         self.last_failure: str | None = None
         self.last_jacobian: np.ndarray | None = None   # the nuisance Jacobian of the last profiled fit
         self._jacobians: dict = {}                     # model -> its nuisance Jacobian (_base_jacobian)
+        self._removals: dict = {}                      # (model, index) -> the backward step's trial (_removal)
         self.nuisance_effects = self._nuisance_effects()
 
     def _coarsened(self, run: Run) -> Run:
@@ -1210,9 +1222,12 @@ class Workflow:
                 self._log("beyond the validation uncertainty: " + val.sentence(b))
         ranking: list[dict] = []
         rounds: list[list[CandidateFit]] = []
+        backward: list[dict] = []          # every removal the backward step tried
+        dropped: set = set()               # effects dropped: never added again in this search
+        rnd = 0
         for rnd in range(1, st.max_rounds + 1):
             added = {a.name for a in current}
-            todo = [(e, t) for e, t in cands if e.name not in added]
+            todo = [(e, t) for e, t in cands if e.name not in added and e.name not in dropped]
             if not todo:
                 break
             n_eff = self.n_effective(cur)
@@ -1304,6 +1319,11 @@ class Workflow:
             current = winner.model if self.nuisance_effects else self.refine(winner.model)
             self.sims.stage = f"round {rnd}/evaluate"
             cur = self.evaluate(current)
+            if st.backward:
+                current, cur = self._backward(current, cur, rnd, backward, dropped, keep=winner.key)
+        if st.backward and rnd:
+            # at the end every effect once more, the last added too (the earlier ones' removals are cached)
+            current, cur = self._backward(current, cur, rnd, backward, dropped, keep=None)
         after = cur
         sc = st.scales
         fb = [f for g in before.gaps for f in findings(g, sc)]
@@ -1326,7 +1346,7 @@ class Workflow:
         return Outcome(model, self.library, before, after, self.fit_runs, self.held_runs, ranking,
                        describe(fb, n_runs), describe(fa, n_runs), fb, self.sims.count, time.perf_counter() - t0,
                        excluded, self.notes, self.context, nuisances, widths, validation, unexplained,
-                       self._cost_report())
+                       self._cost_report(), backward)
 
     # -- validation and what is left -----------------------------------------------------
 
@@ -1792,6 +1812,82 @@ class Workflow:
                     break
         self.sims.stage = stage
         return out
+
+    def _backward(self, current: tuple, cur: Evaluation, rnd: int, rows: list, dropped: set,
+                  keep: str | None) -> tuple[tuple, Evaluation]:
+        """The backward step: each added effect of ``current`` but ``keep`` (the one just added) taken out, the
+        others and the nuisances refitted jointly (:meth:`_removal`), and dropped when the acceptance rule
+        (:meth:`verdict`: plausibility, BIC, evidence by kind, held-out gain) would not add it back to the model
+        without it; of several, the one whose removal leaves the lowest held-out cost, then again on what is
+        left. Adding and dropping judge by one rule, and a dropped effect is not tried again (``dropped``), so
+        the search cannot cycle. Returns the model and its evaluation; ``rows`` gets every removal tried."""
+        while True:
+            idx = [i for i, a in enumerate(current) if a.name not in self.nuisance_effects]
+            if len(idx) < 2:
+                return current, cur
+            n_eff = self.n_effective(cur)
+            fit_c = self.fit_objective(current)[0]
+            tried = []
+            for i in idx:
+                if current[i].key == keep:
+                    continue
+                memo = (current, i)
+                fresh = memo not in self._removals
+                if fresh:
+                    self._removals[memo] = self._removal(current, cur, i, fit_c, n_eff, rnd)
+                t = self._removals[memo]
+                if t is not None:
+                    tried.append((*t, fresh))
+            out = [t for t in tried if t[0].why_not_added is not None]
+            best = min(out, key=lambda t: (t[2].held_cost if t[2].held_cost is not None else t[2].fit_cost),
+                       default=None)
+            for f, m, ev, fresh in tried:
+                if not fresh:       # tried on this very model before (the end's pass): recorded then
+                    continue
+                row = f.row(0, rnd)
+                gone = best is not None and f is best[0]
+                row.update({"dropped": gone, "why_dropped": f.why_not_added if gone else None,
+                            "held_out_cost_without": f.base_held_cost, "fit_cost_without": f.base_fit_cost,
+                            "without": {a.key: a.value_dict for a in m}})
+                rows.append(_json_safe(row))
+            if best is None:
+                return current, cur
+            f, current, cur, _ = best
+            dropped.add(f.effect)
+            self._log(f"round {rnd}: dropping {f.key}: without it (the others refitted) {f.why_not_added}")
+
+    def _removal(self, current: tuple, cur: Evaluation, i: int, fit_c: float, n_eff: float,
+                 rnd: int) -> tuple[CandidateFit, tuple, Evaluation] | None:
+        """The added effect ``current[i]`` judged as a candidate on top of the model without it, whose other
+        effects and nuisances are refitted jointly from their values beside it (:meth:`polish`; one at a time,
+        :meth:`refine`, without a nuisance): (its record, the model without it, that model's evaluation), or
+        None when the model without it fails."""
+        n0 = self.sims.count
+        vt = self.context
+        a = current[i]
+        eff = self.library[a.name]
+        stage = f"round {rnd}/backward {a.key}"
+        rest = current[:i] + current[i + 1:]
+        self.sims.stage = f"{stage}/polish"
+        if self.nuisance_effects:
+            rest = self.polish(rest, {b.name for b in rest})
+        else:
+            rest = self.refine(rest)
+        base_fit = self.fit_objective(rest)[0]
+        self.sims.stage = f"{stage}/evaluate"
+        try:
+            ev = self.evaluate(rest)
+        except ModelFailure:
+            return None
+        k = max(1, len(eff.parameters_for(vt, a.target)))
+        dbic = (n_eff * math.log(max(fit_c, 1e-12) / max(base_fit, 1e-12)) + k * math.log(n_eff)
+                if math.isfinite(fit_c) and math.isfinite(base_fit) else math.inf)
+        f = CandidateFit(a.name, a.target, a.value_dict, eff.report(a.value_dict, vt, a.target), fit_c,
+                         cur.held_cost, dbic, eff.plausibility(a.value_dict, vt, a.target), self.sims.count - n0,
+                         base_fit, ev.held_cost, nuisance=cur.nuisance, model=current, held_parts=cur.held_parts,
+                         base_held_parts=ev.held_parts, fit_parts=cur.fit_parts, base_fit_parts=ev.fit_parts)
+        self._significant(f)
+        return f, rest, ev
 
     def _significant(self, f: CandidateFit) -> bool:
         """Whether a candidate is added (see :meth:`verdict`)."""
