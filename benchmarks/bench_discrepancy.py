@@ -13,7 +13,7 @@ the median and the largest against the targets (10 s median, 45 s at most, 2 cor
 and after (the machine is shared: a loaded machine's figures are not the targets'); and, unless
 ``--no-scaling``, the O-ring story (the delivery valve's compliant seat, R stated) on 4 to 12 runs (2 to 6
 operating conditions, both valves measured at each) with a figure of wall seconds and simulations vs runs
-(``--figure``, default benchmarks/discrepancy_cost_vs_runs.png). ``--save`` writes the object to
+(``--figure``, default docs/figures/discrepancy_cost_vs_runs.png). ``--save`` writes the object to
 benchmarks/results_discrepancy.json. The fast path's compilation (or cache load) is done first and reported
 separately.
 """
@@ -162,7 +162,7 @@ def main() -> int:
                     help=f"only the cases {', '.join(QUICK_CASES)}, seed 1, and the scaling on 4 and 6 runs (a look, "
                          "not the targets)")
     ap.add_argument("--figure", default=None,
-                    help="the scaling figure (default benchmarks/discrepancy_cost_vs_runs.png; none with --quick)")
+                    help="the scaling figure (default docs/figures/discrepancy_cost_vs_runs.png; none with --quick)")
     ap.add_argument("--save", action="store_true")
     args = ap.parse_args()
 
@@ -174,7 +174,7 @@ def main() -> int:
     rows = from_confusion(args.from_) if args.from_ else confusion_datasets(
         args.valves.split(","), 1 if args.quick else args.seeds, args.set, args.workers,
         cases=QUICK_CASES if args.quick else None)
-    figure = Path(args.figure) if args.figure else (None if args.quick else HERE / "discrepancy_cost_vs_runs.png")
+    figure = Path(args.figure) if args.figure else (None if args.quick else HERE.parent / "docs" / "figures" / "discrepancy_cost_vs_runs.png")
     scale = [] if args.no_scaling else scaling(args.workers, figure, largest=3 if args.quick else None)
     out = {
         "benchmark": "discrepancy workflow per six-run dataset of the confusion study (studies.discrepancy.confusion)",
