@@ -28,7 +28,7 @@ answer does not depend on the batch it ran in). A warm-started design may stop a
 revolution, when the state at TDC it ends with is the state it started from to a fifth of the
 tolerance (:class:`lumped.revolutions.StopRule` ``single``; ``one_revolution = false``: two at
 least). ``revolutions`` alone is a fixed count, as in the first sweep files; with
-``max_revolutions`` it is the least number (and no run stops after one).
+``max_revolutions`` it is the least number (above two, no run stops after one).
 
 Outputs: delivery per revolution (eq 4.17), volumetric efficiency, per valve the peak
 opening, opening and closing crank angles (rad from TDC), stop contacts, the largest
