@@ -77,6 +77,14 @@ def section_steady(d: dict | None) -> list[str]:
     return out
 
 
+def _quantile_table(rows) -> list[str]:
+    """A markdown table of (name, quantiles of |relative difference|) rows, and a blank line."""
+    out = ["| | median | 90 % | 99 % | max | within 1e-4 |", "| --- | --- | --- | --- | --- | --- |"]
+    out += [f"| {name} | {_e(q['median'])} | {_e(q['p90'])} | {_e(q['p99'])} | {_e(q['max'])} | "
+            f"{q['within_1e-4']} of {q['count']} |" for name, q in rows]
+    return out + [""]
+
+
 def section_sweep(d: dict | None) -> list[str]:
     out = ["## Sweeps", "", "`python benchmarks/bench_sweep.py --save` (100,000 Sobol designs over valve type, speed "
            "450-950 rpm, load 1.5-4.5 MPa, air 0-3 %; fast path; a fresh LocalCluster of 2 workers, its start "
@@ -108,12 +116,7 @@ def section_sweep(d: dict | None) -> list[str]:
             rows.append(("five revolutions (before)", a["before"]))
         rows.append(("the 40-revolution run's own spread (last ten)", a["long_run_spread_last_10"]))
         out += [f"Delivery against {a['reference']} ({a['designs_checked']} designs drawn at random), "
-                "relative difference:", "",
-                "| | median | 90 % | 99 % | max | within 1e-4 |", "| --- | --- | --- | --- | --- | --- |"]
-        for name, q in rows:
-            out.append(f"| {name} | {_e(q['median'])} | {_e(q['p90'])} | {_e(q['p99'])} | {_e(q['max'])} | "
-                       f"{q['within_1e-4']} of {q['count']} |")
-        out.append("")
+                "relative difference:", ""] + _quantile_table(rows)
         if a.get("after_vs_sharp"):
             rows = [("until steady state, warm-started", a["after_vs_sharp"])]
             if a.get("before_vs_sharp"):
@@ -121,12 +124,8 @@ def section_sweep(d: dict | None) -> list[str]:
             rows.append(("40 revolutions at the sweep's rtol", a["long_run_vs_sharp"]))
             out += [f"The same deliveries against a sharp reference ({a['sharp_reference']}): what differs "
                     "between the rows above is mostly the integrator's error at rtol 1e-3, which a 40-revolution "
-                    "run carries as well; the stop rule adds to it what a row here shows beyond the last one:", "",
-                    "| | median | 90 % | 99 % | max | within 1e-4 |", "| --- | --- | --- | --- | --- | --- |"]
-            for name, q in rows:
-                out.append(f"| {name} | {_e(q['median'])} | {_e(q['p90'])} | {_e(q['p99'])} | {_e(q['max'])} | "
-                           f"{q['within_1e-4']} of {q['count']} |")
-            out.append("")
+                    "run carries as well; the stop rule adds to it what a row here shows beyond the last one:", ""]
+            out += _quantile_table(rows)
     out += ["![sweep wall time against designs](figures/sweep_scaling.png)", ""]
     return out
 

@@ -180,10 +180,7 @@ def parse_model(data: dict, source: str = "", base_dir: Path | None = None, name
     if base_name is not None:
         if not isinstance(base_name, str):
             raise InputError("base", f"expected a model name or file, got {base_name!r}")
-        path = Path(base_name)
-        if base_dir is not None and base_name not in SHIPPED and not path.is_absolute():
-            path = base_dir / path
-        base = load_model(base_name if base_name in SHIPPED or base_name in KINDS else str(path), field="base")
+        base = load_model(_base_ref(base_name, base_dir), field="base")
         defaults = model_table(base)
     elif defaults_from is not None:
         base = _shipped(defaults_from)
@@ -219,6 +216,15 @@ def parse_model(data: dict, source: str = "", base_dir: Path | None = None, name
     # declared input uncertainties (lumped/uncertainty.py), a base's inherited
     return replace(model, uncertainties=_uncertainty.parse_uncertainties(
         data.get("uncertainty"), model, base.uncertainties if (base is not None and base_name is not None) else ()))
+
+
+def _base_ref(base_name: str, base_dir: Path | None) -> str:
+    """What ``base = "NAME|FILE"`` names: a shipped model's or kind's name as given, else the file's path (a
+    relative one from the folder of the file that names it)."""
+    if base_name in SHIPPED or base_name in KINDS:
+        return base_name
+    path = Path(base_name)
+    return str(base_dir / path if base_dir is not None and not path.is_absolute() else path)
 
 
 def _load_valve(user: dict, pos: str, base: PumpModel | None, defaults: dict, base_dir: Path | None,
@@ -615,8 +621,8 @@ def file_keys(model: PumpModel) -> dict:
         own.update({f"effects.{k}": path.name for k in flatten(data.get("effects") or {})})
         out = {**own, **out}                        # the nearer file's keys win
         base = data.get("base")
-        path = None if not isinstance(base, str) or base in SHIPPED or base in KINDS else \
-            (Path(base) if Path(base).is_absolute() else Path(chain[-1]).parent / base)
+        ref = _base_ref(base, Path(chain[-1]).parent) if isinstance(base, str) else None
+        path = None if ref is None or ref in SHIPPED or ref in KINDS else Path(ref)
     return out
 
 

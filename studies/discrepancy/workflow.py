@@ -1693,8 +1693,7 @@ class Workflow:
                 # pump's soft seat: Cd at its 0.9 bound matched the delivery, not the traces)
                 kind_ev = wo
         k = max(1, len(eff.parameters_for(vt, target))) + extra_k   # a pure switch still costs one
-        dbic = (n_eff * math.log(max(cost, 1e-12) / max(base_fit, 1e-12)) + k * math.log(n_eff)
-                if math.isfinite(cost) else math.inf)
+        dbic = _delta_bic(n_eff, cost, base_fit, k)
         why = eff.plausibility(vals, vt, target)
         for a in model[:-1]:   # the refitted earlier effects must stay plausible too (nuisances are bounded)
             if a.name not in self.nuisance_effects:
@@ -1880,8 +1879,7 @@ class Workflow:
         except ModelFailure:
             return None
         k = max(1, len(eff.parameters_for(vt, a.target)))
-        dbic = (n_eff * math.log(max(fit_c, 1e-12) / max(base_fit, 1e-12)) + k * math.log(n_eff)
-                if math.isfinite(fit_c) and math.isfinite(base_fit) else math.inf)
+        dbic = _delta_bic(n_eff, fit_c, base_fit, k)
         f = CandidateFit(a.name, a.target, a.value_dict, eff.report(a.value_dict, vt, a.target), fit_c,
                          cur.held_cost, dbic, eff.plausibility(a.value_dict, vt, a.target), self.sims.count - n0,
                          base_fit, ev.held_cost, nuisance=cur.nuisance, model=current, held_parts=cur.held_parts,
@@ -1935,6 +1933,14 @@ class Workflow:
         if gain < floor:
             return f"{where} gap shrinks by {gain:.2f} units < {floor:g}"
         return None
+
+
+def _delta_bic(n_eff: float, cost: float, base_cost: float, k: int) -> float:
+    """BIC of a model with k more parameters than its base, less the base's: n ln(cost / base cost) + k ln n on
+    n_eff effective residuals (Schwarz 1978, Gaussian residuals); inf when either cost is not finite."""
+    if not (math.isfinite(cost) and math.isfinite(base_cost)):
+        return math.inf
+    return n_eff * math.log(max(cost, 1e-12) / max(base_cost, 1e-12)) + k * math.log(n_eff)
 
 
 def _rank_key(f: CandidateFit):
