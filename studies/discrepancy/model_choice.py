@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Callable
 
 from geometry.errors import InputError
-from lumped.model_file import kind_default_model
+from lumped.model_file import SHIPPED, kind_default_model
 from lumped.valve import KINDS
 
 
@@ -43,8 +43,6 @@ def _module(name: str, field: str) -> Simulator:
 
 
 def _is_model(name: str) -> bool:
-    from lumped.model_file import SHIPPED
-
     return name in SHIPPED or name in KINDS or Path(name).is_file()
 
 
@@ -69,8 +67,10 @@ def choose(model: str | None = None, simulator: str | None = None, runs: list | 
             path = named.pop()
             run0 = runs[0]
             base = run0.path if run0.path is not None else Path(".")
-            p = Path(path) if Path(path).is_absolute() else Path(base) / path
-            pm = load_model(str(p), field=f"{run0.name}/run.toml: model")
+            # a shipped model's name (synth --model thesis-ball writes it) as it is; a file relative to the run
+            named_ok = path in SHIPPED or path in KINDS
+            p = path if named_ok else str(Path(path) if Path(path).is_absolute() else Path(base) / path)
+            pm = load_model(p, field=f"{run0.name}/run.toml: model")
             return _checked(Simulator(PumpSimulator(pm), LIBRARY, pm, pm.name), runs, "run.toml: model")
         if len(named) > 1:
             raise InputError("run.toml: model", "the runs name different models (or some none); one dataset, "
