@@ -356,33 +356,3 @@ def test_confusion_tables_set_a_low_held_out_reduction_against_the_clean_dataset
     text = low_reductions(rs)
     assert text.count("\n") == 0 and "piston_leakage [sensor], seed 1: held-out cost 100 -> 40 (60 %)" in text
     assert "leaves 40 held out, so 100 % of the part above it is explained" in text
-
-
-def test_the_polish_simulates_its_finite_differences_in_one_batch_with_the_same_result(monkeypatch):
-    """Workflow.polish hands least_squares a map that simulates every finite-difference column of the Jacobian
-    in one batch (the workers all busy): the polished model is the one the column-by-column differences give,
-    in fewer batches."""
-    import studies.discrepancy.workflow as wmod
-
-    truth = (Applied.of("seat_compliance", "inlet", {"k_seat": 3e6}),
-             Applied.of("piston_leakage", "pump", {"leak_per_mpa": 0.02}))
-    runs, _ = synthesize(standin.simulate, "disc", THESIS_DISC, truth, Noise(), seed=4)
-    start = (Applied.of("seat_compliance", "inlet", {"k_seat": 1e7}),
-             Applied.of("piston_leakage", "pump", {"leak_per_mpa": 0.005}))
-
-    def polished():
-        wf = Workflow(runs, standin.simulate, standin.LIB, Settings(), progress=False)
-        batches = []                 # simulations run by each call (the cached ones cost nothing)
-        many, cache = wf.sims.many, wf.sims.cache
-        monkeypatch.setattr(wf.sims, "many", lambda jobs: batches.append(len({j for j in jobs if j not in cache}))
-                            or many(jobs))
-        model = wf.polish(start, {"seat_compliance", "piston_leakage"})
-        return model, [b for b in batches if b]
-
-    batched, n_batched = polished()
-    plain = wmod.least_squares
-    monkeypatch.setattr(wmod, "least_squares", lambda *a, workers=None, **kw: plain(*a, **kw))
-    column_wise, n_columns = polished()
-    assert batched == column_wise and batched != start
-    assert sum(n_batched) == sum(n_columns) and len(n_batched) < len(n_columns)
-    assert max(n_batched) == 2 * max(n_columns)             # both columns' fitting runs at once

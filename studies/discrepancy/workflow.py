@@ -1187,16 +1187,8 @@ class Workflow:
             r = self.residual_vector(model_of(u))
             return np.full(r0.size, 1e3) if r is None else r
 
-        def batched(f, points):
-            # the finite-difference Jacobian's columns simulated in one batch (every worker busy, not one
-            # column's runs at a time), then read from the cache: the same numbers as column by column, since
-            # a column's warm start is the base point's state either way (Simulations._warm_state)
-            points = [np.array(x, dtype=float) for x in points]
-            self.sims.many([(self.conds[r.name], model_of(x)) for x in points for r in self.fit_runs])
-            return [f(x) for x in points]
-
         res = least_squares(fun, x0, bounds=(0.0, 1.0), diff_step=0.01, x_scale=0.1,
-                            max_nfev=self.settings.polish_nfev * len(idx), method="trf", workers=batched)
+                            max_nfev=self.settings.polish_nfev * len(idx), method="trf")
         out = model_of(res.x)
         return out if self.fit_objective(out)[0] < float(r0 @ r0) else model
 
