@@ -1,8 +1,14 @@
 """Where a revolution's Rosenbrock steps go, and whether another Rosenbrock method would take fewer.
 
 Run on demand from the repository root: ``python benchmarks/pump_step_anatomy.py [--valve
-disc|reed] [--speed-rpm N] [--load-pressure-mpa P]``; prints one JSON object (progress on
-stderr). Default: the first validation case of each valve kind (Tables 5.4 and 5.6).
+disc|reed] [--speed-rpm N] [--load-pressure-mpa P] [--air-content R] [--effect NAME@TARGET ...]
+[--rtol TOL]``; prints one JSON object (progress on stderr). Default: the first validation case of
+each valve kind (Tables 5.4 and 5.6), the fast path's own tolerance. ``--effect``: a candidate effect
+of the discrepancy workflow's library (lumped/effect_library.py) at its prior values on the baseline
+(every effect off), repeatable, e.g. the slowest discrepancy dataset's models: ``--valve disc
+--speed-rpm 593 --load-pressure-mpa 2.76 --air-content 0.013 --rtol 1e-5 --effect
+seat_compliance@inlet --effect squeeze_film@delivery --effect flow_force@both``
+(docs/discrepancy.md, "Cost").
 
 The fast path runs three revolutions; the last one is cut at its mode changes (the events of
 the compiled solver) into segments of one mode each, and every segment is integrated again,
@@ -166,31 +172,58 @@ class Segment:
                 "cost_us": round((acc + rej) * (stages * RHS_US + STEP_US), 1)}
 
 
-def last_revolution(model: str, speed_rpm: float, load_pressure: float, air_content: float | None):
-    """The compiled solver's call for the third revolution of a fast run: (t0, t1, q, opts, result),
+def last_revolution(model, speed_rpm: float, load_pressure: float, air_content: float | None,
+                    rtol: float | None = None):
+    """The compiled solver's call for the third revolution of a fast run: (t0, t1, q, opts, result, solver),
     the parameter array and options as the stepper passed them (before the call changed them)."""
-    solver = steppers.compiled_solver()
+    steppers.compiled_solver(True), steppers.compiled_solver(False)     # both flavours loaded
     seen = {}
+    entries = list(steppers._SOLVER.values())   # the stepper of the run below takes its solver from these
+    solvers = [e["solver"] for e in entries]
 
-    def capture(t0, y0, tstops, q, opts):
-        q0, atol0 = q.copy(), opts.atol.copy()
-        r = solver(t0, y0, tstops, q, opts)
-        seen["call"] = (t0, float(tstops[-1]), q0, opts._replace(atol=atol0), r)
-        return r
+    def capturing(solver):
+        def capture(t0, y0, tstops, q, opts):
+            q0, atol0 = q.copy(), opts.atol.copy()
+            r = solver(t0, y0, tstops, q, opts)
+            seen["call"] = (t0, float(tstops[-1]), q0, opts._replace(atol=atol0), r, solver)
+            return r
+        return capture
 
-    steppers._SOLVER["solver"] = capture     # the stepper of the run below takes the solver from here
+    for e, solver in zip(entries, solvers):
+        e["solver"] = capturing(solver)
     try:
         simulate(model, speed_rpm, load_pressure, revolutions=3, max_revolutions=3, method="fast",
-                 air_content=air_content)
+                 air_content=air_content, rtol=rtol, atol=None if rtol is None else rtol / 100.0)
     finally:
-        steppers._SOLVER["solver"] = solver
+        for e, solver in zip(entries, solvers):
+            e["solver"] = solver
     return seen["call"]
 
 
-def anatomy(valve: str, speed_rpm: float, load_pressure: float, air_content: float | None = None) -> dict:
-    t0, t1, q, opts, r = last_revolution(f"thesis-{valve}", speed_rpm, load_pressure, air_content)
-    g = steppers.compiled_solver().py_func.__globals__
-    mo, nm = steppers.NP_EXT_MODE, steppers.N_MODE
+def with_effects(valve: str, effects: list[str]):
+    """The thesis model of ``valve`` with the library effects NAME@TARGET at their priors, on the baseline (every
+    candidate effect off), as the discrepancy workflow simulates them; the shipped model itself if none."""
+    from lumped.effect_library import LIBRARY, baseline
+    from lumped.effects import Applied
+    from lumped.model_file import load_model
+
+    m = load_model(f"thesis-{valve}")
+    if not effects:
+        return m
+    m = baseline(m)
+    applied = []
+    for e in effects:
+        name, _, target = e.partition("@")
+        applied.append(Applied.of(name, target, LIBRARY[name].prior_values(m, target)))
+    return m.with_effects(tuple(applied))
+
+
+def anatomy(valve: str, speed_rpm: float, load_pressure: float, air_content: float | None = None,
+            effects: list[str] = (), rtol: float | None = None) -> dict:
+    t0, t1, q, opts, r, solver = last_revolution(with_effects(valve, list(effects)), speed_rpm, load_pressure,
+                                                 air_content, rtol)
+    g = solver.py_func.__globals__
+    mo, nm = steppers.MODE_AT, steppers.N_MODE
     period = t1 - t0
 
     def deg(t):
@@ -217,6 +250,7 @@ def anatomy(valve: str, speed_rpm: float, load_pressure: float, air_content: flo
         segments.append(row)
         print(json.dumps(row), file=sys.stderr, flush=True)
     return {"valve": valve, "speed_rpm": speed_rpm, "load_pressure_mpa": load_pressure / 1e6,
+            "air_content": air_content, "effects": list(effects), "rtol": float(opts.rtol),
             "compiled_solver": {"step_attempts": int(r.n_steps), "rejected": int(r.n_rejected), "rhs": int(r.n_rhs),
                                 "events": len(r.ev_t)},
             "segments": segments, "totals": totals,
@@ -234,6 +268,11 @@ def main(argv=None) -> None:
                     help="valve kind (repeatable; default both)")
     ap.add_argument("--speed-rpm", type=float, help="default: the kind's first validation case")
     ap.add_argument("--load-pressure-mpa", type=float, help="default: the kind's first validation case")
+    ap.add_argument("--air-content", type=float, help="default: the validation case's (with --speed-rpm or "
+                                                      "--load-pressure-mpa: the model's)")
+    ap.add_argument("--effect", action="append", default=[], metavar="NAME@TARGET",
+                    help="a library effect at its prior, on the baseline (repeatable)")
+    ap.add_argument("--rtol", type=float, help="integrator tolerance (atol = rtol / 100; default the fast path's)")
     a = ap.parse_args(argv)
     ensure_compiled()
     out = {"benchmark": "pump_step_anatomy", "cases": []}
@@ -243,7 +282,8 @@ def main(argv=None) -> None:
         load = a.load_pressure_mpa * 1e6 if a.load_pressure_mpa is not None else case["load_pressure"]
         print(f"{valve}: {speed:.0f} rpm, {load / 1e6:.2f} MPa", file=sys.stderr, flush=True)
         air = case["air_content"] if a.speed_rpm is None and a.load_pressure_mpa is None else None
-        out["cases"].append(anatomy(valve, speed, load, air))
+        air = a.air_content if a.air_content is not None else air
+        out["cases"].append(anatomy(valve, speed, load, air, a.effect, a.rtol))
     print(json.dumps(out, indent=2))
 
 
