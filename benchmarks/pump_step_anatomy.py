@@ -176,12 +176,12 @@ def last_revolution(model, speed_rpm: float, load_pressure: float, air_content: 
                     rtol: float | None = None):
     """The compiled solver's call for the third revolution of a fast run: (t0, t1, q, opts, result, solver),
     the parameter array and options as the stepper passed them (before the call changed them)."""
-    steppers.compiled_solver(True), steppers.compiled_solver(False)     # both flavours loaded
     seen = {}
-    entries = list(steppers._SOLVER.values())   # the stepper of the run below takes its solver from these
-    solvers = [e["solver"] for e in entries]
+    build = steppers.compiled_solver
 
-    def capturing(solver):
+    def capturing(one_dof: bool = True):
+        solver = build(one_dof)
+
         def capture(t0, y0, tstops, q, opts):
             q0, atol0 = q.copy(), opts.atol.copy()
             r = solver(t0, y0, tstops, q, opts)
@@ -189,33 +189,28 @@ def last_revolution(model, speed_rpm: float, load_pressure: float, air_content: 
             return r
         return capture
 
-    for e, solver in zip(entries, solvers):
-        e["solver"] = capturing(solver)
+    steppers.compiled_solver = capturing     # the stepper of the run below takes its flavour's solver from here
     try:
         simulate(model, speed_rpm, load_pressure, revolutions=3, max_revolutions=3, method="fast",
                  air_content=air_content, rtol=rtol, atol=None if rtol is None else rtol / 100.0)
     finally:
-        for e, solver in zip(entries, solvers):
-            e["solver"] = solver
+        steppers.compiled_solver = build
     return seen["call"]
 
 
 def with_effects(valve: str, effects: list[str]):
-    """The thesis model of ``valve`` with the library effects NAME@TARGET at their priors, on the baseline (every
-    candidate effect off), as the discrepancy workflow simulates them; the shipped model itself if none."""
+    """The thesis model of ``valve`` with the effects ``NAME[@TARGET][:PARAM=VALUE,...]`` (as ``valvelab synth
+    --effect`` reads them: unset parameters at their priors) on the baseline (every candidate effect off), as the
+    discrepancy workflow simulates them; the shipped model itself if none."""
     from lumped.effect_library import LIBRARY, baseline
-    from lumped.effects import Applied
     from lumped.model_file import load_model
+    from studies.cli.synth import parse_effect
 
     m = load_model(f"thesis-{valve}")
     if not effects:
         return m
     m = baseline(m)
-    applied = []
-    for e in effects:
-        name, _, target = e.partition("@")
-        applied.append(Applied.of(name, target, LIBRARY[name].prior_values(m, target)))
-    return m.with_effects(tuple(applied))
+    return m.with_effects(tuple(parse_effect(e, LIBRARY, m) for e in effects))
 
 
 def anatomy(valve: str, speed_rpm: float, load_pressure: float, air_content: float | None = None,
@@ -270,8 +265,8 @@ def main(argv=None) -> None:
     ap.add_argument("--load-pressure-mpa", type=float, help="default: the kind's first validation case")
     ap.add_argument("--air-content", type=float, help="default: the validation case's (with --speed-rpm or "
                                                       "--load-pressure-mpa: the model's)")
-    ap.add_argument("--effect", action="append", default=[], metavar="NAME@TARGET",
-                    help="a library effect at its prior, on the baseline (repeatable)")
+    ap.add_argument("--effect", action="append", default=[], metavar="NAME@TARGET[:PARAM=VALUE,...]",
+                    help="a library effect (unset parameters at their priors), on the baseline (repeatable)")
     ap.add_argument("--rtol", type=float, help="integrator tolerance (atol = rtol / 100; default the fast path's)")
     a = ap.parse_args(argv)
     ensure_compiled()

@@ -180,7 +180,7 @@ def parse_model(data: dict, source: str = "", base_dir: Path | None = None, name
     if base_name is not None:
         if not isinstance(base_name, str):
             raise InputError("base", f"expected a model name or file, got {base_name!r}")
-        base = load_model(_base_ref(base_name, base_dir), field="base")
+        base = load_model(model_ref(base_name, base_dir), field="base")
         defaults = model_table(base)
     elif defaults_from is not None:
         base = _shipped(defaults_from)
@@ -218,13 +218,14 @@ def parse_model(data: dict, source: str = "", base_dir: Path | None = None, name
         data.get("uncertainty"), model, base.uncertainties if (base is not None and base_name is not None) else ()))
 
 
-def _base_ref(base_name: str, base_dir: Path | None) -> str:
-    """What ``base = "NAME|FILE"`` names: a shipped model's or kind's name as given, else the file's path (a
-    relative one from the folder of the file that names it)."""
-    if base_name in SHIPPED or base_name in KINDS:
-        return base_name
-    path = Path(base_name)
-    return str(base_dir / path if base_dir is not None and not path.is_absolute() else path)
+def model_ref(name: str, folder: Path | None) -> str:
+    """What a file's ``NAME|FILE`` reference to a model names (a model file's ``base``, a run.toml's ``model``): a
+    shipped model's or kind's name as given, else the file's path (a relative one from ``folder``, the folder of
+    the file that names it), for :func:`load_model`."""
+    if name in SHIPPED or name in KINDS:
+        return name
+    path = Path(name)
+    return str(folder / path if folder is not None and not path.is_absolute() else path)
 
 
 def _load_valve(user: dict, pos: str, base: PumpModel | None, defaults: dict, base_dir: Path | None,
@@ -621,7 +622,7 @@ def file_keys(model: PumpModel) -> dict:
         own.update({f"effects.{k}": path.name for k in flatten(data.get("effects") or {})})
         out = {**own, **out}                        # the nearer file's keys win
         base = data.get("base")
-        ref = _base_ref(base, Path(chain[-1]).parent) if isinstance(base, str) else None
+        ref = model_ref(base, Path(chain[-1]).parent) if isinstance(base, str) else None
         path = None if ref is None or ref in SHIPPED or ref in KINDS else Path(ref)
     return out
 
@@ -700,5 +701,5 @@ def check_key(model: PumpModel, path: str, value) -> None:
     with_values(model, {path: value})
 
 
-__all__ = ["SHIPPED", "load_model", "parse_model", "model_table", "to_toml", "with_values", "key_paths",
+__all__ = ["SHIPPED", "load_model", "parse_model", "model_table", "to_toml", "with_values", "key_paths", "model_ref",
            "describe", "check_key", "check_field"]

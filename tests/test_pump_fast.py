@@ -245,14 +245,13 @@ def test_fast_matches_reference_on_the_discrepancy_models(valve, case):
     delivery-valve film's peak opening 13.2 % above the reference's (2.3 % beside an inlet seat), the reed's
     added mass with the quadratic drag 0.16 % in delivery, entrained air with a leak an angle by 0.61 deg:
     why the workflow does not simulate them there."""
-    from studies.discrepancy.pump_sim import FIT_RTOL, TIGHT_RTOL, _needs_smooth
+    from studies.discrepancy.pump_sim import fit_rtol
 
     truth, conds = confusion.case_truth(confusion.CASES[valve][case], valve, 1)
     for c in conds[:3]:
         cond = RunCondition("r", valve, c.speed_rpm, c.load_pressure_pa, c.air_content)
         model = for_valve_type(valve).model_for(cond, truth)
-        _compare(model, c.speed_rpm, c.load_pressure_pa, None, every=False,
-                 rtol=TIGHT_RTOL if _needs_smooth(model) else FIT_RTOL)
+        _compare(model, c.speed_rpm, c.load_pressure_pa, None, every=False, rtol=fit_rtol(model))
 
 
 def test_only_a_valve_near_lift_off_has_its_force_evaluated():

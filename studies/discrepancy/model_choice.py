@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Callable
 
 from geometry.errors import InputError
-from lumped.model_file import SHIPPED, kind_default_model
+from lumped.model_file import SHIPPED, kind_default_model, model_ref
 from lumped.valve import KINDS
 
 
@@ -66,11 +66,9 @@ def choose(model: str | None = None, simulator: str | None = None, runs: list | 
         if None not in named and len(named) == 1:
             path = named.pop()
             run0 = runs[0]
-            base = run0.path if run0.path is not None else Path(".")
             # a shipped model's name (synth --model thesis-ball writes it) as it is; a file relative to the run
-            named_ok = path in SHIPPED or path in KINDS
-            p = path if named_ok else str(Path(path) if Path(path).is_absolute() else Path(base) / path)
-            pm = load_model(p, field=f"{run0.name}/run.toml: model")
+            pm = load_model(model_ref(path, run0.path if run0.path is not None else Path(".")),
+                            field=f"{run0.name}/run.toml: model")
             return _checked(Simulator(PumpSimulator(pm), LIBRARY, pm, pm.name), runs, "run.toml: model")
         if len(named) > 1:
             raise InputError("run.toml: model", "the runs name different models (or some none); one dataset, "

@@ -51,7 +51,7 @@ from lumped.model_file import load_model
 from studies.discrepancy.gap import CycleTrace
 from studies.discrepancy.validation import INPUT, NUMERICS, TRUTH_RTOL   # noqa: F401 (TRUTH_RTOL: synth's tolerance)
 
-__all__ = ["LIBRARY", "PumpSimulator", "simulate", "model_for"]
+__all__ = ["LIBRARY", "PumpSimulator", "simulate", "model_for", "fit_rtol"]
 
 #: revolutions from a cold start (the first is the transient from the pump at rest) or from the state of a
 #: model that is not a near neighbour; more, up to MAX_REVOLUTIONS, while the delivery or the state at TDC
@@ -147,9 +147,8 @@ class PumpSimulator:
         ``warm``: the state at TDC of a neighbouring model at the same condition, or (state, near): a near
         neighbour's (WARM_REVOLUTIONS from it), or another model's (two or more, until steady)."""
         model = self.model_for(cond, effects)
-        tight = _needs_smooth(model)
         asked = next((dict(a.values)["rtol"] for a in effects if a.name == NUMERICS), None)
-        rtol = asked or self.rtol or (TIGHT_RTOL if tight else FIT_RTOL)
+        rtol = asked or self.rtol or fit_rtol(model)
         steps = MAX_STEPS_TIGHT if rtol == TIGHT_RTOL else MAX_STEPS
         state, near = (warm if isinstance(warm, tuple) else (warm, warm is not None))
         speed, load = cond.speed_rpm, cond.load_pressure_pa
@@ -278,6 +277,12 @@ def _via_simulate(model: PumpModel, speed: float, load: float, **kw) -> CycleTra
     tr = res.trace.fold()
     return CycleTrace(tr.crank_deg, {"inlet": np.asarray(tr.inlet_position), "delivery": np.asarray(tr.delivery_position)},
                       float(res.delivery_per_rev), np.asarray(tr.cylinder_pressure))
+
+
+def fit_rtol(model: PumpModel) -> float:
+    """The integrator tolerance a fit simulates ``model`` at: TIGHT_RTOL where an effect declared
+    ``tight_tolerance`` is applied or a valve carries a squeeze film of its own, else FIT_RTOL."""
+    return TIGHT_RTOL if _needs_smooth(model) else FIT_RTOL
 
 
 def _needs_smooth(model: PumpModel) -> bool:

@@ -1692,7 +1692,7 @@ class Workflow:
                 # fitted without the candidate, may have bought one kind with the others (a bench
                 # pump's soft seat: Cd at its 0.9 bound matched the delivery, not the traces)
                 kind_ev = wo
-        k = max(1, len(eff.parameters_for(vt, target))) + extra_k   # a pure switch still costs one
+        k = self._k(eff, target) + extra_k
         dbic = _delta_bic(n_eff, cost, base_fit, k)
         why = eff.plausibility(vals, vt, target)
         for a in model[:-1]:   # the refitted earlier effects must stay plausible too (nuisances are bounded)
@@ -1878,14 +1878,17 @@ class Workflow:
             ev = self.evaluate(rest)
         except ModelFailure:
             return None
-        k = max(1, len(eff.parameters_for(vt, a.target)))
-        dbic = _delta_bic(n_eff, fit_c, base_fit, k)
+        dbic = _delta_bic(n_eff, fit_c, base_fit, self._k(eff, a.target))
         f = CandidateFit(a.name, a.target, a.value_dict, eff.report(a.value_dict, vt, a.target), fit_c,
                          cur.held_cost, dbic, eff.plausibility(a.value_dict, vt, a.target), self.sims.count - n0,
                          base_fit, ev.held_cost, nuisance=cur.nuisance, model=current, held_parts=cur.held_parts,
                          base_held_parts=ev.held_parts, fit_parts=cur.fit_parts, base_fit_parts=ev.fit_parts)
         self._significant(f)
         return f, rest, ev
+
+    def _k(self, eff: Effect, target: str) -> int:
+        """The parameters an effect adds for the BIC (a pure switch still costs one)."""
+        return max(1, len(eff.parameters_for(self.context, target)))
 
     def _significant(self, f: CandidateFit) -> bool:
         """Whether a candidate is added (see :meth:`verdict`)."""
