@@ -14,9 +14,10 @@ The fast path runs three revolutions; the last one is cut at its mode changes (t
 the compiled solver) into segments of one mode each, and every segment is integrated again,
 from the first state the compiled run recorded in it to its end, by a plain numpy driver with
 the model's own compiled right-hand side, Jacobian and tolerances and the compiled solver's
-step-size controller (Gustafsson's, safety 0.9, step ratio 0.2-6), once with Rodas4P (the fast
-path's tableau, :mod:`lumped.rodas`) and once with Rodas5P (Steinebach 2023, 8 stages, order 5
-with an embedded order-4 estimate; controller exponent 1/5). Events are not located inside a
+step-size controller (Gustafsson's, safety 0.9, step ratio 0.2-6), once with Rodas4P and once
+with Rodas5P (Steinebach 2023, 8 stages, order 5 with an embedded order-4 estimate; controller
+exponent 1/5), both the compiled solver's tableaus (:mod:`lumped.rodas`; the fast path takes
+Rodas5P at tight tolerances and with a flow force, ``lumped.steppers.rodas_order``). Events are not located inside a
 segment, so the counts leave out the event steps and their retries: they compare the methods
 on the smooth stretches, where the step size is the integrator's choice.
 
@@ -28,7 +29,7 @@ exponent, which the controller takes as 4).
 
 Reference: S. Steinebach, "Construction of Rosenbrock-Wanner method Rodas5P and numerical
 benchmarks within the Julia Differential Equations package", BIT Numer. Math. 63 (2023) 27
-(coefficients as published there, transformed form W k_i = f(.) + sum C_ij/h k_j + h d_i f_t).
+(transformed form W k_i = f(.) + sum C_ij/h k_j + h d_i f_t).
 """
 
 from __future__ import annotations
@@ -72,30 +73,26 @@ def rodas4p() -> tuple:
 
 
 def rodas5p() -> tuple:
-    """(gamma, a, C, d, c, order) of Rodas5P (Steinebach 2023), 8 stages, same form."""
+    """(gamma, a, C, d, c, order) of Rodas5P (Steinebach 2023) in the same form (8 stages), from lumped.rodas."""
+    r = rodas
     a, cm, d, c = np.zeros((8, 8)), np.zeros((8, 8)), np.zeros(8), np.zeros(8)
-    a[1, 0] = 3.0
-    a[2, :2] = 2.849394379747939, 0.45842242204463923
-    a[3, :3] = -6.954028509809101, 2.489845061869568, -10.358996098473584
-    a[4, :4] = 2.8029986275628964, 0.5072464736228206, -0.3988312541770524, -0.04721187230404641
-    a[5, :5] = (-7.502846399306121, 2.561846144803919, -11.627539656261098, -0.18268767659942256,
-                0.030198172008377946)
-    a[6, :5], a[6, 5] = a[5, :5], 1.0
+    a[1, 0] = r.P_A21
+    a[2, :2] = r.P_A31, r.P_A32
+    a[3, :3] = r.P_A41, r.P_A42, r.P_A43
+    a[4, :4] = r.P_A51, r.P_A52, r.P_A53, r.P_A54
+    a[5, :5] = r.P_A61, r.P_A62, r.P_A63, r.P_A64, r.P_A65
+    a[6, :5], a[6, 5] = a[5, :5], 1.0            # stages 7 and 8 at the previous stage's input + its k
     a[7, :6], a[7, 6] = a[6, :6], 1.0
-    cm[1, 0] = -14.155112264123755
-    cm[2, :2] = -17.97296035885952, -2.859693295451294
-    cm[3, :3] = 147.12150275711716, -1.41221402718213, 71.68940251302358
-    cm[4, :4] = 165.43517024871676, -0.4592823456491126, 42.90938336958603, -5.961986721573306
-    cm[5, :5] = (24.854864614690072, -3.0009227002832186, 47.4931110020768, 5.5814197821558125,
-                 -0.6610691825249471)
-    cm[6, :6] = (30.91273214028599, -3.1208243349937974, 77.79954646070892, 34.28646028294783,
-                 -19.097331116725623, -28.087943162872662)
-    cm[7, :7] = (37.80277123390563, -3.2571969029072276, 112.26918849496327, 66.9347231244047,
-                 -40.06618937091002, -54.66780262877968, -9.48861652309627)
-    d[:5] = (0.21193756319429014, -0.42387512638858027, -0.3384627126235924, 1.8046452872882734,
-             2.325825639765069)
-    c[:] = 0.0, 0.6358126895828704, 0.4095798393397535, 0.9769306725060716, 0.4288403609558664, 1.0, 1.0, 1.0
-    return 0.21193756319429014, a, cm, d, c, 5
+    cm[1, 0] = r.P_C21
+    cm[2, :2] = r.P_C31, r.P_C32
+    cm[3, :3] = r.P_C41, r.P_C42, r.P_C43
+    cm[4, :4] = r.P_C51, r.P_C52, r.P_C53, r.P_C54
+    cm[5, :5] = r.P_C61, r.P_C62, r.P_C63, r.P_C64, r.P_C65
+    cm[6, :6] = r.P_C71, r.P_C72, r.P_C73, r.P_C74, r.P_C75, r.P_C76
+    cm[7, :7] = r.P_C81, r.P_C82, r.P_C83, r.P_C84, r.P_C85, r.P_C86, r.P_C87
+    d[:5] = r.P_D1, r.P_D2, r.P_D3, r.P_D4, r.P_D5
+    c[:] = 0.0, r.P_C2, r.P_C3, r.P_C4, r.P_C5, 1.0, 1.0, 1.0
+    return r.P_GAMMA, a, cm, d, c, 5
 
 
 class Segment:

@@ -2,7 +2,7 @@
 
 :func:`simulate` has the shape of scipy's ``solve_ivp``: it checks the inputs, builds the
 problem (:class:`lumped.problem.PumpProblem`: the resolved model, packed), makes the
-stepper its ``method`` names (:data:`lumped.steppers.METHODS`: the compiled Rodas4P "fast"
+stepper its ``method`` names (:data:`lumped.steppers.METHODS`: the compiled Rosenbrock "fast"
 path, the default, or the scipy "reference"), runs revolutions from top dead centre until
 the stop rule is met (:mod:`lumped.revolutions`) and hands the last revolution to the
 post-processors (:mod:`lumped.postprocess`: timing, impacts, losses, the trace). A result
@@ -244,7 +244,7 @@ def simulate(model="thesis-disc", speed_rpm: float | None = None, load_pressure:
     speed_rpm, load_pressure : float
         Operating point [rpm], [Pa]; None: the model's ``[operating]`` values.
     method : str
-        ``fast`` (compiled Rodas4P, default) or ``reference`` (scipy Radau; ``BDF``/``LSODA``
+        ``fast`` (compiled Rodas4P; Rodas5P with a flow force at rtol <= 1e-4; default) or ``reference`` (scipy Radau; ``BDF``/``LSODA``
         also accepted).
     revolutions, max_revolutions : int
         Revolutions from TDC; with ``max_revolutions``, continue until cyclic steady state

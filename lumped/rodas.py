@@ -1,4 +1,4 @@
-"""A compiled stiff integrator: Rodas4P, an L-stable, stiffly accurate Rosenbrock method.
+"""A compiled stiff integrator: Rodas4P or Rodas5P, L-stable, stiffly accurate Rosenbrock methods.
 
 Rodas4P (Steinebach 1995; METH = 3 of Hairer & Wanner's code RODAS, *Solving ODEs II*,
 2nd ed., section IV.7) is a 6-stage Rosenbrock method of order 4 with an embedded
@@ -20,6 +20,14 @@ The Jacobian is formed by forward differences over the first ``n_dyn`` states on
 the model's own ``jacobian``): the remaining states are quadratures (e.g. integrated mass
 flows) that never feed back, so the linear systems of the stages are solved on the
 n_dyn x n_dyn block alone.
+
+Rodas5P (Steinebach 2023) is the same kind of method with 8 stages, order 5, an embedded
+order-4 estimate and a 4th-order dense output; ``Options.order`` picks it. Where a stiff
+component is slaved to a fast forcing (a valve's velocity under a transient flow force,
+eigenvalues to -1e6 1/s) Rodas4P's embedded estimate over-reads its own error many times
+(benchmarks/pump_step_anatomy.py); Rodas5P's does not, and takes half the steps at tight
+tolerances. Both share one dense-output form, y0 (1 - s) + s (y1 + (1 - s) (q2 + s (q3 + s q4))),
+with q4 = 0 for Rodas4P.
 
 Everything is compiled with numba's ``error_model="numpy"``: a float division by zero gives
 inf or nan (a non-finite stage, so a rejected step) instead of raising, and the divisions
@@ -51,6 +59,36 @@ C61, C62, C63, C64, C65 = (34.62605830930532, 15.30084976114473, 56.999555786626
                            18.40807009793095, -5.714285714285717)
 H21, H22, H23, H24, H25 = 25.09876703708589, 11.62013104361867, 28.49148307714626, -5.664021568594133, 0.0
 H31, H32, H33, H34, H35 = 1.638054557396973, -0.7373619806678748, 8.477918219238990, 15.99253148779520, -1.882352941176471
+
+# Rodas5P coefficients (S. Steinebach, BIT Numer. Math. 63 (2023) 27; as in OrdinaryDiffEq's
+# Rodas5PTableau), same transformed form; stages 6-8 at t + h with d = 0, y1 = stage 8's input + k8.
+P_GAMMA = 0.21193756319429014
+P_C2, P_C3, P_C4, P_C5 = 0.6358126895828704, 0.4095798393397535, 0.9769306725060716, 0.4288403609558664
+P_D1, P_D2, P_D3, P_D4, P_D5 = (0.21193756319429014, -0.42387512638858027, -0.3384627126235924,
+                                1.8046452872882734, 2.325825639765069)
+P_A21 = 3.0
+P_A31, P_A32 = 2.849394379747939, 0.45842242204463923
+P_A41, P_A42, P_A43 = -6.954028509809101, 2.489845061869568, -10.358996098473584
+P_A51, P_A52, P_A53, P_A54 = 2.8029986275628964, 0.5072464736228206, -0.3988312541770524, -0.04721187230404641
+P_A61, P_A62, P_A63, P_A64, P_A65 = (-7.502846399306121, 2.561846144803919, -11.627539656261098,
+                                     -0.18268767659942256, 0.030198172008377946)
+P_C21 = -14.155112264123755
+P_C31, P_C32 = -17.97296035885952, -2.859693295451294
+P_C41, P_C42, P_C43 = 147.12150275711716, -1.41221402718213, 71.68940251302358
+P_C51, P_C52, P_C53, P_C54 = 165.43517024871676, -0.4592823456491126, 42.90938336958603, -5.961986721573306
+P_C61, P_C62, P_C63, P_C64, P_C65 = (24.854864614690072, -3.0009227002832186, 47.4931110020768,
+                                     5.5814197821558125, -0.6610691825249471)
+P_C71, P_C72, P_C73, P_C74, P_C75, P_C76 = (30.91273214028599, -3.1208243349937974, 77.79954646070892,
+                                            34.28646028294783, -19.097331116725623, -28.087943162872662)
+P_C81, P_C82, P_C83, P_C84, P_C85, P_C86, P_C87 = (37.80277123390563, -3.2571969029072276, 112.26918849496327,
+                                                   66.9347231244047, -40.06618937091002, -54.66780262877968,
+                                                   -9.48861652309627)
+P_H = np.array([[25.948786856663858, -2.5579724845846235, 10.433815404888879, -2.3679251022685204,
+                 0.524948541321073, 1.1241088310450404, 0.4272876194431874, -0.17202221070155493],
+                [-9.91568850695171, -0.9689944594115154, 3.0438037242978453, -24.495224566215796,
+                 20.176138334709044, 15.98066361424651, -6.789040303419874, -6.710236069923372],
+                [11.419903575922262, 2.8879645146136994, 72.92137995996029, 80.12511834622643,
+                 -52.072871366152654, -59.78993625266729, -0.15582684282751913, 4.883087185713722]])
 
 SAFE, FAC_MIN, FAC_MAX = 0.9, 0.2, 6.0  # step ratio limits of RODAS
 MAX_EVENT_RETRIES = 3  # times a step is redone to end at a crossing located on its interpolant
@@ -193,9 +231,10 @@ def lu_solve(a, piv, b):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def dense(s, y0, y1, q2, q3):
-    """Rodas4P's 3rd-order interpolant at fraction s of a step from y0 to y1."""
-    return y0 * (1.0 - s) + s * (y1 + (1.0 - s) * (q2 + s * q3))
+def dense(s, y0, y1, q2, q3, q4):
+    """The step's interpolant at fraction s of a step from y0 to y1 (Rodas4P's 3rd order: q4 = 0;
+    Rodas5P's 4th)."""
+    return y0 * (1.0 - s) + s * (y1 + (1.0 - s) * (q2 + s * (q3 + s * q4)))
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -206,9 +245,9 @@ def _grow(a, m):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _dense_into(s, y0, y1, q2, q3, out):
+def _dense_into(s, y0, y1, q2, q3, q4, out):
     for i in range(y0.shape[0]):
-        out[i] = y0[i] * (1.0 - s) + s * (y1[i] + (1.0 - s) * (q2[i] + s * q3[i]))
+        out[i] = y0[i] * (1.0 - s) + s * (y1[i] + (1.0 - s) * (q2[i] + s * (q3[i] + s * q4[i])))
 
 
 # Points per step where the event functions are checked: the step end only, as scipy's
@@ -219,7 +258,7 @@ N_SCAN = 1
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _locate_event(t, h, y0, y1, q2, q3, p, g0, g, ybuf, n_events):
+def _locate_event(t, h, y0, y1, q2, q3, q4, p, g0, g, ybuf, n_events):
     """(k, s): the event that fires first in this step and the step fraction where it does.
 
     An event k fires where g_k drops from >= 0 to < 0. The interpolant is checked at
@@ -232,7 +271,7 @@ def _locate_event(t, h, y0, y1, q2, q3, p, g0, g, ybuf, n_events):
     hi = -1.0
     for j in range(1, N_SCAN + 1):
         sj = j / N_SCAN
-        _dense_into(sj, y0, y1, q2, q3, ybuf)
+        _dense_into(sj, y0, y1, q2, q3, q4, ybuf)
         event_values(t + sj * h, ybuf, p, g)
         for kk in range(n_events):
             if g[kk] < 0.0:
@@ -252,7 +291,7 @@ def _locate_event(t, h, y0, y1, q2, q3, p, g0, g, ybuf, n_events):
     g_lo = g0                     # the event values at the bracket's start (the step's, unless scanned past)
     if lo > 0.0:
         g_lo = np.empty(g.shape[0])
-        _dense_into(lo, y0, y1, q2, q3, ybuf)
+        _dense_into(lo, y0, y1, q2, q3, q4, ybuf)
         event_values(t + lo * h, ybuf, p, g_lo)
     for kk in range(n_events):
         if g[kk] >= 0.0:
@@ -262,7 +301,7 @@ def _locate_event(t, h, y0, y1, q2, q3, p, g0, g, ybuf, n_events):
         fa = g_lo[kk]
         fb = g[kk]
         if b < hi:
-            _dense_into(b, y0, y1, q2, q3, ybuf)
+            _dense_into(b, y0, y1, q2, q3, q4, ybuf)
             event_values(t + b * h, ybuf, p, gs)
             if gs[kk] >= 0.0:
                 continue
@@ -274,7 +313,7 @@ def _locate_event(t, h, y0, y1, q2, q3, p, g0, g, ybuf, n_events):
             m = (a * fb - b * fa) / (fb - fa) if slow < 2 else 0.5 * (a + b)
             if not (a < m < b):
                 m = 0.5 * (a + b)
-            _dense_into(m, y0, y1, q2, q3, ybuf)
+            _dense_into(m, y0, y1, q2, q3, q4, ybuf)
             event_values(t + m * h, ybuf, p, gs)
             fm = gs[kk]
             if fm < 0.0:
@@ -307,7 +346,7 @@ class Options(NamedTuple):
     Jacobian; ``h_event``: read and written, a memory the caller keeps between calls: the first
     step after an event whose ``apply_event`` code is c (0 <= c < len) starts no larger than
     ``h_event[c]``, the size the error estimate of the last first step after such an event
-    asked for (empty: no memory).
+    asked for (empty: no memory); ``order``: 4 for Rodas4P, 5 for Rodas5P.
     """
 
     rtol: float
@@ -321,6 +360,7 @@ class Options(NamedTuple):
     max_events: int
     jac_reuse: int
     h_event: np.ndarray = np.zeros(0)
+    order: int = 4
 
 
 class Result(NamedTuple):
@@ -328,7 +368,7 @@ class Result(NamedTuple):
 
     ``status`` (:data:`STATUS_TEXT`); ``y_stops[i]``: the state at ``tstops[i]``; the recorded
     steps: step i runs from rec_t[i-1] to rec_t[i], its dense-output coefficients at
-    i (``rec_q2``, ``rec_q3``) and ``rec_tag[i] = step_tag(p)`` during it; the events: time,
+    i (``rec_q2``, ``rec_q3``, ``rec_q4``) and ``rec_tag[i] = step_tag(p)`` during it; the events: time,
     index, the model's code, and the state just before the switch (``ev_y``); counts;
     ``h_next``, the step to continue with.
     """
@@ -339,6 +379,7 @@ class Result(NamedTuple):
     rec_y: np.ndarray
     rec_q2: np.ndarray
     rec_q3: np.ndarray
+    rec_q4: np.ndarray
     rec_tag: np.ndarray
     ev_t: np.ndarray
     ev_k: np.ndarray
@@ -415,26 +456,128 @@ def rosenbrock_step(t, h, y, p, f0, ft, jac, w, piv, k, u, ynew, n_dyn, rtol, at
 
 
 @numba.njit(cache=True, error_model="numpy")
-def dense_coefficients(k, q2, q3):
-    """q2, q3 of Rodas4P's 3rd-order interpolant (:func:`dense`) from the stages of a step."""
-    for i in range(q2.shape[0]):
-        q2[i] = H21 * k[0, i] + H22 * k[1, i] + H23 * k[2, i] + H24 * k[3, i] + H25 * k[4, i]
-        q3[i] = H31 * k[0, i] + H32 * k[1, i] + H33 * k[2, i] + H34 * k[3, i] + H35 * k[4, i]
+def rosenbrock5_step(t, h, y, p, f0, ft, jac, w, piv, k, u, ynew, n_dyn, rtol, atol):
+    """One Rodas5P step of size h from (t, y): stages in ``k`` (8 x n), the result in ``ynew``;
+    (ok, err) as :func:`rosenbrock_step`, err from the embedded order-4 estimate (the last stage)."""
+    n = y.shape[0]
+    hg = h * P_GAMMA
+    fac = 1.0 / hg
+    for i in range(n_dyn):
+        for j in range(n_dyn):
+            w[i, j] = -jac[i, j]
+        w[i, i] += fac
+    if not lu_factor(w, piv):
+        return False, 0.0
+    k1, k2, k3, k4, k5, k6, k7, k8 = k[0], k[1], k[2], k[3], k[4], k[5], k[6], k[7]
+    ih = 1.0 / h
+    for i in range(n):
+        k1[i] = f0[i] + h * P_D1 * ft[i]
+    stage_solve(w, piv, jac, hg, k1, n_dyn)
+    for i in range(n):
+        u[i] = y[i] + P_A21 * k1[i]
+    rhs(t + P_C2 * h, u, p, k2)
+    for i in range(n):
+        k2[i] += h * P_D2 * ft[i] + ih * P_C21 * k1[i]
+    stage_solve(w, piv, jac, hg, k2, n_dyn)
+    for i in range(n):
+        u[i] = y[i] + P_A31 * k1[i] + P_A32 * k2[i]
+    rhs(t + P_C3 * h, u, p, k3)
+    for i in range(n):
+        k3[i] += h * P_D3 * ft[i] + ih * (P_C31 * k1[i] + P_C32 * k2[i])
+    stage_solve(w, piv, jac, hg, k3, n_dyn)
+    for i in range(n):
+        u[i] = y[i] + P_A41 * k1[i] + P_A42 * k2[i] + P_A43 * k3[i]
+    rhs(t + P_C4 * h, u, p, k4)
+    for i in range(n):
+        k4[i] += h * P_D4 * ft[i] + ih * (P_C41 * k1[i] + P_C42 * k2[i] + P_C43 * k3[i])
+    stage_solve(w, piv, jac, hg, k4, n_dyn)
+    for i in range(n):
+        u[i] = y[i] + P_A51 * k1[i] + P_A52 * k2[i] + P_A53 * k3[i] + P_A54 * k4[i]
+    rhs(t + P_C5 * h, u, p, k5)
+    for i in range(n):
+        k5[i] += h * P_D5 * ft[i] + ih * (P_C51 * k1[i] + P_C52 * k2[i] + P_C53 * k3[i] + P_C54 * k4[i])
+    stage_solve(w, piv, jac, hg, k5, n_dyn)
+    for i in range(n):
+        u[i] = y[i] + P_A61 * k1[i] + P_A62 * k2[i] + P_A63 * k3[i] + P_A64 * k4[i] + P_A65 * k5[i]
+    rhs(t + h, u, p, k6)
+    for i in range(n):
+        k6[i] += ih * (P_C61 * k1[i] + P_C62 * k2[i] + P_C63 * k3[i] + P_C64 * k4[i] + P_C65 * k5[i])
+    stage_solve(w, piv, jac, hg, k6, n_dyn)
+    for i in range(n):
+        u[i] += k6[i]
+    rhs(t + h, u, p, k7)
+    for i in range(n):
+        k7[i] += ih * (P_C71 * k1[i] + P_C72 * k2[i] + P_C73 * k3[i] + P_C74 * k4[i] + P_C75 * k5[i]
+                       + P_C76 * k6[i])
+    stage_solve(w, piv, jac, hg, k7, n_dyn)
+    for i in range(n):
+        u[i] += k7[i]
+    rhs(t + h, u, p, k8)
+    for i in range(n):
+        k8[i] += ih * (P_C81 * k1[i] + P_C82 * k2[i] + P_C83 * k3[i] + P_C84 * k4[i] + P_C85 * k5[i]
+                       + P_C86 * k6[i] + P_C87 * k7[i])
+    stage_solve(w, piv, jac, hg, k8, n_dyn)
+    err = 0.0
+    for i in range(n):
+        ynew[i] = u[i] + k8[i]
+        sk = atol[i] + rtol * max(abs(y[i]), abs(ynew[i]))
+        err += (k8[i] / sk) ** 2
+    err = np.sqrt(err / n)
+    return np.isfinite(err), err
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _cut_interpolant(s_ev, y, ynew, q2, q3):
-    """Cut a step's interpolant at fraction s_ev: ynew, q2, q3 become the sub-step's own."""
-    y_e = dense(s_ev, y, ynew, q2, q3)
+def dense_coefficients(k, q2, q3, q4, order):
+    """q2, q3, q4 of the step's interpolant (:func:`dense`) from its stages: Rodas4P's 3rd-order
+    (order 4: q4 = 0) or Rodas5P's 4th-order one (order 5)."""
+    if order == 5:
+        for i in range(q2.shape[0]):
+            a2 = 0.0
+            a3 = 0.0
+            a4 = 0.0
+            for j in range(8):
+                a2 += P_H[0, j] * k[j, i]
+                a3 += P_H[1, j] * k[j, i]
+                a4 += P_H[2, j] * k[j, i]
+            q2[i] = a2
+            q3[i] = a3
+            q4[i] = a4
+        return
+    for i in range(q2.shape[0]):
+        q2[i] = H21 * k[0, i] + H22 * k[1, i] + H23 * k[2, i] + H24 * k[3, i] + H25 * k[4, i]
+        q3[i] = H31 * k[0, i] + H32 * k[1, i] + H33 * k[2, i] + H34 * k[3, i] + H35 * k[4, i]
+        q4[i] = 0.0
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _cut_interpolant(s_ev, y, ynew, q2, q3, q4, order):
+    """Cut a step's interpolant at fraction s_ev: ynew, q2, q3, q4 become the sub-step's own."""
+    y_e = dense(s_ev, y, ynew, q2, q3, q4)
+    if order != 5:
+        for i in range(y.shape[0]):
+            # P(s x) - y0 (1 - x) - x P(s) = x (1 - x) (a + b x), exact for a cubic P: fit a, b at x = 1/3, 2/3
+            r1 = dense(s_ev / 3.0, y, ynew, q2, q3, q4)[i] - y[i] * (2.0 / 3.0) - y_e[i] / 3.0
+            r2 = dense(2.0 * s_ev / 3.0, y, ynew, q2, q3, q4)[i] - y[i] / 3.0 - y_e[i] * (2.0 / 3.0)
+            a1 = r1 / (2.0 / 9.0)
+            a2 = r2 / (2.0 / 9.0)
+            bb = 3.0 * (a2 - a1)
+            q3[i] = bb
+            q2[i] = a1 - bb / 3.0
+        ynew[:] = y_e
+        return
+    y1 = dense(0.25 * s_ev, y, ynew, q2, q3, q4)
+    y2 = dense(0.5 * s_ev, y, ynew, q2, q3, q4)
+    y3 = dense(0.75 * s_ev, y, ynew, q2, q3, q4)
     for i in range(y.shape[0]):
-        # P(s x) - y0 (1 - x) - x P(s) = x (1 - x) (a + b x): fit a, b at x = 1/3, 2/3
-        r1 = dense(s_ev / 3.0, y, ynew, q2, q3)[i] - y[i] * (2.0 / 3.0) - y_e[i] / 3.0
-        r2 = dense(2.0 * s_ev / 3.0, y, ynew, q2, q3)[i] - y[i] / 3.0 - y_e[i] * (2.0 / 3.0)
-        a1 = r1 / (2.0 / 9.0)
-        a2 = r2 / (2.0 / 9.0)
-        bb = 3.0 * (a2 - a1)
-        q3[i] = bb
-        q2[i] = a1 - bb / 3.0
+        # the same for Rodas5P's quartic P: a + b x + c x^2 through its values at x = 1/4, 1/2, 3/4
+        v1 = (y1[i] - y[i] * 0.75 - y_e[i] * 0.25) / 0.1875
+        v2 = (y2[i] - y[i] * 0.5 - y_e[i] * 0.5) / 0.25
+        v3 = (y3[i] - y[i] * 0.25 - y_e[i] * 0.75) / 0.1875
+        c = 8.0 * (v1 - 2.0 * v2 + v3)
+        b = 2.0 * (v3 - v1) - c
+        q2[i] = v2 - 0.5 * b - 0.25 * c
+        q3[i] = b
+        q4[i] = c
     ynew[:] = y_e
 
 
@@ -473,12 +616,15 @@ def solve(t0, y0, tstops, p, opts):
     jac = np.empty((n, n))
     w = np.empty((n_dyn, n_dyn))
     piv = np.empty(n_dyn, dtype=np.int64)
-    k = np.empty((6, n))
+    order = opts.order
+    expo = 0.2 if order == 5 else 0.25    # the step ratio goes as err^(-1/order) (embedded estimate order + 1)
+    k = np.empty((8, n))
     u = np.empty(n)
     yp = np.empty(n)
     ynew = np.empty(n)
     q2 = np.empty(n)
     q3 = np.empty(n)
+    q4 = np.empty(n)
     n_events = opts.n_events
     # the event functions' values, then the state's length of scratch the model's event function may use
     g0 = np.empty(max(n_events, 1) + n)
@@ -488,6 +634,7 @@ def solve(t0, y0, tstops, p, opts):
     rec_y = np.empty((cap, n))
     rec_q2 = np.empty((cap, n))
     rec_q3 = np.empty((cap, n))
+    rec_q4 = np.empty((cap, n))
     rec_tag = np.empty(cap, dtype=np.int64)
     ecap = 64
     ev_t = np.empty(ecap)
@@ -501,6 +648,7 @@ def solve(t0, y0, tstops, p, opts):
         rec_y[0] = y
         rec_q2[0] = 0.0
         rec_q3[0] = 0.0
+        rec_q4[0] = 0.0
         rec_tag[0] = step_tag(p)
         m = 1
 
@@ -553,15 +701,19 @@ def solve(t0, y0, tstops, p, opts):
                 nj = fd_jacobian(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h_try)
             n_rhs += nj
             jac_age = 0
-        ok, err = rosenbrock_step(t, h_try, y, p, f0, ft, jac, w, piv, k, u, ynew, n_dyn, rtol, atol)
-        n_rhs += 5
+        if order == 5:
+            ok, err = rosenbrock5_step(t, h_try, y, p, f0, ft, jac, w, piv, k, u, ynew, n_dyn, rtol, atol)
+            n_rhs += 7
+        else:
+            ok, err = rosenbrock_step(t, h_try, y, p, f0, ft, jac, w, piv, k, u, ynew, n_dyn, rtol, atol)
+            n_rhs += 5
         if not ok:
             h = 0.25 * h_try
             reject = True
             n_rej += 1
             continue
         n_steps += 1
-        fac_h = max(1.0 / FAC_MAX, min(1.0 / FAC_MIN, err**0.25 / SAFE))
+        fac_h = max(1.0 / FAC_MAX, min(1.0 / FAC_MIN, err**expo / SAFE))
         h_new = h_try / fac_h
         if err > 1.0:
             n_rej += 1
@@ -569,12 +721,12 @@ def solve(t0, y0, tstops, p, opts):
             reject = True
             continue
         # ---- accepted by the error test
-        dense_coefficients(k, q2, q3)
+        dense_coefficients(k, q2, q3, q4, order)
         # ---- events: the first crossing on the dense output
         k_ev = -1
         s_ev = 2.0
         if n_events > 0:
-            k_ev, s_ev = _locate_event(t, h_try, y, ynew, q2, q3, p, g0, g1, yp, n_events)
+            k_ev, s_ev = _locate_event(t, h_try, y, ynew, q2, q3, q4, p, g0, g1, yp, n_events)
             if (k_ev >= 0 and retries < MAX_EVENT_RETRIES and EVENT_RETRY_WINDOW < s_ev < 1.0 - EVENT_RETRY_WINDOW
                     and event_retry(k_ev, p)):
                 # the interpolant locates a crossing only as well as it follows the solution:
@@ -588,7 +740,7 @@ def solve(t0, y0, tstops, p, opts):
             h_event[after_event] = h_new
             after_event = -1
         if not first:
-            fg = (h_acc / h_try) * (err * err / err_acc) ** 0.25 / SAFE
+            fg = (h_acc / h_try) * (err * err / err_acc) ** expo / SAFE
             fg = max(1.0 / FAC_MAX, min(1.0 / FAC_MIN, fg))
             fac_h = max(fac_h, fg)
             h_new = h_try / fac_h
@@ -602,7 +754,7 @@ def solve(t0, y0, tstops, p, opts):
         t = t_stop if hit else t + h_try
         tag = step_tag(p)
         if k_ev >= 0:
-            _cut_interpolant(s_ev, y, ynew, q2, q3)
+            _cut_interpolant(s_ev, y, ynew, q2, q3, q4, order)
             t = t_old + s_ev * h_try
             hit = False
         if t >= opts.t_record and (t > t_old or m == 0):
@@ -612,6 +764,7 @@ def solve(t0, y0, tstops, p, opts):
                 rec_y[0] = y
                 rec_q2[0] = 0.0
                 rec_q3[0] = 0.0
+                rec_q4[0] = 0.0
                 rec_tag[0] = tag
                 m = 1
             if m >= rec_t.shape[0]:
@@ -619,11 +772,13 @@ def solve(t0, y0, tstops, p, opts):
                 rec_y = _grow(rec_y, m)
                 rec_q2 = _grow(rec_q2, m)
                 rec_q3 = _grow(rec_q3, m)
+                rec_q4 = _grow(rec_q4, m)
                 rec_tag = _grow(rec_tag, m)
             rec_t[m] = t
             rec_y[m] = ynew
             rec_q2[m] = q2
             rec_q3[m] = q3
+            rec_q4[m] = q4
             rec_tag[m] = tag
             m += 1
         y[:] = ynew
@@ -667,7 +822,7 @@ def solve(t0, y0, tstops, p, opts):
             h = max(h_new, h)
         else:
             h = h_new
-    return Result(status, y_stops, rec_t[:m], rec_y[:m], rec_q2[:m], rec_q3[:m], rec_tag[:m],
+    return Result(status, y_stops, rec_t[:m], rec_y[:m], rec_q2[:m], rec_q3[:m], rec_q4[:m], rec_tag[:m],
                   ev_t[:n_ev], ev_k[:n_ev], ev_code[:n_ev], ev_y[:n_ev], n_steps, n_rej, n_rhs, h)
 
 
@@ -705,12 +860,13 @@ def specialize(rhs_func, tag: str, events=None, apply=None, tagger=None, jac=Non
     scope["fd_jacobian"] = _rebind(fd_jacobian, scope, tag)
     scope["_locate_event"] = _rebind(_locate_event, scope, tag)
     scope["rosenbrock_step"] = _rebind(rosenbrock_step, scope, tag)
+    scope["rosenbrock5_step"] = _rebind(rosenbrock5_step, scope, tag)
     return _rebind(solve, scope, tag, cache=cache)
 
 
-def interpolate(t, rec_t, rec_y, rec_q2, rec_q3):
+def interpolate(t, rec_t, rec_y, rec_q2, rec_q3, rec_q4):
     """States at times ``t`` (array, inside the recorded span) from the dense output."""
-    return _interpolate(np.asarray(t, dtype=float), rec_t, rec_y, rec_q2, rec_q3)
+    return _interpolate(np.asarray(t, dtype=float), rec_t, rec_y, rec_q2, rec_q3, rec_q4)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -729,7 +885,7 @@ def sample_modes(t, rec_t, rec_tag, n_mode):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _interpolate(t, rec_t, rec_y, rec_q2, rec_q3):
+def _interpolate(t, rec_t, rec_y, rec_q2, rec_q3, rec_q4):
     # compiled: the post-processors sample 1440 points of a revolution, a sixth of a sweep design's time in numpy
     n, m, last = len(t), rec_y.shape[1], len(rec_t) - 1
     out = np.empty((n, m))
@@ -737,5 +893,6 @@ def _interpolate(t, rec_t, rec_y, rec_q2, rec_q3):
         i = min(max(np.searchsorted(rec_t, t[k]), 1), last)
         s = (t[k] - rec_t[i - 1]) / (rec_t[i] - rec_t[i - 1])
         for j in range(m):
-            out[k, j] = rec_y[i - 1, j] * (1 - s) + s * (rec_y[i, j] + (1 - s) * (rec_q2[i, j] + s * rec_q3[i, j]))
+            out[k, j] = rec_y[i - 1, j] * (1 - s) + s * (rec_y[i, j] + (1 - s) * (
+                rec_q2[i, j] + s * (rec_q3[i, j] + s * rec_q4[i, j])))
     return out

@@ -1,4 +1,4 @@
-"""Steppers behind one interface: the reference (scipy Radau, BDF, LSODA) and the fast (compiled Rodas4P).
+"""Steppers behind one interface: the reference (scipy Radau, BDF, LSODA) and the fast (compiled Rodas4P/Rodas5P).
 
 The pump driver (:mod:`lumped.cycle`) owns everything around the integration; a stepper
 only advances the state over a span of time (a revolution), switching the mode at the
@@ -12,7 +12,7 @@ of each state's scale), then :meth:`Stepper.advance` is called; :data:`METHODS` 
 
 - :class:`RadauStepper`: scipy's implicit ``OdeSolver`` on the *Python* physics, each mode
   change located on its dense output (the reference; independent of numba);
-- :class:`RodasStepper`: the compiled Rodas4P of :mod:`lumped.rodas` on the compiled
+- :class:`RodasStepper`: the compiled Rodas4P or Rodas5P (:func:`rodas_order`) of :mod:`lumped.rodas` on the compiled
   copies of the same functions (:mod:`lumped.compiled`), events located on its dense
   output, the analytic Jacobian of :mod:`lumped.jacobian`, per-state tolerances.
 """
@@ -267,7 +267,7 @@ class _RadauRun:
         return True
 
 
-# --------------------------------------------------------------------------- fast: compiled Rodas4P
+# --------------------------------------------------------------------------- fast: compiled Rodas4P/5P
 def _build_rodas(one_dof: bool):
     """The compiled solver bound to the pump's compiled physics of a flavour (lumped.compiled.physics),
     cached on disk by source digest."""
@@ -379,20 +379,44 @@ def compiled_solver(one_dof: bool = True):
 JAC_REUSE = 1
 #: free-flight opening tolerance, in units of atol x the stop gap
 FREE_POSITION_ATOL = 1.0
+#: the fast path steps with Rodas5P instead of Rodas4P (lumped.rodas) where a valve's acceleration reads the
+#: flow (a flow force) and rtol is at most this
+RODAS5P_FLOW_RTOL = 1e-4
+
+
+def rodas_order(rtol: float, flow_in_acceleration: bool = False) -> int:
+    """The Rosenbrock method of the fast path: 5 (Rodas5P) where a valve's acceleration reads the flow and
+    rtol <= RODAS5P_FLOW_RTOL, else 4 (Rodas4P).
+
+    The transient flow force's d(dP)/dt term slaves the valve's velocity to the pressure (eigenvalues to
+    -1e6 1/s), and Rodas4P's embedded estimate over-reads its error there (docs/discrepancy.md, "Cost").
+    Measured per simulation (3 revolutions from rest, best of 3): the thesis disc with the flow force at
+    593 rpm, 2.76 MPa, 45 % less time at rtol 1e-5 and 25 % less at 1e-4; the thesis ball 4-37 % less at
+    1e-5 and -12 to +7 % at 1e-4 (593-900 rpm). At rtol 1e-3 Rodas5P costs as much and its delivery can be
+    further from the converged one (2.1e-4 against 1.5e-5 on the ball at 649.7 rpm); without a flow force
+    it costs the same at 1e-5 and 10-20 % more at 1e-4.
+    """
+    return 5 if flow_in_acceleration and rtol <= RODAS5P_FLOW_RTOL * (1.0 + 1e-9) else 4
 
 
 class RodasStepper(Stepper):
-    """The compiled Rodas4P over a span; per-valve tolerances by contact state (see :func:`tolerance_table`).
+    """The compiled Rodas4P or Rodas5P over a span; per-valve tolerances by contact state (see
+    :func:`tolerance_table`).
 
     Options: ``contact_atol`` (velocity tolerance in contact, in units of atol x 1 m/s; default the
-    kinds' own), ``record`` (keep the dense output), ``max_steps`` per span.
+    kinds' own), ``record`` (keep the dense output), ``max_steps`` per span, ``order`` (4 or 5; default
+    :func:`rodas_order` of rtol).
     """
 
     name = "fast"
 
     def __init__(self, problem, rtol: float, atol: float, *, contact_atol: float | None = None, record: bool = True,
-                 max_steps: int | None = None, **_ignored):
+                 max_steps: int | None = None, order: int | None = None, **_ignored):
         self.solver = compiled_solver(problem.layout.one_dof)
+        reads_flow = any(problem.p[o + VALVE.flow_in_acceleration] > 0.5 for o in BLOCK_OFFSET)
+        self.order = rodas_order(rtol, reads_flow) if order is None else int(order)
+        if self.order not in (4, 5):
+            raise ValueError(f"order: 4 (Rodas4P) or 5 (Rodas5P), not {order}")
         self.problem = problem
         self.rtol = rtol
         self.atol = atol * problem.scales
@@ -430,23 +454,25 @@ class RodasStepper(Stepper):
             self.h = 1e-4 * (t1 - t0)
         opts = rodas.Options(self.rtol, self.atol.copy(), self.h, t1 - t0, self.max_steps, self.n_dyn,
                              t0 if self.record else np.inf, N_SWITCHES, MAX_EVENTS_PER_REV, JAC_REUSE,
-                             self.h_event)
+                             self.h_event, self.order)
         r = self.solver(t0, np.asarray(y, dtype=float), np.array([t1]), q, opts)
         if r.status != rodas.OK:
             raise IntegrationError(f"fast integrator failed ({rodas.STATUS_TEXT[int(r.status)]}, "
                                    f"t = {r.rec_t[-1] if len(r.rec_t) else t0:.6g} s)")
         self.h = r.h_next
-        rec = (r.rec_t, r.rec_y, r.rec_q2, r.rec_q3, r.rec_tag)
+        rec = (r.rec_t, r.rec_y, r.rec_q2, r.rec_q3, r.rec_q4, r.rec_tag)
         layout, p = self.problem.layout, self.problem.p
 
         def details():
             events = [event(t, int(c)) for t, c in zip(r.ev_t, r.ev_code)]
-            return events, list(r.ev_y), _peaks(layout, p, r.rec_y, r.rec_q2, r.rec_q3)
+            return events, list(r.ev_y), _peaks(layout, p, r.rec_y, r.rec_q2, r.rec_q3, r.rec_q4)
 
         def sampler(ts):
-            rec_t, rec_y, rec_q2, rec_q3, rec_tag = rec
-            ys = rodas.interpolate(ts, rec_t, rec_y, rec_q2, rec_q3)
+            rec_t, rec_y, rec_q2, rec_q3, rec_q4, rec_tag = rec
+            ys = rodas.interpolate(ts, rec_t, rec_y, rec_q2, rec_q3, rec_q4)
             return ys, rodas.sample_modes(ts, rec_t, rec_tag, N_MODE)
+
+        sampler.step_times = r.rec_t          # the dense output's knots, for a caller that samples at the steps
 
         y_end = r.y_stops[-1].copy()
         mode_end = mode_of(q).copy()
@@ -456,7 +482,7 @@ class RodasStepper(Stepper):
 _QUARTERS = np.array([[0.25], [0.5], [0.75]])
 
 
-def _peaks(layout, p, rec_y, rec_q2, rec_q3) -> tuple[float, ...]:
+def _peaks(layout, p, rec_y, rec_q2, rec_q3, rec_q4) -> tuple[float, ...]:
     """Largest opening [m] of each valve in the recorded steps, interpolant included (quarters)."""
     if len(rec_y) == 0:
         return (0.0,) * N_VALVES
@@ -465,10 +491,11 @@ def _peaks(layout, p, rec_y, rec_q2, rec_q3) -> tuple[float, ...]:
         x = layout.openings(rec_y, p, v)[0]
         q2 = layout.openings(rec_q2, p, v)[0]
         q3 = layout.openings(rec_q3, p, v)[0]
+        q4 = layout.openings(rec_q4, p, v)[0]
         b = float(x.max())
         if len(x) > 1:
             s = _QUARTERS
-            b = max(b, float((x[:-1] * (1 - s) + s * (x[1:] + (1 - s) * (q2[1:] + s * q3[1:]))).max()))
+            b = max(b, float((x[:-1] * (1 - s) + s * (x[1:] + (1 - s) * (q2[1:] + s * (q3[1:] + s * q4[1:])))).max()))
         best.append(max(b, 0.0))
     return tuple(best)
 

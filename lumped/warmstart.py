@@ -146,7 +146,7 @@ def chain_order(features, groups=None) -> list[int]:
 
 
 def fast_start(model, speed_rpm=None, load_pressure=None, **kw):
-    """The TDC state the fast path (compiled Rodas4P) reaches at cyclic steady state: where a reference run
+    """The TDC state the fast path (compiled Rodas4P/5P) reaches at cyclic steady state: where a reference run
     (scipy Radau) of the same pump starts, its first revolution then within the two steppers' difference
     (~1e-4 in delivery) of its own cycle. ``kw``: simulate's ``air_content``, ``circuit``, ``needle_area``,
     ``contact_atol``. None where the fast path cannot run the model (a whole FE reed: reference only)."""

@@ -1,4 +1,4 @@
-"""The compiled Rodas4P integrator against closed forms and scipy's Radau."""
+"""The compiled Rodas4P and Rodas5P integrators against closed forms and scipy's Radau."""
 
 from __future__ import annotations
 
@@ -89,7 +89,53 @@ forced = rodas.specialize(_forced, "test_forced")
 impact = rodas.specialize(_impact, "test_impact")
 
 
-def test_stiff_van_der_pol_matches_radau():
+ORDERS = pytest.mark.parametrize("order", [4, 5], ids=["rodas4p", "rodas5p"])
+
+
+@numba.njit(cache=True)
+def _oscillator(t, y, p, dy):
+    dy[0] = y[1]
+    dy[1] = -y[0]
+
+
+@numba.njit(cache=True)
+def _riccati(t, y, p, dy):
+    # y' = -y^2 from 1: y = 1/(1 + t); its quadrature ln(1 + t)
+    dy[0] = -y[0] * y[0]
+    dy[1] = y[0]
+
+
+oscillator = rodas.specialize(_oscillator, "test_oscillator")
+riccati = rodas.specialize(_riccati, "test_riccati")
+
+
+def _fixed_steps(solver, y0, h, order, T=2.0):
+    """A run whose steps are all hmax = h: the error test never binds (rtol 1e3)."""
+    r = solver(0.0, y0, np.array([T]), np.zeros(1),
+               rodas.Options(1e3, np.full(2, 1e3), h, h, 10**6, 2, 0.0, 0, 0, 1, np.zeros(0), order))
+    assert r.status == rodas.OK and r.n_steps == round(T / h)
+    return r
+
+
+@ORDERS
+def test_order_of_steps_and_dense_output_against_closed_forms(order):
+    """Halving a fixed step divides the end error of y' = -y^2 by about 2^order, and the dense output's
+    largest error between steps on a harmonic oscillator by 2^order too (Rodas4P's 3rd-order interpolant
+    has a local error of h^4, Rodas5P's 4th-order one of h^5), against 1/(1 + t) and cos t."""
+    end = [abs(_fixed_steps(riccati, np.array([1.0, 0.0]), h, order).y_stops[-1, 0] - 1.0 / 3.0)
+           for h in (0.05, 0.025)]
+    assert math.log2(end[0] / end[1]) > order - 0.45
+    tt = np.linspace(0.0, 2.0, 1001)
+    dense_err = []
+    for h in (0.1, 0.05):
+        r = _fixed_steps(oscillator, np.array([1.0, 0.0]), h, order)
+        yy = rodas.interpolate(tt, r.rec_t, r.rec_y, r.rec_q2, r.rec_q3, r.rec_q4)
+        dense_err.append(np.max(np.abs(yy[:, 0] - np.cos(tt))))
+    assert math.log2(dense_err[0] / dense_err[1]) == pytest.approx(order, abs=0.15)
+
+
+@ORDERS
+def test_stiff_van_der_pol_matches_radau(order):
     eps, y0, T = 1e-6, np.array([2.0, -0.66]), 2.0
     ref = solve_ivp(
         lambda t, y: [y[1], ((1 - y[0] ** 2) * y[1] - y[0]) / eps], (0, T), y0, method="Radau",
@@ -99,18 +145,19 @@ def test_stiff_van_der_pol_matches_radau():
     steps = []
     for rtol, tol in [(1e-6, 2e-6), (1e-9, 5e-9)]:
         r = vdp(0.0, y0, np.array([T]), np.array([eps]),
-                rodas.Options(rtol, np.full(2, rtol), 1e-6, np.inf, 10**6, 2, np.inf, 0, 0, 1))
+                rodas.Options(rtol, np.full(2, rtol), 1e-6, np.inf, 10**6, 2, np.inf, 0, 0, 1, np.zeros(0), order))
         assert r.status == rodas.OK
         assert np.allclose(r.y_stops[-1], ref.y[:, -1], rtol=0, atol=tol)
         steps.append(r.n_steps)
     assert steps[0] < 2000  # a stiff solver: the step follows the slow manifold
 
 
-def test_stops_dense_output_and_quadrature_against_closed_form():
+@ORDERS
+def test_stops_dense_output_and_quadrature_against_closed_form(order):
     lam = -1e4
     stops = np.array([0.5, 1.0, 2.0, 3.0])
     r = forced(0.0, np.array([1.0, 0.0]), stops, np.array([lam]),
-               rodas.Options(1e-8, np.array([1e-12, 1e-12]), 1e-8, np.inf, 10**6, 1, 1.0, 0, 0, 1))
+               rodas.Options(1e-8, np.array([1e-12, 1e-12]), 1e-8, np.inf, 10**6, 1, 1.0, 0, 0, 1, np.zeros(0), order))
     st, ys, rt, ry, q2, q3, ns = r.status, r.y_stops, r.rec_t, r.rec_y, r.rec_q2, r.rec_q3, r.n_steps
     assert st == rodas.OK
     exact = np.sin(stops) + np.exp(lam * stops)
@@ -120,13 +167,16 @@ def test_stops_dense_output_and_quadrature_against_closed_form():
     assert rt[0] == 1.0 and rt[-1] == 3.0  # recording starts on the stop at t_record
     # the dense output between steps is as accurate as the steps themselves
     tt = np.linspace(1.0, 3.0, 997)
-    yy = rodas.interpolate(tt, rt, ry, q2, q3)
+    yy = rodas.interpolate(tt, rt, ry, q2, q3, r.rec_q4)
     assert np.max(np.abs(yy[:, 0] - np.sin(tt))) < 5e-7
     assert ns < 600  # no order reduction on this stiff forced problem (Rodas4 took ~2000)
+    if order == 5:
+        assert ns < 300  # Rodas5P: 5th order, fewer steps still
 
 
+@ORDERS
 @pytest.mark.parametrize("zeta", [0.05, 0.3, 0.7])
-def test_impact_restitution_matches_the_damped_oscillator(zeta):
+def test_impact_restitution_matches_the_damped_oscillator(zeta, order):
     """Linear spring-dashpot impact: rebound speed e v0 with e = exp(-zeta pi / sqrt(1 - zeta^2))."""
     k, m = 3.02e9, 2.7e-3  # the disc valve's rigid seat and moving mass (Tables 2.1-2.3)
     c = 2 * zeta * math.sqrt(k * m)
@@ -135,7 +185,7 @@ def test_impact_restitution_matches_the_damped_oscillator(zeta):
     t_contact = x0 / -v0 + math.pi / wd
     T = t_contact + 2e-5
     r = impact(0.0, np.array([x0, v0]), np.array([T]), np.array([k, c, m]),
-               rodas.Options(1e-9, np.array([1e-15, 1e-9]), 1e-7, np.inf, 10**6, 2, np.inf, 0, 0, 1))
+               rodas.Options(1e-9, np.array([1e-15, 1e-9]), 1e-7, np.inf, 10**6, 2, np.inf, 0, 0, 1, np.zeros(0), order))
     st, ys = r.status, r.y_stops
     assert st == rodas.OK
     e = math.exp(-zeta * math.pi / math.sqrt(1 - zeta**2))
@@ -160,13 +210,14 @@ def test_lu_solves_a_pivoting_system():
     assert np.allclose(a @ x, b, rtol=0, atol=1e-12)
 
 
-def test_events_are_located_on_the_dense_output():
+@ORDERS
+def test_events_are_located_on_the_dense_output(order):
     """A bouncing ball: bounce times 2 v0/g e^k sums in closed form; the step is cut at each."""
     g, e, v0 = 9.81, 0.8, 3.0
     p = np.array([g, e, 0.0])
     T = 1.5
     r = ball(0.0, np.array([0.0, v0]), np.array([T]), p,
-             rodas.Options(1e-6, np.array([1e-9, 1e-9]), 1e-3, np.inf, 10**5, 2, 0.0, 1, 100, 1))
+             rodas.Options(1e-6, np.array([1e-9, 1e-9]), 1e-3, np.inf, 10**5, 2, 0.0, 1, 100, 1, np.zeros(0), order))
     st, ys, rt, tags, ev_t, ev_code = r.status, r.y_stops, r.rec_t, r.rec_tag, r.ev_t, r.ev_code
     assert st == rodas.OK
     # the state just before each bounce is logged: falling onto the floor at the bounce speed

@@ -183,7 +183,7 @@ class PumpSimulator:
 
 def revolution(model: PumpModel, speed_rpm: float, load_pressure: float, warm: np.ndarray | None, rtol: float,
                max_steps: int, near: bool = False) -> CycleTrace:
-    """One revolution of cyclic steady state of the fast path (Rodas4P, ``lumped.steppers``): from ``warm`` (a TDC
+    """One revolution of cyclic steady state of the fast path (Rodas4P/5P, ``lumped.steppers``): from ``warm`` (a TDC
     state) WARM_REVOLUTIONS if ``near`` (a near neighbour's), else (another model's, or from the pump at rest)
     REVOLUTIONS and more until the delivery and the TDC state stop changing (at most MAX_REVOLUTIONS); the trace
     at the steps, their midpoints and TRACE_POINTS even angles. Raises InvariantError for a result that breaks
@@ -240,11 +240,8 @@ def _sample_times(span, period: float) -> np.ndarray:
 
 def _step_times(span) -> np.ndarray | None:
     """The fast stepper's recorded step times (the dense output's knots), None for another stepper."""
-    for cell in getattr(span.sampler, "__closure__", None) or ():
-        v = cell.cell_contents
-        if isinstance(v, tuple) and len(v) == 5 and isinstance(v[0], np.ndarray):
-            return np.asarray(v[0], dtype=float)
-    return None
+    t = getattr(span.sampler, "step_times", None)
+    return None if t is None else np.asarray(t, dtype=float)
 
 
 def _check(problem, last, mass_error: float, p_cyl: np.ndarray) -> None:
