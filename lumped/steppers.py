@@ -53,7 +53,7 @@ class Span:
     each; ``peaks``: the largest opening of each valve; ``sample(ts)`` -> (states, modes) at
     sorted times in the span. The driver reads events and peaks of the last revolution only, so
     a stepper may hand them over as ``details()`` -> (events, event_states, peaks), computed on
-    first access.
+    first access. The fast stepper's ``sampler`` carries ``step_times``, the knots of its dense output.
     """
 
     t0: float
@@ -405,7 +405,7 @@ class RodasStepper(Stepper):
 
     Options: ``contact_atol`` (velocity tolerance in contact, in units of atol x 1 m/s; default the
     kinds' own), ``record`` (keep the dense output), ``max_steps`` per span, ``order`` (4 or 5; default
-    :func:`rodas_order` of rtol).
+    :func:`rodas_order`: 5 where a valve carries a flow force and rtol <= 1e-4).
     """
 
     name = "fast"
