@@ -392,6 +392,30 @@ class Result(NamedTuple):
 
 
 @numba.njit(cache=True, error_model="numpy")
+def _factor_w(w, piv, jac, fac, n_dyn):
+    """W = I fac - J on the first n_dyn block (fac = 1/(h gamma)), factorised in ``w``; False if singular."""
+    for i in range(n_dyn):
+        for j in range(n_dyn):
+            w[i, j] = -jac[i, j]
+        w[i, i] += fac
+    return lu_factor(w, piv)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _last_stage(y, u, k_last, ynew, rtol, atol):
+    """ynew = u + k_last (the step's result); (ok, err), err the RMS of k_last (the embedded estimate) over
+    atol_i + rtol max(|y_i|, |ynew_i|)."""
+    n = y.shape[0]
+    err = 0.0
+    for i in range(n):
+        ynew[i] = u[i] + k_last[i]
+        sk = atol[i] + rtol * max(abs(y[i]), abs(ynew[i]))
+        err += (k_last[i] / sk) ** 2
+    err = np.sqrt(err / n)
+    return np.isfinite(err), err
+
+
+@numba.njit(cache=True, error_model="numpy")
 def rosenbrock_step(t, h, y, p, f0, ft, jac, w, piv, k, u, ynew, n_dyn, rtol, atol):
     """One Rodas4P step of size h from (t, y): stages in ``k`` (6 x n), the result in ``ynew``.
 
@@ -402,11 +426,7 @@ def rosenbrock_step(t, h, y, p, f0, ft, jac, w, piv, k, u, ynew, n_dyn, rtol, at
     n = y.shape[0]
     fac = 1.0 / (h * GAMMA)
     hg = h * GAMMA
-    for i in range(n_dyn):
-        for j in range(n_dyn):
-            w[i, j] = -jac[i, j]
-        w[i, i] += fac
-    if not lu_factor(w, piv):
+    if not _factor_w(w, piv, jac, fac, n_dyn):
         return False, 0.0
     k1, k2, k3, k4, k5, k6 = k[0], k[1], k[2], k[3], k[4], k[5]
     hc21, hc31, hc32 = C21 / h, C31 / h, C32 / h
@@ -446,13 +466,7 @@ def rosenbrock_step(t, h, y, p, f0, ft, jac, w, piv, k, u, ynew, n_dyn, rtol, at
     for i in range(n):
         k6[i] += hc61 * k1[i] + hc62 * k2[i] + hc63 * k3[i] + hc64 * k4[i] + hc65 * k5[i]
     stage_solve(w, piv, jac, hg, k6, n_dyn)
-    err = 0.0
-    for i in range(n):
-        ynew[i] = u[i] + k6[i]
-        sk = atol[i] + rtol * max(abs(y[i]), abs(ynew[i]))
-        err += (k6[i] / sk) ** 2
-    err = np.sqrt(err / n)
-    return np.isfinite(err), err
+    return _last_stage(y, u, k6, ynew, rtol, atol)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -461,12 +475,7 @@ def rosenbrock5_step(t, h, y, p, f0, ft, jac, w, piv, k, u, ynew, n_dyn, rtol, a
     (ok, err) as :func:`rosenbrock_step`, err from the embedded order-4 estimate (the last stage)."""
     n = y.shape[0]
     hg = h * P_GAMMA
-    fac = 1.0 / hg
-    for i in range(n_dyn):
-        for j in range(n_dyn):
-            w[i, j] = -jac[i, j]
-        w[i, i] += fac
-    if not lu_factor(w, piv):
+    if not _factor_w(w, piv, jac, 1.0 / hg, n_dyn):
         return False, 0.0
     k1, k2, k3, k4, k5, k6, k7, k8 = k[0], k[1], k[2], k[3], k[4], k[5], k[6], k[7]
     ih = 1.0 / h
@@ -517,13 +526,7 @@ def rosenbrock5_step(t, h, y, p, f0, ft, jac, w, piv, k, u, ynew, n_dyn, rtol, a
         k8[i] += ih * (P_C81 * k1[i] + P_C82 * k2[i] + P_C83 * k3[i] + P_C84 * k4[i] + P_C85 * k5[i]
                        + P_C86 * k6[i] + P_C87 * k7[i])
     stage_solve(w, piv, jac, hg, k8, n_dyn)
-    err = 0.0
-    for i in range(n):
-        ynew[i] = u[i] + k8[i]
-        sk = atol[i] + rtol * max(abs(y[i]), abs(ynew[i]))
-        err += (k8[i] / sk) ** 2
-    err = np.sqrt(err / n)
-    return np.isfinite(err), err
+    return _last_stage(y, u, k8, ynew, rtol, atol)
 
 
 @numba.njit(cache=True, error_model="numpy")

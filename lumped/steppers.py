@@ -484,6 +484,8 @@ _QUARTERS = np.array([[0.25], [0.5], [0.75]])
 
 def _peaks(layout, p, rec_y, rec_q2, rec_q3, rec_q4) -> tuple[float, ...]:
     """Largest opening [m] of each valve in the recorded steps, interpolant included (quarters)."""
+    from lumped import rodas
+
     if len(rec_y) == 0:
         return (0.0,) * N_VALVES
     best = []
@@ -494,8 +496,7 @@ def _peaks(layout, p, rec_y, rec_q2, rec_q3, rec_q4) -> tuple[float, ...]:
         q4 = layout.openings(rec_q4, p, v)[0]
         b = float(x.max())
         if len(x) > 1:
-            s = _QUARTERS
-            b = max(b, float((x[:-1] * (1 - s) + s * (x[1:] + (1 - s) * (q2[1:] + s * (q3[1:] + s * q4[1:])))).max()))
+            b = max(b, float(rodas.dense.py_func(_QUARTERS, x[:-1], x[1:], q2[1:], q3[1:], q4[1:]).max()))
         best.append(max(b, 0.0))
     return tuple(best)
 
