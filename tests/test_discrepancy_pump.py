@@ -28,7 +28,16 @@ from studies.discrepancy.pump_sim import LIBRARY, for_valve_type, model_for, sim
 SETTINGS = Settings(workers=2)
 
 
-def check_found(r: dict):
+#: library datasets (the workflow's own model form) named right that still leave a gap above the noise's: the fit
+#: ends in a neighbouring valley (docs/discrepancy.md, Known limits); strict both ways, as KNOWN_MISSES below
+LARGE_GAP_LEFT = {
+    ("reed", "entrained_air+piston_leakage", 1):
+        "the leak beside entrained air ends at a clearance 15 % short with Cd x1.03 (the truth's valley costs 10 fit "
+        "units less), 21.9 gap units left where the noise leaves 12",
+}
+
+
+def check_found(r: dict, valve: str):
     assert r["correct"] and r["found"] == r["expected"], r
     for name, err in r["relative_errors"].items():
         if name == "flow_force.theta_jet":
@@ -36,6 +45,11 @@ def check_found(r: dict):
         assert abs(err) <= 0.2, (name, err, r["parameters"])
     if not r["found"] and r["unexplained"]["large"]:
         assert r["unexplained"]["sentences"], r                  # never silent on a large gap
+    if r["model_form"] is None:
+        # the library's own model form with its effects named: what is left is the noise's, not a "large gap" (the
+        # seat + film fitted one at a time, not jointly, left 22-46 units where the limit is 12)
+        known = LARGE_GAP_LEFT.get((valve, r["case"], r["seed"]))
+        assert r["unexplained"]["large"] == bool(known), (known, r["unexplained"]["sentences"])
     for a in r["truth"]:
         # a discharge coefficient off in the data is recovered as the baseline nuisance, not named
         if a["name"] == "discharge_scale":
@@ -129,7 +143,7 @@ def test_thesis_oring_story():
     sim = for_valve_type("disc")
     r = run_case("oring", [("seat_compliance", "delivery", {"k_seat": (1.5e6, 1.5e6)})], "disc", 0,
                  sim, LIBRARY, SETTINGS, context=sim.model)
-    check_found(r)
+    check_found(r, "disc")
     assert r["targets"] == {"seat_compliance": "delivery"}
     assert r["gap_after"]["position_rms_m"] < 0.3 * r["gap_before"]["position_rms_m"]
     assert r["gap_after"]["delivery_error_pct"] < r["gap_before"]["delivery_error_pct"]
@@ -139,7 +153,7 @@ def test_thesis_oring_story():
                                        ("reed", "fluid_damping (strong)")])
 def test_representative_cases(valve, case):
     sim = for_valve_type(valve)
-    check_found(run_case(case, CASES[valve][case], valve, 1, sim, LIBRARY, SETTINGS, context=sim.model))
+    check_found(run_case(case, CASES[valve][case], valve, 1, sim, LIBRARY, SETTINGS, context=sim.model), valve)
 
 
 def test_squeeze_film_model_is_smooth_in_its_coefficient():
@@ -166,8 +180,6 @@ def test_squeeze_film_model_is_smooth_in_its_coefficient():
 #: docs/discrepancy.md ("Known limits" and the matrices' worst parameter errors); strict: a fix fails the test
 #: until its entry goes
 KNOWN_MISSES = {
-    ("disc", "seat_compliance@inlet+squeeze_film@delivery", 2):
-        "C2 of the delivery film 21.8 % off beside the inlet seat (the other 53 disc datasets within 20 %)",
     ("reed", "quadratic_drag", 1):
         "the reed's quadratic drag alone leaves no gap above the noise: nothing is named (docs/discrepancy.md, "
         "Known limits)",
@@ -186,14 +198,14 @@ def _known(valve: str, case: str, seed: int, *values):
 @pytest.mark.parametrize("case,seed", [_known("disc", c, s, c, s) for s in (1, 2, 3) for c in CASES["disc"]])
 def test_hidden_effect_named_disc(case, seed):
     sim = for_valve_type("disc")
-    check_found(run_case(case, CASES["disc"][case], "disc", seed, sim, LIBRARY, SETTINGS, context=sim.model))
+    check_found(run_case(case, CASES["disc"][case], "disc", seed, sim, LIBRARY, SETTINGS, context=sim.model), "disc")
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("case", [_known("reed", c, 1, c) for c in CASES["reed"]])
 def test_hidden_effect_named_reed(case):
     sim = for_valve_type("reed")
-    check_found(run_case(case, CASES["reed"][case], "reed", 1, sim, LIBRARY, SETTINGS, context=sim.model))
+    check_found(run_case(case, CASES["reed"][case], "reed", 1, sim, LIBRARY, SETTINGS, context=sim.model), "reed")
 
 
 @pytest.mark.slow
@@ -203,7 +215,7 @@ def test_hidden_effect_named_in_data_of_another_model_form(valve, case):
     named (nothing where nothing is hidden), its parameter within 20 % (a leak's effective clearance), the
     held-out gap shrunk by 70 %, and what is left said when it is large."""
     sim = for_valve_type(valve)
-    check_found(run_case(case, MISMATCH[valve][case], valve, 1, sim, LIBRARY, SETTINGS, context=sim.model))
+    check_found(run_case(case, MISMATCH[valve][case], valve, 1, sim, LIBRARY, SETTINGS, context=sim.model), valve)
 
 
 @pytest.mark.slow
@@ -219,4 +231,5 @@ def test_hidden_effect_named_on_another_pump(model, case):
 
     sim = choose(model=str(Path(__file__).resolve().parents[1] / "docs" / "examples" / f"{model}.toml"))
     kind = sim.context.label
-    check_found(run_case(case, CASES[kind][case], kind, 1, sim.simulate, sim.library, SETTINGS, context=sim.context))
+    check_found(run_case(case, CASES[kind][case], kind, 1, sim.simulate, sim.library, SETTINGS, context=sim.context),
+                kind)
