@@ -247,7 +247,7 @@ def _grow(a, m):
 @numba.njit(cache=True, error_model="numpy")
 def _dense_into(s, y0, y1, q2, q3, q4, out):
     for i in range(y0.shape[0]):
-        out[i] = y0[i] * (1.0 - s) + s * (y1[i] + (1.0 - s) * (q2[i] + s * (q3[i] + s * q4[i])))
+        out[i] = dense(s, y0[i], y1[i], q2[i], q3[i], q4[i])
 
 
 # Points per step where the event functions are checked: the step end only, as scipy's
@@ -557,10 +557,12 @@ def _cut_interpolant(s_ev, y, ynew, q2, q3, q4, order):
     """Cut a step's interpolant at fraction s_ev: ynew, q2, q3, q4 become the sub-step's own."""
     y_e = dense(s_ev, y, ynew, q2, q3, q4)
     if order != 5:
+        y1 = dense(s_ev / 3.0, y, ynew, q2, q3, q4)
+        y2 = dense(2.0 * s_ev / 3.0, y, ynew, q2, q3, q4)
         for i in range(y.shape[0]):
             # P(s x) - y0 (1 - x) - x P(s) = x (1 - x) (a + b x), exact for a cubic P: fit a, b at x = 1/3, 2/3
-            r1 = dense(s_ev / 3.0, y, ynew, q2, q3, q4)[i] - y[i] * (2.0 / 3.0) - y_e[i] / 3.0
-            r2 = dense(2.0 * s_ev / 3.0, y, ynew, q2, q3, q4)[i] - y[i] / 3.0 - y_e[i] * (2.0 / 3.0)
+            r1 = y1[i] - y[i] * (2.0 / 3.0) - y_e[i] / 3.0
+            r2 = y2[i] - y[i] / 3.0 - y_e[i] * (2.0 / 3.0)
             a1 = r1 / (2.0 / 9.0)
             a2 = r2 / (2.0 / 9.0)
             bb = 3.0 * (a2 - a1)
@@ -896,6 +898,5 @@ def _interpolate(t, rec_t, rec_y, rec_q2, rec_q3, rec_q4):
         i = min(max(np.searchsorted(rec_t, t[k]), 1), last)
         s = (t[k] - rec_t[i - 1]) / (rec_t[i] - rec_t[i - 1])
         for j in range(m):
-            out[k, j] = rec_y[i - 1, j] * (1 - s) + s * (rec_y[i, j] + (1 - s) * (
-                rec_q2[i, j] + s * (rec_q3[i, j] + s * rec_q4[i, j])))
+            out[k, j] = dense(s, rec_y[i - 1, j], rec_y[i, j], rec_q2[i, j], rec_q3[i, j], rec_q4[i, j])
     return out
