@@ -10,7 +10,11 @@ effect on a result u_input):
 - ``source``: where the number comes from (a thesis section, a datasheet, a stated assumption);
 - ``scales`` (optional): other keys that follow this one as a power law, ``{KEY = exponent}``:
   one cause moving several keys together (a reed thicker than nominal has a larger h_eff and,
-  identified from its measured frequency by eq 3.73, a larger kappa: exponent 1).
+  identified from its measured frequency by eq 3.73, a larger kappa: exponent 1);
+- ``calibrate`` (optional, default false): the key is unmeasured and dominates the validation
+  uncertainty, so ``valvelab validate`` estimates it from a stated subset of runs (the
+  declaration is its prior range) and predicts the other runs with the estimate
+  (studies.validation.joint).
 
 A key path is any numeric key of the model (``oil.air_content``,
 ``valves.delivery.spring.stiffness``, ``valves.spring.stiffness`` for both valves, drawn
@@ -32,7 +36,7 @@ from geometry.declare import check_value, field_for_key, flatten, spec_of
 from geometry.errors import InputError
 
 DISTRIBUTIONS = ("normal", "uniform")
-FIELDS = ("standard", "relative", "distribution", "source", "scales")
+FIELDS = ("standard", "relative", "distribution", "source", "scales", "calibrate")
 #: a normal draw is cut at this many standard deviations (scrambled Sobol points never reach 0 or 1,
 #: and a key's plausible range must hold every draw: check_reach)
 NORMAL_CUT = 4.0
@@ -50,6 +54,7 @@ class Uncertainty:
     standard: float | None = None
     relative: float | None = None
     scales: tuple[tuple[str, float], ...] = ()
+    calibrate: bool = False
 
     @property
     def where(self) -> str:
@@ -70,6 +75,8 @@ class Uncertainty:
         out.update(distribution=self.distribution, source=self.source)
         if self.scales:
             out["scales"] = dict(self.scales)
+        if self.calibrate:
+            out["calibrate"] = True
         return out
 
 
@@ -202,8 +209,11 @@ def parse_one(key: str, body, model, keys: dict | None = None) -> Uncertainty:
             raise InputError(w, "a key cannot follow itself")
         targets(model, k, w, keys)
         follow.append((k, validate.number(e, w, bounds=(-10.0, 10.0))))
+    calibrate = body.get("calibrate", False)
+    if not isinstance(calibrate, bool):
+        raise InputError(f"{where}.calibrate", f"expected true or false, got {calibrate!r}")
     return Uncertainty(key=key, distribution=dist, source=source.strip(), standard=std, relative=rel,
-                       scales=tuple(follow))
+                       scales=tuple(follow), calibrate=calibrate)
 
 
 def parse_uncertainties(table, model, inherited: tuple = ()) -> tuple[Uncertainty, ...]:

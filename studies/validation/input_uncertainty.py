@@ -14,11 +14,21 @@ the sweeps (:class:`studies.sweeps.design.runner.Cluster`), or in this process.
 u_input of an output is the standard deviation of its draws. How well the sample knows
 it is measured, not assumed: :data:`SCRAMBLES` independent scrambles of the Sobol sequence
 each give an estimate u_r, and the standard error of the pooled estimate is
-std(u_r) / sqrt(SCRAMBLES) (randomised QMC; Owen 1997). Each point starts with 16 points
-per scramble and doubles them (keeping the sequences balanced) until 2 x that standard
-error is within 10 % of u_input for every output, or 128 per scramble (1024 draws);
-``--quick``: 8 per scramble, once. The precision reached and the degrees of freedom it
-implies (GUM G.4.2: nu = (u / se)^2 / 2) are reported with every estimate.
+se = std(u_r) / sqrt(SCRAMBLES) (randomised QMC; Owen 1997). That standard error is the
+Monte Carlo's precision, reported beside u_input (``se``, ``precision`` = 2 se / u); it is
+not a degree of freedom: the declarations are Type B, their u_input has infinite degrees of
+freedom (GUM G.4.3). Two ways to size the sample:
+
+- adaptive (``valvelab pump --uncertainty``): 16 points per scramble, doubled (keeping the
+  sequences balanced) until 2 se is within 10 % of u_input for every output, or 128 per
+  scramble (1024 draws); ``--quick``: 8 per scramble, once;
+- a fixed budget (``per_scramble``, ``valvelab validate``): that many points per scramble at
+  once, so the total is known before the first draw.
+
+Points of one ``group`` (the runs of one rig) share their Sobol points: draw k is the same
+set of inputs at every point of the group, so the draws give the joint distribution of the
+group's outputs (differences between conditions, a calibration on some runs and a
+prediction of the others; :mod:`studies.validation.joint`).
 
 Contributors: a linear regression of the output on the standard scores of the same draws
 (first-order, linear variance decomposition): input j contributes |beta_j| sd(z_j), in the
@@ -63,6 +73,7 @@ class Point:
     revolutions: int = 2
     max_revolutions: int | None = 12
     circuit: str | None = None
+    group: str | None = None        # points of one group share their draws (the same inputs at draw k)
 
 
 @dataclass(frozen=True)
@@ -74,7 +85,7 @@ class InputUncertainty:
     u: float | None
     mean: float | None
     precision: float | None                 # 2 x standard error of u / u
-    dof: float | None                       # None: infinite
+    se: float | None                        # the Monte Carlo's standard error of u (output units)
     samples: int
     missing: int                            # draws where the output is undefined or the run failed
     contributors: tuple[tuple[str, float], ...]
@@ -176,7 +187,6 @@ def _estimate(state: _State, name: str, unit: str) -> InputUncertainty:
     per = [float(np.std(Y[S == r], ddof=1)) for r in range(SCRAMBLES) if np.sum(S == r) >= 2]
     se = float(np.std(per, ddof=1) / math.sqrt(len(per))) if len(per) >= 2 else math.inf
     precision = 0.0 if u == 0.0 else (2.0 * se / u if math.isfinite(se) else None)
-    dof = None if se == 0.0 or not math.isfinite(se) or u == 0.0 else 0.5 * (u / se) ** 2
     contributors, r2 = (), None
     if u > 0.0:
         X = np.column_stack([np.ones(len(Y)), Z])
@@ -188,55 +198,103 @@ def _estimate(state: _State, name: str, unit: str) -> InputUncertainty:
     note = ""
     if missing:
         note = f"{missing} of {n_all} draws without this output (a valve event missing or a failed run), left out"
-    return InputUncertainty(name, unit, u, float(Y.mean()), precision, dof, len(ys), missing, contributors, r2, note)
+    return InputUncertainty(name, unit, u, float(Y.mean()), precision, se if math.isfinite(se) else None, len(ys),
+                            missing, contributors, r2, note)
 
 
 def propagate(points, *, quick: bool = False, seed: int = 0, cluster=None, progress: bool = False,
-              outputs=tuple(OUTPUTS), draws: dict | None = None) -> dict[str, dict[str, InputUncertainty]]:
+              outputs=tuple(OUTPUTS), draws: dict | None = None,
+              per_scramble: int | None = None) -> dict[str, dict[str, InputUncertainty]]:
     """u_input of ``outputs`` at every :class:`Point` (see the module docstring); ``cluster``: a
-    :class:`studies.sweeps.design.runner.Cluster` (None: in this process). ``draws``: a dict that
-    receives {point: {output: array of its defined draws}} (the predictive distributions)."""
-    states = [_State(p, seed, i) for i, p in enumerate(points)]
+    :class:`studies.sweeps.design.runner.Cluster` (None: in this process). ``per_scramble``: a fixed
+    budget of that many points per scramble (a power of two), else the adaptive doubling. ``draws``: a
+    dict that receives {point: {"z": standard scores (n x d), "scramble": scramble of each draw (n),
+    "keys": the declarations' keys, output: its value at each draw (NaN where undefined)}}, the draws in
+    the same order at every point of a group."""
+    states = _states(points, seed)
+    first = per_scramble or 2**(QUICK_POWER if quick else FIRST_POWER)
     bar = None
     if progress:
         from tqdm import tqdm
-        per_point = SCRAMBLES * 2**(QUICK_POWER if quick else FIRST_POWER)
-        bar = tqdm(total=per_point * sum(not s.done for s in states), desc="input uncertainty", unit="draw",
-                   file=sys.stderr, smoothing=0.05)
-    n_next = 2**(QUICK_POWER if quick else FIRST_POWER)
+
+        # a fixed budget is the whole total; the adaptive one grows it when a point doubles
+        bar = tqdm(total=SCRAMBLES * first * sum(not s.done for s in states), desc="input uncertainty",
+                   unit="draw", file=sys.stderr, smoothing=0.05)
     while True:
         active = [s for s in states if not s.done]
         if not active:
             break
-        tasks = []
-        for s in active:
-            n = n_next if s.n == 0 else s.n          # doubling keeps each scramble's sequence balanced
-            # the new draws of every scramble together, cut into tasks: a draw's warm start is the state
-            # predicted from the draws solved before it in its task
-            flat = [(r, zz) for r, z in s.next_draws(n) for zz in z]
-            for k in range(0, len(flat), BATCH):
-                part = flat[k:k + BATCH]
-                tasks.append((s, [r for r, _ in part], [zz for _, zz in part]))
+        tasks = _tasks(active, first)
         if bar is not None and bar.n + sum(len(t[2]) for t in tasks) > bar.total:
             bar.total = bar.n + sum(len(t[2]) for t in tasks)
             bar.refresh()
         for (s, rs, _), rows in zip(tasks, _run(tasks, cluster, bar, outputs)):
             for r, row in zip(rs, rows):
                 s.y[r].append(row)
-        for s in active:
-            if quick or s.n >= 2**MAX_POWER:
-                s.done = True
-                continue
-            est = [_estimate(s, o, OUTPUTS[o]) for o in outputs]
-            s.done = all(e.precision is None or e.precision <= TARGET_PRECISION for e in est)
+        _settle(active, quick or per_scramble is not None, outputs)
     if bar is not None:
         bar.close()
     if draws is not None:
         for s in states:
-            ys = [y for r in range(SCRAMBLES) for y in s.y[r] if y is not None]
-            draws[s.point.name] = {o: np.array([y[o] for y in ys if y.get(o) is not None], dtype=float)
-                                   for o in outputs}
+            draws[s.point.name] = _aligned(s, outputs)
     return {s.point.name: {o: _estimate(s, o, OUTPUTS[o]) for o in outputs} for s in states}
+
+
+def _states(points, seed: int) -> list[_State]:
+    """One state per point; the points of a group draw from the same Sobol sequences (the group's first index)."""
+    first: dict = {}
+    states = []
+    for i, p in enumerate(points):
+        index = first.setdefault(p.group, i) if p.group is not None else i
+        states.append(_State(p, seed, index))
+        lead = states[index]
+        if p.group is not None and [d.key for d in lead.decls] != [d.key for d in states[-1].decls]:
+            raise ValueError(f"points of group {p.group!r} declare different uncertainties: they cannot share draws")
+    return states
+
+
+def _tasks(active, first: int) -> list[tuple]:
+    """The next draws of every active state, cut into tasks of at most BATCH draws: a draw's warm start is the
+    state predicted from the draws solved before it in its task."""
+    tasks = []
+    for s in active:
+        n = first if s.n == 0 else s.n          # doubling keeps each scramble's sequence balanced
+        flat = [(r, zz) for r, z in s.next_draws(n) for zz in z]
+        for k in range(0, len(flat), BATCH):
+            part = flat[k:k + BATCH]
+            tasks.append((s, [r for r, _ in part], [zz for _, zz in part]))
+    return tasks
+
+
+def _settle(active, once: bool, outputs) -> None:
+    """Mark the states whose estimate is precise enough (or that ran their one round) done; a group is done when
+    every point of it is, so its points keep drawing the same points."""
+    for s in active:
+        if once or s.n >= 2**MAX_POWER:
+            s.done = True
+            continue
+        est = [_estimate(s, o, OUTPUTS[o]) for o in outputs]
+        s.done = all(e.precision is None or e.precision <= TARGET_PRECISION for e in est)
+    groups: dict = {}
+    for s in active:
+        if s.point.group is not None:
+            groups.setdefault(s.point.group, []).append(s)
+    for members in groups.values():
+        done = all(s.done for s in members)
+        for s in members:
+            s.done = done
+
+
+def _aligned(state: _State, outputs) -> dict:
+    """The draws of a state in scramble order: standard scores, scramble ids and each output (NaN: undefined)."""
+    z = [z for r in range(SCRAMBLES) for z in state.z[r]]
+    y = [y for r in range(SCRAMBLES) for y in state.y[r]]
+    out = {"z": np.array(z, dtype=float).reshape(len(z), len(state.decls)),
+           "scramble": np.array([r for r in range(SCRAMBLES) for _ in state.z[r]], dtype=int),
+           "keys": tuple(d.key for d in state.decls)}
+    for o in outputs:
+        out[o] = np.array([np.nan if row is None or row.get(o) is None else row[o] for row in y], dtype=float)
+    return out
 
 
 def _run(tasks, cluster, bar, outputs) -> list[list]:

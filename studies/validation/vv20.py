@@ -38,7 +38,7 @@ COVERAGE = 0.9545
 K_DEFAULT = 2.0
 #: row keys of the CONTRACT, in order
 ROW_KEYS = ("case", "output", "S", "D", "E", "u_num", "u_input", "u_D", "u_val", "k", "U_val", "delta_model",
-            "verdict", "contributors")
+            "verdict", "contributors", "dof", "interval")
 
 
 def coverage_factor(dof: float, p: float = COVERAGE) -> float:
@@ -52,23 +52,28 @@ def coverage_factor(dof: float, p: float = COVERAGE) -> float:
 
 
 def vv20_row(case: str, output: str, unit: str, S: float, D: float, u_num: float, u_input: float, u_D: float,
-             dof=(math.inf, math.inf, math.inf), contributors=()) -> dict:
+             dof=(math.inf, math.inf, math.inf), contributors=(), coverage: tuple[float, str] | None = None,
+             u_input_se: float | None = None) -> dict:
     """One row of the table (CONTRACT keys, plus ``unit``, ``nu_eff``, ``words``), output units throughout.
 
-    ``dof``: degrees of freedom of u_num, u_input and u_D (None or inf for Type B estimates).
+    ``dof``: degrees of freedom of u_num, u_input and u_D (None or inf for Type B estimates). ``coverage``:
+    (k, "monte_carlo") from a Monte Carlo coverage interval (:func:`studies.validation.joint.interval`);
+    default k = t(nu_eff) ("welch"). ``u_input_se``: the Monte Carlo's standard error of u_input, a column
+    of its own (the precision of the estimate, not a degree of freedom).
     """
     comps = [float(u_num or 0.0), float(u_input or 0.0), float(u_D or 0.0)]
     dofs = [math.inf if d is None else float(d) for d in dof]
     E = float(S) - float(D)
     u_val = math.sqrt(sum(c * c for c in comps))
     nu = welch_satterthwaite(comps, dofs)
-    k = coverage_factor(nu)
+    k, how = (coverage_factor(nu), "welch") if coverage is None else (float(coverage[0]), coverage[1])
     U = k * u_val
     row = {"case": case, "output": output, "unit": unit, "S": float(S), "D": float(D), "E": E,
            "u_num": comps[0], "u_input": comps[1], "u_D": comps[2], "u_val": u_val, "k": k, "U_val": U,
            "delta_model": [E - U, E + U], "verdict": "within" if abs(E) <= U else "model_form_error",
            "contributors": [[str(a), float(b)] for a, b in contributors],
-           "nu_eff": None if math.isinf(nu) else nu}
+           "nu_eff": None if math.isinf(nu) else nu, "dof": None if math.isinf(nu) else nu, "interval": how,
+           "u_input_se": None if u_input_se is None else float(u_input_se)}
     row["words"] = verdict_words(row)
     return row
 
