@@ -270,33 +270,68 @@ def write_table(rows: list[dict], stem: Path, title: str, notes: list[str] = ())
     return Table(title, tuple(rows), tuple(notes)).write(stem)
 
 
+#: what a Table 5.6 geometry-chain column is (the summary's chain section says it once more)
+GEOMETRY_NOTE = ("modeled_cc_{fidelity}: the same runs with kappa, gammas and h_eff of the {fidelity} model of the "
+                 "prototype reed's geometry (the geometry chain, fast path) instead of Table 3.13's kappa identified "
+                 "from the plucked reed's measured frequency; reed_dynamics.md runs this reed too.")
+#: a valve position below this [m] is drawn and explained as the seat compressing
+SEAT_COMPRESSION_SHOWN = 1e-5
+
+
 def plot_case(case: dict, result: PumpResult, path: Path) -> Path:
-    """Valve positions (both valves, the measured one highlighted) and pressures over the traced revolutions."""
+    """Valve positions (both valves, the one the thesis measured in this run drawn thicker) and pressures over the
+    traced revolutions: the model's version of the thesis figure (the measured traces are not available as data).
+    Legends sit outside the axes; a valve below its seat (the disc delivery valve's O-ring, section 5.4.5) is shaded
+    and labelled."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     tr = result.trace
     t_ms = tr.time * 1e3
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True, constrained_layout=True)
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10.0, 6.4), sharex=True, constrained_layout=True)
     meas = case["measured_valve"]
     for name, pos, color in (("inlet", tr.inlet_position, "tab:blue"), ("delivery", tr.delivery_position, "tab:red")):
         ax1.plot(t_ms, pos * 1e3, color=color, lw=2.0 if name == meas else 0.8,
-                 label=f"{name} valve" + (" (measured in the thesis)" if name == meas else ""))
+                 label=_wrap(f"{name} valve, model" + (": the valve whose position the thesis measured in this run"
+                                                       if name == meas else "")))
+    _seat_compression(ax1, tr, case)
     ax1.set_ylabel("valve position [mm]")
     ax1.axhline(0.0, color="k", lw=0.5)
-    ax1.legend(loc="upper right", fontsize=8)
+    ax1.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=8)
     fig_no = FIGURES.get((case["valve"], meas, case["condition"]), "")
-    ax1.set_title(f"{case['valve']} valves, {case['condition'].replace('_', ' ')}: {case['speed_rpm']:.0f} rpm, "
-                  f"{case['load_pressure'] / 1e6:.2f} MPa (model version of thesis Figure {fig_no})", fontsize=9)
-    ax2.plot(t_ms, tr.cylinder_pressure / 1e6, color="k", lw=1.0, label="cylinder")
-    ax2.plot(t_ms, tr.load_pressure / 1e6, color="tab:gray", lw=1.0, ls="--", label="load")
+    fig.suptitle(f"{case['valve']} valves, {case['condition'].replace('_', ' ')}: {case['speed_rpm']:.0f} rpm, "
+                 f"{case['load_pressure'] / 1e6:.2f} MPa\nthe model's version of thesis Figure {fig_no} (the measured "
+                 "traces are not available as data: only the model is drawn)", fontsize=9)
+    ax2.plot(t_ms, tr.cylinder_pressure / 1e6, color="k", lw=1.0, label="cylinder pressure, model")
+    ax2.plot(t_ms, tr.load_pressure / 1e6, color="tab:gray", lw=1.0, ls="--",
+             label=_wrap("load pressure, constant (the simplified circuit, section 4.2.2)"))
     ax2.set_ylabel("pressure [MPa]")
     ax2.set_xlabel("time from top dead centre [ms]")
-    ax2.legend(loc="upper right", fontsize=8)
+    ax2.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=8)
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return path
+
+
+def _seat_compression(ax, tr, case: dict) -> None:
+    """Shade and label where a valve sits below its seat: the compliant seat compressing (for the disc delivery
+    valve its housing's O-ring, section 5.4.5, modelled by the seat stiffness of section 2.4.3.2)."""
+    for name, pos in (("delivery", tr.delivery_position), ("inlet", tr.inlet_position)):
+        low = float(pos.min())
+        if low > -SEAT_COMPRESSION_SHOWN:
+            continue
+        why = ("its housing's O-ring compressing (not fully seated, section 5.4.5)" if case["valve"] == "disc"
+               and name == "delivery" else "the seat's compliance")
+        ax.axhspan(low * 1e3, 0.0, color="tab:orange", alpha=0.15,
+                   label=_wrap(f"{name} valve below its seat, down to {low * 1e3:.2f} mm: {why}"))
+
+
+def _wrap(text: str, width: int = 38) -> str:
+    """A legend label in lines of at most ``width`` characters (the legends sit beside the axes)."""
+    import textwrap
+
+    return "\n".join(textwrap.wrap(text, width))
 
 
 def error_summary(rows: list[dict]) -> dict:

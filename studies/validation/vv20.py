@@ -148,7 +148,7 @@ class ValidationTable:
         for r in self.rows:
             d = {k: r[k] for k in ROW_KEYS if k not in ("delta_model", "contributors")}
             d.update(unit=r.get("unit"), delta_model_low=r["delta_model"][0], delta_model_high=r["delta_model"][1],
-                     nu_eff=r.get("nu_eff"),
+                     nu_eff=r.get("nu_eff"), u_input_se=r.get("u_input_se"), detectable_pct=r.get("detectable_pct"),
                      contributors="; ".join(f"{a} {b:.3g}" for a, b in r["contributors"]))
             recs.append(d)
         return pd.DataFrame(recs)
@@ -160,14 +160,20 @@ class ValidationTable:
     def to_markdown(self) -> str:
         """A Markdown table with the verdict in words, the area metric and the notes."""
         lines = [f"# {self.title}", "",
-                 "| case | output | S | D | E | u_num | u_input | u_D | u_val | k | U_val | verdict | largest input contributors |",
-                 "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+                 "| case | output [unit] | S | D | E | u_num | u_input | se(u_input) | u_D | u_val | dof | k (interval) | "
+                 "U_val | verdict | detectable (80 %) | largest input contributors |",
+                 "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for r in self.rows:
             unit = r.get("unit") or "-"
-            contrib = ", ".join(f"{a} ({b:.2g})" for a, b in r["contributors"]) or "-"
+            contrib = ", ".join(f"{a} ({b:.2g} {unit})" for a, b in r["contributors"]) or "-"
+            se = r.get("u_input_se")
+            det = r.get("detectable_pct")
+            dof = r.get("dof")
             lines.append(f"| {r['case']} | {r['output']} [{unit}] | {r['S']:.6g} | {r['D']:.6g} | {r['E']:+.4g} | "
-                         f"{r['u_num']:.2g} | {r['u_input']:.3g} | {r['u_D']:.3g} | {r['u_val']:.3g} | {r['k']:.3g} | "
-                         f"{r['U_val']:.3g} | {r['words']} | {contrib} |")
+                         f"{r['u_num']:.2g} | {r['u_input']:.3g} | {'-' if se is None else f'{se:.2g}'} | "
+                         f"{r['u_D']:.3g} | {r['u_val']:.3g} | {'inf' if dof is None else f'{dof:.3g}'} | "
+                         f"{r['k']:.3g} ({r.get('interval', 'welch')}) | {r['U_val']:.3g} | {r['words']} | "
+                         f"{'-' if det is None else f'{det:.3g} %'} | {contrib} |")
         if self.area_metric:
             lines += ["", "Area validation metric (u-pooling over the cases of each valve kind): "
                       + ", ".join(f"{k} {v:.4g}" for k, v in self.area_metric.items() if v is not None) + "."]
@@ -199,7 +205,7 @@ class ValidationTable:
         import matplotlib.pyplot as plt
 
         outputs = list(dict.fromkeys(r["output"] for r in self.rows))
-        fig, axes = plt.subplots(len(outputs), 1, figsize=(8.5, 1.2 + 2.6 * len(outputs)), squeeze=False)
+        fig, axes = plt.subplots(len(outputs), 1, figsize=(10.5, 1.2 + 2.6 * len(outputs)), squeeze=False)
         for ax, out in zip(axes[:, 0], outputs):
             rows = [r for r in self.rows if r["output"] == out]
             scale = [100.0 / abs(r["D"]) if relative and r["D"] else 1.0 for r in rows]
@@ -218,9 +224,9 @@ class ValidationTable:
             ax.set_ylabel("case [-]")
             unit = "% of D" if relative else (rows[0].get("unit") or "-")
             ax.set_xlabel(f"E = S - D of {out} with +-U_val [{unit}]")
-            ax.legend(fontsize=7, loc="best")
+            ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
         fig.suptitle(self.title, fontsize=9)
-        fig.tight_layout()
+        fig.set_layout_engine("constrained")
         fig.savefig(path, dpi=120)
         plt.close(fig)
         return Path(path)
@@ -234,84 +240,6 @@ class ValidationTable:
 #: measured with
 LADDER = dict(revolutions=5, max_revolutions=12)
 LADDER_QUICK = dict(revolutions=3, max_revolutions=3)
-
-
-def pump_validation(selected, results, *, quick: bool = False, cluster=None, progress: bool = False,
-                    seed: int = 0) -> tuple[ValidationTable, dict]:
-    """The V&V 20 table of the thesis's pump cases (Tables 5.4, 5.6) and the prediction uncertainty of every output.
-
-    ``results``: the cases' reference-stepper runs (S). u_num: the tolerance ladder of each
-    case (:mod:`studies.validation.numerical`); u_input: the thesis models' declarations by
-    Monte Carlo (:mod:`studies.validation.input_uncertainty`); u_D: the paired runs and the
-    flow meter (:mod:`studies.validation.measurement`). Returns the table and ``{"predictions":
-    {case: {output: {S, unit, u_num, u_input, ...}}}, "measurement": {case: u_D budget},
-    "area_metric_detail", "draws", "worst_precision"}``.
-    """
-    import sys
-
-    from lumped.model.model_file import with_values
-    from studies.validation.chain import FULL, QUICK, case_name, thesis_model_of
-    from studies.validation.input_uncertainty import Point, propagate
-    from studies.validation.measurement import delivery_uncertainty
-    from studies.validation.numerical import OUTPUTS, numerical_uncertainty, output_values
-
-    st = QUICK if quick else FULL
-    names = [case_name(c) for c in selected]
-    S = {n: output_values(r) for n, r in zip(names, results)}
-    models = {n: with_values(thesis_model_of(c), {"oil.air_content": c["air_content"]}) for n, c in zip(names, selected)}
-    unum = {}
-    for n, c in zip(names, selected):
-        if progress:
-            print(f"  numerical uncertainty (tolerance ladder): {n}", file=sys.stderr, flush=True)
-        unum[n] = numerical_uncertainty(models[n], c["speed_rpm"], c["load_pressure"], reported=S[n], quick=quick,
-                                        **(LADDER_QUICK if quick else LADDER))
-    # the draws run until cyclic steady state (two revolutions at least), each from its neighbours' state
-    points = [Point(n, models[n], c["speed_rpm"], c["load_pressure"], 2, st["max_revolutions"])
-              for n, c in zip(names, selected)]
-    draws: dict = {}
-    uin = propagate(points, quick=quick, cluster=cluster, progress=progress, seed=seed, draws=draws)
-    uD = delivery_uncertainty(selected, {n: S[n]["delivery_cc_per_rev"] for n in names})
-    out = "delivery_cc_per_rev"
-    rows = []
-    for n, c in zip(names, selected):
-        num, inp, mea = unum[n][out], uin[n][out], uD[n]
-        rows.append(vv20_row(n, out, OUTPUTS[out], S[n][out], c["measured_delivery"] * 1e6, num.u, inp.u, mea.u,
-                             dof=(math.inf, inp.dof, mea.dof), contributors=inp.contributors))
-    area, detail = {}, {}
-    for valve in ("disc", "reed"):
-        idx = [i for i, c in enumerate(selected) if c["valve"] == valve]
-        if not idx:
-            area[valve] = None
-            continue
-        pool = u_pooling([draws[names[i]][out] for i in idx], [selected[i]["measured_delivery"] * 1e6 for i in idx])
-        area[valve] = pool["area"]
-        detail[valve] = {"output": out, "unit": OUTPUTS[out], "area_u": pool["area_u"], "u_values": pool["u_values"],
-                         "cases": [names[i] for i in idx]}
-    predictions = {}
-    for n in names:
-        predictions[n] = {o: {"S": S[n][o], "unit": OUTPUTS[o], "u_num": unum[n][o].u, "U_num": unum[n][o].U,
-                              "u_num_note": unum[n][o].note, "u_input": uin[n][o].u,
-                              "u_input_precision": uin[n][o].precision,
-                              "contributors": [list(x) for x in uin[n][o].contributors]} for o in OUTPUTS}
-    worst = [e.precision for r in uin.values() for e in r.values() if e.precision is not None]
-    mode = "quick: a two-level tolerance ladder (Fs = 3) and 64 draws per case, cheaper and coarser" if quick else \
-        "tolerance ladder rtol 1e-3/1e-4/1e-5 (GCI, Fs = 1.25) and draws until u_input is known within 10 %"
-    notes = [
-        "E = S - D: S the model (reference stepper, cyclic steady state), D the measured delivery (Tables 5.4, 5.6).",
-        "u_num: tolerance ladder of the fast stepper, GCI-style band / 1.15 (ASME V&V 20 section 2-4).",
-        "u_input: the thesis models' declared input uncertainties ([uncertainty] in lumped/data/models/*.toml) "
-        "by Monte Carlo on scrambled Sobol points; contributors by linear regression on the same draws.",
-        "u_D: Type A from the paired inlet- and delivery-measured runs at each condition (s^2 = sum d^2 / (2 n), "
-        "n = 3 dof) and an assumed +-0.5 % gear flow meter (Type B); k from Welch-Satterthwaite (95.45 %).",
-        f"settings: {mode}.",
-    ]
-    table = ValidationTable("Validation of the pump model against the measured deliveries (ASME V&V 20)",
-                            tuple(rows), tuple(notes), area)
-    extra = {"predictions": predictions, "measurement": {n: uD[n].as_dict() for n in names},
-             "area_metric_detail": detail,
-             "draws": {n: int(max(e.samples + e.missing for e in uin[n].values())) for n in names},
-             "worst_precision": max(worst) if worst else None, "mode": mode}
-    return table, extra
 
 
 # --------------------------------------------------------------------------- the reed parameters
