@@ -2,6 +2,7 @@
 
 import csv
 import json
+import re
 
 import pytest
 
@@ -85,8 +86,22 @@ def test_validate_quick_writes_tables_plots_and_summary(cli, tmp_path):
         assert float(r["modeled_cc"]) == pytest.approx(float(r["thesis_modeled_cc"]), rel=0.01)
     s = json.loads((out / "summary.json").read_text())
     assert s["tables"]["5.4"]["max_abs_diff_from_thesis_model_pct"] < 1.0
-    assert "step 2/4" in err and "step 4/4" in err                            # progress on stderr
+    assert re.search(r"step 2/\d+: the pump cases", err) and "summary" in err      # progress on stderr
     assert obj["steps"]["pump_cases"]["cases"] == 6
+    # the files it says it wrote are the files the folder holds, and the count printed is theirs
+    from studies.cli.validate import render
+
+    assert obj["files"] == sorted(p.name for p in out.iterdir() if p.name != ".valvelab-output")
+    assert f"  {len(obj['files'])} files," in render(obj)
+    # calibration and validation kept apart (CONTRACT "Validation that can fail")
+    cal = [e for e in obj["calibration"] if e["parameter"] == "oil.air_content"]
+    assert len(cal) == 1 and cal[0]["rig"] == "disc" and cal[0]["u"] > 0
+    assert cal[0]["runs"] == ["disc_inlet_baseline", "disc_delivery_baseline"]
+    assert sorted(r["case"] for r in obj["prediction"]) == sorted(cal[0]["predicted_runs"])
+    assert len(obj["differences"]) == 4 and all("-" in r["case"] for r in obj["differences"])
+    assert set(obj["detectable_error"]) == {"disc"} and {"case", "rig"} <= set(obj["detectable_error"]["disc"])
+    for r in obj["validation"] + obj["prediction"] + obj["differences"]:
+        assert r["interval"] in ("welch", "monte_carlo") and "dof" in r
     # the V&V 20 table (CONTRACT keys), cheaper with --quick and saying so
     assert len(obj["validation"]) == 6 and obj["reed_validation"] == []
     keys = {"case", "output", "S", "D", "E", "u_num", "u_input", "u_D", "u_val", "k", "U_val", "delta_model",

@@ -114,9 +114,24 @@ def test_validate_full_run(cli, tmp_path):
     assert obj["steps"]["reed_parameters"]["selected"]["fidelity"] == "analytic"
     assert len(obj["validation"]) == 12 and len(obj["reed_validation"]) == 15
     assert set(obj["area_metric"]) == {"disc", "reed"} and not obj["uncertainty"]["quick"]
-    assert obj["uncertainty"]["worst_u_input_precision"] <= 0.10
+    for case, pred in obj["uncertainty"]["predictions"].items():      # 512 joint draws know u_input of the delivery
+        assert pred["delivery_cc_per_rev"]["u_input_precision"] <= 0.10, case
     for r in obj["validation"]:
         assert r["u_num"] < 0.01 * r["u_input"]                   # the integrator is not what limits
+        assert r["interval"] == "monte_carlo"                     # the air content's uniform dominates every run
+    # calibration and validation kept apart: the air content per rig on its baseline runs, the reed's f1, f2 flagged
+    cal = {(e["parameter"], e["rig"]): e for e in obj["calibration"]}
+    for rig in ("disc", "reed"):
+        e = cal[("oil.air_content", rig)]
+        assert e["within_prior"] and 0 < e["u"] < e["prior_u"] and len(e["runs"]) == 2
+    assert not cal[("valves.flow.f1", "reed")]["validated"] and cal[("valves.flow.f2", "reed")]["u"] is None
+    assert len(obj["prediction"]) == 8 and len(obj["differences"]) == 8 and len(obj["rig_tests"]) == 4
+    for rig, d in obj["detectable_error"].items():                    # calibrating makes the comparison sharper
+        assert d["rig"] < d["case"] < d["uncalibrated_case"], (rig, d)
+    assert obj["repeatability"]["pooled"] and obj["repeatability"]["dof"] == 5
+    # one chain: reed_dynamics.md's one-mode reed is the geometry chain's, Table 5.6's analytic column
+    geo = next(c for c in obj["chain"] if "one_mode_delivery_cc" in c)
+    assert geo["one_mode_delivery_cc"] == pytest.approx(geo["geometry_chain_delivery_cc"], rel=1e-4)
     # the E-B model against the beam FE (same theory) is within its uncertainty; against the solid it is not
     by = {(r["case"], r["output"]): r for r in obj["reed_validation"]}
     assert by[("prototype/beam", "kappa")]["verdict"] == "within"

@@ -18,6 +18,17 @@ U_val = k sqrt(u_num^2 + u_input^2 + u_D^2) (:func:`studies.validation.vv20.vv20
   position: ``position_uncertainty_rel`` (default the LTS's 1.12 %, section 5.3) of the reading and the
   noise of the samples the value averages.
 
+The same procedure as ``valvelab validate`` (studies.validation.joint): the declarations are
+Type B (infinite degrees of freedom; k from Welch-Satterthwaite with the repeated runs' dof),
+and where one uniform declaration carries more than half of u_val^2 the interval is the
+95.45 % Monte Carlo coverage interval of the linear model sum_k dS_k z_k (z_k drawn from each
+declaration's distribution, ``distributions``) with the measurement and the numerics
+(``interval``: "welch" or "monte_carlo"). Each row states the smallest model-form error it
+detects with 80 % probability (``detectable``, in its unit; ``detectable_pct`` of the delivery),
+and :func:`joint_tests` judges one error common to every run of an output, with the runs'
+correlation through their shared inputs (generalised least squares, Sigma_ij = sum_k dS_ik dS_jk
+plus each run's own u_D and u_num).
+
 An output with |E| > U_val is a model-form error beyond what the numerics, the inputs and the
 measurement allow: the disagreements the workflow starts from, and, left after the search, a
 gap it must not be silent about (:func:`beyond`).
@@ -122,14 +133,17 @@ def difference(a, b, output: str) -> float | None:
     return float(wrap_deg(a - b)) if output.endswith("_deg") else float(a - b)
 
 
-def rows(run_name: str, base: dict, fine: dict | None, perturbed: list[tuple[str, dict]], u_d: dict) -> list[dict]:
+def rows(run_name: str, base: dict, fine: dict | None, perturbed: list[tuple[str, dict]], u_d: dict,
+         distributions: dict | None = None, seed: int = 0) -> list[dict]:
     """The V&V 20 rows of one run: ``base`` the baseline's outputs (with "measured"), ``fine`` the same at the
-    truth tolerance (None: no u_num), ``perturbed`` [(declaration key, outputs)] one per declared uncertainty."""
+    truth tolerance (None: no u_num), ``perturbed`` [(declaration key, outputs)] one per declared uncertainty,
+    each moved by one standard uncertainty; ``distributions`` {key: "normal" or "uniform"} of the declarations
+    (None or a key missing: normal)."""
     from studies.validation.numerical import estimate
-    from studies.validation.vv20 import vv20_row
 
     out = []
     meas = base["measured"]
+    rng = np.random.default_rng(seed)
     for name, d in meas.items():
         s = base.get(name)
         if s is None or d is None:
@@ -141,21 +155,95 @@ def rows(run_name: str, base: dict, fine: dict | None, perturbed: list[tuple[str
             diff = difference(fine[name], s, name)
             est = estimate(name, unit, (1e-6, 1e-4), [s + diff, s], s, "fit tolerance")
             u_num, note = (est.u or 0.0), est.note
-        contrib = []
+        sens = {}
         for key, o in perturbed:
             ds = difference(o.get(name), s, name)
             if ds is not None:
-                contrib.append((key, abs(ds)))
-        u_input = math.sqrt(sum(c * c for _, c in contrib))
-        contrib.sort(key=lambda kv: -kv[1])
+                sens[key] = ds
         ud, dof, src = u_d.get(name, (0.0, math.inf, "none"))
-        E = difference(s, d, name)
-        row = vv20_row(run_name, name, unit, d + E, d, u_num, u_input, ud, dof=(math.inf, math.inf, dof),
-                       contributors=contrib[:3])
-        row["run"] = run_name
-        row["u_num_note"] = note
-        row["u_D_source"] = src
+        row = _row(run_name, name, unit, s, d, u_num, sens, (ud, dof), distributions or {}, rng)
+        row.update(run=run_name, u_num_note=note, u_D_source=src, sensitivities=sens)
         out.append(row)
+    return out
+
+
+def _row(run_name, name, unit, s, d, u_num, sens, u_d, distributions, rng) -> dict:
+    """One row by the procedure of studies.validation.joint: the budget, the interval, the detectable error."""
+    from studies.validation import joint
+    from studies.validation.vv20 import vv20_row
+
+    contrib = sorted(((k, abs(v)) for k, v in sens.items()), key=lambda kv: -kv[1])
+    u_input = math.sqrt(sum(c * c for _, c in contrib))
+    ud, dof = u_d
+    uniform = [(k, v * v) for k, v in contrib if distributions.get(k) == "uniform"]
+    u_val2 = u_num**2 + u_input**2 + ud**2
+    top = max(uniform, key=lambda kv: kv[1], default=(None, 0.0))
+    dominant = top[0] if u_val2 > 0.0 and top[1] > joint.DOMINANT_SHARE * u_val2 else None
+    b = joint.Budget(u_num, u_input, None, ud, 0.0, dof, tuple(contrib), None, dominant)
+    samples = linear_samples(sens, distributions, b, rng)
+    k, how = joint.interval(b, samples)
+    E = difference(s, d, name)
+    row = vv20_row(run_name, name, unit, d + E, d, u_num, u_input, ud, dof=(math.inf, math.inf, dof),
+                   contributors=contrib[:3], coverage=(k, how))
+    det = joint.detectable(samples, row["U_val"], 1.0) if u_val2 > 0.0 else None
+    row["detectable"] = det
+    row["detectable_pct"] = (det / abs(d) * 100.0 if det is not None and d else None) if unit == "cc/rev" else None
+    return row
+
+
+def linear_samples(sens: dict, distributions: dict, b, rng, n: int = 20_000) -> np.ndarray:
+    """Draws of the comparison's error when the model is right, from the first-order model: sum_k dS_k z_k (z_k of
+    each declaration's distribution, unit variance), the measurement (s t_nu for a Type A u_D) and the numerics."""
+    x = np.zeros(n)
+    for key, ds in sens.items():
+        if distributions.get(key) == "uniform":
+            x += ds * math.sqrt(3.0) * rng.uniform(-1.0, 1.0, n)
+        else:
+            x += ds * rng.standard_normal(n)
+    t = rng.standard_t(b.repeat_dof, n) if math.isfinite(b.repeat_dof) else rng.standard_normal(n)
+    return x + b.u_repeat * t + b.u_num * rng.standard_normal(n)
+
+
+def _own_variance(row: dict) -> float:
+    """A run's own variance (measurement and numerics); a row without its budget: (U_val / 2)^2."""
+    if "u_D" in row:
+        return row["u_D"] ** 2 + row.get("u_num", 0.0) ** 2
+    return (row["U_val"] / 2.0) ** 2
+
+
+def joint_tests(rows_: list[dict]) -> list[dict]:
+    """Per output measured in two or more runs: one model-form error common to them, estimated by generalised
+    least squares with their correlation (the shared inputs' sensitivities), its U_val (k from the smallest dof of
+    the runs' u_D, else 2) and verdict, and the chi-square of the runs against their covariance (any pattern)."""
+    from scipy.stats import chi2
+
+    from studies.validation.vv20 import coverage_factor
+
+    groups: dict = {}
+    for r in rows_:
+        groups.setdefault(r["output"], []).append(r)
+    out = []
+    for name, rs in groups.items():
+        if len(rs) < 2:
+            continue
+        keys = sorted({k for r in rs for k in r.get("sensitivities", {})})
+        A = np.array([[r.get("sensitivities", {}).get(k, 0.0) for k in keys] for r in rs]).reshape(len(rs), len(keys))
+        V = A @ A.T + np.diag([_own_variance(r) for r in rs])
+        E = np.array([r["E"] for r in rs])
+        one = np.ones(len(rs))
+        try:
+            w = np.linalg.solve(V, one)
+        except np.linalg.LinAlgError:           # no uncertainty at all: nothing to judge against
+            continue
+        u = math.sqrt(1.0 / float(one @ w))
+        est = float(w @ E) * u * u
+        dofs = [r.get("dof") for r in rs if r.get("dof") is not None]
+        U = coverage_factor(min(dofs) if dofs else math.inf) * u
+        x2 = float(E @ np.linalg.solve(V, E))
+        out.append({"output": name, "unit": rs[0]["unit"], "runs": [r["run"] for r in rs], "E": est, "u_val": u,
+                    "U_val": U, "delta_model": [est - U, est + U],
+                    "verdict": "within" if abs(est) <= U else "model_form_error",
+                    "chi2": x2, "chi2_dof": len(rs), "chi2_p": float(chi2.sf(x2, len(rs)))})
     return out
 
 
@@ -193,8 +281,10 @@ def _floor(row: dict) -> float:
 
 def beyond(rows_: list[dict]) -> list[dict]:
     """Outputs beyond their validation uncertainty, and beyond the gap's tolerance (FLOOR), in at least half of
-    the runs that measure them (and two): ``[{"output", "unit", "runs", "of", "E": [...], "U_val": [...]}]``,
-    the largest |E| / U_val first. One run in twenty beyond U_val is the coverage (k = 2) and not a finding."""
+    the runs that measure them (and two): ``[{"output", "unit", "runs", "of", "E": [...], "U_val": [...],
+    "joint": ...}]``, the largest |E| / U_val first, each with the output's :func:`joint_tests` entry. One run in
+    twenty beyond U_val is the coverage (k = 2) and not a finding."""
+    joint = {j["output"]: j for j in joint_tests(rows_)}
     groups: dict = {}
     for r in rows_:
         groups.setdefault(r["output"], []).append(r)
@@ -204,7 +294,8 @@ def beyond(rows_: list[dict]) -> list[dict]:
         if len(bad) >= max(2, math.ceil(len(rs) / 2)):
             out.append({"output": name, "unit": rs[0]["unit"], "runs": [r["run"] for r in bad], "of": len(rs),
                         "E": [r["E"] for r in bad], "U_val": [r["U_val"] for r in bad],
-                        "ratio": max(abs(r["E"]) / r["U_val"] if r["U_val"] > 0 else math.inf for r in bad)})
+                        "ratio": max(abs(r["E"]) / r["U_val"] if r["U_val"] > 0 else math.inf for r in bad),
+                        "joint": joint.get(name)})
     return sorted(out, key=lambda b: -b["ratio"])
 
 

@@ -279,6 +279,16 @@ SEAT_COMPRESSION_SHOWN = 1e-5
 
 
 def plot_case(case: dict, result: PumpResult, path: Path) -> Path:
+    """:func:`case_figure` saved to ``path`` (PNG)."""
+    import matplotlib.pyplot as plt
+
+    fig = case_figure(case, result)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def case_figure(case: dict, result: PumpResult):
     """Valve positions (both valves, the one the thesis measured in this run drawn thicker) and pressures over the
     traced revolutions: the model's version of the thesis figure (the measured traces are not available as data).
     Legends sit outside the axes; a valve below its seat (the disc delivery valve's O-ring, section 5.4.5) is shaded
@@ -309,9 +319,7 @@ def plot_case(case: dict, result: PumpResult, path: Path) -> Path:
     ax2.set_ylabel("pressure [MPa]")
     ax2.set_xlabel("time from top dead centre [ms]")
     ax2.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=8)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return fig
 
 
 def _seat_compression(ax, tr, case: dict) -> None:

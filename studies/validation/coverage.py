@@ -18,7 +18,8 @@ the calibrated prediction linear, as the benchmark cannot re-run the fast path p
 95.45 %). ``power``: the fraction detected per kind when delta is injected into every run
 outside the calibration condition (``held_out``: what the predictions and the calibrated rig
 test judge) or into every run (``common``: what only the uncalibrated tests can see; a
-calibration absorbs it into the air content).
+calibration absorbs it into the air content); a run's own comparisons (``validation``,
+``prediction``) are counted on the runs that carry the error.
 """
 
 from __future__ import annotations
@@ -87,6 +88,12 @@ def _split(rig) -> tuple[np.ndarray, np.ndarray]:
     return np.flatnonzero(truth), np.flatnonzero(~truth)
 
 
+def _injected(case: str, valve: str, pattern: str) -> bool:
+    """Whether a run carries the injected model-form error: every run (``common``) or every run outside the
+    calibration condition (``held_out``)."""
+    return pattern == "common" or procedure.parts(case)[2] != procedure.CALIBRATION_CONDITION[valve]
+
+
 def synthetic_measurements(bench: Bench, rng, delta: float, pattern: str) -> dict:
     """{case: synthetic measured delivery} of one draw: the truths from the truth draws, delta injected (see the
     module docstring), the repeatability and the common meter."""
@@ -99,8 +106,7 @@ def synthetic_measurements(bench: Bench, rng, delta: float, pattern: str) -> dic
         k = truths[rng.integers(0, len(truths))]
         for i, n in enumerate(rig.cases):
             T = bench.S[n] + rig.draws[k, i] - bench.nominal[n]
-            cond = procedure.parts(n)[2]
-            if pattern == "common" or cond != procedure.CALIBRATION_CONDITION[valve]:
+            if _injected(n, valve, pattern):
                 T /= 1.0 + delta              # the model is (1 + delta) times the truth
             D[n] = T * (1.0 + bench.sigma * rng.standard_normal()) * meter
     return D
@@ -123,8 +129,10 @@ def one_draw(bench: Bench, rng, delta: float = 0.0, pattern: str = "held_out") -
         syn_rig = replace(rig, D=np.array([D[n] for n in rig.cases]), draws=rig.draws[pick], scores=rig.scores[pick],
                           scramble=rig.scramble[pick], repeat_rel=s, repeat_dof=float(nu))
         part = procedure.analyse(syn_rig, rng, opts)
-        for kind in ("validation", "prediction", "differences"):
-            out[kind] += [r["verdict"] != "within" for r in part[kind]]
+        hit = {n for n in rig.cases if _injected(n, valve, pattern)} if delta else set(rig.cases)
+        for kind in ("validation", "prediction"):              # with an error: the runs that carry it
+            out[kind] += [r["verdict"] != "within" for r in part[kind] if r["case"] in hit]
+        out["differences"] += [r["verdict"] != "within" for r in part["differences"]]
         for t in part["rig_tests"]:
             kind = "rig_calibrated" if t["calibrated"] else "rig_nominal"
             out[kind].append(t["verdict"] != "within")

@@ -22,7 +22,17 @@ def _rel(r: dict) -> tuple[float, float]:
 
 
 def plot_comparisons(extra: dict, validation_rows, path) -> Path:
-    """validation.png (see the module docstring)."""
+    """validation.png: :func:`comparison_figure` saved."""
+    import matplotlib.pyplot as plt
+
+    fig = comparison_figure(extra, validation_rows)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return Path(path)
+
+
+def comparison_figure(extra: dict, validation_rows):
+    """E with U_val per case and rig (see the module docstring)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -58,9 +68,7 @@ def plot_comparisons(extra: dict, validation_rows, path) -> Path:
     _legend(axes[0, 0])
     fig.suptitle("Delivery: each run at the nominal inputs and, calibrated on the baseline runs, the others "
                  "predicted (ASME V&V 20)", fontsize=9)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return Path(path)
+    return fig
 
 
 def _filled(ax, r: dict, y: float) -> None:

@@ -185,8 +185,8 @@ def interval(b: Budget, samples: np.ndarray | None) -> tuple[float, str]:
 
 
 def detectable(samples: np.ndarray, U: float, response: float, power: float = POWER) -> float | None:
-    """The smallest relative model-form error delta with P(|response delta + X| > U) >= ``power``, X the samples
-    of the error when the model is right (None when no delta up to 100 % reaches it)."""
+    """The smallest model-form error delta with P(|response delta + X| > U) >= ``power``, X the samples of the
+    error when the model is right (in the units response delta is in; None for a comparison blind to it)."""
     from scipy.optimize import brentq
 
     if response == 0.0:
@@ -194,12 +194,13 @@ def detectable(samples: np.ndarray, U: float, response: float, power: float = PO
     x = np.sort(samples)
 
     def p(delta):
-        shift = response * delta
+        shift = abs(response) * delta
         return (np.searchsorted(x, -U - shift) + len(x) - np.searchsorted(x, U - shift, side="right")) / len(x) - power
 
-    if p(1.0) < 0.0:
-        return None
-    return float(brentq(p, 0.0, 1.0, xtol=1e-6)) if p(0.0) < 0.0 else 0.0
+    if p(0.0) >= 0.0:
+        return 0.0
+    hi = (U + float(np.max(np.abs(x)))) / abs(response)       # every sample beyond U there: p = 1 - power > 0
+    return float(brentq(p, 0.0, hi, xtol=1e-9 * hi))
 
 
 # --------------------------------------------------------------------------- calibration
