@@ -107,3 +107,28 @@ def test_every_model_form_variant_changes_what_it_says(name):
         "sensor": lambda: changed == plain and noise["vibration_m"] > 0,
     }
     assert checks[name]()
+
+
+def test_rows_follow_the_validation_procedure_and_runs_are_judged_together():
+    """A uniform declaration carrying most of u_val^2 gets the Monte Carlo interval (k below 2: a rectangle's 95.45 %
+    is 1.65 standard deviations); each row states its detectable error. Two runs sharing the air content's
+    sensitivity 0.05 with u_D 0.02 each: covariance [[a, b], [b, a]], a = 0.0029, b = 0.0025; the common error by
+    generalised least squares is their mean (0.08) with u^2 = (a + b) / 2 = 0.0027, and chi^2 = (a (E1^2 + E2^2)
+    - 2 b E1 E2) / (a^2 - b^2) = 4.3704 (p = exp(-chi^2 / 2) for 2 dof)."""
+    base1 = {"delivery_cc_per_rev": 1.80, "measured": {"delivery_cc_per_rev": 1.70}}
+    base2 = {"delivery_cc_per_rev": 1.76, "measured": {"delivery_cc_per_rev": 1.70}}
+    u_d = {"delivery_cc_per_rev": (0.02, math.inf, "stated")}
+    dist = {"oil.air_content": "uniform"}
+    r1 = val.rows("r1", base1, None, [("oil.air_content", {"delivery_cc_per_rev": 1.85})], u_d, dist)[0]
+    r2 = val.rows("r2", base2, None, [("oil.air_content", {"delivery_cc_per_rev": 1.81})], u_d, dist)[0]
+    assert r1["interval"] == "monte_carlo" and 1.6 < r1["k"] < 2.0 and r1["dof"] is None
+    assert r1["detectable"] > r1["U_val"] and r1["detectable_pct"] == pytest.approx(r1["detectable"] / 1.70 * 100)
+    normal = val.rows("r1", base1, None, [("oil.air_content", {"delivery_cc_per_rev": 1.85})], u_d)[0]
+    assert normal["interval"] == "welch" and normal["k"] == 2.0
+    j = val.joint_tests([r1, r2])[0]
+    assert j["E"] == pytest.approx(0.08) and j["u_val"] == pytest.approx(math.sqrt(0.0027))
+    assert j["U_val"] == pytest.approx(2 * math.sqrt(0.0027)) and j["verdict"] == "within"
+    a, b = 0.0029, 0.0025
+    x2 = (a * (0.1**2 + 0.06**2) - 2 * b * 0.1 * 0.06) / (a * a - b * b)
+    assert j["chi2"] == pytest.approx(x2) and x2 == pytest.approx(4.3704, abs=1e-4)
+    assert j["chi2_p"] == pytest.approx(math.exp(-x2 / 2))

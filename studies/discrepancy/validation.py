@@ -161,14 +161,17 @@ def rows(run_name: str, base: dict, fine: dict | None, perturbed: list[tuple[str
             if ds is not None:
                 sens[key] = ds
         ud, dof, src = u_d.get(name, (0.0, math.inf, "none"))
-        row = _row(run_name, name, unit, s, d, u_num, sens, (ud, dof), distributions or {}, rng)
+        row = _row((run_name, name, unit), (s, d), u_num, sens, (ud, dof), distributions or {}, rng)
         row.update(run=run_name, u_num_note=note, u_D_source=src, sensitivities=sens)
         out.append(row)
     return out
 
 
-def _row(run_name, name, unit, s, d, u_num, sens, u_d, distributions, rng) -> dict:
-    """One row by the procedure of studies.validation.joint: the budget, the interval, the detectable error."""
+def _row(what: tuple, values: tuple, u_num: float, sens: dict, u_d: tuple, distributions: dict, rng) -> dict:
+    """One row by the procedure of studies.validation.joint: the budget, the interval, the detectable error
+    (``what``: run, output, unit; ``values``: S, D; ``u_d``: (u_D, its dof))."""
+    run_name, name, unit = what
+    s, d = values
     from studies.validation import joint
     from studies.validation.vv20 import vv20_row
 

@@ -73,9 +73,8 @@ def prepare(per_scramble: int = 128, progress: bool = True, cluster=None, seed: 
     pools, keys = {}, {}
     for valve in ("disc", "reed"):
         vn = [n for n, c in zip(names, cases) if c["valve"] == valve]
-        pools[valve] = build_rig(valve, vn, {n: S[n][out] for n in vn}, {n: c["measured_delivery"] * 1e6 for n, c in
-                                 zip(names, cases)}, {n: unum[n][out].u or 0.0 for n in vn}, draws, models[vn[0]],
-                                 repeat, SUSPECT)
+        values = {n: (S[n][out], c["measured_delivery"] * 1e6, unum[n][out].u or 0.0) for n, c in zip(names, cases)}
+        pools[valve] = build_rig(valve, vn, values, draws, models[vn[0]], repeat, SUSPECT)
         keys[valve] = tuple(d.key for d in models[vn[0]].uncertainties if d.calibrate)
     return Bench(tuple(cases), {n: S[n][out] for n in names}, nominal, {n: unum[n][out].u or 0.0 for n in names},
                  pools, repeat.s_rel, keys)

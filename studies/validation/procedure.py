@@ -56,15 +56,15 @@ class Options:
     refine: object = None
 
 
-def combination_row(rig: joint.Rig, c, case: str, S: float, D: float, response: float, rng, opts: Options,
+def combination_row(rig: joint.Rig, c, case: str, values: tuple[float, float], response: float, rng, opts: Options,
                     unit: str | None = None) -> dict:
-    """The V&V 20 row of the combination c^T E (S, D its values) with its interval and detectable error."""
+    """The V&V 20 row of the combination c^T E (``values``: its S and D) with its interval and detectable error."""
     b = joint.budget(rig, c)
     samples = joint.error_samples(rig, c, b, rng, opts.samples)
     k, how = joint.interval(b, samples)
-    row = vv20_row(case, OUTPUT, unit or rig.unit, S, D, b.u_num, b.u_input, b.u_D,
-                   dof=(None, None, b.u_D_dof), contributors=b.contributors[:3], coverage=(k, how),
-                   u_input_se=b.u_input_se)
+    row = vv20_row(case, OUTPUT, unit or rig.unit, *values, b.u_num, b.u_input, b.u_D,
+                   dof=(None, None, b.u_D_dof), contributors=b.contributors[:3], coverage=(k, how))
+    row["u_input_se"] = b.u_input_se
     det = joint.detectable(samples, row["U_val"], response) if opts.power else None
     row["detectable_pct"] = None if det is None else det * 100.0
     row["linear_r2"] = b.linear_r2
@@ -77,7 +77,7 @@ def validation_rows(rig: joint.Rig, rng, opts: Options) -> list[dict]:
     for j, name in enumerate(rig.cases):
         c = np.zeros(len(rig.cases))
         c[j] = 1.0
-        rows.append(_flag(combination_row(rig, c, name, rig.S[j], rig.D[j], rig.D[j], rng, opts), rig, [j]))
+        rows.append(_flag(combination_row(rig, c, name, (rig.S[j], rig.D[j]), rig.D[j], rng, opts), rig, [j]))
     return rows
 
 
@@ -95,7 +95,8 @@ def difference_rows(rig: joint.Rig, rng, opts: Options) -> list[dict]:
         b = rig.index(base)
         c = np.zeros(len(rig.cases))
         c[a], c[b] = 1.0, -1.0
-        row = combination_row(rig, c, f"{name}-{base}", rig.S[a] - rig.S[b], rig.D[a] - rig.D[b], rig.D[a], rng, opts)
+        row = combination_row(rig, c, f"{name}-{base}", (rig.S[a] - rig.S[b], rig.D[a] - rig.D[b]), rig.D[a], rng,
+                              opts)
         rows.append(_flag(row, rig, [a, b]))
     return rows
 
@@ -145,7 +146,7 @@ def prediction_rows(rig: joint.Rig, cal: joint.Calibration, S_pred, rng, opts: O
     for j, name in enumerate(rig.cases):
         if j in cal.runs:
             continue
-        row = combination_row(rig, cal.L[j], name, S_pred[j], rig.D[j], rig.D[j], rng, opts)
+        row = combination_row(rig, cal.L[j], name, (S_pred[j], rig.D[j]), rig.D[j], rng, opts)
         rows.append(_flag(row, rig, [j]))
     return rows
 
@@ -157,8 +158,9 @@ def rig_test(rig: joint.Rig, cal: joint.Calibration | None, S_after, rng, opts: 
     c_full, c_held = joint.rig_weights(rig, cal, held)
     S_after = np.asarray(S_after, dtype=float)
     label = "predicted runs together" if cal is not None else "all runs together, nominal inputs"
-    row = combination_row(rig, 100.0 * c_full, f"{rig.name}: {label}", 100.0 * float(c_held @ S_after),
-                          100.0 * float(c_held @ rig.D), 100.0, rng, opts, unit="% of D")
+    row = combination_row(rig, 100.0 * c_full, f"{rig.name}: {label}",
+                          (100.0 * float(c_held @ S_after), 100.0 * float(c_held @ rig.D)), 100.0, rng, opts,
+                          unit="% of D")
     x2, dof, p = joint.chi_square(rig, cal, held, S_after - rig.D)
     row.update(runs=[rig.cases[i] for i in held], calibrated=cal is not None, chi2=x2, chi2_dof=dof, chi2_p=p)
     return row

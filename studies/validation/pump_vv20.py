@@ -104,8 +104,9 @@ def _monte_carlo(selected, names, models, quick, cluster, progress, seed):
     return uin, draws
 
 
-def build_rig(valve: str, names, S_ref, D, u_num, draws, model, repeat, suspect) -> "joint.Rig":  # noqa: F821
-    """The :class:`studies.validation.joint.Rig` of one valve's runs (draws with a failed run dropped)."""
+def build_rig(valve: str, names, values: dict, draws, model, repeat, suspect) -> "joint.Rig":  # noqa: F821
+    """The :class:`studies.validation.joint.Rig` of one valve's runs: ``values`` {name: (S, D, u_num)}, the draws
+    (with a failed run dropped), the model's declarations and the repeatability."""
     from lumped.model.uncertainty import numeric_keys
     from studies.validation import joint
     from studies.validation.measurement import FLOW_METER_REL
@@ -117,8 +118,8 @@ def build_rig(valve: str, names, S_ref, D, u_num, draws, model, repeat, suspect)
     keys = numeric_keys(replace(model, uncertainties=()))
     priors = {d.key: (keys[d.key], d.standard_of(keys[d.key])) for d in decls if d.key in keys}
     s, nu = repeat.of(valve)
-    return joint.Rig(valve, tuple(names), np.array([S_ref[n] for n in names]), np.array([D[n] for n in names]),
-                     np.array([u_num[n] for n in names]), Y[ok], first["z"][ok], first["scramble"][ok],
+    S, D, u_num = (np.array([values[n][k] for n in names], dtype=float) for k in range(3))
+    return joint.Rig(valve, tuple(names), S, D, u_num, Y[ok], first["z"][ok], first["scramble"][ok],
                      tuple(first["keys"]), tuple(d.distribution == "uniform" for d in decls), s, float(nu),
                      FLOW_METER_REL, tuple(n in suspect for n in names), priors)
 
@@ -146,7 +147,6 @@ def pump_validation(selected, results, *, quick: bool = False, cluster=None, pro
     "tables": {name: ValidationTable}, "predictions", "measurement", "area_metric_detail", "draws", ...}``."""
     from studies.validation import procedure
     from studies.validation.measurement import SUSPECT, delivery_uncertainty, repeatability
-    from studies.validation.numerical import OUTPUTS
 
     names, S, models = _setup(selected, results)
     unum = _ladders(selected, names, S, models, quick, progress)
@@ -157,22 +157,20 @@ def pump_validation(selected, results, *, quick: bool = False, cluster=None, pro
               file=sys.stderr, flush=True)
     nominal = {n: fast.delivery(n) for n in fast.cases}
     repeat = repeatability(list(fast.cases.values()), nominal)
-    uD = delivery_uncertainty(selected, repeat=repeat)
     out = "delivery_cc_per_rev"
-    D = {n: c["measured_delivery"] * 1e6 for n, c in zip(names, selected)}
-    refine = refiner(fast, nominal)
-    opts = procedure.Options(calibrate={}, samples=procedure.joint.INTERVAL_SAMPLES, refine=refine)
+    values = {n: (S[n][out], c["measured_delivery"] * 1e6, unum[n][out].u) for n, c in zip(names, selected)}
+    opts = procedure.Options(refine=refiner(fast, nominal))
     parts, calibration = {}, []
     rng = np.random.default_rng(seed)
     for valve in dict.fromkeys(c["valve"] for c in selected):
         vn = [n for n, c in zip(names, selected) if c["valve"] == valve]
-        rig = build_rig(valve, vn, {n: S[n][out] for n in vn}, D, {n: unum[n][out].u for n in vn}, draws,
-                        models[vn[0]], repeat, SUSPECT)
+        rig = build_rig(valve, vn, values, draws, models[vn[0]], repeat, SUSPECT)
         keys = tuple(d.key for d in models[vn[0]].uncertainties if d.calibrate)
-        opts = replace(opts, calibrate={valve: keys})
-        parts[valve] = procedure.analyse(rig, rng, opts)
+        parts[valve] = procedure.analyse(rig, rng, replace(opts, calibrate={valve: keys}))
         calibration += parts[valve]["calibration"] + tuned_entries(valve, models[vn[0]], vn)
-    return _assemble(parts, calibration, names, selected, S, unum, uin, uD, draws, repeat, quick, OUTPUTS)
+    res = {"parts": parts, "calibration": calibration, "names": names, "selected": selected, "S": S, "unum": unum,
+           "uin": uin, "uD": delivery_uncertainty(selected, repeat=repeat), "draws": draws, "repeat": repeat}
+    return _assemble(res, quick)
 
 
 def _ladders(selected, names, S, models, quick, progress) -> dict:
@@ -187,10 +185,12 @@ def _ladders(selected, names, S, models, quick, progress) -> dict:
     return unum
 
 
-def _assemble(parts, calibration, names, selected, S, unum, uin, uD, draws, repeat, quick, OUTPUTS):
-    """The tables and the extra results of :func:`pump_validation`."""
+def _area(res: dict) -> tuple[dict, dict]:
+    """The u-pooled area metric per valve kind and its detail."""
+    from studies.validation.numerical import OUTPUTS
+
     out = "delivery_cc_per_rev"
-    rows = _rows_of(parts, "validation")
+    names, selected, draws = res["names"], res["selected"], res["draws"]
     area, detail = {}, {}
     for valve in ("disc", "reed"):
         idx = [i for i, c in enumerate(selected) if c["valve"] == valve]
@@ -202,6 +202,15 @@ def _assemble(parts, calibration, names, selected, S, unum, uin, uD, draws, repe
         area[valve] = pool["area"]
         detail[valve] = {"output": out, "unit": OUTPUTS[out], "area_u": pool["area_u"], "u_values": pool["u_values"],
                          "cases": [names[i] for i in idx]}
+    return area, detail
+
+
+def _assemble(res: dict, quick: bool):
+    """The tables and the extra results of :func:`pump_validation`."""
+    from studies.validation.numerical import OUTPUTS
+
+    parts, names, S, unum, uin = res["parts"], res["names"], res["S"], res["unum"], res["uin"]
+    area, detail = _area(res)
     predictions = {n: {o: {"S": S[n][o], "unit": OUTPUTS[o], "u_num": unum[n][o].u, "U_num": unum[n][o].U,
                            "u_num_note": unum[n][o].note, "u_input": uin[n][o].u, "u_input_se": uin[n][o].se,
                            "u_input_precision": uin[n][o].precision,
@@ -211,11 +220,11 @@ def _assemble(parts, calibration, names, selected, S, unum, uin, uD, draws, repe
     mode = ("quick: a two-level tolerance ladder (Fs = 3) and 64 joint draws per rig, cheaper and coarser" if quick
             else "tolerance ladder rtol 1e-3/1e-4/1e-5 (GCI, Fs = 1.25) and 512 joint draws per rig")
     tables = tables_of(parts, area, mode)
-    extra = {"calibration": calibration, "prediction": _rows_of(parts, "prediction"),
+    extra = {"calibration": res["calibration"], "prediction": _rows_of(parts, "prediction"),
              "differences": _rows_of(parts, "differences"), "rig_tests": _rows_of(parts, "rig_tests"),
              "detectable_error": {v: p["detectable"] for v, p in parts.items()},
-             "repeatability": repeat.as_dict(), "tables": tables, "predictions": predictions,
-             "measurement": {n: uD[n].as_dict() for n in names}, "area_metric_detail": detail,
+             "repeatability": res["repeat"].as_dict(), "tables": tables, "predictions": predictions,
+             "measurement": {n: res["uD"][n].as_dict() for n in names}, "area_metric_detail": detail,
              "draws": {n: int(max(e.samples + e.missing for e in uin[n].values())) for n in names},
              "worst_precision": max(worst) if worst else None, "mode": mode}
     return tables["validation"], extra

@@ -209,7 +209,7 @@ def summary_markdown(s: dict) -> str:
                   "(each run), validation.png (E with U_val per case).", ""]
     lines += ["## The chain: which reed parameters fed which pump case", ""]
     for c in s.get("chain", []):
-        lines.append(f"- {c['what']}: {c['model']}; reed parameters {c['reed_parameters']}. {c['why']}.")
+        lines.append(f"- {c['what']}: {c['model']}; reed parameters: {c['reed_parameters']}. Why: {c['why']}.")
         if "one_mode_delivery_cc" in c:
             lines.append(f"  Delivery there: one mode {c['one_mode_delivery_cc']} cc/rev (reed_dynamics.md), the geometry "
                          f"chain {c['geometry_chain_delivery_cc']} (Table 5.6), the thesis's parameters "

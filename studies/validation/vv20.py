@@ -52,14 +52,13 @@ def coverage_factor(dof: float, p: float = COVERAGE) -> float:
 
 
 def vv20_row(case: str, output: str, unit: str, S: float, D: float, u_num: float, u_input: float, u_D: float,
-             dof=(math.inf, math.inf, math.inf), contributors=(), coverage: tuple[float, str] | None = None,
-             u_input_se: float | None = None) -> dict:
+             dof=(math.inf, math.inf, math.inf), contributors=(), coverage: tuple[float, str] | None = None) -> dict:
     """One row of the table (CONTRACT keys, plus ``unit``, ``nu_eff``, ``words``), output units throughout.
 
     ``dof``: degrees of freedom of u_num, u_input and u_D (None or inf for Type B estimates). ``coverage``:
     (k, "monte_carlo") from a Monte Carlo coverage interval (:func:`studies.validation.joint.interval`);
-    default k = t(nu_eff) ("welch"). ``u_input_se``: the Monte Carlo's standard error of u_input, a column
-    of its own (the precision of the estimate, not a degree of freedom).
+    default k = t(nu_eff) ("welch"). ``u_input_se`` (None here; the Monte Carlo's callers set it) is the
+    standard error of u_input, a column of its own (the estimate's precision, not a degree of freedom).
     """
     comps = [float(u_num or 0.0), float(u_input or 0.0), float(u_D or 0.0)]
     dofs = [math.inf if d is None else float(d) for d in dof]
@@ -73,7 +72,7 @@ def vv20_row(case: str, output: str, unit: str, S: float, D: float, u_num: float
            "delta_model": [E - U, E + U], "verdict": "within" if abs(E) <= U else "model_form_error",
            "contributors": [[str(a), float(b)] for a, b in contributors],
            "nu_eff": None if math.isinf(nu) else nu, "dof": None if math.isinf(nu) else nu, "interval": how,
-           "u_input_se": None if u_input_se is None else float(u_input_se)}
+           "u_input_se": None}
     row["words"] = verdict_words(row)
     return row
 
