@@ -160,7 +160,10 @@ def _before(rev: str, plain: bool, full: bool) -> dict:
                        capture_output=True)
         try:
             print(f"compiling the fast path of {rev} ...", file=sys.stderr, flush=True)
-            subprocess.run([sys.executable, "-c", "from lumped.run.simulate import ensure_compiled; ensure_compiled()"],
+            # the module moved (lumped.cycle before the subpackages, lumped.run.simulate since)
+            compile_it = ("try:\n    from lumped.run.simulate import ensure_compiled\nexcept ImportError:\n"
+                          "    from lumped.cycle import ensure_compiled\nensure_compiled()")
+            subprocess.run([sys.executable, "-c", compile_it],
                            cwd=tree, env={**os.environ, "PYTHONPATH": str(tree)}, check=True, capture_output=True)
             if plain:
                 print(f"validate --no-uncertainty ({rev}) ...", file=sys.stderr, flush=True)
