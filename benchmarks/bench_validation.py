@@ -9,8 +9,8 @@ pump cases, the tolerance ladders, the Monte Carlo, the GCI studies and the file
 machine was. Each run's Markdown tables are compared cell by cell with the ones saved in
 benchmarks/validate_before/ (written by the code before the steady-state stop and warm start,
 commit 52bf526): the cells that differ are listed, except the measured seconds, the revolutions run,
-the columns that did not exist then and validation.md, whose budget is computed differently since
-(the pooled repeatability, a Monte Carlo interval). ``--before REV``: the same runs with the code of
+the columns that did not exist then, validation.md, whose budget is computed differently since (the
+pooled repeatability, a Monte Carlo interval), and reed_validation.md, whose columns and words changed. ``--before REV``: the same runs with the code of
 git revision REV (a temporary worktree; its numba cache compiled first, not timed), in the same
 session. The procedure's coverage and power are measured by benchmarks/bench_coverage.py.
 ``--save`` writes benchmarks/results_validation.json and copies the full run's validation.png (E with
@@ -38,8 +38,9 @@ LIMITS = {"full": 600.0, "quick": 180.0, "plain": 30.0}
 SAVED = ROOT / "benchmarks" / "validate_before"
 #: columns whose cells are measured or counted, not computed answers
 UNCOMPARED = ("seconds [s]", "revolutions", "cycle_change")
-#: tables computed by another method since the saved ones were written (not compared)
-METHOD_CHANGED = ("validation.md",)
+#: tables computed by another method, or with other columns and words, since the saved ones were written (not
+#: compared): validation.md's budget (pooled repeatability, Monte Carlo intervals), reed_validation.md's columns
+METHOD_CHANGED = ("validation.md", "reed_validation.md")
 FIGURE = ROOT / "docs" / "figures" / "validation_e_uval.png"
 
 

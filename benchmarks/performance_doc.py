@@ -171,16 +171,18 @@ def section_validate(d: dict | None) -> list[str]:
     if d is None:
         return out + ["(not measured yet)", ""]
     b = d.get("before", {})
-    out += ["| run | wall [s] | limit [s] | before [s] | table cells compared | differing |",
-            "| --- | --- | --- | --- | --- | --- |"]
+    out += ["| run | wall [s] | limit [s] | before [s] | load average | table cells compared | differing |",
+            "| --- | --- | --- | --- | --- | --- | --- |"]
     for key, name in (("validate_plain", "`validate --no-uncertainty`"), ("validate_full", "`validate`"),
                       ("validate_quick", "`validate --quick`")):
         r = d.get(key)
         if not r or "wall_seconds" not in r:
             continue
         t = r.get("tables") or {}
+        load = r.get("load_average_before_after")
         out.append(f"| {name} | {r['wall_seconds']:.1f} | {r['limit_seconds']:.0f} | "
-                   f"{_n((b.get(key) or {}).get('wall_seconds'), '{:.1f}')} | {_n(t.get('cells_compared'), '{}')} | "
+                   f"{_n((b.get(key) or {}).get('wall_seconds'), '{:.1f}')} | "
+                   f"{_n(None if not load else max(load), '{:.1f}')} | {_n(t.get('cells_compared'), '{}')} | "
                    f"{_n(t.get('cells_differing'), '{}')} |")
     diffs, seen = [], set()
     for key in ("validate_plain", "validate_full"):
