@@ -12,12 +12,14 @@ from __future__ import annotations
 import math
 import shutil
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from geometry.errors import InputError
 from studies.sweeps import sweep
+from studies.sweeps.cluster import Cluster  # noqa: F401  (runner.Cluster: the studies' cluster)
 
 STAMP = ".design-digest"
 SPEC_COPY = "spec.toml"
@@ -41,57 +43,6 @@ def check_study_arguments(spec, command: str, out, *, scheduler=None, workers=No
         validate.number(batch_size, "batch_size", integer=True, bounds=(1, 1_000_000))
     validate.boolean(force, "force")
     validate.boolean(progress, "progress")
-
-
-class Cluster:
-    """A dask client, started on first use: the scheduler at ``scheduler`` or a LocalCluster of ``workers``."""
-
-    def __init__(self, scheduler: str | None = None, workers: int | None = None, client=None):
-        if workers is not None and workers < 1:
-            raise InputError("--workers", f"must be a positive integer, got {workers}")
-        self.scheduler, self.n_workers, self.client = scheduler, workers, client
-        self._own = None
-        self._given = client is not None
-
-    def get(self):
-        if self.client is None:
-            from distributed import Client, LocalCluster
-
-            if self.scheduler:
-                try:
-                    self.client = Client(self.scheduler, timeout=sweep.CONNECT_TIMEOUT)
-                except OSError as exc:
-                    raise InputError("--scheduler", f"cannot connect to {self.scheduler} ({exc})") from None
-            else:
-                self._own = LocalCluster(n_workers=self.n_workers or sweep.default_workers(), threads_per_worker=1,
-                                         processes=True, dashboard_address=None, silence_logs=40)
-                self.client = Client(self._own)
-        return self.client
-
-    @property
-    def workers(self) -> int:
-        if self.client is None:
-            return self.n_workers or sweep.default_workers()
-        return max(1, len(self.client.scheduler_info().get("workers", {})))
-
-    def check_reachable(self) -> None:
-        """Connect now to a --scheduler (a bad address is an input error before any computation)."""
-        if self.scheduler:
-            self.get()
-
-    def close(self) -> None:
-        if not self._given and self.client is not None:
-            self.client.close()
-            self.client = None
-        if self._own is not None:
-            self._own.close()
-            self._own = None
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
 
 
 # --------------------------------------------------------------------------- the study folder
@@ -148,12 +99,32 @@ def sweep_spec_of(model_module: str, rows: list[dict], fixed: dict) -> sweep.Swe
                            fixed=tuple(fixed.items()), samples=len(rows))
 
 
-def evaluate_rows(cluster: Cluster, folder: Path, model_module: str, fixed: dict, rows: list[dict], *,
-                  group: int = 1, batch_size: int | None = None, progress: bool = True, desc: str = "designs"):
-    """Evaluate ``rows`` (inputs beyond ``fixed``) into the sweep folder ``folder`` (resumable); return
-    (DataFrame of every row in order, with a ``row`` column, the run_sweep summary).
+def evaluate_rows(cluster: Cluster, folder: Path, model_module: str, fixed: dict, rows: list[dict],
+                  **options):
+    """Evaluate explicit rows into a sweep folder (resumable).
 
-    ``group``: consecutive rows that belong together (a design's operating points) stay in one batch.
+    Parameters
+    ----------
+    cluster : Cluster
+        Started only if something is left to compute.
+    folder : pathlib.Path
+        The sweep folder of these rows.
+    model_module : str
+        The sweep model.
+    fixed : dict
+        The inputs every row shares.
+    rows : list of dict
+        The rows' other inputs (the same keys in each).
+    **options
+        ``group`` (consecutive rows that belong together, a design's operating points, stay in one
+        batch), ``batch_size``, ``progress``, ``desc``: as :class:`studies.sweeps.sweep.SweepRun`.
+
+    Returns
+    -------
+    results : pandas.DataFrame
+        Every row in order, with a ``row`` column (its index in ``rows``).
+    summary : dict
+        :func:`studies.sweeps.sweep.run_sweep`'s.
     """
     import pandas as pd
 
@@ -166,7 +137,9 @@ def evaluate_rows(cluster: Cluster, folder: Path, model_module: str, fixed: dict
     spec = sweep_spec_of(model_module, rows, fixed)
     folder = Path(folder)
     done = (folder / "results.parquet").is_file() and not (folder / sweep.PARTS_DIR).exists()
-    client = None if done else cluster.get()
+    client = None if done else cluster.get()      # started first: the batch size counts its workers
+    run = sweep.SweepRun(**{"desc": "designs", **options})
+    group, batch_size = run.group, run.batch_size
     if batch_size is None:
         n_groups = math.ceil(len(rows) / group)
         # a few tasks per worker balance the load; small batches (an optimiser generation) are not split finer
@@ -174,8 +147,7 @@ def evaluate_rows(cluster: Cluster, folder: Path, model_module: str, fixed: dict
         batch_size = per * group
     else:
         batch_size = max(group, (batch_size // group) * group)
-    summary = sweep.run_sweep(spec, folder, client=client, designs=rows, batch_size=batch_size, group=group,
-                              progress=progress, desc=desc)
+    summary = sweep.run_sweep(spec, folder, replace(run, client=client, designs=rows, batch_size=batch_size))
     mod = sweep.load_model(model_module)
     df = sweep.open_store(folder, spec, mod, "parquet").read()
     df = df.rename(columns={"design_id": "row"})

@@ -20,16 +20,20 @@ the remaining blocks, which are independent draws; the number dropped is reporte
 
 from __future__ import annotations
 
+import json
 import math
 import time
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from geometry.errors import InputError
 from studies.sweeps.design import runner, study
+from studies.sweeps.design.calibration import calibrate, calibration_summary
 from studies.sweeps.design.spec import DesignSpec, check_size
+from studies.sweeps.design.study import Study
 
 SUBFOLDERS = ("runs", "calibration")
 
@@ -121,54 +125,82 @@ def analyse_morris(problem: dict, u: np.ndarray, y: np.ndarray, num_levels: int,
     return res
 
 
-def run_sensitivity(spec: DesignSpec, out, *, scheduler: str | None = None, workers: int | None = None,
-                    client=None, batch_size: int | None = None, force: bool = False, progress: bool = True) -> dict:
-    """Run (or resume) a sensitivity study into folder ``out``; return the summary (CONTRACT.md)."""
-    runner.check_study_arguments(spec, "sensitivity", out, scheduler=scheduler, workers=workers, batch_size=batch_size,
-                                 force=force, progress=progress)
-    t_start = time.perf_counter()
-    out = Path(out)
+def _check(spec: DesignSpec, out: Path, force: bool):
+    """Every check before any computation (the variables on the base model, the size, the folder, the stress);
+    the base model."""
     r = spec.run_dict
-    # ---- every check before any computation
     model = study.base_model(spec)
     study.check_variables(spec, model)
-    n = n_samples(spec)
-    n_rows = n * len(spec.points)
-    check_size(n_rows, "run.samples", out, f"{r['samples']} samples x {len(spec.variables) + (2 if r['method'] == 'sobol' else 1)}"
-                                          f" x {len(spec.points)} operating points")
+    check_size(n_samples(spec) * len(spec.points), "run.samples", out,
+               f"{r['samples']} samples x {len(spec.variables) + (2 if r['method'] == 'sobol' else 1)}"
+               f" x {len(spec.points)} operating points")
     from studies.outputs import check_output_dir
 
     check_output_dir(out, "--out", force, kind="sensitivity")
-    catalogue = study.outputs_catalogue(spec)
-    outputs = [catalogue[o] for o in spec.outputs]
     if study.needs_stress(spec) and not study.reed_positions(model):
         raise InputError("run.outputs", "the reed stress needs a reed valve with a geometry "
                                         "(valves.<pos>.geometry); the base model has none")
-    u = sample_unit(spec)
-    designs = designs_of(spec, u)
-    study.rows_for(spec, designs)          # every design's derived keys, before anything is written
-    with runner.Cluster(scheduler, workers, client) as cluster:
-        cluster.check_reachable()
-        runner.prepare_study(out, spec, force, SUBFOLDERS)
-        base_path = study.write_base_model(out, model) if model is not None else None
-        cal = study.calibrate(spec, model, base_path, cluster, out, progress) if study.needs_stress(spec) else None
-        rows = study.rows_for(spec, designs, cal)
-        fixed = study.fixed_inputs(spec, base_path)
-        module = study.EVALUATE if spec.model_kind == "pump" else spec.model
-        t_eval = time.perf_counter()
-        df, summ = runner.evaluate_rows(cluster, out / "runs", module, fixed, rows, group=len(spec.points),
-                                        batch_size=batch_size, progress=progress, desc="sensitivity")
-        eval_wall = time.perf_counter() - t_eval
-        n_workers = cluster.workers if cluster.client is not None else None
+    return model
 
-    # ---- analysis
+
+def _evaluate(ctx: Study, designs: list[dict], batch_size: int | None):
+    """The stress calibration, then every design at every operating point: (the study with its calibration, the
+    evaluation table, the run's summary, its wall seconds)."""
+    if study.needs_stress(ctx.spec):
+        ctx = replace(ctx, calibration=calibrate(ctx))
+    rows = study.rows_for(ctx.spec, designs, ctx.calibration)
+    module = study.EVALUATE if ctx.spec.model_kind == "pump" else ctx.spec.model
+    t_eval = time.perf_counter()
+    df, summ = runner.evaluate_rows(ctx.cluster, ctx.out / "runs", module, study.fixed_inputs(ctx.spec, ctx.base_path),
+                                    rows, group=len(ctx.spec.points), batch_size=batch_size, progress=ctx.progress,
+                                    desc="sensitivity")
+    return ctx, df, summ, time.perf_counter() - t_eval
+
+
+def _index_rows(spec: DesignSpec, res: dict, output, label: str) -> list[dict]:
+    """One row per variable of an analysis (the indices of ``res``, None where it has none)."""
+    r = spec.run_dict
+    keys = ("S1", "S1_conf", "ST", "ST_conf") if r["method"] == "sobol" else ("mu_star", "mu_star_conf", "sigma", "mu")
+    rows = []
+    for i, v in enumerate(spec.variables):
+        row = {"output": output.name, "output_unit": output.unit, "operating_point": label, "variable": v.name,
+               "variable_unit": v.unit, "method": r["method"]}
+        for k in keys:
+            row[k] = study.finite_or_none(res[k][i]) if k in res else None
+        row["samples_used"] = res["n_used"]
+        row["samples_dropped"] = res["dropped"]
+        rows.append(row)
+    return rows
+
+
+def analyse(spec: DesignSpec, df, u: np.ndarray, outputs: list) -> tuple[list, list]:
+    """The indices of every output at every operating point and, with several, for their mean.
+
+    Parameters
+    ----------
+    spec : DesignSpec
+    df : pandas.DataFrame
+        The evaluation table (design-major rows).
+    u : numpy.ndarray
+        The samples in the unit hypercube (Morris needs them).
+    outputs : list of Output
+        The outputs analysed (:mod:`studies.sweeps.design.outputs`).
+
+    Returns
+    -------
+    indices : list of dict
+        One row per output, point and variable (CONTRACT.md, "Sensitivity").
+    analyses : list of dict
+        One per output and point: :func:`analyse_sobol` or :func:`analyse_morris`'s result.
+    """
+    r = spec.run_dict
     problem = _problem(spec)
     npts = len(spec.points)
     labels = spec.point_labels
     targets = [(j, labels[j]) for j in range(npts)] + ([(None, "mean")] if npts > 1 else [])
     indices, analyses = [], []
     for o in outputs:
-        mat = runner.output_matrix(df, o, n, npts)
+        mat = runner.output_matrix(df, o, n_samples(spec), npts)
         for j, lab in targets:
             y = mat[:, j] if j is not None else mat.mean(axis=1)
             if r["method"] == "sobol":
@@ -177,41 +209,89 @@ def run_sensitivity(spec: DesignSpec, out, *, scheduler: str | None = None, work
                 res = analyse_morris(problem, u, y, r["num_levels"], r["num_resamples"], r["conf_level"], r["seed"])
             res.update(output=o.name, unit=o.unit, operating_point=lab)
             analyses.append(res)
-            for i, v in enumerate(spec.variables):
-                row = {"output": o.name, "output_unit": o.unit, "operating_point": lab, "variable": v.name,
-                       "variable_unit": v.unit, "method": r["method"]}
-                keys = ("S1", "S1_conf", "ST", "ST_conf") if r["method"] == "sobol" else \
-                    ("mu_star", "mu_star_conf", "sigma", "mu")
-                for k in keys:
-                    row[k] = study.finite_or_none(res[k][i]) if k in res else None
-                row["samples_used"] = res["n_used"]
-                row["samples_dropped"] = res["dropped"]
-                indices.append(row)
+            indices += _index_rows(spec, res, o, lab)
+    return indices, analyses
+
+
+def run_sensitivity(spec: DesignSpec, out, *, scheduler: str | None = None, workers: int | None = None,
+                    client=None, batch_size: int | None = None, force: bool = False, progress: bool = True) -> dict:
+    """Run (or resume) a sensitivity study into a study folder (see the module docstring).
+
+    Parameters
+    ----------
+    spec : DesignSpec
+        A ``sensitivity`` spec (:func:`studies.sweeps.design.spec.load_spec`).
+    out : str or os.PathLike
+        The study folder; a rerun computes only the evaluations not yet recorded.
+    scheduler : str, optional
+        A dask scheduler's address; default a LocalCluster of ``workers`` processes.
+    workers : int, optional
+        Local worker processes (default: one per core).
+    client : distributed.Client, optional
+        An existing client to use.
+    batch_size : int, optional
+        Evaluations per dask task.
+    force : bool
+        Start over in a folder that holds another study.
+    progress : bool
+        Progress on stderr.
+
+    Returns
+    -------
+    dict
+        The summary (CONTRACT.md, "Sensitivity"), also written to ``summary.json``: the indices with
+        their confidence intervals, the analyses, the files, timings and rates.
+    """
+    runner.check_study_arguments(spec, "sensitivity", out, scheduler=scheduler, workers=workers, batch_size=batch_size,
+                                 force=force, progress=progress)
+    t_start = time.perf_counter()
+    out = Path(out)
+    model = _check(spec, out, force)
+    catalogue = study.outputs_catalogue(spec)
+    u = sample_unit(spec)
+    designs = designs_of(spec, u)
+    study.rows_for(spec, designs)          # every design's derived keys, before anything is written
+    with runner.Cluster(scheduler, workers, client) as cluster:
+        cluster.check_reachable()
+        runner.prepare_study(out, spec, force, SUBFOLDERS)
+        base_path = study.write_base_model(out, model) if model is not None else None
+        ctx = Study(spec, model, base_path, cluster, out, catalogue, progress)
+        ctx, df, summ, eval_wall = _evaluate(ctx, designs, batch_size)
+        n_workers = cluster.workers if cluster.client is not None else None
+    outputs = [catalogue[o] for o in spec.outputs]
+    indices, analyses = analyse(spec, df, u, outputs)
     from studies.sweeps.design import report
 
     files = report.write_sensitivity(out, spec, indices, analyses, outputs)
-    wall = time.perf_counter() - t_start
-    computed = summ.get("computed", 0)
-    result = {
-        "command": "sensitivity", "method": r["method"], "model": spec.model, "out": str(out),
+    result = _summary(ctx, df, summ, indices, analyses, files, n_workers)
+    computed, npts = summ.get("computed", 0), len(spec.points)
+    result.update(wall_seconds=time.perf_counter() - t_start, evaluation_wall_seconds=eval_wall,
+                  designs_per_hour=computed / eval_wall * 3600.0 if computed else None,
+                  samples_per_hour=computed / npts / eval_wall * 3600.0 if computed else None)
+    (out / "summary.json").write_text(json.dumps(result, indent=1, allow_nan=False))
+    return result
+
+
+def _summary(ctx: Study, df, summ: dict, indices: list, analyses: list, files: dict, n_workers: int | None) -> dict:
+    """The summary of a sensitivity study (without its timings)."""
+    spec = ctx.spec
+    r = spec.run_dict
+    outputs = [ctx.catalogue[o] for o in spec.outputs]
+    n = n_samples(spec)
+    return {
+        "command": "sensitivity", "method": r["method"], "model": spec.model, "out": str(ctx.out),
         "variables": [v.describe() for v in spec.variables],
         "outputs": [{"name": o.name, "unit": o.unit, "label": o.label} for o in outputs],
-        "operating_points": [dict(p, label=lab) for p, lab in zip(spec.points, labels)],
-        "samples": r["samples"], "designs": n, "evaluations": n_rows, "computed": computed,
-        "skipped": summ.get("skipped", 0), "status_counts": runner.status_counts(df),
-        "failed": int((df["status"] != "ok").sum()) if len(df) else 0,
+        "operating_points": [dict(p, label=lab) for p, lab in zip(spec.points, spec.point_labels)],
+        "samples": r["samples"], "designs": n, "evaluations": n * len(spec.points),
+        "computed": summ.get("computed", 0), "skipped": summ.get("skipped", 0),
+        "status_counts": runner.status_counts(df), "failed": int((df["status"] != "ok").sum()) if len(df) else 0,
         "workers": n_workers, "indices": indices,
         "analyses": [{k: a.get(k) for k in ("output", "operating_point", "n_used", "dropped", "constant", "note")}
                      for a in analyses],
-        "stress_calibration": study.calibration_summary(cal), "files": files, "complete": True,
-        "warnings": study.evaluation_warnings(df), "wall_seconds": wall, "evaluation_wall_seconds": eval_wall,
-        "designs_per_hour": computed / eval_wall * 3600.0 if computed else None,
-        "samples_per_hour": computed / npts / eval_wall * 3600.0 if computed else None,
+        "stress_calibration": calibration_summary(ctx.calibration), "files": files, "complete": True,
+        "warnings": study.evaluation_warnings(df),
     }
-    import json
-
-    (out / "summary.json").write_text(json.dumps(result, indent=1, allow_nan=False))
-    return result
 
 
 def top_variables(result: dict, output: str, key: str = "ST", point: str | None = None) -> list[tuple[str, float]]:

@@ -15,7 +15,7 @@ the largest Euler-Bernoulli (nominal) bending stress along the reed under the un
 kappa_EB (x_stop - x_0) that puts its tip at that deflection (the clamp root for the thesis
 reeds; grooves and steps enter I(s) and the fibre distance c(s);
 :func:`fea.reed_stress.beam_bending_stress`), times a calibration factor C measured with the
-solid FEA (:func:`studies.sweeps.design.study.calibrate`): by default the ratio solid / E-B of the
+solid FEA (:func:`studies.sweeps.design.calibration.calibrate`): by default the ratio solid / E-B of the
 base model's reed (0.95 for the prototype: 31.7 MPa / 33.3 MPa at its default mesh), so the
 estimate reproduces the solid FEA there.
 

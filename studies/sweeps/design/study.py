@@ -1,21 +1,64 @@
-"""What a sensitivity and an optimisation study share: the base model, the checks of the variables against it,
-the evaluation rows (designs x operating points), the reed stress calibration, the aggregation of outputs."""
+"""What a sensitivity and an optimisation study share: the study's context, the base model, the checks of the
+variables against it, the evaluation rows (designs x operating points), the aggregation of outputs.
+
+The reed stress calibration both use is :mod:`studies.sweeps.design.calibration`.
+"""
 
 from __future__ import annotations
 
-import json
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from geometry.errors import InputError
 from studies.outputs import finite_or_none  # noqa: F401  (used as study.finite_or_none)
-from studies.sweeps.design import runner
 from studies.sweeps.design.spec import DesignSpec, _q, design_inputs
 
+#: the inputs of an evaluation row that set the operating point, not a model-file key
+OPERATING_INPUTS = ("speed_rpm", "load_pressure")
 EVALUATE = "studies.sweeps.design.evaluate"
 FEA_TASKS = "studies.sweeps.design.fea_tasks"
 BASE_MODEL_FILE = "base_model.toml"
+
+
+@dataclass(frozen=True)
+class Study:
+    """What every stage of a running study reads.
+
+    Parameters
+    ----------
+    spec : DesignSpec
+        The study's spec.
+    model : lumped.model.pump_model.PumpModel or None
+        The base model with the spec's ``[fixed]`` keys (:func:`base_model`; None for a module model).
+    base_path : str or None
+        The base model's file in the study folder (:func:`write_base_model`), which the workers read.
+    cluster : studies.sweeps.cluster.Cluster
+        Where the evaluations run.
+    out : pathlib.Path
+        The study folder.
+    catalogue : dict
+        The outputs the spec may name (:func:`outputs_catalogue`).
+    progress : bool
+        Progress on stderr.
+    calibration : dict, optional
+        The reed stress calibration (:func:`studies.sweeps.design.calibration.calibrate`).
+    """
+
+    spec: DesignSpec
+    model: object
+    base_path: str | None
+    cluster: object
+    out: Path
+    catalogue: dict
+    progress: bool = True
+    calibration: dict | None = None
+
+    @property
+    def positions(self) -> list[str]:
+        """The base model's valves that are reeds with a geometry (``inlet``, ``delivery``)."""
+        return reed_positions(self.model) if self.model is not None else []
 
 
 # --------------------------------------------------------------------------- base model and checks
@@ -43,12 +86,43 @@ def outputs_catalogue(spec: DesignSpec) -> dict:
     return module_outputs(__import__(spec.model, fromlist=["x"]))
 
 
-def _apply(model, spec: DesignSpec, values: dict):
+def design_values_inputs(spec: DesignSpec, values: dict) -> dict:
+    """The evaluation inputs of a design: :func:`~studies.sweeps.design.spec.design_inputs` for a pump model, the
+    variables themselves for a module model.
+
+    Parameters
+    ----------
+    spec : DesignSpec
+    values : dict
+        {variable: value} in each variable's unit.
+
+    Returns
+    -------
+    dict
+    """
+    return design_inputs(spec, values) if spec.model_kind == "pump" else dict(values)
+
+
+def model_keys(inputs: dict) -> dict:
+    """The model-file keys among a design's inputs (not its operating point), a tuple as a list (a TOML array).
+
+    Parameters
+    ----------
+    inputs : dict
+        A design's evaluation inputs.
+
+    Returns
+    -------
+    dict
+    """
+    return {k: (list(x) if isinstance(x, tuple) else x) for k, x in inputs.items() if k not in OPERATING_INPUTS}
+
+
+def apply_design(model, spec: DesignSpec, values: dict):
     from lumped.model.model_file import with_values
 
     inputs = design_inputs(spec, values)
-    keys = {k: v for k, v in inputs.items() if k not in ("speed_rpm", "load_pressure")}
-    return with_values(model, keys)
+    return with_values(model, {k: v for k, v in inputs.items() if k not in OPERATING_INPUTS})
 
 
 def check_variables(spec: DesignSpec, model) -> None:
@@ -72,7 +146,7 @@ def check_variables(spec: DesignSpec, model) -> None:
     from lumped.model.model_file import with_values
 
     try:
-        _apply(model, spec, centre)
+        apply_design(model, spec, centre)
     except InputError as exc:
         # each key path on its own (at its centre value): an unknown key names its variable. Only when the
         # centre design fails: alone, a key may break a constraint its [derived] partners restore.
@@ -96,7 +170,7 @@ def check_variables(spec: DesignSpec, model) -> None:
                 check_value(float(x), SPEED if v.name == "speed_rpm" else LOAD_MPA, where)
                 continue
             try:
-                _apply(model, spec, dict(centre, **{v.name: x}))
+                apply_design(model, spec, dict(centre, **{v.name: x}))
             except InputError as exc:
                 via = "" if exc.field.endswith(v.name) or exc.field == v.name else f" ({exc.field})"
                 raise InputError(where, f"{x!r} with the other variables at their centre: {exc.message}{via}") from None
@@ -142,10 +216,8 @@ def rows_for(spec: DesignSpec, designs: list[dict], calibration: dict | None = N
     calibration each row carries its design's calibration factors."""
     rows = []
     for values in designs:
-        inputs = design_inputs(spec, values) if spec.model_kind == "pump" else dict(values)
-        if calibration:
-            inputs.update({f"stress_calibration_{pos}": c
-                           for pos, c in calibration_factors(calibration, spec, values).items()})
+        inputs = design_values_inputs(spec, values)
+        inputs.update(calibration_inputs(calibration))
         for p in spec.points:
             rows.append({**p, **inputs})
     return rows
@@ -162,89 +234,20 @@ def reed_positions(model) -> list[str]:
     return [pos for pos in ("inlet", "delivery") if getattr(model.valve(pos), "reed", None) is not None]
 
 
-# --------------------------------------------------------------------------- stress calibration
-def calibration_factors(cal: dict, spec: DesignSpec | None, values: dict | None) -> dict:
-    """The stress calibration factor of each reed valve (the same for every design)."""
-    return {pos: float(m["factor"]) for pos, m in cal["models"].items()}
+def calibration_inputs(cal: dict | None) -> dict:
+    """The evaluation inputs that carry the calibration factors (the same for every design).
 
+    Parameters
+    ----------
+    cal : dict or None
+        :func:`calibrate`'s result (None: no stress is computed).
 
-def calibrate(spec: DesignSpec, model, base_path: str, cluster, out: Path, progress: bool) -> dict:
-    """The stress calibration factor C of each reed valve with a geometry (:mod:`studies.sweeps.design.stress`).
-
-    ``stress.calibration``: ``"base"`` (default): C = the solid FEA's stress / the E-B estimate of the base model's
-    reed; ``"conservative"``: the largest such ratio over the base reed, the centre of the ranges and each
-    variable at both ends of its range (the others at their centre); or a number (C itself). Returns
-    {"models": {pos: {"factor", "ratios"}}, "rows": [...], "failed": [...], "method"}; kept in
-    ``calibration.json``.
+    Returns
+    -------
+    dict
+        ``{"stress_calibration_<valve>": C}`` per reed valve ({} without a calibration).
     """
-    positions = reed_positions(model)
-    if not positions:
-        raise InputError("run", "the reed stress needs a reed valve with a geometry (valves.<pos>.geometry); "
-                                "the base model has none")
-    st = spec.stress_dict
-    if not isinstance(st["calibration"], str):
-        c = float(st["calibration"])
-        return {"models": {pos: {"factor": c, "base": None, "min": c, "max": c} for pos in positions},
-                "rows": [], "failed": [], "method": "given"}
-    designs = [None]
-    if st["calibration"] == "conservative":
-        centre = {v.name: v.centre() for v in spec.variables}
-        designs.append(centre)
-        for v in spec.variables:
-            if v.role == "operating" or v.values is not None:
-                continue
-            for x in v.check_points()[:2]:
-                designs.append(dict(centre, **{v.name: x}))
-    rows, seen, kept = [], set(), []
-    for d in designs:
-        keys = {} if d is None else {k: x for k, x in design_inputs(spec, d).items()
-                                     if k not in ("speed_rpm", "load_pressure")}
-        m = model if d is None else _apply(model, spec, d)
-        reeds = tuple((m.valve(p).reed, m.valve(p).stop_gap, m.valve(p).preload) for p in positions)
-        if reeds in seen:
-            continue
-        seen.add(reeds)
-        rows.append({"task": "calibrate", **{k: (list(x) if isinstance(x, tuple) else x) for k, x in keys.items()}})
-        kept.append(d)
-    groups: dict = {}
-    for r, d in zip(rows, kept):
-        groups.setdefault(tuple(sorted(r)), []).append((r, d))
-    fixed = {"model": base_path}
-    if st.get("mesh_size"):
-        fixed["mesh_size"] = st["mesh_size"]
-    results, used = [], []
-    for gi, (_, items) in enumerate(sorted(groups.items(), key=lambda t: len(t[0]))):
-        df, _ = runner.evaluate_rows(cluster, Path(out) / "calibration" / f"set-{gi}", FEA_TASKS, fixed,
-                                     [r for r, _ in items], progress=progress, desc="stress calibration (solid FEA)")
-        for rec, (_, d) in zip(df.to_dict("records"), items):
-            results.append(rec)
-            used.append(d)
-    failed = [{"design": d, "error": rec.get("error")} for rec, d in zip(results, used) if rec["status"] != "ok"]
-    if any(f["design"] is None for f in failed):
-        raise RuntimeError(f"stress calibration: the solid FEA of the base model's reed failed "
-                           f"({next(f['error'] for f in failed if f['design'] is None)})")
-    models, table = {}, []
-    for pos in positions:
-        prow = [{"ratio": rec[f"{pos}_ratio"], "eb_pa": rec[f"{pos}_eb_pa"],
-                 "solid_away_pa": rec[f"{pos}_solid_away_pa"], "solid_max_pa": rec[f"{pos}_solid_max_pa"],
-                 "design": d} for rec, d in zip(results, used) if rec["status"] == "ok"]
-        ratios = [r["ratio"] for r in prow]
-        base = next(r["ratio"] for r in prow if r["design"] is None)
-        models[pos] = {"factor": base if st["calibration"] == "base" else max(ratios), "base": base,
-                       "min": min(ratios), "max": max(ratios)}
-        table += [dict(r, valve=pos) for r in prow]
-    cal = {"models": models, "rows": table, "failed": failed, "method": st["calibration"]}
-    (Path(out) / "calibration.json").write_text(json.dumps(cal, indent=1, default=str))
-    return cal
-
-
-def calibration_summary(cal: dict | None) -> dict | None:
-    """The calibration as reported in the JSON: per valve the base model's factor, the range, the margin."""
-    if not cal:
-        return None
-    return {"method": cal["method"], "failed": len(cal.get("failed", [])),
-            **{pos: {"factor": m["factor"], "base_ratio": m["base"], "min_ratio": m["min"], "max_ratio": m["max"]}
-               for pos, m in cal["models"].items()}}
+    return {f"stress_calibration_{pos}": float(m["factor"]) for pos, m in cal["models"].items()} if cal else {}
 
 
 # --------------------------------------------------------------------------- aggregation
