@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 
+from geometry import validate
 from geometry.errors import InputError
 
 CONNECT_TIMEOUT = "10s"  # to reach --scheduler
@@ -22,6 +23,29 @@ def default_workers() -> int:
     int
     """
     return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
+
+
+def check_options(options, workers_field: str, switches: tuple) -> None:
+    """Refuse the first bad option of a run on a cluster, before any work.
+
+    Parameters
+    ----------
+    options : SweepRun or StudyRun
+        With ``scheduler`` (an address), a worker count and ``batch_size``.
+    workers_field : str
+        The name of its worker count (``n_workers``, ``workers``).
+    switches : tuple of str
+        Its options that must be True or False.
+    """
+    if options.scheduler is not None:
+        validate.address(options.scheduler, "scheduler")
+    workers = getattr(options, workers_field)
+    if workers is not None:
+        validate.number(workers, workers_field, integer=True, bounds=(1, 1024))
+    if options.batch_size is not None:
+        validate.number(options.batch_size, "batch_size", integer=True, bounds=(1, 1_000_000))
+    for name in switches:
+        validate.boolean(getattr(options, name), name)
 
 
 class Cluster:

@@ -230,6 +230,24 @@ class CsvStore:
         self.final.unlink(missing_ok=True)
 
 
+def status_counts(df) -> dict:
+    """How many rows of a results table have each status.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame or None
+        A results table (a ``status`` column).
+
+    Returns
+    -------
+    dict
+        {status: count} ({} for an empty table).
+    """
+    if df is None or not len(df):
+        return {}
+    return {str(k): int(v) for k, v in df["status"].value_counts().items()}
+
+
 def open_store(folder: Path, spec: SweepSpec, model, fmt: str):
     """The results store of a sweep folder.
 

@@ -39,11 +39,12 @@ from pathlib import Path
 
 from geometry import validate
 from geometry.errors import InputError
-from studies.sweeps.cluster import CONNECT_TIMEOUT, Cluster, default_workers  # noqa: F401  (sweep.* names)
+from studies.sweeps.cluster import CONNECT_TIMEOUT, Cluster, check_options, default_workers  # noqa: F401
 from studies.sweeps.main_effects import main_effects, plot_main_effects  # noqa: F401
 from studies.sweeps.schema import META_COLUMNS  # noqa: F401
 from studies.sweeps.store import (  # noqa: F401
-    DESIGNS_FILE, FORMATS, PARTS_DIR, SPEC_FILE, CsvStore, ParquetStore, open_store, read_results, table_schema)
+    DESIGNS_FILE, FORMATS, PARTS_DIR, SPEC_FILE, CsvStore, ParquetStore, open_store, read_results, status_counts,
+    table_schema)
 from studies.sweeps.sweep_spec import (  # noqa: F401
     MAX_DESIGNS, SAMPLERS, Factor, SweepSpec, check_spec, load_model, load_spec, parse_spec, sample_designs,
     spec_to_toml, with_base_model)
@@ -266,14 +267,7 @@ def check_run_arguments(spec, out, run: SweepRun) -> None:
         raise InputError("spec", f"expected a SweepSpec (studies.sweeps.load_spec(path)), got {type(spec).__name__}")
     validate.path(out, "out")
     validate.choice(run.fmt, "fmt", FORMATS)
-    if run.scheduler is not None:
-        validate.address(run.scheduler, "scheduler")
-    if run.n_workers is not None:
-        validate.number(run.n_workers, "n_workers", integer=True, bounds=(1, 1024))
-    if run.batch_size is not None:
-        validate.number(run.batch_size, "batch_size", integer=True, bounds=(1, 1_000_000))
-    for name in ("force", "retry_failed", "progress"):
-        validate.boolean(getattr(run, name), name)
+    check_options(run, "n_workers", ("force", "retry_failed", "progress"))
     if run.designs is not None:
         if not isinstance(run.designs, (list, tuple)) or not all(isinstance(d, dict) for d in run.designs):
             raise InputError("designs", "expected a list of {factor: value} dicts")
@@ -374,7 +368,7 @@ def _finish(store, n_designs: int, summary: dict, t_start: float) -> dict:
     """The summary completed from the store: failures, status counts, the results file, the rate."""
     final = store.read()
     summary["failed"] = int((final["status"] == "error").sum())
-    summary["status_counts"] = {str(k): int(v) for k, v in final["status"].value_counts().items()}
+    summary["status_counts"] = status_counts(final)
     if len(final) >= n_designs:
         summary["results"] = str(store.finish())
         summary["complete"] = True

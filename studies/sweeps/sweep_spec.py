@@ -194,7 +194,8 @@ def _sweep_table(doc: dict) -> dict:
     out = schema.read_keys(sw, SWEEP_KEYS, "sweep")
     if out["sampler"] == "grid":
         if "samples" in sw:
-            raise InputError("sweep.samples", "the grid sampler takes its size from the factors' levels; remove samples")
+            raise InputError("sweep.samples",
+                             "the grid sampler takes its size from the factors' levels; remove samples")
         out["samples"] = None
     else:
         out["samples"] = validate.number(sw.get("samples"), "sweep.samples", integer=True, bounds=(1, MAX_DESIGNS))

@@ -44,7 +44,19 @@ _CASES_3_8 = {
 
 
 def table_3_8() -> dict:
-    """Mode-function parameters gamma1..3 (Table 3.4) of the uniform and stepped reeds, free vs load."""
+    """The mode-function parameters gamma1..3 of the uniform and stepped reeds, in free vibration and under load.
+
+    Returns
+    -------
+    dict
+        ``rows``: per case gamma1..3 [-] by the thesis's method (Table 3.4's integrals; eqs
+        3.42-3.45 for stepped #2's rigid tip) beside Table 3.8's, and by exact Euler-Bernoulli;
+        ``notes``.
+
+    References
+    ----------
+    Knutson (2016), Tables 3.4 and 3.8, eqs 3.42-3.45.
+    """
     tv = thesis_values()["table_3_8"]
     rows = []
     for case, (name, kind) in _CASES_3_8.items():
@@ -72,7 +84,18 @@ def table_3_8() -> dict:
 
 
 def table_3_9() -> dict:
-    """First mode-function parameter of stepped reed #1: direct integration vs eq 3.48 (E-B rows)."""
+    """The first mode-function parameter of stepped reed #1: direct integration against eq 3.48.
+
+    Returns
+    -------
+    dict
+        ``rows``: omega_n [rad/s] (the stepped-beam determinant, Naguleswaran 2002), kappa [Pa/m]
+        (eq 3.40) and gamma1 [-] by each method, beside Table 3.9's; ``notes``.
+
+    References
+    ----------
+    Knutson (2016), eqs 3.40, 3.48 and Table 3.9; Naguleswaran (2002), J. Sound Vib. 252, 751-767.
+    """
     tv = thesis_values()["table_3_9"]
     reed = _reed("stepped1")
     m = reed.material
@@ -97,7 +120,18 @@ def table_3_9() -> dict:
 
 
 def table_3_11() -> dict:
-    """Natural frequency parameter alpha (eq 3.75) of the four reeds: exact E-B, and from the thesis's FEA omegas."""
+    """The natural frequency parameter alpha of the four reeds.
+
+    Returns
+    -------
+    dict
+        ``rows``: per reed omega_n [rad/s] by exact Euler-Bernoulli and alpha [-] by eq 3.75 from it
+        and from the thesis's FEA omega, beside Table 3.11's; ``notes``.
+
+    References
+    ----------
+    Knutson (2016), eq 3.75 and Table 3.11.
+    """
     tv = thesis_values()["table_3_11"]
     h_eff_valve = _valve().effective_thickness
     rows = []
@@ -135,7 +169,18 @@ def table_3_11() -> dict:
 
 
 def table_3_12() -> dict:
-    """Poiseuille-regime pressure load multiplier X vs the base pressure fraction F4 (eq 3.60)."""
+    """The Poiseuille-regime pressure load multiplier X against the base pressure fraction F4.
+
+    Returns
+    -------
+    dict
+        ``rows``: per F4 [-] X [-] by eq 3.60 on the rigid-tip shape (as the thesis) and on the exact
+        load shape, beside Table 3.12's; ``notes`` (the reconstructed sealing sections, Figure 3.14).
+
+    References
+    ----------
+    Knutson (2016), eqs 3.59-3.60, Figure 3.14 and Table 3.12.
+    """
     tv = thesis_values()["table_3_12"]
     reed = _reed("stepped2")  # the prototype's outline; the thesis uses stepped #2's load shape
     approx = lambda s: rb.three_section_shape(reed, s)  # noqa: E731

@@ -160,7 +160,18 @@ def multi_fidelity_check(reed: Reed, fidelities=("analytic", "beam", "plate", "s
 
 
 def check_as_json(check: dict) -> dict:
-    """The check as plain JSON types (the selected ReedProperties as its contract object)."""
+    """The check as plain JSON types.
+
+    Parameters
+    ----------
+    check : dict
+        :func:`multi_fidelity_check`'s result.
+
+    Returns
+    -------
+    dict
+        The selected ReedProperties as its contract object (SI).
+    """
     out = {k: v for k, v in check.items() if k != "selected"}
     sel = check["selected"]
     out["selected"] = {
@@ -171,7 +182,18 @@ def check_as_json(check: dict) -> dict:
 
 
 def render_check(c: dict) -> str:
-    """Readable table of a (JSON) check: values and % deviations from the reference."""
+    """A readable table of a check: values and % deviations from the reference.
+
+    Parameters
+    ----------
+    c : dict
+        :func:`check_as_json`'s result.
+
+    Returns
+    -------
+    str
+        omega_n [rad/s], kappa [MPa/m], gamma1..3, dofs, seconds per fidelity; the modes, the flags and the selection.
+    """
     head = f"{'fidelity':<9} {'omega_n':>9} {'kappa':>9} {'gamma1':>7} {'gamma2':>7} {'gamma3':>7} {'dofs':>7} {'s':>6}"
     lines = [f"reed {c['geometry']}: multi-fidelity check (reference {c['reference']}, "
              f"tolerance {c['tolerance_pct']:g} %)", head,

@@ -47,7 +47,17 @@ class Evaluator:
         self.n_g = len(self.constraints) + 1
 
     def values_of(self, z) -> dict:
-        """{variable: value in its unit} of a point of the optimiser's space."""
+        """The variables' values at a point of the optimiser's space.
+
+        Parameters
+        ----------
+        z : sequence of float
+
+        Returns
+        -------
+        dict
+            {variable: value in its unit}.
+        """
         return {v.name: v.from_opt(float(x)) for v, x in zip(self.spec.variables, z)}
 
     def evaluate(self, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -119,7 +129,12 @@ class Evaluator:
         return list(self.cache.values())
 
     def feasible(self) -> int:
-        """How many designs evaluated so far meet every constraint."""
+        """How many designs evaluated so far meet every constraint.
+
+        Returns
+        -------
+        int
+        """
         return sum(1 for r in self.cache.values() if all(x <= 0 for x in r["G"]))
 
 

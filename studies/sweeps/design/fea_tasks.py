@@ -29,6 +29,14 @@ REQUIRED = ("model", "task")
 
 
 def check(name: str, value) -> None:
+    """Vet one input before a run.
+
+    Parameters
+    ----------
+    name : str
+        The input (``task`` must be ``calibrate`` or ``fea``; the key paths are checked against the model).
+    value : object
+    """
     from geometry.errors import InputError
 
     if name == "task" and value not in ("calibrate", "fea"):
@@ -56,12 +64,25 @@ def _model(design: dict):
     return with_values(load_model(design["model"], field="model"), values)
 
 
-def _reed_positions(model):
-    return [pos for pos in POSITIONS if getattr(model.valve(pos), "reed", None) is not None]
-
-
 def evaluate(design: dict) -> dict:
+    """Run one FEA task on a design's reeds (see the module docstring).
+
+    Parameters
+    ----------
+    design : dict
+        ``model``, ``task``, the design's key paths, ``mesh_size`` [m], ``tolerance_pct`` and
+        ``stress_tolerance_pct`` [%], ``stress_calibration_<valve>``.
+
+    Returns
+    -------
+    dict
+        ``calibrate``: per reed valve the E-B estimate and the solid FEA's stress [Pa] and their
+        ratio; ``fea``: per reed valve kappa [Pa/m] and omega_n [rad/s] analytic and solid, the %
+        deviations of kappa, omega_n and gamma1..3, the stress estimate and the solid FEA's stress
+        [Pa] with its % deviation, the solid's dofs, the flags; and ``flagged``.
+    """
     from studies.sweeps.design.stress import calibration_row, eb_kappa, eb_stress, lift_deflection, solid_stress
+    from studies.sweeps.design.study import reed_positions
 
     ensure_gmsh()
     model = _model(design)
@@ -70,7 +91,7 @@ def evaluate(design: dict) -> dict:
     out = dict.fromkeys(OUTPUTS)
     done: dict = {}   # reed -> (deflection, result): the two valves often share one reed
     if design["task"] == "calibrate":
-        for pos in _reed_positions(model):
+        for pos in reed_positions(model):
             v = model.valve(pos)
             d = lift_deflection(v)
             if v.reed in done:
@@ -88,7 +109,7 @@ def evaluate(design: dict) -> dict:
     tol = float(design.get("tolerance_pct", 4.0))
     stol = float(design.get("stress_tolerance_pct", 10.0))
     flagged = False
-    for pos in _reed_positions(model):
+    for pos in reed_positions(model):
         v = model.valve(pos)
         d = lift_deflection(v)
         if v.reed in done:

@@ -233,18 +233,8 @@ def run_optimize(spec: DesignSpec, out, *, scheduler: str | None = None, workers
         An ``optimize`` spec (:func:`studies.sweeps.design.spec.load_spec`).
     out : str or os.PathLike
         The study folder; a rerun replays the optimiser and computes nothing twice.
-    scheduler : str, optional
-        A dask scheduler's address; default a LocalCluster of ``workers`` processes.
-    workers : int, optional
-        Local worker processes (default: one per core).
-    client : distributed.Client, optional
-        An existing client to use.
-    batch_size : int, optional
-        Evaluations per dask task.
-    force : bool
-        Start over in a folder that holds another study.
-    progress : bool
-        Progress on stderr.
+    scheduler, workers, client, batch_size, force, progress
+        How it runs: :class:`~studies.sweeps.design.runner.StudyRun`.
 
     Returns
     -------
@@ -252,19 +242,15 @@ def run_optimize(spec: DesignSpec, out, *, scheduler: str | None = None, workers
         The summary (CONTRACT.md, "Optimisation"), also written to ``summary.json``: the designs
         with their re-checked objectives and model files, the baseline, the files, timings.
     """
-    runner.check_study_arguments(spec, "optimize", out, scheduler=scheduler, workers=workers, batch_size=batch_size,
-                                 force=force, progress=progress)
+    run = runner.StudyRun(scheduler, workers, client, batch_size, force, progress)
+    runner.check_study_arguments(spec, "optimize", out, run)
     t_start = time.perf_counter()
     out = Path(out)
     model = _check(spec, out, force)
     stages: dict = {}
-    with runner.Cluster(scheduler, workers, client) as cluster, _reed_cache(out):
-        cluster.check_reachable()
-        runner.prepare_study(out, spec, force, SUBFOLDERS)
-        base_path = study.write_base_model(out, model) if model is not None else None
-        ctx = Study(spec, model, base_path, cluster, out, study.outputs_catalogue(spec), progress)
+    with _reed_cache(out), runner.open_study(spec, out, model, run, SUBFOLDERS) as ctx:
         ctx, ev, front, generations = _loop(ctx, batch_size, stages)
-        n_workers = cluster.workers if cluster.client is not None else None
+        n_workers = ctx.cluster.workers if ctx.cluster.client is not None else None
         t0 = time.perf_counter()
         base = baseline(ctx) if spec.model_kind == "pump" else None    # the base model, fast (as in the loop)
         stages["baseline"] = time.perf_counter() - t0

@@ -168,7 +168,8 @@ def parse_stress(d) -> dict:
     else:
         cal = schema.number(cal, "stress.calibration", positive=True)
     out["calibration"] = cal
-    out["mesh_size"] = None if "mesh_size" not in d else schema.number(d["mesh_size"], "stress.mesh_size", positive=True)
+    out["mesh_size"] = (None if "mesh_size" not in d else
+                        schema.number(d["mesh_size"], "stress.mesh_size", positive=True))
     return out
 
 

@@ -34,15 +34,38 @@ from studies.sweeps.design import runner, study
 from studies.sweeps.design.calibration import calibrate, calibration_summary
 from studies.sweeps.design.spec import DesignSpec, check_size
 from studies.sweeps.design.study import Study
+from studies.sweeps.store import status_counts
 
 SUBFOLDERS = ("runs", "calibration")
 
 
+#: the bootstrap seed used for ``seed = 0``: SALib's ``sobol.analyze`` treats 0 as "no seed" (numpy's global
+#: generator, a different interval at each run), and no spec can give this one (run.seed is at most 2**32 - 1)
+SOBOL_SEED_FOR_ZERO = 2**32
+
+
 def sample_unit(spec: DesignSpec) -> np.ndarray:
-    """The study's samples in the unit hypercube (rows: samples, columns: variables)."""
+    """The study's samples in the unit hypercube.
+
+    Parameters
+    ----------
+    spec : DesignSpec
+        A sensitivity spec: ``run.method`` (``sobol``: Saltelli's scheme on a scrambled Sobol
+        sequence, no second order; ``morris``: trajectories on a ``num_levels`` grid),
+        ``samples``, ``seed``.
+
+    Returns
+    -------
+    numpy.ndarray
+        (:func:`n_samples`, variables), in [0, 1].
+
+    References
+    ----------
+    Saltelli et al. (2010), Comput. Phys. Commun. 181, 259-270; Morris (1991), Technometrics 33,
+    161-174; Herman and Usher (2017), SALib, J. Open Source Softw. 2(9), 97.
+    """
     r = spec.run_dict
-    d = len(spec.variables)
-    problem = {"num_vars": d, "names": [v.name for v in spec.variables], "bounds": [[0.0, 1.0]] * d}
+    problem = _problem(spec)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         if r["method"] == "sobol":
@@ -55,24 +78,76 @@ def sample_unit(spec: DesignSpec) -> np.ndarray:
 
 
 def n_samples(spec: DesignSpec) -> int:
+    """The number of designs a sensitivity study evaluates at each operating point.
+
+    Parameters
+    ----------
+    spec : DesignSpec
+
+    Returns
+    -------
+    int
+        N (D + 2) for Sobol (N base samples, D variables), N (D + 1) for Morris (N trajectories).
+    """
     r = spec.run_dict
     d = len(spec.variables)
     return r["samples"] * (d + 2) if r["method"] == "sobol" else r["samples"] * (d + 1)
 
 
 def designs_of(spec: DesignSpec, u: np.ndarray) -> list[dict]:
+    """The designs of samples in the unit hypercube.
+
+    Parameters
+    ----------
+    spec : DesignSpec
+    u : numpy.ndarray
+        (samples, variables) in [0, 1] (:func:`sample_unit`).
+
+    Returns
+    -------
+    list of dict
+        {variable: value in its unit} per sample (:meth:`~studies.sweeps.design.variables.Variable.from_unit`).
+    """
     cols = [v.from_unit(u[:, j]) for j, v in enumerate(spec.variables)]
     names = [v.name for v in spec.variables]
     return [dict(zip(names, row)) for row in zip(*cols)]
 
 
 def _problem(spec: DesignSpec) -> dict:
+    """The SALib problem: every variable on [0, 1] (the mapping onto its range is :func:`designs_of`'s)."""
     d = len(spec.variables)
     return {"num_vars": d, "names": [v.name for v in spec.variables], "bounds": [[0.0, 1.0]] * d}
 
 
 def analyse_sobol(problem: dict, y: np.ndarray, num_resamples: int, conf_level: float, seed: int) -> dict:
-    """Sobol indices of one output y (N (D + 2) values, NaN where missing): blocks with a NaN are dropped."""
+    """First-order and total Sobol indices of one output, with bootstrap confidence intervals.
+
+    Parameters
+    ----------
+    problem : dict
+        The SALib problem (``num_vars`` D).
+    y : numpy.ndarray
+        N (D + 2) values in Saltelli's order, NaN where an evaluation failed: a block with a NaN
+        is dropped (the others stay independent draws, the estimators unbiased).
+    num_resamples : int
+        Bootstrap resamples.
+    conf_level : float
+        Confidence level of the intervals (0.95: 95 %).
+    seed : int
+        The bootstrap's seed (0 too gives the same intervals at every run, :data:`SOBOL_SEED_FOR_ZERO`).
+
+    Returns
+    -------
+    dict
+        ``S1``, ``S1_conf``, ``ST``, ``ST_conf`` per variable (dimensionless, the conf entries half
+        widths of the intervals), ``mean`` and ``std`` of y (its unit), ``n_blocks``, ``n_used``,
+        ``dropped``, ``constant`` and a ``note`` when no index could be estimated.
+
+    References
+    ----------
+    Saltelli et al. (2010), Comput. Phys. Commun. 181, 259-270 (S1); Jansen (1999), Comput. Phys.
+    Commun. 117, 35-43 (ST); SALib's ``sobol.analyze``.
+    """
     from SALib.analyze import sobol as sobol_analyze
 
     d = problem["num_vars"]
@@ -90,7 +165,7 @@ def analyse_sobol(problem: dict, y: np.ndarray, num_resamples: int, conf_level: 
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore")
         si = sobol_analyze.analyze(problem, yv, calc_second_order=False, num_resamples=num_resamples,
-                                   conf_level=conf_level, print_to_console=False, seed=seed)
+                                   conf_level=conf_level, print_to_console=False, seed=seed or SOBOL_SEED_FOR_ZERO)
     for k in ("S1", "S1_conf", "ST", "ST_conf"):
         res[k] = [float(x) for x in si[k]]
     res["mean"], res["std"] = float(yv.mean()), float(yv.std())
@@ -99,7 +174,36 @@ def analyse_sobol(problem: dict, y: np.ndarray, num_resamples: int, conf_level: 
 
 def analyse_morris(problem: dict, u: np.ndarray, y: np.ndarray, num_levels: int, num_resamples: int,
                    conf_level: float, seed: int) -> dict:
-    """Morris elementary effects of one output (trajectories with a NaN are dropped)."""
+    """Morris elementary effects of one output (mu*, sigma), with bootstrap confidence intervals of mu*.
+
+    Parameters
+    ----------
+    problem : dict
+        The SALib problem (``num_vars`` D).
+    u : numpy.ndarray
+        The trajectories' points in the unit hypercube, (N (D + 1), D).
+    y : numpy.ndarray
+        N (D + 1) values, NaN where an evaluation failed: a trajectory with a NaN is dropped.
+    num_levels : int
+        The grid's levels (even).
+    num_resamples : int
+        Bootstrap resamples.
+    conf_level : float
+        Confidence level of mu*'s interval.
+    seed : int
+        The bootstrap's seed.
+
+    Returns
+    -------
+    dict
+        ``mu``, ``mu_star``, ``mu_star_conf``, ``sigma`` per variable, in y's unit per full range
+        of the variable; ``mean``, ``std``, ``n_blocks``, ``n_used``, ``dropped``, ``constant``, ``note``.
+
+    References
+    ----------
+    Morris (1991), Technometrics 33, 161-174; Campolongo et al. (2007), Environ. Model. Softw. 22,
+    1509-1518 (mu*); SALib's ``morris.analyze``.
+    """
     from SALib.analyze import morris as morris_analyze
 
     d = problem["num_vars"]
@@ -223,18 +327,8 @@ def run_sensitivity(spec: DesignSpec, out, *, scheduler: str | None = None, work
         A ``sensitivity`` spec (:func:`studies.sweeps.design.spec.load_spec`).
     out : str or os.PathLike
         The study folder; a rerun computes only the evaluations not yet recorded.
-    scheduler : str, optional
-        A dask scheduler's address; default a LocalCluster of ``workers`` processes.
-    workers : int, optional
-        Local worker processes (default: one per core).
-    client : distributed.Client, optional
-        An existing client to use.
-    batch_size : int, optional
-        Evaluations per dask task.
-    force : bool
-        Start over in a folder that holds another study.
-    progress : bool
-        Progress on stderr.
+    scheduler, workers, client, batch_size, force, progress
+        How it runs: :class:`~studies.sweeps.design.runner.StudyRun`.
 
     Returns
     -------
@@ -242,23 +336,18 @@ def run_sensitivity(spec: DesignSpec, out, *, scheduler: str | None = None, work
         The summary (CONTRACT.md, "Sensitivity"), also written to ``summary.json``: the indices with
         their confidence intervals, the analyses, the files, timings and rates.
     """
-    runner.check_study_arguments(spec, "sensitivity", out, scheduler=scheduler, workers=workers, batch_size=batch_size,
-                                 force=force, progress=progress)
+    run = runner.StudyRun(scheduler, workers, client, batch_size, force, progress)
+    runner.check_study_arguments(spec, "sensitivity", out, run)
     t_start = time.perf_counter()
     out = Path(out)
     model = _check(spec, out, force)
-    catalogue = study.outputs_catalogue(spec)
     u = sample_unit(spec)
     designs = designs_of(spec, u)
     study.rows_for(spec, designs)          # every design's derived keys, before anything is written
-    with runner.Cluster(scheduler, workers, client) as cluster:
-        cluster.check_reachable()
-        runner.prepare_study(out, spec, force, SUBFOLDERS)
-        base_path = study.write_base_model(out, model) if model is not None else None
-        ctx = Study(spec, model, base_path, cluster, out, catalogue, progress)
+    with runner.open_study(spec, out, model, run, SUBFOLDERS) as ctx:
         ctx, df, summ, eval_wall = _evaluate(ctx, designs, batch_size)
-        n_workers = cluster.workers if cluster.client is not None else None
-    outputs = [catalogue[o] for o in spec.outputs]
+        n_workers = ctx.cluster.workers if ctx.cluster.client is not None else None
+    outputs = [ctx.catalogue[o] for o in spec.outputs]
     indices, analyses = analyse(spec, df, u, outputs)
     from studies.sweeps.design import report
 
@@ -285,7 +374,7 @@ def _summary(ctx: Study, df, summ: dict, indices: list, analyses: list, files: d
         "operating_points": [dict(p, label=lab) for p, lab in zip(spec.points, spec.point_labels)],
         "samples": r["samples"], "designs": n, "evaluations": n * len(spec.points),
         "computed": summ.get("computed", 0), "skipped": summ.get("skipped", 0),
-        "status_counts": runner.status_counts(df), "failed": int((df["status"] != "ok").sum()) if len(df) else 0,
+        "status_counts": status_counts(df), "failed": int((df["status"] != "ok").sum()) if len(df) else 0,
         "workers": n_workers, "indices": indices,
         "analyses": [{k: a.get(k) for k in ("output", "operating_point", "n_used", "dropped", "constant", "note")}
                      for a in analyses],
@@ -295,8 +384,24 @@ def _summary(ctx: Study, df, summ: dict, indices: list, analyses: list, files: d
 
 
 def top_variables(result: dict, output: str, key: str = "ST", point: str | None = None) -> list[tuple[str, float]]:
-    """The variables of an output sorted by an index (largest first), at one operating point (default: the mean,
-    or the only point)."""
+    """The variables of an output sorted by an index, largest first.
+
+    Parameters
+    ----------
+    result : dict
+        :func:`run_sensitivity`'s summary.
+    output : str
+        The output.
+    key : str
+        The index (``ST``, ``S1``, ``mu_star``, ...).
+    point : str, optional
+        The operating point's label (default: ``mean``, or the only point).
+
+    Returns
+    -------
+    list of (str, float)
+        (variable, index) pairs.
+    """
     rows = [r for r in result["indices"] if r["output"] == output]
     pts = [r["operating_point"] for r in rows]
     point = point or ("mean" if "mean" in pts else pts[0])
@@ -305,4 +410,14 @@ def top_variables(result: dict, output: str, key: str = "ST", point: str | None 
 
 
 def describe_index(v) -> str:
+    """An index as a table cell: three decimals, ``-`` when missing.
+
+    Parameters
+    ----------
+    v : float or None
+
+    Returns
+    -------
+    str
+    """
     return "-" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.3f}"

@@ -137,7 +137,16 @@ class DesignSpec:
         return hashlib.sha256(key.encode()).hexdigest()[:16]
 
     def variable(self, name: str) -> Variable:
-        """The variable called ``name``."""
+        """A variable by its name.
+
+        Parameters
+        ----------
+        name : str
+
+        Returns
+        -------
+        Variable
+        """
         return next(v for v in self.variables if v.name == name)
 
     @property
@@ -276,8 +285,21 @@ def known_output(catalogue: dict, name: str, where: str) -> None:
                                 f" ... (CONTRACT.md lists them all)")
 
 
-def _catalogue(model: str, kind: str) -> dict:
-    """The outputs a spec on this model may name."""
+def catalogue_of(model: str, kind: str) -> dict:
+    """The outputs a spec on a model may name.
+
+    Parameters
+    ----------
+    model : str
+        The spec's model (a pump model, or a sweep-model module's name).
+    kind : str
+        ``pump`` or ``module``.
+
+    Returns
+    -------
+    dict of str to Output
+        :data:`studies.sweeps.design.outputs.PUMP_OUTPUTS`, or the module's numeric outputs.
+    """
     from studies.sweeps.design.outputs import PUMP_OUTPUTS, module_outputs
 
     return PUMP_OUTPUTS if kind == "pump" else module_outputs(__import__(model, fromlist=["x"]))
@@ -338,7 +360,7 @@ def parse_spec(doc: dict, command: str, text: str = "", base_dir: Path | None = 
             raise InputError(f"fixed.{_q(k)}", "is also varied; keep it in one place")
     run = run_spec.parse_run(doc.get("run", {}), command)
     points = _parse_operating(doc.get("operating", {}), model, kind, set(var_doc))
-    catalogue = _catalogue(model, kind)
+    catalogue = catalogue_of(model, kind)
     outputs, objectives = _outputs(run, command, catalogue)
     constraints, stress = run_spec.parse_constraints(doc.get("constraints", {}), kind,
                                                      run_spec.parse_stress(doc.get("stress", {})),

@@ -13,7 +13,7 @@ import numpy as np
 
 from geometry.errors import InputError
 from studies.outputs import finite_or_none  # noqa: F401  (used as study.finite_or_none)
-from studies.sweeps.design.spec import DesignSpec, _q, design_inputs
+from studies.sweeps.design.spec import DesignSpec, _q, catalogue_of, design_inputs
 
 #: the inputs of an evaluation row that set the operating point, not a model-file key
 OPERATING_INPUTS = ("speed_rpm", "load_pressure")
@@ -63,7 +63,17 @@ class Study:
 
 # --------------------------------------------------------------------------- base model and checks
 def base_model(spec: DesignSpec):
-    """The base PumpModel with the spec's [fixed] keys applied (None for a module model)."""
+    """The base model of a study: the spec's model with its ``[fixed]`` keys applied.
+
+    Parameters
+    ----------
+    spec : DesignSpec
+
+    Returns
+    -------
+    lumped.model.pump_model.PumpModel or None
+        None for a module model.
+    """
     if spec.model_kind != "pump":
         return None
     from lumped.model.model_file import load_model, with_values
@@ -79,11 +89,18 @@ def base_model(spec: DesignSpec):
 
 
 def outputs_catalogue(spec: DesignSpec) -> dict:
-    from studies.sweeps.design.outputs import PUMP_OUTPUTS, module_outputs
+    """The outputs a study's spec may name.
 
-    if spec.model_kind == "pump":
-        return PUMP_OUTPUTS
-    return module_outputs(__import__(spec.model, fromlist=["x"]))
+    Parameters
+    ----------
+    spec : DesignSpec
+
+    Returns
+    -------
+    dict of str to Output
+        The pump's (:data:`studies.sweeps.design.outputs.PUMP_OUTPUTS`) or the module's.
+    """
+    return catalogue_of(spec.model, spec.model_kind)
 
 
 def design_values_inputs(spec: DesignSpec, values: dict) -> dict:
@@ -119,6 +136,19 @@ def model_keys(inputs: dict) -> dict:
 
 
 def apply_design(model, spec: DesignSpec, values: dict):
+    """The base model with a design's key paths and derived keys set.
+
+    Parameters
+    ----------
+    model : lumped.model.pump_model.PumpModel
+    spec : DesignSpec
+    values : dict
+        {variable: value} in each variable's unit.
+
+    Returns
+    -------
+    lumped.model.pump_model.PumpModel
+    """
     from lumped.model.model_file import with_values
 
     inputs = design_inputs(spec, values)
@@ -126,8 +156,23 @@ def apply_design(model, spec: DesignSpec, values: dict):
 
 
 def check_variables(spec: DesignSpec, model) -> None:
-    """Every variable's range ends (or distribution quantiles, or levels) on the base model, the others at their
-    centre; and the centre design itself. InputError names the variable and the end."""
+    """Check every variable against the base model before anything runs.
+
+    Each end of each range (the 0.1 % and 99.9 % quantiles of a distribution, each level) with
+    the other variables at their centre, and the centre design itself; operating variables
+    against their declared bounds.
+
+    Parameters
+    ----------
+    spec : DesignSpec
+    model : lumped.model.pump_model.PumpModel or None
+        The base model (None for a module model, whose ``check(name, value)`` vets the values).
+
+    Raises
+    ------
+    InputError
+        Naming the variable and the end (``variables."valves.geometry.thickness".low``).
+    """
     from geometry.declare import check_value
     from lumped.model.pump_model import LOAD_MPA, SPEED
 
@@ -177,7 +222,19 @@ def check_variables(spec: DesignSpec, model) -> None:
 
 
 def write_base_model(out: Path, model) -> str:
-    """The base model as a complete model file in the study folder (the workers read it); its absolute path."""
+    """Write the base model as a complete model file in the study folder (the workers read it).
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        The study folder.
+    model : lumped.model.pump_model.PumpModel
+
+    Returns
+    -------
+    str
+        The file's absolute path (rewritten only when it changed).
+    """
     from lumped.model.model_file import to_toml
 
     path = Path(out) / BASE_MODEL_FILE
@@ -190,7 +247,20 @@ def write_base_model(out: Path, model) -> str:
 
 
 def fixed_inputs(spec: DesignSpec, base_path: str | None) -> dict:
-    """The inputs every evaluation row shares: the base model file and the run settings."""
+    """The inputs every evaluation row of a study shares.
+
+    Parameters
+    ----------
+    spec : DesignSpec
+    base_path : str or None
+        The base model's file.
+
+    Returns
+    -------
+    dict
+        The base model file and the run settings (revolutions, stop rule, integrator and its
+        tolerances, ``on_warning``); a module model's ``[fixed]`` inputs.
+    """
     if spec.model_kind == "module":
         return {k: (list(v) if isinstance(v, tuple) else v) for k, v in spec.fixed}
     r = spec.run_dict
@@ -202,8 +272,19 @@ def fixed_inputs(spec: DesignSpec, base_path: str | None) -> dict:
 
 
 def evaluation_warnings(df) -> list[dict]:
-    """The validity warnings of an evaluation table (lumped.validity), one entry per code: how many
-    evaluations carry it and the first one's message ([] for a module model: no ``warnings`` column)."""
+    """The validity warnings of an evaluation table (:mod:`lumped.validity`), one entry per code.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The evaluation rows (a ``row`` and a ``warnings`` column).
+
+    Returns
+    -------
+    list of dict
+        Per code how many evaluations carry it and the first one's message ([] for a module model:
+        no ``warnings`` column).
+    """
     from studies.sweeps.pump import summarize_warnings
 
     if "warnings" not in getattr(df, "columns", ()) or not len(df):
@@ -212,8 +293,21 @@ def evaluation_warnings(df) -> list[dict]:
 
 
 def rows_for(spec: DesignSpec, designs: list[dict], calibration: dict | None = None) -> list[dict]:
-    """Evaluation rows of designs (variable values): design-major, one row per operating point; with a stress
-    calibration each row carries its design's calibration factors."""
+    """The evaluation rows of designs: design-major, one row per operating point.
+
+    Parameters
+    ----------
+    spec : DesignSpec
+    designs : list of dict
+        {variable: value} per design.
+    calibration : dict, optional
+        The stress calibration: each row then carries the calibration factors.
+
+    Returns
+    -------
+    list of dict
+        The operating point (``speed_rpm`` [rpm], ``load_pressure`` [Pa]) and the design's inputs.
+    """
     rows = []
     for values in designs:
         inputs = design_values_inputs(spec, values)
@@ -224,6 +318,16 @@ def rows_for(spec: DesignSpec, designs: list[dict], calibration: dict | None = N
 
 
 def needs_stress(spec: DesignSpec) -> bool:
+    """Whether a study asks for the reed's bending stress (and so for the stress calibration).
+
+    Parameters
+    ----------
+    spec : DesignSpec
+
+    Returns
+    -------
+    bool
+    """
     from studies.sweeps.design.outputs import STRESS_OUTPUTS
 
     names = set(spec.outputs) | {o.output for o in spec.objectives} | {c.output for c in spec.constraints}
@@ -231,16 +335,27 @@ def needs_stress(spec: DesignSpec) -> bool:
 
 
 def reed_positions(model) -> list[str]:
+    """The valves of a model that are reeds with a geometry.
+
+    Parameters
+    ----------
+    model : lumped.model.pump_model.PumpModel
+
+    Returns
+    -------
+    list of str
+        Among ``inlet``, ``delivery``.
+    """
     return [pos for pos in ("inlet", "delivery") if getattr(model.valve(pos), "reed", None) is not None]
 
 
 def calibration_inputs(cal: dict | None) -> dict:
-    """The evaluation inputs that carry the calibration factors (the same for every design).
+    """The evaluation inputs that carry the stress calibration factors (the same for every design).
 
     Parameters
     ----------
     cal : dict or None
-        :func:`calibrate`'s result (None: no stress is computed).
+        :func:`studies.sweeps.design.calibration.calibrate`'s result (None: no stress is computed).
 
     Returns
     -------
@@ -252,8 +367,28 @@ def calibration_inputs(cal: dict | None) -> dict:
 
 # --------------------------------------------------------------------------- aggregation
 def aggregate(values: np.ndarray, how: str, sense: str = "min") -> np.ndarray:
-    """(designs, points) -> (designs,): mean, or worst (the largest for min/<=, the smallest for max/>=);
-    NaN if any point is missing."""
+    """Aggregate an output over the operating points.
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        (designs, points), in the output's unit.
+    how : str
+        ``mean``, or ``worst``: the largest for a minimised output (or an upper limit), the smallest
+        for a maximised one (or a lower limit).
+    sense : str
+        ``min`` or ``max``.
+
+    Returns
+    -------
+    numpy.ndarray
+        (designs,); NaN if any point is missing.
+
+    Examples
+    --------
+    >>> aggregate(np.array([[1.0, 3.0], [2.0, 2.0]]), "worst", "max").tolist()
+    [1.0, 2.0]
+    """
     if values.shape[1] == 1:
         return values[:, 0]
     if how == "mean":

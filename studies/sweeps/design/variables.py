@@ -108,17 +108,44 @@ class Variable:
         return [float(v) for v in self._dist().ppf(np.clip(u, 1e-12, 1 - 1e-12))]
 
     def opt_bounds(self) -> tuple[float, float]:
-        """The bounds in the optimiser's space: the range itself, or the logarithms of its ends (log scale)."""
+        """The variable's bounds in the optimiser's space.
+
+        Returns
+        -------
+        tuple of float
+            (low, high) in ``unit``, or (ln low, ln high) on a log scale.
+        """
         if self.scale == "log":
             return math.log(self.low), math.log(self.high)
         return self.low, self.high
 
     def from_opt(self, z: float) -> float:
-        """A value in ``unit`` from a coordinate of the optimiser's space (exp of it on a log scale)."""
+        """A value from a coordinate of the optimiser's space.
+
+        Parameters
+        ----------
+        z : float
+
+        Returns
+        -------
+        float
+            In ``unit``: z, or exp(z) on a log scale.
+        """
         return float(math.exp(z)) if self.scale == "log" else float(z)
 
     def to_opt(self, x: float) -> float:
-        """The coordinate in the optimiser's space of a value in ``unit`` (its log on a log scale)."""
+        """The coordinate in the optimiser's space of a value.
+
+        Parameters
+        ----------
+        x : float
+            In ``unit``.
+
+        Returns
+        -------
+        float
+            x, or ln x on a log scale.
+        """
         return math.log(x) if self.scale == "log" else float(x)
 
     def check_points(self) -> list:
@@ -136,7 +163,13 @@ class Variable:
         return self.from_unit(np.array(CHECK_QUANTILES))
 
     def centre(self):
-        """The centre design's value: the first level, or the median (the middle of a range's scale)."""
+        """The variable's value in the centre design.
+
+        Returns
+        -------
+        object
+            The first level, or the median (the middle of a range, on its scale).
+        """
         if self.values is not None:
             return self.values[0]
         return self.from_unit(np.array([0.5]))[0]
@@ -147,7 +180,13 @@ class Variable:
         return f"{self.name} [{self.unit}]"
 
     def describe(self) -> dict:
-        """The variable as the summary JSON lists it (name, role, unit and its range, levels or distribution)."""
+        """The variable as the summary JSON lists it.
+
+        Returns
+        -------
+        dict
+            ``name``, ``role``, ``unit`` and its range, levels or distribution parameters.
+        """
         d = {"name": self.name, "role": self.role, "unit": self.unit}
         if self.values is not None:
             d["values"] = list(self.values)
@@ -284,7 +323,8 @@ def _normal(name: str, d: dict, where: str, role: str, unit: str) -> Variable:
     low = schema.number(d["low"], f"{where}.low") if "low" in d else None
     high = schema.number(d["high"], f"{where}.high") if "high" in d else None
     if (low is None) != (high is None):
-        raise InputError(f"{where}.{'high' if low is not None else 'low'}", "a truncated normal needs both low and high")
+        raise InputError(f"{where}.{'high' if low is not None else 'low'}",
+                         "a truncated normal needs both low and high")
     if low is not None and not low < mean < high:
         raise InputError(f"{where}.mean", f"must lie inside the truncation [{low:g}, {high:g}]")
     return Variable(name, role, low, high, distribution="normal", params=(("mean", mean), ("std", std)), unit=unit)
