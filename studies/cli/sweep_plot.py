@@ -64,7 +64,12 @@ def main_effects_report(folder: Path, responses, png: Path, bins: int = 8, force
     if not (df["status"] == "ok").any():
         raise InputError(str(folder), "no design with status ok to plot")
     effects = sweep.main_effects(df, spec, responses, bins)
-    sweep.plot_main_effects(effects, png, title=f"{spec.model}: {len(df)} designs ({spec.sampler})")
+    units = dict(getattr(model, "UNITS", {}))
+    if spec.model == "pump":
+        from studies.sweeps.pump import input_units
+
+        units.update(input_units([f.name for f in spec.factors], spec.fixed_dict))
+    sweep.plot_main_effects(effects, png, title=f"{spec.model}: {len(df)} designs ({spec.sampler})", units=units)
     return {"plot": str(png), "designs": int(len(df)), "ok": int((df["status"] == "ok").sum()), "effects": effects}
 
 

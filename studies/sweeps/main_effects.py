@@ -55,7 +55,7 @@ def main_effects(df, spec: SweepSpec, responses: list[str], bins: int = 8) -> di
     return effects
 
 
-def plot_main_effects(effects: dict, path: Path, title: str = "") -> Path:
+def plot_main_effects(effects: dict, path: Path, title: str = "", units: dict | None = None) -> Path:
     """Draw a grid of main-effect plots (rows: responses, columns: factors) and save it as PNG.
 
     Parameters
@@ -66,6 +66,8 @@ def plot_main_effects(effects: dict, path: Path, title: str = "") -> Path:
         The PNG file (written atomically).
     title : str
         The figure's title.
+    units : dict, optional
+        {response or factor: unit} for the axes (``-`` where unknown).
 
     Returns
     -------
@@ -91,9 +93,9 @@ def plot_main_effects(effects: dict, path: Path, title: str = "") -> Path:
                 ax.plot(range(len(xs)), e["mean"], "o-")
                 ax.set_xticks(range(len(xs)), [str(v) for v in xs])
             if i == len(responses) - 1:
-                ax.set_xlabel(f)
+                ax.set_xlabel(f"{f} [{(units or {}).get(f, '-')}]")
             if j == 0:
-                ax.set_ylabel(r)
+                ax.set_ylabel(f"{r} [{(units or {}).get(r, '-')}]")
             ax.grid(alpha=0.3)
     if title:
         fig.suptitle(title)

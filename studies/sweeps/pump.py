@@ -80,6 +80,15 @@ OUTPUTS = {
     "cpu_seconds": "float64",
     "warnings": "string",
 }
+#: the units of the numeric outputs and operating inputs (plot axes; SI, as the names say)
+UNITS = {"delivery_m3_per_rev": "m^3/rev", "volumetric_efficiency": "-", "valve_loss_j": "J/rev",
+         "min_cylinder_pressure_pa": "Pa", "max_cylinder_pressure_pa": "Pa", "cycle_change": "-",
+         "mass_balance_error": "-", "revolutions_run": "-", "cpu_seconds": "s",
+         **{f"{pos}_{k}": u for pos in ("inlet", "delivery") for k, u in (
+             ("peak_opening_m", "m"), ("opening_angle_rad", "rad"), ("closing_angle_rad", "rad"),
+             ("stop_contacts", "-"), ("seat_impact_m_s", "m/s"), ("stop_impact_m_s", "m/s"), ("loss_j", "J/rev"))},
+         "speed_rpm": "rpm", "load_pressure": "Pa", "air_content": "-", "revolutions": "-", "max_revolutions": "-",
+         "steady_tol": "-", "rtol": "-", "atol": "-"}
 #: what a design with a validity warning becomes: "flag" (status ok, warnings in their column) or "exclude"
 ON_WARNING = ("flag", "exclude")
 MAIN_RESPONSES = ("delivery_m3_per_rev", "volumetric_efficiency", "delivery_peak_opening_m")
@@ -271,6 +280,72 @@ def check_inputs(fixed: dict, factors: dict) -> None:
             if exc.field in base_values or exc.field.startswith(translate(name)):
                 raise InputError(name, exc.message) from None
             raise InputError(name, f"{exc.field}: {exc.message}") from None
+
+
+#: the units of a reed geometry's keys (``valves.<pos>.geometry.<key>``)
+GEOMETRY_UNITS = {"length": "m", "thickness": "m", "width_root": "m", "width_tip": "m", "tip_radius": "m",
+                  "step_fraction": "-", "material.youngs_modulus": "Pa", "material.density": "kg/m^3",
+                  "material.poisson_ratio": "-"}
+
+
+def key_unit(model, path: str) -> str:
+    """The unit of a model-file key path, from its declaration.
+
+    Parameters
+    ----------
+    model : lumped.model.pump_model.PumpModel
+    path : str
+        A key path (``valves.spring.stiffness`` for both valves, ``valves.<pos>.geometry.<key>``,
+        ``effects.<name>[.<target>].<parameter>``).
+
+    Returns
+    -------
+    str
+        Its unit, ``-`` when it has none.
+    """
+    from lumped.model.model_file import key_paths
+
+    parts = path.split(".")
+    if "geometry" in parts:
+        return GEOMETRY_UNITS.get(".".join(parts[parts.index("geometry") + 1:]), "-")
+    units = {k["path"]: k["unit"] for k in key_paths(model)}
+    if path in units:
+        return units[path]
+    if parts[0] == "valves" and len(parts) > 1 and parts[1] not in ("inlet", "delivery"):
+        return units.get("valves.delivery." + ".".join(parts[1:]), units.get("valves.inlet." + ".".join(parts[1:]), "-"))
+    if parts[0] == "effects":
+        from lumped.model.effect_library import LIBRARY
+
+        if len(parts) >= 3 and parts[1] in LIBRARY.names():
+            for p in LIBRARY[parts[1]].parameters:
+                if p.name == parts[-1]:
+                    return p.unit
+    return "-"
+
+
+def input_units(names, fixed: dict) -> dict:
+    """The units of a sweep's inputs: operating inputs and model key paths (their declarations).
+
+    Parameters
+    ----------
+    names : iterable of str
+        Input names (key paths, first-version names, operating inputs).
+    fixed : dict
+        The sweep's fixed inputs (the base model: ``model`` or ``valve``).
+
+    Returns
+    -------
+    dict
+        {name: unit} of the names whose unit is known.
+    """
+    from lumped.model.model_file import load_model
+
+    out = {n: UNITS[n] for n in names if n in UNITS}
+    try:
+        model = load_model(_base_name(fixed), field="model")
+    except InputError:           # the base model is a factor: no one model to read the units from
+        return out
+    return {**{n: key_unit(model, translate(n)) for n in names if n not in UNITS and "." in n}, **out}
 
 
 def build_model(design: dict):

@@ -79,6 +79,19 @@ def write_sensitivity(out: Path, spec, indices: list[dict], analyses: list[dict]
     cols = ["output", "output_unit", "operating_point", "variable", "variable_unit", "method", *keys,
             "samples_used", "samples_dropped"]
     _write_csv(out / "indices.csv", indices, cols)
+    (out / "indices.md").write_text(_sensitivity_markdown(spec, indices, analyses))
+    plots = {}
+    conf = int(round(spec.run_dict["conf_level"] * 100))
+    for o in outputs:
+        path = out / f"sensitivity_{_safe(o.name)}.png"
+        plot_indices(indices, analyses, o, method, path, conf)
+        plots[o.name] = str(path)
+    return {"csv": str(out / "indices.csv"), "markdown": str(out / "indices.md"), "plots": plots}
+
+
+def _sensitivity_markdown(spec, indices: list[dict], analyses: list[dict]) -> str:
+    """indices.md: the method, then per output and point the indices sorted by ST (or mu*)."""
+    method = spec.run_dict["method"]
     lines = [f"# Sensitivity ({method}) of {spec.model}", ""]
     if spec.description:
         lines += [spec.description, ""]
@@ -111,13 +124,7 @@ def write_sensitivity(out: Path, spec, indices: list[dict], analyses: list[dict]
             lines += [f"| {x['variable']} [{x['variable_unit']}] | {_fmt(x['mu_star'])} | {_fmt(x['mu_star_conf'])} | "
                       f"{_fmt(x['sigma'])} | {_fmt(x['mu'])} |" for x in rows]
         lines.append("")
-    (out / "indices.md").write_text("\n".join(lines))
-    plots = {}
-    for o in outputs:
-        path = out / f"sensitivity_{_safe(o.name)}.png"
-        plot_indices(indices, analyses, o, method, path, conf)
-        plots[o.name] = str(path)
-    return {"csv": str(out / "indices.csv"), "markdown": str(out / "indices.md"), "plots": plots}
+    return "\n".join(lines)
 
 
 def plot_indices(indices, analyses, output, method, path: Path, conf: int) -> Path:
@@ -258,15 +265,7 @@ def plot_parallel(path: Path, variables, objectives, catalogue, front: list[dict
     """
     plt = _plt()
     axes_names = [v.name for v in variables] + [o.output for o in objectives]
-    lows, highs = [v.low for v in variables], [v.high for v in variables]
-    for o in objectives:
-        vals = [d["objectives"][o.output] for d in front] + ([baseline["objectives"][o.output]] if baseline else [])
-        vals = [x for x in vals if x is not None]
-        lo, hi = (min(vals), max(vals)) if vals else (0.0, 1.0)
-        if hi <= lo:
-            hi = lo + (abs(lo) * 1e-6 or 1e-9)
-        lows.append(lo)
-        highs.append(hi)
+    lows, highs = _parallel_ranges(variables, objectives, front, baseline)
     fig, ax = plt.subplots(figsize=(max(7.0, 1.25 * len(axes_names) + 1.5), 4.8))
     cmap = plt.get_cmap("viridis")
     key = objectives[0].output
@@ -296,6 +295,20 @@ def plot_parallel(path: Path, variables, objectives, catalogue, front: list[dict
     fig.tight_layout()
     _save(fig, path)
     return path
+
+
+def _parallel_ranges(variables, objectives, front: list[dict], baseline: dict | None) -> tuple[list, list]:
+    """Each parallel axis's ends: a variable's bounds, an objective's span over the front and the baseline."""
+    lows, highs = [v.low for v in variables], [v.high for v in variables]
+    for o in objectives:
+        vals = [d["objectives"][o.output] for d in front] + ([baseline["objectives"][o.output]] if baseline else [])
+        vals = [x for x in vals if x is not None]
+        lo, hi = (min(vals), max(vals)) if vals else (0.0, 1.0)
+        if hi <= lo:
+            hi = lo + (abs(lo) * 1e-6 or 1e-9)
+        lows.append(lo)
+        highs.append(hi)
+    return lows, highs
 
 
 def pareto_rows(designs: list[dict], variables, objectives, constraints) -> tuple[list[dict], list[str]]:

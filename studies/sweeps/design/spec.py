@@ -50,9 +50,6 @@ MAX_ROWS = 20_000_000
 #: bytes per evaluation row: in memory (the designs and results tables) and on disk (Parquet)
 ROW_BYTES_MEMORY = 1200
 ROW_BYTES_DISK = 400
-GEOMETRY_UNITS = {"length": "m", "thickness": "m", "width_root": "m", "width_tip": "m", "tip_radius": "m",
-                  "step_fraction": "-", "material.youngs_modulus": "Pa", "material.density": "kg/m^3",
-                  "material.poisson_ratio": "-"}
 TOP_KEYS = {
     "sensitivity": {"model", "description", "fixed", "operating", "variables", "derived", "run", "stress"},
     "optimize": {"model", "description", "fixed", "operating", "variables", "derived", "run", "constraints",
@@ -431,27 +428,12 @@ def _parse_operating(op, model_name: str, kind: str, var_names: set) -> tuple:
 
 
 def _unit_of(model, path: str) -> str:
-    """The unit of a key path of a pump model (its declaration), ``-`` when it has none."""
-    from lumped.model.model_file import key_paths
+    """The unit of a variable of a pump model: an operating variable's, or its key path's declared one."""
+    from studies.sweeps.pump import key_unit
 
     if path in OPERATING_VARIABLES:
         return OPERATING_VARIABLES[path]
-    parts = path.split(".")
-    if "geometry" in parts:
-        return GEOMETRY_UNITS.get(".".join(parts[parts.index("geometry") + 1:]), "-")
-    units = {k["path"]: k["unit"] for k in key_paths(model)}
-    if path in units:
-        return units[path]
-    if parts[0] == "valves" and len(parts) > 1 and parts[1] not in ("inlet", "delivery"):
-        return units.get("valves.delivery." + ".".join(parts[1:]), units.get("valves.inlet." + ".".join(parts[1:]), "-"))
-    if parts[0] == "effects":
-        from lumped.model.effect_library import LIBRARY
-
-        if len(parts) >= 3 and parts[1] in LIBRARY.names():
-            for p in LIBRARY[parts[1]].parameters:
-                if p.name == parts[-1]:
-                    return p.unit
-    return "-"
+    return key_unit(model, path)
 
 
 def load_spec(path, command: str, model_override: str | None = None) -> DesignSpec:

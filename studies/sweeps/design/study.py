@@ -173,21 +173,28 @@ def check_variables(spec: DesignSpec, model) -> None:
     InputError
         Naming the variable and the end (``variables."valves.geometry.thickness".low``).
     """
-    from geometry.declare import check_value
-    from lumped.model.pump_model import LOAD_MPA, SPEED
-
-    centre = {v.name: v.centre() for v in spec.variables}
     if spec.model_kind == "module":
-        mod = __import__(spec.model, fromlist=["x"])
-        chk = getattr(mod, "check", None)
-        for v in spec.variables:
-            if chk is not None:
-                for x in v.check_points():
-                    try:
-                        chk(v.name, x)
-                    except InputError as exc:
-                        raise InputError(f"variables.{_q(v.name)}", exc.message) from None
+        _check_module_variables(spec)
         return
+    centre = {v.name: v.centre() for v in spec.variables}
+    _check_centre(spec, model, centre)
+    for v in spec.variables:
+        _check_ends(spec, model, v, centre)
+
+
+def _check_module_variables(spec: DesignSpec) -> None:
+    """A module model's ``check(name, value)`` on each variable's check points."""
+    chk = getattr(__import__(spec.model, fromlist=["x"]), "check", None)
+    for v in spec.variables if chk is not None else ():
+        for x in v.check_points():
+            try:
+                chk(v.name, x)
+            except InputError as exc:
+                raise InputError(f"variables.{_q(v.name)}", exc.message) from None
+
+
+def _check_centre(spec: DesignSpec, model, centre: dict) -> None:
+    """The centre design on the base model; when it fails, each key path alone names its variable."""
     from lumped.model.model_file import with_values
 
     try:
@@ -203,22 +210,29 @@ def check_variables(spec: DesignSpec, model) -> None:
                     raise InputError(f"variables.{_q(v.name)}", exc1.message if exc1.field.endswith(v.name) else
                                      f"{exc1.field}: {exc1.message}") from None
         raise InputError("variables", f"the design at the centre of the ranges is invalid: {exc}") from None
-    for v in spec.variables:
-        pts = v.check_points()
-        names = ["low", "high"] if (v.values is None and len(pts) == 2) else [f"values[{i}]" for i in range(len(pts))]
-        if v.values is None and not v.is_range:
-            names = ["quantile 0.001", "quantile 0.999"]
-        for end, x in zip(names, pts):
-            where = f"variables.{_q(v.name)}" + (f".{end}" if end in ("low", "high") or end.startswith("values")
-                                                else "")
-            if v.role == "operating":
-                check_value(float(x), SPEED if v.name == "speed_rpm" else LOAD_MPA, where)
-                continue
-            try:
-                apply_design(model, spec, dict(centre, **{v.name: x}))
-            except InputError as exc:
-                via = "" if exc.field.endswith(v.name) or exc.field == v.name else f" ({exc.field})"
-                raise InputError(where, f"{x!r} with the other variables at their centre: {exc.message}{via}") from None
+
+
+def _check_ends(spec: DesignSpec, model, v, centre: dict) -> None:
+    """One variable's check points on the base model, the others at their centre (operating ones against their
+    declared bounds)."""
+    from geometry.declare import check_value
+    from lumped.model.pump_model import LOAD_MPA, SPEED
+
+    pts = v.check_points()
+    names = ["low", "high"] if (v.values is None and len(pts) == 2) else [f"values[{i}]" for i in range(len(pts))]
+    if v.values is None and not v.is_range:
+        names = ["quantile 0.001", "quantile 0.999"]
+    for end, x in zip(names, pts):
+        where = f"variables.{_q(v.name)}" + (f".{end}" if end in ("low", "high") or end.startswith("values")
+                                            else "")
+        if v.role == "operating":
+            check_value(float(x), SPEED if v.name == "speed_rpm" else LOAD_MPA, where)
+            continue
+        try:
+            apply_design(model, spec, dict(centre, **{v.name: x}))
+        except InputError as exc:
+            via = "" if exc.field.endswith(v.name) or exc.field == v.name else f" ({exc.field})"
+            raise InputError(where, f"{x!r} with the other variables at their centre: {exc.message}{via}") from None
 
 
 def write_base_model(out: Path, model) -> str:
