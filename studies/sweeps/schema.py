@@ -1,6 +1,6 @@
 """The one machinery of the study spec files: tables, keys, numbers, ranges, levels and model references.
 
-The sweep file (:mod:`studies.sweeps.spec`) and the sensitivity and optimisation spec
+The sweep file (:mod:`studies.sweeps.sweep_spec`) and the sensitivity and optimisation spec
 (:mod:`studies.sweeps.design.spec`) are read through these functions only, so that both check
 a value the same way and say the same thing when it is wrong. Each function takes ``where``,
 the field's name as the user writes it (``factors.speed_rpm.high``,

@@ -34,6 +34,7 @@ QUANTITIES = ("omega_n", "kappa", "gamma1", "gamma2", "gamma3")
 REFERENCE_ORDER = ("solid", "plate", "beam", "analytic")
 #: Euler-Bernoulli fidelities, cheapest first, eligible to feed the pump model
 EB_ORDER = ("analytic", "beam")
+#: the deviation [%] beyond which a quantity is flagged (section 3.5.1: E-B reed stiffness "within ~4 %")
 DEFAULT_TOLERANCE_PCT = 4.0
 
 

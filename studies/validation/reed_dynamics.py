@@ -290,7 +290,7 @@ def dynamics_study(reeds: list[ReedCase] | None = None, cases=None, revolutions:
     stress : bool
         The peak root stress from the solid FEA (a static solve per reed).
     traces : bool
-        Keep the first case's traces (for :func:`plot`).
+        Keep the first case's traces (for :func:`studies.validation.reed_dynamics_report.plot`).
     method : str
         The stepper of eq 3.21 and the modal reeds (the FE reed runs on the reference stepper). The
         study compares model forms, so its numerics must sit well below its 0.1 %: the reference

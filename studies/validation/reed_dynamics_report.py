@@ -156,7 +156,7 @@ def plot(study: dict, folder, modes: tuple) -> list:
     Parameters
     ----------
     study : dict
-        :func:`dynamics_study`'s result (with traces).
+        :func:`studies.validation.reed_dynamics.dynamics_study`'s result (with traces).
     folder : str or os.PathLike
     modes : tuple of int
         The numbers of modes tried (the largest's participation is drawn).
