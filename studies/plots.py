@@ -25,7 +25,7 @@ def legend_outside(ax, **kwargs):
     ----------
     ax : matplotlib.axes.Axes
     **kwargs
-        Passed to :meth:`matplotlib.axes.Axes.legend` (``fontsize``, ``ncol``, ...).
+        Passed to ``matplotlib.axes.Axes.legend`` (``fontsize``, ``ncol``, ...).
 
     Returns
     -------

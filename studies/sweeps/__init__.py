@@ -2,8 +2,9 @@
 
 - :mod:`~studies.sweeps.schema`: the one machinery every study spec is checked with (tables,
   keys, numbers, ranges, levels, model references; one wording for every refusal);
-- :mod:`~studies.sweeps.sweep_spec`: the sweep file, its :class:`SweepSpec` and its samplers;
-- :mod:`~studies.sweeps.sweep`: the resumable dask runner (:func:`run_sweep`);
+- :mod:`~studies.sweeps.sweep_spec`: the sweep file, its :class:`~studies.sweeps.sweep_spec.SweepSpec` and its
+  samplers;
+- :mod:`~studies.sweeps.sweep`: the resumable dask runner (:func:`~studies.sweeps.sweep.run_sweep`);
 - :mod:`~studies.sweeps.store`: the results tables (Parquet parts or CSV);
 - :mod:`~studies.sweeps.main_effects`: the mean response against each factor;
 - :mod:`~studies.sweeps.cluster`: the dask cluster every study runs on;

@@ -9,7 +9,7 @@ u_input) until the cyclic steady-state test passes (:meth:`lumped.run.revolution
 two revolutions at least), each draw of a task started from the state predicted from the draws
 solved before it (a warm start, :class:`lumped.run.warmstart.WarmStarts`, the draws visited in a
 nearest-neighbour chain of their standard scores). The simulations run on a dask cluster like
-the sweeps (:class:`studies.sweeps.design.runner.Cluster`), or in this process.
+the sweeps (:class:`studies.sweeps.cluster.Cluster`), or in this process.
 
 u_input of an output is the standard deviation of its draws. How well the sample knows
 it is measured, not assumed: :data:`SCRAMBLES` independent scrambles of the Sobol sequence
@@ -194,7 +194,7 @@ def _estimate(state: _State, name: str, unit: str) -> InputUncertainty:
 def propagate(points, *, quick: bool = False, seed: int = 0, cluster=None, progress: bool = False,
               outputs=tuple(OUTPUTS), draws: dict | None = None) -> dict[str, dict[str, InputUncertainty]]:
     """u_input of ``outputs`` at every :class:`Point` (see the module docstring); ``cluster``: a
-    :class:`studies.sweeps.design.runner.Cluster` (None: in this process). ``draws``: a dict that
+    :class:`studies.sweeps.cluster.Cluster` (None: in this process). ``draws``: a dict that
     receives {point: {output: array of its defined draws}} (the predictive distributions)."""
     states = [_State(p, seed, i) for i, p in enumerate(points)]
     bar = None

@@ -2,7 +2,7 @@
 
 A derived key is a string such as ``"step_length / valves.geometry.length"``: numbers, names
 (dotted key paths too), ``+ - * / **``, unary minus and the functions min, max, sqrt, exp,
-log, abs. :func:`expression_names` checks the text (Python's own parser, :mod:`ast`; nothing
+log, abs. :func:`expression_names` checks the text (Python's own parser, ``ast``; nothing
 else is allowed, so nothing is executed) and lists the names it reads;
 :func:`evaluate_expression` computes it for one design.
 """
