@@ -87,7 +87,24 @@ class ScaleFit:
 # ---------------------------------------------------------------- validation
 
 def validate(obj, prefix: str = ""):
-    """``obj`` (LtsSetup or IndexExperiment) unchanged, or InputError naming the bad field."""
+    """Check a setup or an experiment field by field (its declared bounds).
+
+    Parameters
+    ----------
+    obj : LtsSetup or IndexExperiment
+    prefix : str
+        Prepended to a field's name in the refusal.
+
+    Returns
+    -------
+    LtsSetup or IndexExperiment
+        ``obj`` unchanged.
+
+    Raises
+    ------
+    InputError
+        Naming the bad field (also c1 + standoff <= 0).
+    """
     for name, _ in specs(obj):
         check_field(obj, name, getattr(obj, name), prefix + name)
     if obj.c1 + obj.standoff <= 0:
@@ -98,7 +115,28 @@ def validate(obj, prefix: str = ""):
 # ------------------------------------------------------------ scale factor
 
 def laser_angle(c1: float, c2: float, standoff: float) -> float:
-    """Return-ray angle in air at the zero-voltage reference [rad] (eq 5.5 = eq B.1)."""
+    """The return ray's angle in air at the zero-voltage reference (eq 5.5 = eq B.1).
+
+    theta_a = atan(C_2 / (C_1 + L_s))
+
+    Parameters
+    ----------
+    c1 : float
+        C_1, the receiving lens behind the sensor face [m].
+    c2 : float
+        C_2, the receiving lens across from the beam [m].
+    standoff : float
+        L_s, sensor face to the zero-voltage reference [m].
+
+    Returns
+    -------
+    float
+        [rad].
+
+    References
+    ----------
+    Knutson (2016), eq 5.5 and eq B.1.
+    """
     return math.atan2(c2, c1 + standoff)
 
 
@@ -108,7 +146,30 @@ def _refracted(s: float | np.ndarray, n: float):
 
 
 def oil_gap(setup: LtsSetup) -> float:
-    """Oil gap t_o [m] that puts the target at the sensor's reference (eq 5.6 with eqs 5.1, 5.2, 5.5)."""
+    """The oil gap that puts the target at the sensor's reference.
+
+    Eq 5.6 with Snell's law (eqs 5.1, 5.2) and eq 5.5:
+    t_o = (C_2 - (C_1 + t_a) tan theta_a - t_p tan theta_p) / tan theta_o.
+
+    Parameters
+    ----------
+    setup : LtsSetup
+
+    Returns
+    -------
+    float
+        t_o [m].
+
+    References
+    ----------
+    Knutson (2016), eqs 5.1, 5.2, 5.5, 5.6.
+
+    Examples
+    --------
+    >>> setup, _ = thesis_setup("disc_inlet")
+    >>> print(f"{oil_gap(setup) * 1e3:.2f} mm")
+    32.79 mm
+    """
     th_a = laser_angle(setup.c1, setup.c2, setup.standoff)
     s = setup.n_air * math.sin(th_a)
     if s >= min(setup.n_window, setup.n_fluid):
@@ -134,7 +195,26 @@ def _lateral(setup: LtsSetup, theta_a, depth_fluid):
 
 
 def apparent_displacement(setup: LtsSetup, x_act) -> np.ndarray:
-    """Apparent displacement x_app [m] the sensor reports for actual displacements x_act [m] (eqs 5.1-5.8)."""
+    """The apparent displacement the sensor reports for actual displacements through air, window and oil.
+
+    The ray ending on the lens solves eq 5.7 in theta_a2 (Snell gives the other angles; one
+    bracketed root, the lateral travel grows with the angle); then eq 5.8.
+
+    Parameters
+    ----------
+    setup : LtsSetup
+    x_act : float or array_like
+        Actual displacements [m] from the reference.
+
+    Returns
+    -------
+    numpy.ndarray
+        x_app [m].
+
+    References
+    ----------
+    Knutson (2016), eqs 5.1-5.8.
+    """
     from scipy.optimize import brentq
 
     x = np.atleast_1d(np.asarray(x_act, dtype=float))
@@ -154,7 +234,23 @@ def apparent_displacement(setup: LtsSetup, x_act) -> np.ndarray:
 
 
 def actual_displacement(setup: LtsSetup, x_app) -> np.ndarray:
-    """Actual displacement x_act [m] for apparent displacements x_app [m]: eqs 5.8 then 5.7 solved explicitly."""
+    """The actual displacement for apparent displacements: eq 5.8 then eq 5.7 solved explicitly.
+
+    Parameters
+    ----------
+    setup : LtsSetup
+    x_app : float or array_like
+        Apparent displacements [m].
+
+    Returns
+    -------
+    numpy.ndarray
+        x_act [m].
+
+    References
+    ----------
+    Knutson (2016), eqs 5.7, 5.8.
+    """
     xa = np.atleast_1d(np.asarray(x_app, dtype=float))
     th1 = laser_angle(setup.c1, setup.c2, setup.standoff)
     depth_air = setup.c2 / math.tan(th1) + xa          # eq 5.8: C_2 / tan(theta_a2)
@@ -168,7 +264,23 @@ def actual_displacement(setup: LtsSetup, x_app) -> np.ndarray:
 
 
 def sweep(setup: LtsSetup, x_max: float, points: int) -> tuple[np.ndarray, np.ndarray]:
-    """(x_act [m], dV [V]) at ``points`` actual displacements 0..x_max (eqs 5.1-5.9)."""
+    """The sensor's voltage at actual displacements from 0 to x_max (eqs 5.1-5.9).
+
+    Parameters
+    ----------
+    setup : LtsSetup
+    x_max : float
+        The largest displacement [m].
+    points : int
+        At least 3.
+
+    Returns
+    -------
+    x_act : numpy.ndarray
+        [m].
+    voltage : numpy.ndarray
+        dV = x_app / C_app [V].
+    """
     if not (math.isfinite(x_max) and x_max > 0):
         raise InputError("x_max", f"must be a positive length, got {x_max!r}")
     if points < 3:
@@ -178,9 +290,32 @@ def sweep(setup: LtsSetup, x_max: float, points: int) -> tuple[np.ndarray, np.nd
 
 
 def scale_factor(setup: LtsSetup, x_max: float | None = None, points: int | None = None) -> ScaleFit:
-    """Actual scale factor C_act [m/V]: least-squares slope of x_act on dV (eqs 5.9, 5.10).
+    """The actual scale factor: the least-squares slope of x_act on the voltage (eqs 5.9, 5.10).
 
-    The sweep defaults to the thesis's 11 points from 0 to 1.2 mm (``instruments/data/lts.toml``).
+    Parameters
+    ----------
+    setup : LtsSetup
+    x_max : float, optional
+        The sweep's largest displacement [m] (default the thesis's 1.2 mm).
+    points : int, optional
+        The sweep's points (default the thesis's 11).
+
+    Returns
+    -------
+    ScaleFit
+        C_act [m/V], the intercept [m], the sweep, its largest residual [m] and R^2.
+
+    References
+    ----------
+    Knutson (2016), section 5.3.1, eqs 5.9, 5.10 and Table 5.2.
+
+    Examples
+    --------
+    The disc inlet manifold (Table 5.2 prints 3.751e-3 m/V):
+
+    >>> setup, _ = thesis_setup("disc_inlet")
+    >>> print(f"{scale_factor(setup).scale:.4g} m/V")
+    0.003752 m/V
     """
     dx, dp = sweep_settings()
     x, v = sweep(setup, dx if x_max is None else x_max, dp if points is None else points)
@@ -191,7 +326,23 @@ def scale_factor(setup: LtsSetup, x_max: float | None = None, points: int | None
 
 
 def position_from_voltage(setup: LtsSetup, voltage, *, exact: bool = False, scale: float | None = None):
-    """Actual position change x_act [m] from sensor voltages dV [V]: eq 5.10, or eqs 5.7-5.9 inverted if exact."""
+    """The actual position change from sensor voltages.
+
+    Parameters
+    ----------
+    setup : LtsSetup
+    voltage : array_like
+        dV [V].
+    exact : bool
+        Invert eqs 5.7-5.9 exactly instead of the linear eq 5.10.
+    scale : float, optional
+        C_act [m/V] of eq 5.10 (default :func:`scale_factor`'s).
+
+    Returns
+    -------
+    numpy.ndarray
+        x_act [m], the shape of ``voltage``.
+    """
     v = np.asarray(voltage, dtype=float)
     if exact:
         return actual_displacement(setup, v * setup.apparent_scale).reshape(v.shape)
@@ -201,7 +352,28 @@ def position_from_voltage(setup: LtsSetup, voltage, *, exact: bool = False, scal
 # ------------------------------------------------------------- uncertainty
 
 def uncertainty(f: Callable[[object], float], params, deltas: Mapping[str, float]) -> tuple[float, dict]:
-    """Eq 5.11: sum over inputs of |f(x_i + dx_i) - f(x)|; returns (total, {input: contribution}) in f's unit."""
+    """The uncertainty of a result by eq 5.11: the sum over the inputs of |f(x_i + dx_i) - f(x)|.
+
+    Parameters
+    ----------
+    f : callable
+        The result as a function of the inputs' dataclass.
+    params : LtsSetup or IndexExperiment
+        The inputs.
+    deltas : mapping
+        {input: its absolute uncertainty}, in the input's unit.
+
+    Returns
+    -------
+    total : float
+        In f's unit.
+    contributions : dict
+        {input: |change|}.
+
+    References
+    ----------
+    Knutson (2016), eq 5.11.
+    """
     f0 = f(params)
     parts = {}
     for name, d in deltas.items():
@@ -215,7 +387,31 @@ def uncertainty(f: Callable[[object], float], params, deltas: Mapping[str, float
 # --------------------------------------------------------- refractive index
 
 def refractive_index(exp: IndexExperiment) -> float:
-    """Refractive index n_m of a sample from the LTS experiment of Figure B.1 (eqs B.1, B.2)."""
+    """The refractive index of a sample from the LTS experiment of Figure B.1 (eqs B.1, B.2).
+
+    n_m = n_a sin(theta_a) sqrt((t_m / (C_2 - (C_1 + t_a) tan theta_a))^2 + 1)
+
+    Parameters
+    ----------
+    exp : IndexExperiment
+
+    Returns
+    -------
+    float
+        n_m [-].
+
+    References
+    ----------
+    Knutson (2016), Appendix B, eqs B.1, B.2 and Table B.2.
+
+    Examples
+    --------
+    The hydraulic oil of Table B.1 (Table B.2 prints 1.476):
+
+    >>> exp, _ = thesis_index_experiment("hydraulic_oil")
+    >>> print(f"{refractive_index(exp):.3f}")
+    1.475
+    """
     th = laser_angle(exp.c1, exp.c2, exp.standoff)
     lateral_left = exp.c2 - (exp.c1 + exp.air_gap) * math.tan(th)
     if lateral_left <= 0:
@@ -228,7 +424,13 @@ def refractive_index(exp: IndexExperiment) -> float:
 
 @cache
 def lts_data() -> dict:
-    """The thesis inputs of ``instruments/data/lts.toml`` (Tables 5.2, B.1, B.2)."""
+    """The thesis's inputs of the sensor, the manifolds and Appendix B (``instruments/data/lts.toml``).
+
+    Returns
+    -------
+    dict
+        SI units; an entry ``{value, unc}`` or ``{value, unc_pct}`` carries its uncertainty.
+    """
     return package_toml("instruments", "lts.toml")
 
 
@@ -244,7 +446,18 @@ INDEX_SOURCES = ("table_b_2", "appendix_b")
 
 
 def appendix_b_index(sample: str) -> tuple[float, float]:
-    """(n, eq 5.11 uncertainty) of a Table B.1 sample recomputed by eqs B.1, B.2 (unrounded)."""
+    """A Table B.1 sample's refractive index recomputed by eqs B.1, B.2 (unrounded), and its eq 5.11 uncertainty.
+
+    Parameters
+    ----------
+    sample : str
+        ``water``, ``isopropanol_70``, ``hydraulic_oil`` or ``acrylic``.
+
+    Returns
+    -------
+    tuple of float
+        (n, its absolute uncertainty) [-].
+    """
     exp, deltas = thesis_index_experiment(sample)
     n = refractive_index(exp)
     return n, uncertainty(refractive_index, exp, deltas)[0]
@@ -252,12 +465,29 @@ def appendix_b_index(sample: str) -> tuple[float, float]:
 
 def thesis_setup(manifold: str, *, indices: str = "table_b_2",
                  table_5_2_index_unc: bool = False) -> tuple[LtsSetup, dict]:
-    """(setup, eq 5.11 deltas) of a thesis manifold (``disc_inlet``, ``disc_delivery``, ``reed``).
+    """A thesis manifold's setup and the inputs' uncertainties.
 
-    ``indices``: ``table_b_2`` takes n_o, n_p and their uncertainties as printed in Table
-    B.2 (1.476 +/- 1.062 %, 1.509 +/- 1.668 %); ``appendix_b`` recomputes them from the raw
-    measurements of Table B.1 (eqs B.1, B.2, 5.11). ``table_5_2_index_unc`` uses Table 5.2's
-    rounded +/-0.016, +/-0.025 instead (only to document the erratum).
+    Parameters
+    ----------
+    manifold : str
+        ``disc_inlet``, ``disc_delivery`` or ``reed`` (its inputs are not printed: assumed the
+        mean of the two disc manifolds).
+    indices : str
+        ``table_b_2`` takes n_o, n_p and their uncertainties as printed in Table B.2 (1.476 +/-
+        1.062 %, 1.509 +/- 1.668 %); ``appendix_b`` recomputes them from the raw measurements of
+        Table B.1 (eqs B.1, B.2, 5.11).
+    table_5_2_index_unc : bool
+        Use Table 5.2's rounded +/-0.016, +/-0.025 instead (only to document the erratum).
+
+    Returns
+    -------
+    setup : LtsSetup
+    deltas : dict
+        {input: absolute uncertainty} for eq 5.11.
+
+    References
+    ----------
+    Knutson (2016), Tables 5.2, B.1 and B.2.
     """
     if manifold not in MANIFOLDS:
         raise InputError("manifold", f"expected one of {', '.join(MANIFOLDS)}, got {manifold!r}")
@@ -282,7 +512,19 @@ def thesis_setup(manifold: str, *, indices: str = "table_b_2",
 
 
 def thesis_index_experiment(sample: str) -> tuple[IndexExperiment, dict]:
-    """(experiment, eq 5.11 deltas) of a sample of Table B.1 (water, isopropanol_70, hydraulic_oil, acrylic)."""
+    """A Table B.1 sample's refractive-index experiment and the inputs' uncertainties.
+
+    Parameters
+    ----------
+    sample : str
+        ``water``, ``isopropanol_70``, ``hydraulic_oil`` or ``acrylic``.
+
+    Returns
+    -------
+    experiment : IndexExperiment
+    deltas : dict
+        {input: absolute uncertainty} for eq 5.11.
+    """
     if sample not in SAMPLES:
         raise InputError("sample", f"expected one of {', '.join(SAMPLES)}, got {sample!r}")
     d = lts_data()
@@ -294,14 +536,38 @@ def thesis_index_experiment(sample: str) -> tuple[IndexExperiment, dict]:
 
 
 def sweep_settings() -> tuple[float, int]:
-    """(x_max [m], points) of the thesis's least-squares sweep (section 5.3.1)."""
+    """The thesis's least-squares sweep (section 5.3.1).
+
+    Returns
+    -------
+    tuple
+        (x_max [m], points).
+    """
     s = lts_data()["sweep"]
     return s["x_max"], s["points"]
 
 
 def analyse(setup: LtsSetup, deltas: Mapping[str, float], x_max: float | None = None,
             points: int | None = None) -> dict:
-    """Scale factor, its eq 5.11 uncertainty and the fit quality of one setup, as a JSON-ready dict (SI)."""
+    """The scale factor of one setup, its eq 5.11 uncertainty and the fit's quality, as a JSON-ready dict.
+
+    Parameters
+    ----------
+    setup : LtsSetup
+    deltas : mapping
+        {input: absolute uncertainty}.
+    x_max : float, optional
+        The sweep's largest displacement [m] (default the thesis's).
+    points : int, optional
+        The sweep's points (default the thesis's).
+
+    Returns
+    -------
+    dict
+        ``scale_factor_m_per_v``, ``uncertainty_m_per_v`` and ``_pct``, each input's contribution
+        [%], the fit's intercept [m], largest residual [m] and R^2, the oil gap [m], the laser angle
+        [rad], the sweep, the inputs and their uncertainties.
+    """
     validate(setup)
     dx, dp = sweep_settings()
     x_max = dx if x_max is None else x_max

@@ -21,8 +21,18 @@ _MARKER_HEAD = "written by valvelab"
 
 
 def output_kind(folder: str | Path) -> str | None:
-    """The kind of valvelab output a folder holds (``sweep``, ``dataset``, ...), from its marker; None if it has
-    no marker or an old one that does not say."""
+    """The kind of valvelab output a folder holds, from its marker.
+
+    Parameters
+    ----------
+    folder : str or os.PathLike
+
+    Returns
+    -------
+    str or None
+        ``sweep``, ``dataset``, ``sensitivity``, ...; for an old marker that does not say, what the
+        folder's files tell; None without a marker.
+    """
     try:
         text = (Path(folder) / MARKER).read_text()
     except OSError:
@@ -55,8 +65,20 @@ def _resolved(p) -> Path:
 
 
 def check_distinct(outputs: dict, inputs: dict | None = None) -> None:
-    """InputError when two outputs of one command are the same path ({flag: path}), or an output is one of
-    the command's input files ({name: path}): one would replace or mix with the other. None paths are skipped."""
+    """Refuse two outputs of one command on the same path, or an output on one of its input files.
+
+    Parameters
+    ----------
+    outputs : dict
+        {flag: path} of the outputs (None paths are skipped).
+    inputs : dict, optional
+        {name: path} of the input files.
+
+    Raises
+    ------
+    InputError
+        Naming the output flag: one would replace or mix with the other.
+    """
     outs = [(f, _resolved(p)) for f, p in outputs.items() if p is not None and str(p).strip()]
     ins = [(n, _resolved(p)) for n, p in (inputs or {}).items() if p is not None and str(p).strip()
            and Path(p).exists()]
@@ -85,7 +107,21 @@ def _probe(folder: Path) -> str | None:
 
 
 def finite_or_none(x) -> float | None:
-    """``x`` as a float for a table or JSON, None if it is missing, not a number or not finite."""
+    """A value for a table or JSON: a float, or None if it is missing, not a number or not finite.
+
+    Parameters
+    ----------
+    x : object
+
+    Returns
+    -------
+    float or None
+
+    Examples
+    --------
+    >>> finite_or_none(2), finite_or_none(float("nan")), finite_or_none("x")
+    (2.0, None, None)
+    """
     if x is None:
         return None
     try:
@@ -96,9 +132,19 @@ def finite_or_none(x) -> float | None:
 
 
 def check_inputs_outside(folder, field: str, inputs: dict, own: tuple[str, ...] = ()) -> None:
-    """InputError when an input file ({name: path}) lies in the output ``folder`` (its results would mix with
-    the command's inputs, or replace them); ``own``: file names in ``folder`` that a rerun reads back (the
-    study's own spec copy) and may stay there."""
+    """Refuse an output folder that holds one of the command's input files (its results would mix with them).
+
+    Parameters
+    ----------
+    folder : str or os.PathLike
+        The output folder.
+    field : str
+        Its flag, named by the refusal.
+    inputs : dict
+        {name: path} of the input files (None or missing paths are skipped).
+    own : tuple of str
+        File names in ``folder`` that a rerun reads back (a study's own spec copy) and may stay there.
+    """
     o = _resolved(folder)
     for name, p in inputs.items():
         if p is None or not str(p).strip() or not Path(p).is_file():
@@ -112,8 +158,24 @@ def check_inputs_outside(folder, field: str, inputs: dict, own: tuple[str, ...] 
 
 
 def check_new_file(path: str | Path, field: str, force: bool = False, writable: bool = True) -> Path:
-    """``path`` as a Path, after checking it may be written: its folder exists and is writable, it is
-    not a folder, and no user file is there (unless ``force``). Call it before any computation."""
+    """Check that an output file may be written, before any computation.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    field : str
+        Its flag, named by a refusal.
+    force : bool
+        Replace an existing file.
+    writable : bool
+        Also check with a real write that its folder takes files.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``: its folder exists and is writable, it is not a folder, and nothing is there unless ``force``.
+    """
     if not str(path).strip():
         raise InputError(field, "expected a file name, got an empty one")
     p = Path(path)
@@ -134,10 +196,24 @@ def check_new_file(path: str | Path, field: str, force: bool = False, writable: 
 
 
 def check_output_dir(path: str | Path, field: str, force: bool = False, kind: str | None = None) -> Path:
-    """``path`` as a Path after checking a valvelab output folder may go there (nothing created yet).
+    """Check that a valvelab output folder may go at a path (nothing is created yet).
 
-    ``kind`` (``sweep``, ``dataset``, ...): a folder holding valvelab output of another kind is refused
-    unless ``force`` (a sweep written into a dataset would mix with it)."""
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The folder.
+    field : str
+        Its flag, named by a refusal.
+    force : bool
+        Accept a non-empty folder valvelab did not make, or one of another kind.
+    kind : str, optional
+        The output's kind (``sweep``, ``dataset``, ...): a folder holding valvelab output of another
+        kind is refused unless ``force`` (a sweep written into a dataset would mix with it).
+
+    Returns
+    -------
+    pathlib.Path
+    """
     if not str(path).strip():
         raise InputError(field, "expected a folder name, got an empty one")
     p = Path(path)
@@ -168,8 +244,23 @@ def check_output_dir(path: str | Path, field: str, force: bool = False, kind: st
 
 
 def prepare_output_dir(path: str | Path, field: str, force: bool = False, kind: str | None = None) -> Path:
-    """Create (or reuse) a valvelab output folder; refuse a non-empty folder valvelab did not make (or one of
-    another ``kind``, see :func:`check_output_dir`). The marker names the kind."""
+    """Create (or reuse) a valvelab output folder, marked with its kind.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The folder.
+    field : str
+        Its flag, named by a refusal.
+    force : bool
+        See :func:`check_output_dir`.
+    kind : str, optional
+        The output's kind, written in the marker.
+
+    Returns
+    -------
+    pathlib.Path
+    """
     p = check_output_dir(path, field, force, kind)
     try:
         p.mkdir(parents=True, exist_ok=True)
@@ -181,7 +272,22 @@ def prepare_output_dir(path: str | Path, field: str, force: bool = False, kind: 
 
 
 def format_cell(v, missing: str = "-") -> str:
-    """One table cell: floats to 6 significant figures, None as ``missing``."""
+    """One table cell as text: a float to 6 significant figures, None as ``missing``.
+
+    Parameters
+    ----------
+    v : object
+    missing : str
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> format_cell(2.7612345e6), format_cell(None)
+    ('2.76123e+06', '-')
+    """
     if v is None:
         return missing
     if isinstance(v, float):
@@ -201,26 +307,52 @@ class Table:
 
     @staticmethod
     def of(result, title: str, id: str | None = None) -> "Table":
-        """A Table from a table function's result: a list of rows or ``{"rows", "notes"}``."""
+        """A Table from a table function's result.
+
+        Parameters
+        ----------
+        result : list of dict or dict
+            The rows, or ``{"rows", "notes"}``.
+        title : str
+        id : str, optional
+            The table's id (``5.4``).
+
+        Returns
+        -------
+        Table
+        """
         if isinstance(result, dict):
             return Table(title, tuple(result["rows"]), tuple(result.get("notes", ())), id)
         return Table(title, tuple(result), (), id)
 
     @property
     def columns(self) -> list[str]:
+        """The columns: every row's keys, in first-seen order."""
         cols: list[str] = []
         for row in self.rows:
             cols += [k for k in row if k not in cols]
         return cols
 
     def to_frame(self):
-        """pandas DataFrame of the rows (missing cells NaN/None)."""
+        """The rows as a DataFrame.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Missing cells NaN or None.
+        """
         import pandas as pd
 
         return pd.DataFrame(list(self.rows), columns=self.columns)
 
     def to_markdown(self) -> str:
-        """A Markdown table under a ``#`` title, the notes as a list after it."""
+        """The table in Markdown.
+
+        Returns
+        -------
+        str
+            A ``#`` title, the table, the notes as a list after it.
+        """
         cols = self.columns
         lines = [f"# {self.title}", "", "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
         lines += ["| " + " | ".join(format_cell(r.get(k), missing="") for k in cols) + " |" for r in self.rows]
@@ -229,7 +361,12 @@ class Table:
         return "\n".join(lines) + "\n"
 
     def to_text(self) -> str:
-        """Aligned plain-text columns (the command line's readable output)."""
+        """The table as aligned plain-text columns (the command line's readable output).
+
+        Returns
+        -------
+        str
+        """
         cols = self.columns
         cells = [[format_cell(row.get(c)) for c in cols] for row in self.rows]
         widths = [max(len(c), *(len(x[i]) for x in cells)) for i, c in enumerate(cols)]
@@ -239,7 +376,18 @@ class Table:
         return "\n".join(out)
 
     def write(self, stem: Path) -> list[Path]:
-        """Write ``stem.csv`` and ``stem.md``; returns both paths."""
+        """Write the table as CSV and Markdown.
+
+        Parameters
+        ----------
+        stem : pathlib.Path
+            The files' path without suffix.
+
+        Returns
+        -------
+        list of pathlib.Path
+            ``stem.csv`` and ``stem.md``.
+        """
         cols = self.columns
         csv_path, md_path = Path(stem).with_suffix(".csv"), Path(stem).with_suffix(".md")
         with open(csv_path, "w", newline="") as fh:

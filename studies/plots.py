@@ -18,8 +18,36 @@ from geometry.errors import InputError
 PLOT_SUFFIXES = (".png", ".pdf", ".svg")
 
 
+def legend_outside(ax, **kwargs):
+    """Place an axes' legend to the right of it, off the data.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    **kwargs
+        Passed to ``matplotlib.axes.Axes.legend`` (``fontsize``, ``ncol``, ...).
+
+    Returns
+    -------
+    matplotlib.legend.Legend
+    """
+    return ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0, **kwargs)
+
+
 def check_plot_suffix(path, field: str = "--plot") -> Path:
-    """``path`` as a Path if its suffix is a supported image type, else InputError naming ``field``."""
+    """Check that a plot's file name has an image suffix matplotlib writes.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    field : str
+        The flag named by the refusal.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``, ending in .png, .pdf or .svg.
+    """
     p = Path(path)
     if p.suffix.lower() not in PLOT_SUFFIXES:
         raise InputError(field, f"{p.name}: expected a file ending in {', '.join(PLOT_SUFFIXES)}")
@@ -27,10 +55,22 @@ def check_plot_suffix(path, field: str = "--plot") -> Path:
 
 
 def plot_reed_shapes(path, reed, shapes: dict, title: str | None = None) -> Path:
-    """Reed outline (top view, mm) above the given shapes psi(s) (normalised at the tip).
+    """Draw a reed's outline (top view, grooves shaded by depth) above shapes psi(s) normalised at the tip.
 
-    ``shapes``: label -> (s [m], psi) arrays, e.g. the static uniform-load shape and the
-    first free-vibration mode of any fidelity.
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The image file.
+    reed : geometry.reed.Reed
+    shapes : dict
+        label -> (s [m], psi [-]) arrays, e.g. the static uniform-load shape and the first
+        free-vibration mode of any fidelity.
+    title : str, optional
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
     """
     fig = Figure(figsize=(7.0, 6.5), layout="constrained")
     ax0, ax1 = fig.subplots(2, 1, sharex=True, height_ratios=(1, 1.6))
@@ -50,14 +90,32 @@ def plot_reed_shapes(path, reed, shapes: dict, title: str | None = None) -> Path
     ax1.axhline(0.0, color="0.6", lw=0.5)
     ax1.set_xlabel("s [mm] (clamp at 0)")
     ax1.set_ylabel(r"$\psi(s) = v(s) / v(L)$")
-    ax1.legend()
+    legend_outside(ax1, fontsize=8)
     ax1.grid(alpha=0.3)
     fig.savefig(path, dpi=120)
     return Path(path)
 
 
 def figure_3_12(path) -> Path:
-    """Mode functions of the uniform and stepped reeds in free vibration and under uniform load (Figure 3.12)."""
+    """Draw the mode functions of the uniform and stepped reeds in free vibration and under uniform load.
+
+    Exact Euler-Bernoulli shapes (:func:`lumped.reed.euler_bernoulli.shape`) against s / L, and
+    stepped #2's rigid-tip approximation (eqs 3.42-3.45).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The image file.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    References
+    ----------
+    Knutson (2016), Figure 3.12 and Table 3.4.
+    """
     from geometry import load_reed
     from lumped.reed import euler_bernoulli as rb
 
@@ -75,17 +133,37 @@ def figure_3_12(path) -> Path:
             (line,) = ax.plot(s / reed.length, psi, styles[kind], color=color,
                               label=f"{reed_name}, {names[kind]}")
             color = line.get_color()
-    ax.set_xlabel("s / L")
-    ax.set_ylabel(r"$\psi$")
+    ax.set_xlabel("s / L [-]")
+    ax.set_ylabel(r"$\psi$ [-]")
     ax.set_title("Mode functions (cf. thesis Figure 3.12; exact Euler-Bernoulli)")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    legend_outside(ax, fontsize=8)
     fig.savefig(path, dpi=120)
     return Path(path)
 
 
 def plot_ringdown(path, traces, fits, title: str = "plucked reed: eq 3.67 fits") -> Path:
-    """Measured ring-down traces (t, v) with their eq 3.67 fits (:class:`lumped.reed.ringdown.RingdownFit`)."""
+    """Draw plucked-reed ring-down traces with their fits of eq 3.67.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The image file.
+    traces : sequence of (t, v)
+        Time [s] and signal (the sensor's unit) of each run.
+    fits : sequence of lumped.reed.ringdown.RingdownFit
+        One per trace.
+    title : str
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    References
+    ----------
+    Knutson (2016), eq 3.67 (damped oscillation of the plucked reed) and section 3.6.
+    """
     from lumped.reed.ringdown import ringdown
 
     fig = Figure(figsize=(7.0, 4.0), layout="constrained")
@@ -97,20 +175,38 @@ def plot_ringdown(path, traces, fits, title: str = "plucked reed: eq 3.67 fits")
         ax.plot((t - t[0]) * 1e3, ringdown(t - t[0], f.amplitude, f.sigma, f.omega_d, f.phase, f.offset) + off,
                 lw=0.8, label=f"run {i + 1}: omega_d {f.omega_d:.0f} rad/s, c_c {f.c_c:.1f} Pa s/m")
     ax.set_xlabel("t [ms]")
-    ax.set_ylabel("signal (runs offset)")
+    ax.set_ylabel("signal [sensor unit] (runs offset)")
     ax.set_title(title)
-    ax.legend(fontsize=7)
+    legend_outside(ax, fontsize=7)
     fig.savefig(path, dpi=120)
     return Path(path)
 
 
 def plot_mode_shapes(path, reed, s, y, w, omega, labels, title: str | None = None) -> Path:
-    """Shapes of any number of modes, one panel each, with units on every axis.
+    """Draw the shapes of any number of modes, one panel each, with units on every axis.
 
-    ``s`` [m] (ns,), ``y`` [m] (ns, ny) across the width at each station, ``w`` (n, ns, ny)
-    normalised deflections (max |w| = 1); ny = 1 draws w(s) of a one-dimensional model,
-    ny > 1 draws u_z over the face (s, y) as filled contours with its nodal lines (w = 0).
-    ``omega`` [rad/s] and ``labels`` (e.g. "torsion 1") title each panel.
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The image file.
+    reed : geometry.reed.Reed
+    s : numpy.ndarray
+        Stations along the reed [m], (ns,).
+    y : numpy.ndarray
+        Positions across the width at each station [m], (ns, ny).
+    w : numpy.ndarray
+        Normalised deflections (max |w| = 1), (n, ns, ny): ny = 1 draws w(s) of a one-dimensional
+        model, ny > 1 draws u_z over the face (s, y) as filled contours with its nodal lines (w = 0).
+    omega : sequence of float
+        Natural frequencies [rad/s].
+    labels : sequence of str
+        Mode names (``torsion 1``) titling each panel.
+    title : str, optional
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
     """
     w = np.asarray(w, dtype=float)
     n = w.shape[0]

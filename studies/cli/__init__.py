@@ -1,8 +1,18 @@
 """The ``valvelab`` command line (CONTRACT.md).
 
-Each subcommand lives in its own module that defines ``HELP``, ``configure(parser)``
-and ``run(args) -> dict`` (the JSON payload) and optionally ``render(result) -> str``
-(the readable text). Adding a command is adding a module to this package (``studies/cli/``).
+Each subcommand lives in its own module. Adding a command is adding a module to this
+package (``studies/cli/``) that defines:
+
+``HELP`` : str
+    One line for ``valvelab --help``.
+``configure(p)``
+    Adds the command's arguments to ``p``, its :class:`argparse.ArgumentParser`; every
+    numeric flag declared with its unit and range (:mod:`studies.cli.flags`).
+``run(args) -> dict``
+    Runs the command on the parsed :class:`argparse.Namespace`; returns the result, the JSON
+    object ``--json`` prints (CONTRACT.md names its keys and units).
+``render(r) -> str`` (optional)
+    The result as readable text (default: the JSON, indented).
 
 Conventions shared by every command:
 - ``--json`` prints exactly one JSON object on stdout; progress and logs go to stderr;
@@ -98,7 +108,17 @@ def _internal_error(command: str, exc: BaseException) -> int:
 
 
 def build_parser(selected: str | None = None) -> argparse.ArgumentParser:
-    """The parser; only the ``selected`` command's module is imported (all of them for --help)."""
+    """The command line's parser.
+
+    Parameters
+    ----------
+    selected : str, optional
+        The command asked for: only its module is imported (every one for ``--help``).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+    """
     parser = _Parser(prog="valvelab", description="Hydraulic disc, reed and ball check valve models.")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for name, modname in COMMANDS.items():
@@ -115,6 +135,19 @@ def build_parser(selected: str | None = None) -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run ``valvelab`` with a command line.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments (default ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The exit status: 0, 2 for a bad input (:class:`~geometry.errors.InputError`, one line on
+        stderr), 1 for a failed model or an internal error (one line), 130 when interrupted.
+    """
     argv = sys.argv[1:] if argv is None else list(argv)
     # importing every command module (scipy, matplotlib, skfem...) costs seconds per call
     selected = next((a for a in argv if not a.startswith("-")), None)

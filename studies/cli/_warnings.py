@@ -8,11 +8,26 @@ SETTINGS = {"revolutions": 3, "max_revolutions": 20}
 
 
 def at_conditions(simulator, conditions, effects=(), names=None) -> list[dict]:
-    """``[{"code", "message"}]`` of ``simulator``'s pump model (``model_for(condition, effects)``, as
-    studies.discrepancy.pump_sim.PumpSimulator has) at each condition (``speed_rpm``, ``load_pressure_pa``),
-    each message led by the condition's name; [] for a simulator without a pump model (a module's own).
-    A condition whose check run fails is skipped: the command's own simulation of it already succeeded or
-    failed with its message."""
+    """The validity warnings (:mod:`lumped.validity`) of a simulator's pump model at each condition.
+
+    Parameters
+    ----------
+    simulator : object
+        With ``model_for(condition, effects)`` (:class:`studies.discrepancy.pump_sim.PumpSimulator`);
+        a simulator without it (a module's own) has none.
+    conditions : sequence
+        Each with ``speed_rpm`` [rpm] and ``load_pressure_pa`` [Pa].
+    effects : sequence
+        The effects applied.
+    names : list of str, optional
+        The conditions' names (default theirs, or ``condition N``).
+
+    Returns
+    -------
+    list of dict
+        ``{"code", "message"}``, each message led by its condition's name; a condition whose check
+        run fails is skipped (the command's own simulation of it already reported).
+    """
     from geometry.errors import ModelFailure
     from lumped.run.simulate import simulate
 

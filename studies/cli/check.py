@@ -19,6 +19,7 @@ FIDELITY_NAMES = ("analytic", "beam", "plate", "solid")
 
 
 def configure(p):
+    """Add the arguments of ``valvelab check`` to its parser (the command protocol: :mod:`studies.cli`)."""
     p.add_argument("geometry", help="preset (uniform, stepped1, stepped2, prototype) or reed TOML file")
     p.add_argument("--fidelities", default=",".join(FIDELITY_NAMES),
                    help="comma-separated subset of analytic,beam,plate,solid (default: all four)")
@@ -57,6 +58,8 @@ def _fidelities(text: str) -> tuple[str, ...]:
 
 
 def run(args) -> dict:
+    """Run ``valvelab check``: multi-fidelity check of a reed: analytic, beam, plate and solid FEA with % deviations
+    (the JSON of ``--json``; :mod:`studies.cli`)."""
     reed = load_reed(args.geometry)
     if args.dynamics:
         return _run_dynamics(reed, args)
@@ -125,6 +128,8 @@ def _write_outputs(reed, fids, mesh_size, out_dir) -> list[str]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from studies.plots import legend_outside
+
     files = []
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 3.6), sharey=True)
     for fid in fids:
@@ -149,9 +154,9 @@ def _write_outputs(reed, fids, mesh_size, out_dir) -> list[str]:
     for ax, title in ((a1, "free vibration (first bending mode)"), (a2, "uniform load")):
         ax.set_xlabel("s [mm]")
         ax.set_title(title, fontsize=10)
-        ax.legend(fontsize=8)
+        legend_outside(ax, fontsize=8)
         ax.grid(alpha=0.3)
-    a1.set_ylabel("psi = v(s) / v(L) on the centre line")
+    a1.set_ylabel("psi = v(s) / v(L) on the centre line [-]")
     fig.suptitle(f"reed {reed.name}")
     fig.tight_layout()
     path = out_dir / "shapes.png"
@@ -163,6 +168,7 @@ def _write_outputs(reed, fids, mesh_size, out_dir) -> list[str]:
 
 
 def render(r: dict) -> str:
+    """The result of ``valvelab check`` as readable text."""
     if "dynamics" in r:
         from studies.validation.reed_dynamics import render as render_dynamics
 

@@ -20,6 +20,7 @@ HELP = "name the effects the baseline model misses in a measured dataset, fit th
 
 
 def configure(p):
+    """Add the arguments of ``valvelab discrepancy`` to its parser (the command protocol: :mod:`studies.cli`)."""
     p.add_argument("dataset", nargs="?", default=None,
                    help="folder of run folders (run.toml, trace.csv), or one run folder")
     p.add_argument("--demo", action="store_true",
@@ -53,9 +54,21 @@ def configure(p):
 
 
 def demo_dataset(folder, seed: int, workers: int, force: bool):
-    """Write the thesis's O-ring story as a dataset: the six disc runs of Tables 5.3/5.4 with the
-    delivery valve's compliant seat (the thesis-disc model's own effect: the O-ring's 1.5e6 N/m,
-    section 2.4.3.2) and the thesis's air content stated; the baseline will assume a rigid seat."""
+    """Write the thesis's O-ring story as a dataset.
+
+    The six disc runs of Tables 5.3/5.4 with the delivery valve's compliant seat (the thesis-disc
+    model's own effect: the O-ring's 1.5e6 N/m, section 2.4.3.2) and the thesis's air content
+    stated; the baseline will assume a rigid seat.
+
+    Parameters
+    ----------
+    folder : str or os.PathLike
+    seed : int
+        The noise's seed.
+    workers : int
+    force : bool
+        Write into a folder valvelab did not create.
+    """
     from studies.discrepancy.synth import Noise, synthesize, thesis_conditions, write_synthetic
 
     sim = choose(model="thesis-disc")
@@ -67,6 +80,8 @@ def demo_dataset(folder, seed: int, workers: int, force: bool):
 
 
 def run(args) -> dict:
+    """Run ``valvelab discrepancy``: name the effects the baseline model misses in a measured dataset, fit them, report
+    the gap (the JSON of ``--json``; :mod:`studies.cli`)."""
     scales = GapScales(args.position_tolerance_um * 1e-6, args.delivery_tolerance_pct / 100.0)
     rel = args.min_improvement_pct / 100.0
     gain = args.min_gain_units
@@ -109,6 +124,7 @@ def run(args) -> dict:
 
 
 def render(r: dict) -> str:
+    """The result of ``valvelab discrepancy`` as readable text."""
     def gap(g):
         p = "-" if g["position_rms_m"] is None else f"{g['position_rms_m'] * 1e3:.3f} mm"
         d = "-" if g["delivery_error_pct"] is None else f"{g['delivery_error_pct']:.2f} %"

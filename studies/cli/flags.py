@@ -23,7 +23,22 @@ from geometry.errors import InputError
 
 def from_text(text: str, field: str, unit: str = "-", bounds=None, *, positive: bool = False,
               integer: bool = False):
-    """``text`` (a flag or part of one) as a number checked by :func:`geometry.validate.number`; InputError."""
+    """A number given as text (a flag or part of one), checked by :func:`geometry.validate.number`.
+
+    Parameters
+    ----------
+    text : str
+    field : str
+        Named by the refusal.
+    unit : str
+    bounds : tuple of float, optional
+        Inclusive plausible range in ``unit``.
+    positive, integer : bool
+
+    Returns
+    -------
+    float or int
+    """
     try:
         v = float(text)
     except ValueError:
@@ -32,7 +47,20 @@ def from_text(text: str, field: str, unit: str = "-", bounds=None, *, positive: 
 
 
 def number(unit: str = "-", bounds=None, *, positive: bool = False, integer: bool = False):
-    """An argparse ``type``: the text as a number checked by :func:`geometry.validate.number`."""
+    """An argparse ``type``: the text as a number checked by :func:`geometry.validate.number`.
+
+    Parameters
+    ----------
+    unit : str
+        The flag's unit (for the message and the unit hint).
+    bounds : tuple of float, optional
+        Inclusive plausible range.
+    positive, integer : bool
+
+    Returns
+    -------
+    callable
+    """
 
     def parse(text: str):
         try:
@@ -45,12 +73,26 @@ def number(unit: str = "-", bounds=None, *, positive: bool = False, integer: boo
 
 
 def integer(lo: int, hi: int):
-    """An argparse ``type``: an integer in [lo, hi]."""
+    """An argparse ``type``: an integer in [lo, hi].
+
+    Parameters
+    ----------
+    lo, hi : int
+
+    Returns
+    -------
+    callable
+    """
     return number("-", (lo, hi), integer=True)
 
 
 def address():
-    """An argparse ``type``: a dask scheduler address (host:port or tcp://host:port)."""
+    """An argparse ``type``: a dask scheduler address (host:port or tcp://host:port).
+
+    Returns
+    -------
+    callable
+    """
 
     def parse(s: str) -> str:
         try:
@@ -63,7 +105,17 @@ def address():
 
 
 def text(max_len: int = 200):
-    """An argparse ``type``: a non-empty string without control characters, at most ``max_len`` long."""
+    """An argparse ``type``: a non-empty string without control characters.
+
+    Parameters
+    ----------
+    max_len : int
+        Its largest length.
+
+    Returns
+    -------
+    callable
+    """
 
     def parse(s: str) -> str:
         if not s or len(s) > max_len or any(ord(c) < 32 for c in s):
@@ -71,3 +123,38 @@ def text(max_len: int = 200):
         return s
 
     return parse
+
+
+def add_cluster_flags(p, per_task: str, what: str) -> None:
+    """Add the flags of a command that runs on a dask cluster.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The command's subparser.
+    per_task : str
+        What a dask task evaluates (``designs``, ``evaluations``), for the help.
+    what : str
+        What the output folder holds (``sweep``, ``study``), for the help.
+    """
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS", type=address(),
+                   help="dask scheduler address (e.g. tcp://host:8786); default: a local cluster")
+    p.add_argument("--workers", type=integer(1, 1024), default=None,
+                   help="local cluster worker processes (default: one per core)")
+    p.add_argument("--batch-size", type=integer(1, 1_000_000), default=None,
+                   help=f"{per_task} per dask task (default: automatic)")
+    p.add_argument("--force", action="store_true", help=f"start over in a folder that holds another {what}")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+
+
+def check_cluster_flags(args) -> None:
+    """Refuse cluster flags that contradict each other (``--workers`` with ``--scheduler``).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line (:func:`add_cluster_flags`).
+    """
+    if args.scheduler is not None and args.workers is not None:
+        raise InputError("--workers", "applies to the local cluster only; the scheduler at --scheduler has its own")
+

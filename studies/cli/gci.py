@@ -11,6 +11,7 @@ HELP = ("Grid Convergence Index of two or three solutions, fine to coarse (Celik
 
 
 def configure(p):
+    """Add the arguments of ``valvelab gci`` to its parser (the command protocol: :mod:`studies.cli`)."""
     p.add_argument("values", help="the solutions, fine to coarse, comma-separated: V1,V2,V3 (or V1,V2)")
     p.add_argument("--cells", default=None, metavar="N1,N2,N3",
                    help="cell (element, node) counts of the meshes, fine to coarse (decreasing)")
@@ -38,6 +39,8 @@ def _numbers(text: str, flag: str, count: int | None = None) -> list[float]:
 
 
 def run(args) -> dict:
+    """Run ``valvelab gci``: the Grid Convergence Index of two or three solutions (Celik, Ghia and Roache 2008) (the
+    JSON of ``--json``; :mod:`studies.cli`)."""
     from fea.convergence import gci, representative_sizes
 
     values = _numbers(args.values, "values")
@@ -77,6 +80,7 @@ def run(args) -> dict:
 
 
 def render(r: dict) -> str:
+    """The result of ``valvelab gci`` as readable text."""
     def f(x, spec=".4g"):
         return "-" if x is None else format(x, spec)
 

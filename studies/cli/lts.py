@@ -43,6 +43,7 @@ _REQUIRED = ("air_gap", "window_thickness")
 
 
 def configure(p):
+    """Add the arguments of ``valvelab lts`` to its parser (the command protocol: :mod:`studies.cli`)."""
     p.add_argument("setup", nargs="?", default="all",
                    help="disc_inlet, disc_delivery, reed, all (default) or a setup TOML file ([lts] table)")
     g = p.add_argument_group("override an input (applies to every selected setup)")
@@ -71,7 +72,19 @@ def configure(p):
 # ------------------------------------------------------------------ setups
 
 def load_setup_file(path: Path, indices: str = "table_b_2") -> tuple[str, lts.LtsSetup, dict]:
-    """(name, setup, deltas) from a TOML file with an ``[lts]`` table (SI) and optional ``[lts.uncertainty]``."""
+    """A setup from a TOML file with an ``[lts]`` table (SI) and an optional ``[lts.uncertainty]``.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+    indices : str
+        Where the refractive indices of the keys not given come from (:func:`instruments.lts.thesis_setup`).
+
+    Returns
+    -------
+    tuple
+        (name, :class:`instruments.lts.LtsSetup`, {input: absolute uncertainty}).
+    """
     if not path.exists():
         raise InputError(str(path), "no such file; expected disc_inlet, disc_delivery, reed, all or a setup TOML file")
     data = validate.read_toml(path, str(path))
@@ -105,7 +118,17 @@ def _validate(setup, prefix):
 
 
 def select_setups(args) -> list[tuple[str, lts.LtsSetup, dict]]:
-    """The setups to analyse: thesis manifolds or a file, with command-line overrides applied."""
+    """The setups to analyse: thesis manifolds or a file, with the command line's overrides applied.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+
+    Returns
+    -------
+    list of tuple
+        (name, setup, uncertainties) each.
+    """
     if args.setup == "all":
         chosen = [(m, *lts.thesis_setup(m, indices=args.indices)) for m in lts.MANIFOLDS]
     elif args.setup in lts.MANIFOLDS:
@@ -174,7 +197,27 @@ def _output_path(args) -> Path:
 
 
 def convert(args, out: Path, name: str, setup: lts.LtsSetup, scale: float, x_max: float) -> dict:
-    """Write the input CSV plus a ``position_m`` column to ``out``; return the summary."""
+    """Convert a CSV of sensor voltages to positions: the input's columns plus ``position_m``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        ``--voltages``, ``--column``, ``--zero-voltage`` [V], ``--exact``.
+    out : pathlib.Path
+        The output CSV.
+    name : str
+        The setup's name.
+    setup : instruments.lts.LtsSetup
+    scale : float
+        C_act [m/V] (eq 5.10).
+    x_max : float
+        The fitted range's end [m] (positions beyond it are counted: eq 5.10 extrapolates).
+
+    Returns
+    -------
+    dict
+        The conversion's summary (rows, method, scale, the positions' range [m], how many lie outside).
+    """
     src = Path(args.voltages)
     header, rows, column, v = _read_voltages(src, args.column)
     x = lts.position_from_voltage(setup, v - args.zero_voltage, exact=args.exact, scale=scale)
@@ -198,11 +241,23 @@ def convert(args, out: Path, name: str, setup: lts.LtsSetup, scale: float, x_max
 # ------------------------------------------------------------------ plotting
 
 def plot(path: Path, results: list[dict], setups: dict) -> None:
-    """x_act [mm] vs dV [V] with the least-squares line for each setup (Figures 5.3, 5.4)."""
+    """Draw x_act [mm] against dV [V] with the least-squares line for each setup, and the residuals (Figures 5.3, 5.4).
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The image file.
+    results : list of dict
+        :func:`instruments.lts.analyse`'s results with their ``setup`` name.
+    setups : dict
+        {name: LtsSetup}.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
+    from studies.plots import legend_outside
 
     fig, (ax, ar) = plt.subplots(2, 1, figsize=(6.4, 6.4), sharex=True, height_ratios=(2, 1))
     for r, marker in zip(results, "os^dv<>"):
@@ -217,7 +272,7 @@ def plot(path: Path, results: list[dict], setups: dict) -> None:
     ax.set_ylabel("actual change in position x_act [mm]")
     ax.set_title("LTS actual scale factor through air, PMMA and oil (eqs 5.1-5.10)")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    legend_outside(ax, fontsize=8)
     ar.set_xlabel("sensor voltage change dV [V]")
     ar.set_ylabel("x_act - fit [um]")
     ar.grid(alpha=0.3)
@@ -229,6 +284,8 @@ def plot(path: Path, results: list[dict], setups: dict) -> None:
 # ----------------------------------------------------------------------- run
 
 def run(args) -> dict:
+    """Run ``valvelab lts``: laser triangulation scale factor through air, PMMA and oil (section 5.3); voltage ->
+    position (the JSON of ``--json``; :mod:`studies.cli`)."""
     x_max = None if args.x_max_mm is None else args.x_max_mm * 1e-3
     out = (Path(args.out) if args.out else Path(args.voltages).with_name(Path(args.voltages).stem + "_position.csv")) \
         if args.voltages else None
@@ -257,6 +314,7 @@ def run(args) -> dict:
 
 
 def render(r: dict) -> str:
+    """The result of ``valvelab lts`` as readable text."""
     lines = ["LTS actual scale factor, x_act = C_act dV (eq 5.10); uncertainty by eq 5.11",
              f"{'setup':<16}{'C_act mm/V':>11}{'+/- mm/V':>10}{'+/- %':>8}{'oil gap mm':>12}"
              f"{'nonlinearity um':>17}"]

@@ -8,6 +8,7 @@ HELP = "show a pump model (every key with unit and source) or check a model file
 
 
 def configure(p):
+    """Add the arguments of ``valvelab model`` to its parser (the command protocol: :mod:`studies.cli`)."""
     p.add_argument("action", choices=("show", "check"), help="show: the complete resolved model; check: "
                                                               "validate and report derived quantities")
     p.add_argument("model", help="a shipped model (thesis-disc, thesis-reed) or a model TOML file")
@@ -18,6 +19,8 @@ def configure(p):
 
 
 def run(args) -> dict:
+    """Run ``valvelab model``: show a pump model (every key with unit and source) or check a model file and report
+    derived quantities (the JSON of ``--json``; :mod:`studies.cli`)."""
     from lumped.model.model_file import describe, file_keys, key_paths, load_model, model_table, to_toml
 
     model = load_model(args.model, field="model")
@@ -73,6 +76,7 @@ def _plain(d):
 
 
 def render(r: dict) -> str:
+    """The result of ``valvelab model`` as readable text."""
     if "toml" in r:
         return r["toml"].rstrip("\n")
     if "keys" in r:

@@ -14,6 +14,7 @@ DEFAULT_MODES = 6
 
 
 def configure(p):
+    """Add the arguments of ``valvelab modes`` to its parser (the command protocol: :mod:`studies.cli`)."""
     p.add_argument("geometries", nargs="*", default=["uniform", "stepped1", "stepped2", "prototype"],
                    help="presets or reed TOML files (default: the four thesis reeds)")
     p.add_argument("--fidelity", default="solid", help="analytic, beam, plate or solid (default solid)")
@@ -38,6 +39,8 @@ def _shapes(fidelity, mod, result, reed, n):
 
 def run(args) -> dict:
 
+    """Run ``valvelab modes``: natural frequencies and mode shapes of reeds at any fidelity: plots of every mode and
+    VTU files (the JSON of ``--json``; :mod:`studies.cli`)."""
     from fea.fidelities import get as get_fidelity
     from studies.cli.reed import check_modes_count
     from studies.outputs import prepare_output_dir
@@ -78,6 +81,7 @@ def run(args) -> dict:
 
 
 def render(r: dict) -> str:
+    """The result of ``valvelab modes`` as readable text."""
     lines = []
     for g, ms in r["modes"].items():
         lines.append(f"{g} ({r.get('fidelity', 'solid')}): " + ", ".join(f"{m['omega']:.5g} rad/s {m['label']}" for m in ms))

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-
-from studies.cli.sensitivity import add_cluster_flags, run_study
+from studies.cli import flags
+from studies.cli.sensitivity import run_study
 
 HELP = ("optimise pump and valve parameters (NSGA-II for several objectives, differential evolution for one) over "
         "operating points with constraints; re-check the front with the solid FEA and the reference integrator; "
@@ -11,14 +11,17 @@ HELP = ("optimise pump and valve parameters (NSGA-II for several objectives, dif
 
 
 def configure(p):
+    """Add the arguments of ``valvelab optimize`` to its parser (the command protocol: :mod:`studies.cli`)."""
     p.add_argument("spec", help="optimisation spec TOML (model, operating points, variables, run.objectives, "
                                 "[constraints])")
     p.add_argument("--out", default=None, help="study folder (default: optimize-<spec name>); rerun to resume")
-    add_cluster_flags(p)
+    flags.add_cluster_flags(p, "evaluations", "study")
     p.add_argument("--model", default=None, metavar="NAME|FILE", help="the base pump model, overriding the spec's")
 
 
 def run(args) -> dict:
+    """Run ``valvelab optimize``: optimise pump and valve parameters over operating points with constraints (the JSON
+    of ``--json``; :mod:`studies.cli`)."""
     from studies.sweeps.design.optimize import run_optimize
 
     return run_study(args, "optimize", run_optimize)
@@ -29,6 +32,7 @@ def _f(v) -> str:
 
 
 def render(r: dict) -> str:
+    """The result of ``valvelab optimize`` as readable text."""
     objs = r["objectives"]
     lines = [f"{r['algorithm']} optimisation of {r['model']}: {len(r['variables'])} variables, "
              f"{r['evaluated_designs']} designs ({r['feasible_designs']} feasible) x {len(r['operating_points'])} "

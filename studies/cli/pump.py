@@ -21,6 +21,7 @@ MAX_REVOLUTIONS = 100_000
 
 
 def configure(p):
+    """Add the arguments of ``valvelab pump`` to its parser (the command protocol: :mod:`studies.cli`)."""
     p.add_argument("--model", default=None, metavar="NAME|FILE",
                    help="pump model: a shipped one (thesis-disc, thesis-reed, thesis-ball, ...) or a model TOML file "
                         "(default: the shipped model of --valve)")
@@ -59,7 +60,18 @@ def configure(p):
 
 
 def model_for(args, field: str = "--model"):
-    """The PumpModel the flags describe: --model (or thesis-<--valve>) with the override flags applied."""
+    """The pump model the flags describe: ``--model`` (or thesis-<``--valve``>) with the override flags applied.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    field : str
+        The flag named by a refusal of the model.
+
+    Returns
+    -------
+    lumped.model.pump_model.PumpModel
+    """
     from lumped.model.model_file import load_model, with_values
 
     if args.model is None and args.valve is None:
@@ -104,6 +116,8 @@ def _check_args(args) -> None:
 
 
 def run(args) -> dict:
+    """Run ``valvelab pump``: simulate a pump (a shipped model or your model file) with its check valves to cyclic
+    steady state (the JSON of ``--json``; :mod:`studies.cli`)."""
     from lumped.run.simulate import simulate
     from studies.outputs import check_distinct, check_new_file
 
@@ -166,7 +180,16 @@ def _reed_source(model) -> str | None:
 
 
 def write_trace_csv(result, path, measured_valve: str = "delivery") -> None:
-    """The trace with CONTRACT's measured-trace columns (valve_position_m = ``measured_valve``)."""
+    """Write a result's trace in the measured-trace format of CONTRACT.md.
+
+    Parameters
+    ----------
+    result : lumped.run.simulate.PumpResult
+        With a trace.
+    path : str or os.PathLike
+    measured_valve : str
+        The valve whose position is ``valve_position_m`` [m].
+    """
     from studies.discrepancy.measured import TRACE_COLUMNS      # the measured-data format
 
     tr = result.trace
@@ -180,6 +203,7 @@ def write_trace_csv(result, path, measured_valve: str = "delivery") -> None:
 
 
 def render(r: dict) -> str:
+    """The result of ``valvelab pump`` as readable text."""
     def deg(d, k):
         return "-" if d[k] is None else f"{d[k]:.1f}"
 

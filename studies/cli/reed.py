@@ -10,7 +10,20 @@ HELP = "first bending frequency, stiffness and mode-function parameters of a ree
 
 
 def check_modes_count(n, field: str = "--modes", allow_zero: bool = False) -> int | None:
-    """The number of modes asked for, validated (InputError naming ``field``); None stays None."""
+    """The number of modes asked for, checked.
+
+    Parameters
+    ----------
+    n : int or None
+    field : str
+        Named by the refusal.
+    allow_zero : bool
+
+    Returns
+    -------
+    int or None
+        ``n`` (1 to 50, or 0 with ``allow_zero``); None stays None.
+    """
     if n is None:
         return None
     if not (isinstance(n, int) and (n >= 1 or (allow_zero and n == 0)) and n <= 50):
@@ -20,6 +33,7 @@ def check_modes_count(n, field: str = "--modes", allow_zero: bool = False) -> in
 
 
 def configure(p):
+    """Add the arguments of ``valvelab reed`` to its parser (the command protocol: :mod:`studies.cli`)."""
     p.add_argument("geometry", help="preset (uniform, stepped1, stepped2, prototype) or reed TOML file")
     p.add_argument("--fidelity", default="analytic", help="analytic (default), beam, plate or solid")
     p.add_argument("--mesh-size", type=flags.number("m", (1e-7, 10.0), positive=True), default=None,
@@ -32,6 +46,8 @@ def configure(p):
 
 
 def run(args) -> dict:
+    """Run ``valvelab reed``: first bending frequency, stiffness and mode-function parameters of a reed (and its first
+    N modes) (the JSON of ``--json``; :mod:`studies.cli`)."""
     reed = load_reed(args.geometry)
     plot = getattr(args, "plot", None)
     if plot is not None:  # refuse a bad or existing file before any computation
@@ -72,6 +88,7 @@ def _plot(path, reed, fidelity, props, mesh_size):
 
 
 def render(r: dict) -> str:
+    """The result of ``valvelab reed`` as readable text."""
     lines = [
         f"reed {r['geometry']} ({r['fidelity']})",
         f"  omega_n = {r['omega_n']:.6g} rad/s ({r['omega_n'] / 6.283185307:.6g} Hz)",

@@ -12,6 +12,7 @@ HELP = "k_seat, k_stop and critical damping of the disc valve (FEA); reed stress
 
 
 def configure(p):
+    """Add the arguments of ``valvelab seat`` to its parser (the command protocol: :mod:`studies.cli`)."""
     p.add_argument("--reed", default="prototype",
                    help="reed for the stress check: preset or reed TOML (default: prototype)")
     p.add_argument("--x-stop-mm", type=flags.number("mm", (1e-3, 1e4), positive=True), default=None,
@@ -24,6 +25,8 @@ def configure(p):
 
 
 def run(args) -> dict:
+    """Run ``valvelab seat``: the disc valve's seat and stop stiffness and damping (FEA), the reed's stress (the JSON
+    of ``--json``; :mod:`studies.cli`)."""
     from studies.tables.thesis import thesis_values
 
     if args.skip_disc and args.skip_reed:
@@ -69,6 +72,7 @@ def run(args) -> dict:
 
 
 def render(r: dict) -> str:
+    """The result of ``valvelab seat`` as readable text."""
     lines = []
     if "disc_valve" in r:
         lines.append("disc valve contact stiffness (3-D FEA, P2 tetrahedra)")

@@ -5,7 +5,6 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from geometry.errors import InputError
 from studies.cli import flags
 
 HELP = ("global sensitivity of pump outputs to model parameters: Sobol indices with bootstrap intervals or Morris "
@@ -13,35 +12,34 @@ HELP = ("global sensitivity of pump outputs to model parameters: Sobol indices w
 
 
 def configure(p):
+    """Add the arguments of ``valvelab sensitivity`` to its parser (the command protocol: :mod:`studies.cli`)."""
     p.add_argument("spec", help="sensitivity spec TOML (model, operating points, variables, run.outputs)")
     p.add_argument("--out", default=None, help="study folder (default: sensitivity-<spec name>); rerun to resume")
-    add_cluster_flags(p)
+    flags.add_cluster_flags(p, "evaluations", "study")
     p.add_argument("--model", default=None, metavar="NAME|FILE", help="the base pump model, overriding the spec's")
 
 
-def add_cluster_flags(p):
-    p.add_argument("--scheduler", default=None, metavar="ADDRESS", type=flags.address(),
-                   help="dask scheduler address (e.g. tcp://host:8786); default: a local cluster")
-    p.add_argument("--workers", type=int, default=None, help="local cluster worker processes (default: one per core)")
-    p.add_argument("--batch-size", type=int, default=None, help="evaluations per dask task (default: automatic)")
-    p.add_argument("--force", action="store_true", help="start over in a folder that holds another study")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
-
-
-def check_cluster_flags(args) -> None:
-    if args.scheduler is not None and args.workers is not None:
-        raise InputError("--workers", "applies to the local cluster only; the scheduler at --scheduler has its own")
-    if args.workers is not None and args.workers < 1:
-        raise InputError("--workers", f"must be a positive integer, got {args.workers}")
-    if args.batch_size is not None and args.batch_size < 1:
-        raise InputError("--batch-size", f"must be a positive integer, got {args.batch_size}")
-
-
 def run_study(args, command: str, runner) -> dict:
-    """Check the flags, load the spec for ``command`` and run ``runner(spec, out, ...)`` (a design study)."""
+    """Run a design study from the command line: check the flags, load the spec, run it into its folder.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line (``spec``, ``--out``, ``--model`` and the cluster flags).
+    command : str
+        ``sensitivity`` or ``optimize``.
+    runner : callable
+        ``runner(spec, out, scheduler=..., workers=..., batch_size=..., force=..., progress=...)``
+        (:func:`studies.sweeps.design.sensitivity.run_sensitivity`, ``optimize.run_optimize``).
+
+    Returns
+    -------
+    dict
+        The study's summary.
+    """
     from studies.sweeps.design.spec import load_spec
 
-    check_cluster_flags(args)
+    flags.check_cluster_flags(args)
     spec = load_spec(args.spec, command, model_override=args.model)
     out = Path(args.out) if args.out else Path(f"{command}-{Path(args.spec).stem}")
     from studies.outputs import check_inputs_outside
@@ -57,12 +55,15 @@ def run_study(args, command: str, runner) -> dict:
 
 
 def run(args) -> dict:
+    """Run ``valvelab sensitivity``: global sensitivity of pump outputs to model parameters (Sobol or Morris) (the JSON
+    of ``--json``; :mod:`studies.cli`)."""
     from studies.sweeps.design.sensitivity import run_sensitivity
 
     return run_study(args, "sensitivity", run_sensitivity)
 
 
 def render(r: dict) -> str:
+    """The result of ``valvelab sensitivity`` as readable text."""
     from studies.sweeps.design.sensitivity import describe_index
 
     lines = [f"{r['method']} sensitivity of {r['model']}: {len(r['variables'])} variables, {r['designs']} designs x "

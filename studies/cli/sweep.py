@@ -5,7 +5,6 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from geometry.errors import InputError
 from studies.cli import flags
 from studies.sweeps import sweep
 
@@ -13,22 +12,20 @@ HELP = "run (or resume) a design-of-experiments sweep on a dask cluster"
 
 
 def configure(p):
+    """Add the arguments of ``valvelab sweep`` to its parser (the command protocol: :mod:`studies.cli`)."""
     p.add_argument("spec", help="sweep TOML file (model, sampler, factors, fixed inputs)")
     p.add_argument("--out", default=None, help="sweep folder (default: sweep-<spec name>); rerun to resume")
     p.add_argument("--format", default="parquet", choices=sweep.FORMATS, help="results table format")
-    p.add_argument("--scheduler", default=None, metavar="ADDRESS", type=flags.address(),
-                   help="dask scheduler address (e.g. tcp://host:8786); default: a local cluster")
-    p.add_argument("--workers", type=flags.integer(1, 1024), default=None, help="local cluster worker processes (default: one per core)")
-    p.add_argument("--batch-size", type=flags.integer(1, 1_000_000), default=None, help="designs per dask task (default: automatic)")
+    flags.add_cluster_flags(p, "designs", "sweep")
     p.add_argument("--retry-failed", action="store_true", help="recompute designs recorded with status error")
     p.add_argument("--plot", action="store_true", help="also write main_effects.png into the sweep folder")
-    p.add_argument("--force", action="store_true", help="start over in a folder that holds another sweep")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     p.add_argument("--model", default=None, metavar="NAME|FILE",
                    help="pump sweeps: the base pump model (a shipped one or a model file), overriding the spec's")
 
 
 def run(args) -> dict:
+    """Run ``valvelab sweep``: run (or resume) a design-of-experiments sweep on a dask cluster (the JSON of ``--json``;
+    :mod:`studies.cli`)."""
     spec = sweep.load_spec(args.spec)
     if args.model is not None:
         spec = sweep.with_base_model(spec, args.model)
@@ -38,8 +35,7 @@ def run(args) -> dict:
     model = spec.fixed_dict.get("model")
     check_inputs_outside(out, "--out", {"SPEC": args.spec, "the model file": model if isinstance(model, str) else None},
                          own=(sweep.SPEC_FILE,))
-    if args.scheduler is not None and args.workers is not None:
-        raise InputError("--workers", "applies to the local cluster only; the scheduler at --scheduler has its own")
+    flags.check_cluster_flags(args)
     try:
         summary = sweep.run_sweep(
             spec, out, fmt=args.format, scheduler=args.scheduler, n_workers=args.workers,
@@ -59,8 +55,18 @@ def run(args) -> dict:
 
 
 def table_warnings(folder) -> list[dict]:
-    """The validity warnings of a sweep folder's designs, one entry per code (count and first message);
-    [] for a model without a ``warnings`` column."""
+    """The validity warnings of a sweep folder's designs, one entry per code.
+
+    Parameters
+    ----------
+    folder : str or os.PathLike
+        A sweep folder.
+
+    Returns
+    -------
+    list of dict
+        Count and first message per code ([] for a model without a ``warnings`` column).
+    """
     from studies.sweeps.pump import summarize_warnings
 
     df, _ = sweep.read_results(folder)
@@ -70,6 +76,7 @@ def table_warnings(folder) -> list[dict]:
 
 
 def render(r: dict) -> str:
+    """The result of ``valvelab sweep`` as readable text."""
     lines = [
         f"sweep of {r['designs']} designs ({r['model']}, {r['sampler']}) in {r['out']}",
         f"  computed {r['computed']}, already done {r['skipped']}, failed {r['failed']}",

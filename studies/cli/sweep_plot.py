@@ -13,6 +13,7 @@ HELP = "plot the main effects of a sweep's factors on its responses"
 
 
 def configure(p):
+    """Add the arguments of ``valvelab sweep-plot`` to its parser (the command protocol: :mod:`studies.cli`)."""
     p.add_argument("folder", help="sweep folder written by valvelab sweep")
     p.add_argument("--response", action="append", default=None,
                    help="output column to plot (repeatable; default: the model's main responses)")
@@ -23,10 +24,28 @@ def configure(p):
 
 def main_effects_report(folder: Path, responses, png: Path, bins: int = 8, force: bool = False,
                         png_field: str = "--output") -> dict:
-    """Main effects of the sweep in ``folder``, plotted to ``png``; the numbers as a dict.
+    """The main effects of a sweep, plotted to a PNG.
 
-    ``png_field`` names the plot path in messages (``--output``, or the folder when the plot goes there
-    by default)."""
+    Parameters
+    ----------
+    folder : pathlib.Path
+        The sweep folder.
+    responses : list of str or None
+        The responses (default the model's ``MAIN_RESPONSES``).
+    png : pathlib.Path
+        The plot.
+    bins : int
+        Quantile bins of a sampled range.
+    force : bool
+        Replace an existing plot.
+    png_field : str
+        Names the plot path in messages (``--output``, or the folder when the plot goes there by default).
+
+    Returns
+    -------
+    dict
+        ``plot`` and per response and factor the means (:func:`studies.sweeps.main_effects.main_effects`).
+    """
     folder = Path(folder)
     if not folder.is_dir():
         raise InputError(str(folder), "no such folder; expected a sweep folder written by valvelab sweep")
@@ -45,11 +64,18 @@ def main_effects_report(folder: Path, responses, png: Path, bins: int = 8, force
     if not (df["status"] == "ok").any():
         raise InputError(str(folder), "no design with status ok to plot")
     effects = sweep.main_effects(df, spec, responses, bins)
-    sweep.plot_main_effects(effects, png, title=f"{spec.model}: {len(df)} designs ({spec.sampler})")
+    units = dict(getattr(model, "UNITS", {}))
+    if spec.model == "pump":
+        from studies.sweeps.pump import input_units
+
+        units.update(input_units([f.name for f in spec.factors], spec.fixed_dict))
+    sweep.plot_main_effects(effects, png, title=f"{spec.model}: {len(df)} designs ({spec.sampler})", units=units)
     return {"plot": str(png), "designs": int(len(df)), "ok": int((df["status"] == "ok").sum()), "effects": effects}
 
 
 def run(args) -> dict:
+    """Run ``valvelab sweep-plot``: plot the main effects of a sweep's factors on its responses (the JSON of
+    ``--json``; :mod:`studies.cli`)."""
     folder = Path(args.folder)
     png = Path(args.output) if args.output else folder / "main_effects.png"
     field = "--output" if args.output else f"{folder} (its main_effects.png)"
@@ -57,6 +83,7 @@ def run(args) -> dict:
 
 
 def render(r: dict) -> str:
+    """The result of ``valvelab sweep-plot`` as readable text."""
     lines = [f"main effects of {r['folder']} ({r['ok']} of {r['designs']} designs ok): {r['plot']}"]
     for resp, per in r["effects"].items():
         ranked = sorted(per.items(), key=lambda kv: -kv[1]["span"])

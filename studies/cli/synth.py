@@ -21,6 +21,7 @@ HELP = "write a synthetic measured dataset from the model with chosen effects hi
 
 
 def configure(p):
+    """Add the arguments of ``valvelab synth`` to its parser (the command protocol: :mod:`studies.cli`)."""
     p.add_argument("out", help="dataset folder to write (refused if it holds files valvelab did not write)")
     p.add_argument("--valve", default=None, choices=kind_names(), help="valve kind (default disc): the shipped model of "
                                                                       "that kind when no --model")
@@ -54,7 +55,20 @@ def configure(p):
 
 
 def parse_effect(spec: str, library, valve_type) -> Applied:
-    """``NAME[@TARGET][:PARAM=VALUE,...]`` -> an applied effect (unset parameters at their prior)."""
+    """An applied effect from the command line's ``NAME[@TARGET][:PARAM=VALUE,...]``.
+
+    Parameters
+    ----------
+    spec : str
+    library : lumped.model.effect_library.Library
+    valve_type : str or lumped.model.pump_model.PumpModel
+        The valve kind, or the pump model whose declarations check the values.
+
+    Returns
+    -------
+    Applied
+        Unset parameters at their prior.
+    """
     head, _, tail = spec.partition(":")
     name, _, target = head.partition("@")
     if name not in library:
@@ -89,6 +103,19 @@ def parse_effect(spec: str, library, valve_type) -> Applied:
 
 
 def parse_condition(spec: str, air: float | None) -> Condition:
+    """A measured condition from the command line's ``RPM:MPA[:VALVE]``.
+
+    Parameters
+    ----------
+    spec : str
+    air : float or None
+        The oil's air content (volume fraction) stated for the condition.
+
+    Returns
+    -------
+    Condition
+        Speed [rpm], load pressure [Pa], the measured valve.
+    """
     parts = spec.split(":")
     if len(parts) not in (2, 3):
         raise InputError("--condition", f"expected RPM:MPA[:VALVE], got {spec!r}")
@@ -101,6 +128,8 @@ def parse_condition(spec: str, air: float | None) -> Condition:
 
 
 def run(args) -> dict:
+    """Run ``valvelab synth``: write a synthetic measured dataset from the model with chosen effects hidden in it (the
+    JSON of ``--json``; :mod:`studies.cli`)."""
     from studies.outputs import check_output_dir
 
     check_output_dir(args.out, "OUT", args.force, kind="dataset")          # before any simulation
@@ -151,5 +180,6 @@ def run(args) -> dict:
 
 
 def render(r: dict) -> str:
+    """The result of ``valvelab synth`` as readable text."""
     eff = ", ".join(f"{e['name']}@{e['target']}" for e in r["truth"]["effects"]) or "none"
     return f"wrote {len(r['runs'])} runs to {r['dataset']} (hidden effects: {eff}; truth in truth.toml)"

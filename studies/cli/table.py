@@ -8,12 +8,15 @@ from studies.tables import Table, registry
 HELP = "regenerate a table of the thesis (computed values beside the thesis's)"
 
 def configure(p):
+    """Add the arguments of ``valvelab table`` to its parser (the command protocol: :mod:`studies.cli`)."""
     p.add_argument("id", help="table id, e.g. 3.3, 3.8, 5.4")
     p.add_argument("--plot", default=None, metavar="FILE.png", help="also draw the table's figure (3.8: Figure 3.12)")
     p.add_argument("--force", action="store_true", help="let --plot replace an existing file")
 
 
 def run(args) -> dict:
+    """Run ``valvelab table``: regenerate a table of the thesis (computed values beside the thesis's) (the JSON of
+    ``--json``; :mod:`studies.cli`)."""
     TABLES = registry()
     if args.id not in TABLES:
         # (0, int) before (1, str): "B.2" sorts after the numbered chapters instead of failing
@@ -38,4 +41,5 @@ def run(args) -> dict:
 
 
 def render(r: dict) -> str:
+    """The result of ``valvelab table`` as readable text."""
     return Table.of(r, f"Table {r['id']}").to_text()

@@ -23,7 +23,23 @@ def _is_number(v) -> bool:
 
 
 def features(designs: list[dict], skip=()) -> tuple[np.ndarray, list]:
-    """(features, groups) of designs: a row of scaled numeric inputs each, and the tuple of the others."""
+    """The features and groups of designs.
+
+    Parameters
+    ----------
+    designs : list of dict
+        Their inputs.
+    skip : iterable of str
+        Inputs left out.
+
+    Returns
+    -------
+    features : numpy.ndarray
+        (designs, numeric inputs): each numeric input scaled to [0, 1] over the designs (in log
+        space when all its values are positive and span more than a decade).
+    groups : list of tuple
+        Per design, its other inputs (strings, booleans: only designs of one group share a state layout).
+    """
     names = []
     for d in designs:
         for k in d:
@@ -43,8 +59,24 @@ def features(designs: list[dict], skip=()) -> tuple[np.ndarray, list]:
 
 
 def locality_order(X: np.ndarray, groups=None, leaf: int = 16) -> list[int]:
-    """Indices of the rows of X, group by group, in the order of a k-d split (median along the feature of
-    widest spread, down to ``leaf`` points): consecutive indices are near each other."""
+    """An order of designs in which consecutive ones are near each other.
+
+    A k-d split, group by group: the median along the feature of widest spread, down to ``leaf`` points.
+
+    Parameters
+    ----------
+    X : numpy.ndarray
+        The features (:func:`features`), (designs, features).
+    groups : list, optional
+        Each design's group.
+    leaf : int
+        Largest set left unsplit.
+
+    Returns
+    -------
+    list of int
+        The row indices of X.
+    """
     n = len(X)
     groups = [None] * n if groups is None else list(groups)
     X = np.asarray(X, dtype=float).reshape(n, -1)
@@ -78,10 +110,21 @@ class WarmSlot:
     group: object
 
     def state(self):
-        """The TDC state predicted from the nearest solved designs of the same group (None: start cold;
-        :meth:`lumped.run.warmstart.WarmStarts.predict`)."""
+        """The TDC state predicted from the nearest solved designs of the same group.
+
+        Returns
+        -------
+        lumped.run.warmstart.TdcState or None
+            None: start cold (:meth:`lumped.run.warmstart.WarmStarts.predict`).
+        """
         return self.pool.predict(self.features, self.group)
 
     def solved(self, state) -> None:
-        """Leave this design's TDC state (``PumpResult.tdc_state``) for the designs after it."""
+        """Leave this design's TDC state for the designs after it.
+
+        Parameters
+        ----------
+        state : lumped.run.warmstart.TdcState
+            ``PumpResult.tdc_state`` of its run.
+        """
         self.pool.add(self.features, state, self.group)

@@ -80,6 +80,15 @@ OUTPUTS = {
     "cpu_seconds": "float64",
     "warnings": "string",
 }
+#: the units of the numeric outputs and operating inputs (plot axes; SI, as the names say)
+UNITS = {"delivery_m3_per_rev": "m^3/rev", "volumetric_efficiency": "-", "valve_loss_j": "J/rev",
+         "min_cylinder_pressure_pa": "Pa", "max_cylinder_pressure_pa": "Pa", "cycle_change": "-",
+         "mass_balance_error": "-", "revolutions_run": "-", "cpu_seconds": "s",
+         **{f"{pos}_{k}": u for pos in ("inlet", "delivery") for k, u in (
+             ("peak_opening_m", "m"), ("opening_angle_rad", "rad"), ("closing_angle_rad", "rad"),
+             ("stop_contacts", "-"), ("seat_impact_m_s", "m/s"), ("stop_impact_m_s", "m/s"), ("loss_j", "J/rev"))},
+         "speed_rpm": "rpm", "load_pressure": "Pa", "air_content": "-", "revolutions": "-", "max_revolutions": "-",
+         "steady_tol": "-", "rtol": "-", "atol": "-"}
 #: what a design with a validity warning becomes: "flag" (status ok, warnings in their column) or "exclude"
 ON_WARNING = ("flag", "exclude")
 MAIN_RESPONSES = ("delivery_m3_per_rev", "volumetric_efficiency", "delivery_peak_opening_m")
@@ -110,8 +119,25 @@ def _legacy_fields() -> dict:
 
 
 def translate(name: str) -> str:
-    """A model key path for an input name (first-version names such as ``delivery.compliant_seat_stiffness``
-    or ``effect.piston_leakage`` become ``effects.seat_compliance.delivery.k_seat``, ``effects.piston_leakage``)."""
+    """The model key path of an input name.
+
+    Parameters
+    ----------
+    name : str
+        A key path, or a first-version name (``delivery.compliant_seat_stiffness``, ``effect.piston_leakage``,
+        ``inlet.spring_stiffness``).
+
+    Returns
+    -------
+    str
+        ``effects.seat_compliance.delivery.k_seat``, ``effects.piston_leakage``, ``valves.inlet.spring.stiffness``;
+        a name that is no first-version name unchanged.
+
+    Examples
+    --------
+    >>> translate("effect.piston_leakage")
+    'effects.piston_leakage'
+    """
     comp, _, attr = name.partition(".")
     if comp == "effect":
         return f"effects.{attr}"
@@ -144,8 +170,17 @@ def _positive(name, v, integer=False):
 
 
 def check(name: str, value) -> None:
-    """Vet one operating input (name and value) before a sweep runs; model keys are checked by
-    :func:`check_inputs` against the base model."""
+    """Vet one operating or run input (name and value) before a sweep runs.
+
+    Model keys are checked by :func:`check_inputs` against the base model.
+
+    Parameters
+    ----------
+    name : str
+    value : object
+        ``speed_rpm`` [rpm] and ``load_pressure`` [Pa] within their declared bounds, ``air_content``
+        a volume fraction in [0, 0.5), ``revolutions`` 2 to 100000, tolerances in (0, 0.1), ...
+    """
     from geometry.declare import check_value
     from lumped.model.pump_model import Operating
 
@@ -171,10 +206,7 @@ def check(name: str, value) -> None:
     elif name in ("warm_start", "one_revolution"):
         if not isinstance(value, bool):
             raise InputError(name, f"must be true or false, got {value!r}")
-    elif name == "steady_tol":
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value < 0.1:
-            raise InputError(name, f"must be in (0, 0.1), got {value!r}")
-    elif name in ("rtol", "atol"):
+    elif name in ("steady_tol", "rtol", "atol"):
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value < 0.1:
             raise InputError(name, f"must be in (0, 0.1), got {value!r}")
     elif name == "method":
@@ -193,8 +225,21 @@ def check(name: str, value) -> None:
 
 
 def check_inputs(fixed: dict, factors: dict) -> None:
-    """Every model key of the sweep (fixed values and each factor's values or range ends) applied to its base
-    model(s), before anything runs: an unknown key or an implausible value names the input."""
+    """Apply every model key of a sweep to its base model(s) before anything runs.
+
+    Parameters
+    ----------
+    fixed : dict
+        The fixed inputs.
+    factors : dict
+        {factor: its values, or the ends of its range}.
+
+    Raises
+    ------
+    InputError
+        Naming the input: an unknown key or an implausible value (a key must make sense for at
+        least one base model of the sweep), or a first-version name and its key path both given.
+    """
     from lumped.model.model_file import load_model, with_values
 
     bases = set()
@@ -237,8 +282,84 @@ def check_inputs(fixed: dict, factors: dict) -> None:
             raise InputError(name, f"{exc.field}: {exc.message}") from None
 
 
+#: the units of a reed geometry's keys (``valves.<pos>.geometry.<key>``)
+GEOMETRY_UNITS = {"length": "m", "thickness": "m", "width_root": "m", "width_tip": "m", "tip_radius": "m",
+                  "step_fraction": "-", "material.youngs_modulus": "Pa", "material.density": "kg/m^3",
+                  "material.poisson_ratio": "-"}
+
+
+def key_unit(model, path: str) -> str:
+    """The unit of a model-file key path, from its declaration.
+
+    Parameters
+    ----------
+    model : lumped.model.pump_model.PumpModel
+    path : str
+        A key path (``valves.spring.stiffness`` for both valves, ``valves.<pos>.geometry.<key>``,
+        ``effects.<name>[.<target>].<parameter>``).
+
+    Returns
+    -------
+    str
+        Its unit, ``-`` when it has none.
+    """
+    from lumped.model.model_file import key_paths
+
+    parts = path.split(".")
+    if "geometry" in parts:
+        return GEOMETRY_UNITS.get(".".join(parts[parts.index("geometry") + 1:]), "-")
+    units = {k["path"]: k["unit"] for k in key_paths(model)}
+    if path in units:
+        return units[path]
+    if parts[0] == "valves" and len(parts) > 1 and parts[1] not in ("inlet", "delivery"):
+        return units.get("valves.delivery." + ".".join(parts[1:]), units.get("valves.inlet." + ".".join(parts[1:]), "-"))
+    if parts[0] == "effects":
+        from lumped.model.effect_library import LIBRARY
+
+        if len(parts) >= 3 and parts[1] in LIBRARY.names():
+            for p in LIBRARY[parts[1]].parameters:
+                if p.name == parts[-1]:
+                    return p.unit
+    return "-"
+
+
+def input_units(names, fixed: dict) -> dict:
+    """The units of a sweep's inputs: operating inputs and model key paths (their declarations).
+
+    Parameters
+    ----------
+    names : iterable of str
+        Input names (key paths, first-version names, operating inputs).
+    fixed : dict
+        The sweep's fixed inputs (the base model: ``model`` or ``valve``).
+
+    Returns
+    -------
+    dict
+        {name: unit} of the names whose unit is known.
+    """
+    from lumped.model.model_file import load_model
+
+    out = {n: UNITS[n] for n in names if n in UNITS}
+    try:
+        model = load_model(_base_name(fixed), field="model")
+    except InputError:           # the base model is a factor: no one model to read the units from
+        return out
+    return {**{n: key_unit(model, translate(n)) for n in names if n not in UNITS and "." in n}, **out}
+
+
 def build_model(design: dict):
-    """The PumpModel of a design: its base model with its key paths applied (validated)."""
+    """The model of a design: its base model with its key paths applied (validated).
+
+    Parameters
+    ----------
+    design : dict
+        Its inputs (``model`` or ``valve``, key paths).
+
+    Returns
+    -------
+    lumped.model.pump_model.PumpModel
+    """
     from lumped.model.model_file import load_model, with_values
 
     model = load_model(_base_name(design), field="model")
@@ -247,9 +368,19 @@ def build_model(design: dict):
 
 
 def stop_rule(design: dict):
-    """The :class:`lumped.run.revolutions.StopRule` of a design's run settings: until cyclic steady state (at
-    least ``revolutions``, default 2; at most ``max_revolutions``, default :data:`MAX_REVOLUTIONS`), or a
-    fixed count when only ``revolutions`` is given."""
+    """The stop rule of a design's run settings.
+
+    Parameters
+    ----------
+    design : dict
+        ``revolutions``, ``max_revolutions``, ``steady_tol``, ``one_revolution``.
+
+    Returns
+    -------
+    lumped.run.revolutions.StopRule
+        Until cyclic steady state (at least ``revolutions``, default 2; at most ``max_revolutions``,
+        default :data:`MAX_REVOLUTIONS`), or a fixed count when only ``revolutions`` is given.
+    """
     from lumped.run.revolutions import StopRule
 
     tol = float(design.get("steady_tol", STEADY_TOL))
@@ -267,12 +398,25 @@ def stop_rule(design: dict):
     return StopRule(least, most, tol, single)
 
 
-def evaluate(design: dict, warm=None) -> dict:
-    """Simulate one design (fast path by default) and return the sweep outputs; ``warm``
-    (:class:`studies.sweeps.locality.WarmSlot`): start from the nearest solved design's TDC state."""
+def simulate_design(model, design: dict, warm=None):
+    """Simulate a design's model at its operating point to cyclic steady state.
+
+    Parameters
+    ----------
+    model : lumped.model.pump_model.PumpModel
+        The design's model.
+    design : dict
+        Its inputs: ``speed_rpm`` [rpm], ``load_pressure`` [Pa, absolute], ``air_content``,
+        ``circuit``, ``method`` (default ``fast``), ``rtol``, ``atol`` and the run settings of :func:`stop_rule`.
+    warm : studies.sweeps.locality.WarmSlot, optional
+        Start from the nearest solved design's TDC state, and leave this one's there.
+
+    Returns
+    -------
+    lumped.run.simulate.PumpResult
+    """
     from lumped.run.simulate import simulate
 
-    model = build_model(design)
     kw = {k: design[k] for k in ("rtol", "atol") if k in design}
     res = simulate(model, design.get("speed_rpm"), design.get("load_pressure"),
                    air_content=design.get("air_content"), stop=stop_rule(design),
@@ -280,14 +424,46 @@ def evaluate(design: dict, warm=None) -> dict:
                    initial_state=start_of(design, warm, model), **kw)
     if warm is not None:
         warm.solved(res.tdc_state)
-    return outputs_of(res, design.get("on_warning", "flag"))
+    return res
+
+
+def evaluate(design: dict, warm=None) -> dict:
+    """Simulate one design and return the sweep outputs (the sweep-model protocol of :mod:`studies.sweeps.sweep`).
+
+    Parameters
+    ----------
+    design : dict
+        Its inputs (:func:`simulate_design`, :func:`build_model`).
+    warm : studies.sweeps.locality.WarmSlot, optional
+        Start from the nearest solved design's TDC state.
+
+    Returns
+    -------
+    dict
+        :func:`outputs_of` the result.
+    """
+    return outputs_of(simulate_design(build_model(design), design, warm), design.get("on_warning", "flag"))
 
 
 def start_of(design: dict, warm, model=None):
-    """The TDC state a design starts from: on the reference stepper, the fast path's cycle of the design itself
-    (:func:`lumped.run.warmstart.fast_start`: a few milliseconds, and the reference is steady after its first
-    revolution); else the state predicted from its batch's solved designs (None: today's start, also with
-    the input ``warm_start = false``)."""
+    """The TDC state a design starts from.
+
+    Parameters
+    ----------
+    design : dict
+        Its inputs (``method``, ``warm_start``, the operating point).
+    warm : studies.sweeps.locality.WarmSlot or None
+        Its batch's pool of solved designs.
+    model : lumped.model.pump_model.PumpModel, optional
+
+    Returns
+    -------
+    lumped.run.warmstart.TdcState or None
+        On the reference stepper, the fast path's cycle of the design itself
+        (:func:`lumped.run.warmstart.fast_start`: a few milliseconds, and the reference is steady
+        after its first revolution); else the state predicted from the batch's solved designs
+        (None: a cold start, also with ``warm_start = false``).
+    """
     if design.get("warm_start", True) is False:
         return None
     if design.get("method", "fast") != "fast" and model is not None:
@@ -299,8 +475,20 @@ def start_of(design: dict, warm, model=None):
 
 
 def outputs_of(res, on_warning: str = "flag") -> dict:
-    """The sweep outputs of a PumpResult; with ``on_warning = "exclude"`` a result carrying a validity
-    warning has status "outside"."""
+    """The sweep outputs of a pump result.
+
+    Parameters
+    ----------
+    res : lumped.run.simulate.PumpResult
+    on_warning : str
+        ``flag`` (keep a result with a validity warning) or ``exclude`` (its status becomes ``outside``).
+
+    Returns
+    -------
+    dict
+        :data:`OUTPUTS` in SI (delivery [m^3/rev], pressures [Pa], angles [rad], openings [m],
+        impact speeds [m/s], losses [J/rev]), ``status`` and the warnings as JSON.
+    """
     out = {
         "delivery_m3_per_rev": res.delivery_per_rev,
         "volumetric_efficiency": res.volumetric_efficiency,
@@ -327,15 +515,38 @@ def outputs_of(res, on_warning: str = "flag") -> dict:
 
 
 def parse_warnings(text) -> list[dict]:
-    """The warnings of a results-table cell ([] for an empty cell: an error row, a module model)."""
+    """The warnings of a results-table cell.
+
+    Parameters
+    ----------
+    text : str or None
+        The JSON of the ``warnings`` column.
+
+    Returns
+    -------
+    list of dict
+        ``code`` and ``message`` each ([] for an empty cell: an error row, a module model).
+    """
     if not isinstance(text, str) or not text:
         return []
     return json.loads(text)
 
 
 def summarize_warnings(cells, what: str = "designs") -> list[dict]:
-    """One {"code", "message"} per warning code of a results column ``cells`` ((label, cell) pairs): how many
-    of the rows carry it and the first one's message."""
+    """One entry per warning code of a results column.
+
+    Parameters
+    ----------
+    cells : iterable of (str, str)
+        (row label, ``warnings`` cell) pairs.
+    what : str
+        What a row is, for the message (``designs``, ``evaluations``).
+
+    Returns
+    -------
+    list of dict
+        {"code", "message"}: how many rows carry it and the first one's message.
+    """
     cells = list(cells)
     found: dict = {}
     for label, cell in cells:

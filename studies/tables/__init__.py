@@ -29,7 +29,13 @@ class ThesisTable:
 
 
 def registry() -> dict[str, ThesisTable]:
-    """Every table valvelab regenerates, in the thesis's order (id -> ThesisTable)."""
+    """Every table valvelab regenerates, in the thesis's order.
+
+    Returns
+    -------
+    dict of str to ThesisTable
+        By id (``2.3``, ``3.13``, ``5.4``, ...).
+    """
     from studies import plots
     from studies.tables import fea, lts, pump, reed
 

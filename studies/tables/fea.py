@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import sys
 
-
 from geometry import load_reed
 from lumped.reed import euler_bernoulli as rb
 from lumped.reed.mode_function import gamma1_alternative
@@ -36,13 +35,55 @@ def _solid(reed, progress=True):
 
 
 def alpha_from_omega(omega: float, h: float, reed) -> float:
-    """Natural frequency parameter alpha = L (omega / h)^(1/2) (12 rho / E)^(1/4) (eq 3.75)."""
+    """The natural frequency parameter of a reed from its first natural frequency (eq 3.75).
+
+    alpha = L (omega / h)^(1/2) (12 rho / E)^(1/4)
+
+    Parameters
+    ----------
+    omega : float
+        First natural frequency [rad/s].
+    h : float
+        Thickness [m] (h_eff for a grooved reed).
+    reed : geometry.reed.Reed
+        Its length L [m] and material (E [Pa], rho [kg/m^3]).
+
+    Returns
+    -------
+    float
+        alpha [-].
+
+    References
+    ----------
+    Knutson (2016), eq 3.75 and Table 3.11.
+
+    Examples
+    --------
+    The uniform reed at the thesis's FEA frequency, 3123 rad/s (Table 3.11 prints 1.899):
+
+    >>> from geometry import load_reed
+    >>> reed = load_reed("uniform")
+    >>> print(f"{alpha_from_omega(3123.0, reed.thickness, reed):.3f}")
+    1.899
+    """
     m = reed.material
     return rb.frequency_parameter_from_omega(omega, h, reed.length, m.youngs_modulus, m.density)
 
 
 def table_3_3() -> dict:
-    """Table 3.3: first natural frequency [rad/s] by exact E-B and by 3-D solid FEA, % error of E-B."""
+    """The first natural frequency of the four reeds by exact Euler-Bernoulli and by the 3-D solid FEA.
+
+    Returns
+    -------
+    dict
+        ``rows``: per reed omega_n [rad/s] by E-B and by the solid, the % error of E-B
+        ((E-B - FEA) / FEA x 100, the thesis's sign), beside Table 3.3's, and the solid's kappa
+        [Pa/m], gamma1 [-], dofs and mesh size [m]; ``notes``.
+
+    References
+    ----------
+    Knutson (2016), section 3.5.1 and Table 3.3.
+    """
     tv = thesis_values()["table_3_3"]
     rows, source = [], ""
     for name in REEDS:
@@ -85,7 +126,18 @@ def _fea_alternative_row(tv9) -> dict:
 
 
 def table_3_9() -> dict:
-    """Table 3.9 (stepped reed #1): gamma1 by direct integration and by eq 3.48, E-B and FEA."""
+    """Table 3.9 (stepped reed #1): gamma1 by direct integration and by eq 3.48, Euler-Bernoulli and solid FEA.
+
+    Returns
+    -------
+    dict
+        :func:`studies.tables.reed.table_3_9`'s rows and a ``fea_alternative`` row: eq 3.48 with the
+        solid's omega_n [rad/s] and kappa [Pa/m], and the solid's own gamma1 [-]; ``notes``.
+
+    References
+    ----------
+    Knutson (2016), eq 3.48 and Table 3.9.
+    """
     from studies.tables.reed import table_3_9 as eb_table
 
     tv9 = thesis_values()["table_3_9"]
@@ -98,7 +150,18 @@ def table_3_9() -> dict:
 
 
 def table_3_11() -> dict:
-    """Table 3.11: natural frequency parameter alpha (eq 3.75) from our solid FEA beside the thesis's."""
+    """Table 3.11: the natural frequency parameter alpha (eq 3.75) from the solid FEA beside the thesis's.
+
+    Returns
+    -------
+    dict
+        :func:`studies.tables.reed.table_3_11`'s rows with the solid's omega_n [rad/s], h_eff [m]
+        (eq 3.62 for the grooved prototype) and alpha [-]; ``notes``.
+
+    References
+    ----------
+    Knutson (2016), eqs 3.62, 3.75 and Table 3.11.
+    """
     from studies.tables.reed import table_3_11 as eb_table
 
     tv = thesis_values()["table_3_11"]
@@ -119,11 +182,28 @@ def table_3_11() -> dict:
 
 
 def figure_3_12(path, reeds=REEDS, mesh_size=None, fidelity: str = "solid") -> dict:
-    """Figure 3.12 style plot: centre-line shapes in free vibration and under uniform load.
+    """Draw the reeds' centre-line shapes in free vibration and under uniform load (cf. Figure 3.12).
 
-    ``fidelity`` (solid by default; beam or plate) at ``mesh_size`` (lines) and exact E-B
-    (analytic model, dashed) for each reed; ``reeds`` are presets or reed files. Returns
-    the shape data.
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The image file.
+    reeds : sequence of str
+        Presets or reed files.
+    mesh_size : float, optional
+        Element size [m] of the FEA fidelity (default: its converged default).
+    fidelity : str
+        ``solid`` (default), ``beam`` or ``plate`` drawn as lines beside exact E-B (dashed);
+        ``analytic`` draws E-B alone.
+
+    Returns
+    -------
+    dict
+        Per reed ``s`` [m], ``psi_mode`` and ``psi_static`` [-].
+
+    References
+    ----------
+    Knutson (2016), Figure 3.12.
     """
     import matplotlib
 
@@ -131,6 +211,7 @@ def figure_3_12(path, reeds=REEDS, mesh_size=None, fidelity: str = "solid") -> d
     import matplotlib.pyplot as plt
 
     from fea.fidelities import get
+    from studies.plots import legend_outside
 
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
     data = {}
@@ -154,7 +235,7 @@ def figure_3_12(path, reeds=REEDS, mesh_size=None, fidelity: str = "solid") -> d
         ax.set_title(title, fontsize=10)
         ax.grid(alpha=0.3)
     a1.set_ylabel("mode function psi(s) = w(s) / w(L) on the centre line [-]")
-    a2.legend(fontsize=7, ncol=2)
+    legend_outside(a2, fontsize=7)
     fig.suptitle("Mode functions of the reeds (cf. thesis Figure 3.12)")
     fig.tight_layout()
     fig.savefig(path, dpi=120)

@@ -7,7 +7,19 @@ from studies.tables.thesis import thesis_values
 
 
 def table_5_2() -> dict:
-    """C_act [m/V] and its eq 5.11 uncertainty [%] for the three manifolds (section 5.3.2)."""
+    """The laser triangulation sensor's actual scale factors and their uncertainty, for the three manifolds.
+
+    Returns
+    -------
+    dict
+        ``rows``: per manifold C_act [m/V] (the least-squares slope, eq 5.10, of the sensor's
+        position through air, PMMA and oil, eqs 5.6-5.9), beside Table 5.2's, its eq 5.11
+        uncertainty [%] and the oil gap [m]; ``notes``.
+
+    References
+    ----------
+    Knutson (2016), section 5.3.2, eqs 5.6-5.11 and Table 5.2.
+    """
     printed = thesis_values()["table_5_2"]
     rows = []
     for m in lts.MANIFOLDS:
@@ -32,7 +44,18 @@ def table_5_2() -> dict:
 
 
 def table_b_2() -> dict:
-    """Refractive index by eq B.2 and its eq 5.11 uncertainty [%] for the four samples of Table B.1."""
+    """The refractive indices measured in Appendix B and their uncertainty.
+
+    Returns
+    -------
+    dict
+        ``rows``: per sample of Table B.1 the index by eq B.2 [-] beside Table B.2's, its eq 5.11
+        uncertainty [%] and the literature value; ``notes``.
+
+    References
+    ----------
+    Knutson (2016), Appendix B, eq B.2, Tables B.1 and B.2.
+    """
     printed = thesis_values()["table_b_2"]
     samples = lts.lts_data()["index_experiment"]["sample"]
     rows = []

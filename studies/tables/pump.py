@@ -21,7 +21,20 @@ REED_NOTE = (
 
 
 def table_2_3() -> dict:
-    """Disc valve quantities computed from their inputs (eqs 2.14, 2.15, 2.23, 2.43) vs Table 2.3."""
+    """The disc valve's quantities computed from their inputs, beside Table 2.3.
+
+    Returns
+    -------
+    dict
+        ``rows``: C1 (eq 2.14), C2 (eq 2.15), the oil's viscosity (eq A.3), the spring's stiffness
+        (eq 2.43), the seat and stop critical dampings (eq 2.23), the port and disc areas and the
+        Poiseuille-orifice transition opening (eq 2.18), each with its unit, the printed value and
+        the % error; ``notes``.
+
+    References
+    ----------
+    Knutson (2016), section 2.3 and Table 2.3.
+    """
     g = load_disc_geometry()
     model = resolve(load_model("thesis-disc"))
     v, v_del = model.inlet, model.delivery
@@ -77,13 +90,35 @@ def _pump_table(table: str, notes: list[str]) -> dict:
 
 
 def table_5_4() -> dict:
-    """Disc valve pump delivery (cc/rev): modeled (this code) vs measured and the thesis's model."""
+    """The disc valve pump's delivery: modeled by valvelab beside the measured and the thesis's model.
+
+    Returns
+    -------
+    dict
+        ``rows``: per case of Table 5.4 the delivery [cc/rev] modeled, measured and by the thesis's
+        model; ``notes``.
+
+    References
+    ----------
+    Knutson (2016), section 5.5 and Table 5.4.
+    """
     return _pump_table("5.4", ["Thesis configuration of Table 2.3: C1 regime, drag, no stiction or flow "
                                "forces, compliant seat on the delivery valve only; R = 0.013."])
 
 
 def table_5_6() -> dict:
-    """Reed valve pump delivery (cc/rev): modeled (this code) vs measured and the thesis's model."""
+    """The reed valve pump's delivery: modeled by valvelab beside the measured and the thesis's model.
+
+    Returns
+    -------
+    dict
+        ``rows``: per case of Table 5.6 the delivery [cc/rev] modeled (and with Table 5.1's dead
+        volume), measured and by the thesis's model; ``notes``.
+
+    References
+    ----------
+    Knutson (2016), section 5.5.1 and Table 5.6.
+    """
     return _pump_table("5.6", ["Thesis configuration of Table 3.13 (f1 = 0.22, f2 = 0.35); R = 0.008.",
                                REED_NOTE])
 

@@ -44,7 +44,19 @@ _CASES_3_8 = {
 
 
 def table_3_8() -> dict:
-    """Mode-function parameters gamma1..3 (Table 3.4) of the uniform and stepped reeds, free vs load."""
+    """The mode-function parameters gamma1..3 of the uniform and stepped reeds, in free vibration and under load.
+
+    Returns
+    -------
+    dict
+        ``rows``: per case gamma1..3 [-] by the thesis's method (Table 3.4's integrals; eqs
+        3.42-3.45 for stepped #2's rigid tip) beside Table 3.8's, and by exact Euler-Bernoulli;
+        ``notes``.
+
+    References
+    ----------
+    Knutson (2016), Tables 3.4 and 3.8, eqs 3.42-3.45.
+    """
     tv = thesis_values()["table_3_8"]
     rows = []
     for case, (name, kind) in _CASES_3_8.items():
@@ -72,7 +84,18 @@ def table_3_8() -> dict:
 
 
 def table_3_9() -> dict:
-    """First mode-function parameter of stepped reed #1: direct integration vs eq 3.48 (E-B rows)."""
+    """The first mode-function parameter of stepped reed #1: direct integration against eq 3.48.
+
+    Returns
+    -------
+    dict
+        ``rows``: omega_n [rad/s] (the stepped-beam determinant, Naguleswaran 2002), kappa [Pa/m]
+        (eq 3.40) and gamma1 [-] by each method, beside Table 3.9's; ``notes``.
+
+    References
+    ----------
+    Knutson (2016), eqs 3.40, 3.48 and Table 3.9; Naguleswaran (2002), J. Sound Vib. 252, 751-767.
+    """
     tv = thesis_values()["table_3_9"]
     reed = _reed("stepped1")
     m = reed.material
@@ -97,7 +120,18 @@ def table_3_9() -> dict:
 
 
 def table_3_11() -> dict:
-    """Natural frequency parameter alpha (eq 3.75) of the four reeds: exact E-B, and from the thesis's FEA omegas."""
+    """The natural frequency parameter alpha of the four reeds.
+
+    Returns
+    -------
+    dict
+        ``rows``: per reed omega_n [rad/s] by exact Euler-Bernoulli and alpha [-] by eq 3.75 from it
+        and from the thesis's FEA omega, beside Table 3.11's; ``notes``.
+
+    References
+    ----------
+    Knutson (2016), eq 3.75 and Table 3.11.
+    """
     tv = thesis_values()["table_3_11"]
     h_eff_valve = _valve().effective_thickness
     rows = []
@@ -135,7 +169,18 @@ def table_3_11() -> dict:
 
 
 def table_3_12() -> dict:
-    """Poiseuille-regime pressure load multiplier X vs the base pressure fraction F4 (eq 3.60)."""
+    """The Poiseuille-regime pressure load multiplier X against the base pressure fraction F4.
+
+    Returns
+    -------
+    dict
+        ``rows``: per F4 [-] X [-] by eq 3.60 on the rigid-tip shape (as the thesis) and on the exact
+        load shape, beside Table 3.12's; ``notes`` (the reconstructed sealing sections, Figure 3.14).
+
+    References
+    ----------
+    Knutson (2016), eqs 3.59-3.60, Figure 3.14 and Table 3.12.
+    """
     tv = thesis_values()["table_3_12"]
     reed = _reed("stepped2")  # the prototype's outline; the thesis uses stepped #2's load shape
     approx = lambda s: rb.three_section_shape(reed, s)  # noqa: E731
@@ -164,82 +209,114 @@ def _row(quantity, value, thesis_value, unit, source):
             "unit": unit, "source": source}
 
 
-def table_3_13() -> dict:
-    """The analytically computable entries of the prototype reed valve's parameter table (Table 3.13)."""
-    tv = thesis_values()["table_3_13"]
-    tv11 = thesis_values()["table_3_11"]
-    valve = _valve()
-    rho_oil, mu = rf.oil_properties()
-    s2, proto, s1 = _reed("stepped2"), _reed("prototype"), _reed("stepped1")
-    E, rho_c = proto.material.youngs_modulus, proto.material.density
-    rows = []
+def _mode_rows(s2, tv8) -> list:
+    """gamma1..3 of stepped #2 under load (rigid tip), as the thesis uses for the prototype (Table 3.4)."""
+    bm = rb.BeamModel.of(s2)
+    g = rb.mode_integrals(bm.quad, rb.three_section_shape(s2, bm.quad.s), bm.W, s2.width_tip)
+    return [_row(key, g[i], tv8[key], "1", "Table 3.4 on stepped #2's load shape (eqs 3.42-3.45)")
+            for i, key in enumerate(("gamma1", "gamma2", "gamma3"))]
 
-    # mode-function parameters (stepped #2 under load, rigid tip, as the thesis uses for the prototype)
+
+def _stiffness_rows(tv) -> list:
+    """kappa of stepped #1 (eq 3.40), stepped #2 (three sections; exact E-B), the prototype and its h_eff."""
+    s1, s2, proto = _reed("stepped1"), _reed("stepped2"), _reed("prototype")
+    kap40 = rb.stiffness_eq_3_40(proto.material.youngs_modulus, s1.thickness, s1.width_root, s1.width_tip,
+                                 s1.step_location, s1.length - s1.step_location)
+    pp = rb.reed_properties(proto)
+    return [
+        _row("kappa stepped #1", kap40, tv["kappa_eq_3_40_stepped1"], "Pa/m", "eq 3.40"),
+        _row("kappa stepped #2", rb.three_section_stiffness(s2), tv["kappa_three_section_stepped2"], "Pa/m",
+             "three-section method, Table 3.6, eqs 3.37-3.39"),
+        _row("kappa stepped #2 (exact E-B)", rb.exact_stiffness(s2), None, "Pa/m",
+             f"exact E-B, flexible tip (thesis FEA {tv['kappa_fea_stepped2'] / 1e6:.4g} MPa/m)"),
+        _row("kappa prototype (exact E-B)", pp.kappa, None, "Pa/m",
+             f"exact E-B, grooves as reduced sections (thesis FEA {tv['kappa_fea'] / 1e6:.4g} MPa/m)"),
+        _row("h_eff", pp.h_eff, tv["h_eff"], "m",
+             "eq 3.62 with exact E-B prototype gamma1, kappa, omega_n (thesis: FEA kappa, omega)"),
+    ]
+
+
+def _added_mass_rows(tv, omega_fea: float, gamma3: float) -> list:
+    """kappa_n (eq 3.14), Gamma_f (eq 3.13), from the thesis's FEA omega and from exact E-B; the air's mass ratio."""
+    proto, valve = _reed("prototype"), _valve()
+    E, rho_c, A = proto.material.youngs_modulus, proto.material.density, proto.face_area
+    alpha_fea = rb.frequency_parameter_from_omega(omega_fea, valve.effective_thickness, proto.length, E, rho_c)
+    kn_fea = rf.normalised_mode_number_area(alpha_fea, A, proto.length)
+    pp = rb.reed_properties(proto)
+    kn_an = rf.normalised_mode_number_area(
+        rb.frequency_parameter_from_omega(pp.omega_n, pp.h_eff, proto.length, E, rho_c), A, proto.length)
+    rho_air = rf.fluid_data()["air"]["density"]
+    mass_ratio = rf.added_to_reed_mass_ratio(gamma3, rho_air, proto.width_tip, rf.hydrodynamic_function(kn_fea),
+                                             rho_c, proto.thickness)
+    return [
+        _row("kappa_n", kn_fea, tv["kappa_n"], "1",
+             "eq 3.14, alpha by eq 3.75 from the thesis's FEA omega 2523 rad/s, h_eff 1.161 mm"),
+        _row("Gamma_f", rf.hydrodynamic_function(kn_fea), tv["Gamma_f"], "1", "eq 3.13 at that kappa_n"),
+        _row("Gamma_f at the printed kappa_n", rf.hydrodynamic_function(tv["kappa_n"]), tv["Gamma_f"], "1",
+             "eq 3.13 at kappa_n = 0.9677 (checks the Pade approximant)"),
+        _row("kappa_n (exact E-B)", kn_an, None, "1", "eq 3.14 with the exact E-B alpha of the prototype"),
+        _row("Gamma_f (exact E-B)", rf.hydrodynamic_function(kn_an), None, "1", "eq 3.13"),
+        _row("air mass ratio", mass_ratio, tv["air_mass_ratio"], "1",
+             f"eq 3.76, rho_air = {rho_air} kg/m^3 (not in the thesis)"),
+    ]
+
+
+def _damping_rows(tv) -> list:
+    """R_k (eq 3.79), R_f, c_f (eq 3.80) and c (eq 3.81), omega_n of the prototype from the valve (eq 3.72)."""
+    s2, proto, valve = _reed("stepped2"), _reed("prototype"), _valve()
+    rho_oil, mu = rf.oil_properties()
     bm = rb.BeamModel.of(s2)
     psi = rb.three_section_shape(s2, bm.quad.s)
-    g = rb.mode_integrals(bm.quad, psi, bm.W, s2.width_tip)
-    for i, key in enumerate(("gamma1", "gamma2", "gamma3")):
-        rows.append(_row(key, g[i], thesis_values()["table_3_8"]["stepped2/load"][key], "1",
-                         "Table 3.4 on stepped #2's load shape (eqs 3.42-3.45)"))
-
-    # stiffness
-    kap40 = rb.stiffness_eq_3_40(E, s1.thickness, s1.width_root, s1.width_tip, s1.step_location,
-                                 s1.length - s1.step_location)
-    rows.append(_row("kappa stepped #1", kap40, tv["kappa_eq_3_40_stepped1"], "Pa/m", "eq 3.40"))
-    rows.append(_row("kappa stepped #2", rb.three_section_stiffness(s2), tv["kappa_three_section_stepped2"],
-                     "Pa/m", "three-section method, Table 3.6, eqs 3.37-3.39"))
-    rows.append(_row("kappa stepped #2 (exact E-B)", rb.exact_stiffness(s2), None, "Pa/m",
-                     f"exact E-B, flexible tip (thesis FEA {tv['kappa_fea_stepped2'] / 1e6:.4g} MPa/m)"))
-    pp = rb.reed_properties(proto)
-    rows.append(_row("kappa prototype (exact E-B)", pp.kappa, None, "Pa/m",
-                     f"exact E-B, grooves as reduced sections (thesis FEA {tv['kappa_fea'] / 1e6:.4g} MPa/m)"))
-    rows.append(_row("h_eff", pp.h_eff, tv["h_eff"], "m",
-                     "eq 3.62 with exact E-B prototype gamma1, kappa, omega_n (thesis: FEA kappa, omega)"))
-
-    # added mass
-    A = proto.face_area
-    alpha_fea = rb.frequency_parameter_from_omega(tv11["prototype"]["omega_fea"], valve.effective_thickness,
-                                                  proto.length, E, rho_c)
-    kn_fea = rf.normalised_mode_number_area(alpha_fea, A, proto.length)
-    rows.append(_row("kappa_n", kn_fea, tv["kappa_n"], "1",
-                     "eq 3.14, alpha by eq 3.75 from the thesis's FEA omega 2523 rad/s, h_eff 1.161 mm"))
-    rows.append(_row("Gamma_f", rf.hydrodynamic_function(kn_fea), tv["Gamma_f"], "1", "eq 3.13 at that kappa_n"))
-    rows.append(_row("Gamma_f at the printed kappa_n", rf.hydrodynamic_function(tv["kappa_n"]), tv["Gamma_f"],
-                     "1", "eq 3.13 at kappa_n = 0.9677 (checks the Pade approximant)"))
-    alpha_an = rb.frequency_parameter_from_omega(pp.omega_n, pp.h_eff, proto.length, E, rho_c)
-    kn_an = rf.normalised_mode_number_area(alpha_an, A, proto.length)
-    rows.append(_row("kappa_n (exact E-B)", kn_an, None, "1", "eq 3.14 with the exact E-B alpha of the prototype"))
-    rows.append(_row("Gamma_f (exact E-B)", rf.hydrodynamic_function(kn_an), None, "1", "eq 3.13"))
-    rho_air = rf.fluid_data()["air"]["density"]
-    rows.append(_row("air mass ratio", rf.added_to_reed_mass_ratio(g[2], rho_air, proto.width_tip,
-                                                                   rf.hydrodynamic_function(kn_fea),
-                                                                   rho_c, proto.thickness),
-                     tv["air_mass_ratio"], "1", f"eq 3.76, rho_air = {rho_air} kg/m^3 (not in the thesis)"))
-
-    # damping: omega_n of the prototype from the valve parameters (eq 3.72)
     omega = (valve.gamma1 * valve.stiffness / (valve.density * valve.effective_thickness)) ** 0.5
-    Rk = rf.kinetic_reynolds(rho_oil, omega, proto.width_tip, mu)
-    rows.append(_row("R_k", Rk, tv["R_k"], "1",
-                     f"eq 3.79, W2, omega_n = {omega:.0f} rad/s by eq 3.72 (thesis: measured 2786 rad/s)"))
-    Rf = rf.damping_per_length(mu)
-    rows.append(_row("R_f", Rf, tv["R_f"], "Pa s", f"(c_v/mu) mu, c_v/mu = 500 (Naik et al. 2003), mu = {mu:.4g} Pa s"))
     c_f = rf.fluid_damping(bm.quad.s, psi, bm.W, mu, weights=bm.quad.weights)
-    rows.append(_row("c_f", c_f, tv["c_f"], "Pa s/m", "eq 3.80 on stepped #2's load shape (Table 3.13 swaps c, c_f)"))
-    rows.append(_row("c", valve.internal_damping + c_f, tv["c"], "Pa s/m", "eq 3.81, c_c = 77.50 Pa s/m (Table 3.10)"))
+    return [
+        _row("R_k", rf.kinetic_reynolds(rho_oil, omega, proto.width_tip, mu), tv["R_k"], "1",
+             f"eq 3.79, W2, omega_n = {omega:.0f} rad/s by eq 3.72 (thesis: measured 2786 rad/s)"),
+        _row("R_f", rf.damping_per_length(mu), tv["R_f"], "Pa s",
+             f"(c_v/mu) mu, c_v/mu = 500 (Naik et al. 2003), mu = {mu:.4g} Pa s"),
+        _row("c_f", c_f, tv["c_f"], "Pa s/m", "eq 3.80 on stepped #2's load shape (Table 3.13 swaps c, c_f)"),
+        _row("c", valve.internal_damping + c_f, tv["c"], "Pa s/m", "eq 3.81, c_c = 77.50 Pa s/m (Table 3.10)"),
+    ]
 
-    # flow and pressure
-    A2 = rf.fluid_displacement_area(bm.quad.s, psi, bm.W, weights=bm.quad.weights)
-    rows.append(_row("A2 (eq 3.29)", A2, tv["A2"], "m^2",
-                     "int W psi ds on stepped #2's load shape; the printed 338.4 mm^2 is the face area"))
-    rows.append(_row("face area", A, tv["A2"], "m^2", "W1 L1 + W2 (L - L1) - (2 - pi/2) R^2 (Table 3.5)"))
+
+def _flow_rows(tv, F3_thesis: float) -> list:
+    """A2 (eq 3.29) and the face area, X (eq 3.60), F3 (eq 3.59), the opening where X reaches 0 (eq 3.83)."""
+    s2, proto, valve = _reed("stepped2"), _reed("prototype"), _valve()
+    bm = rb.BeamModel.of(s2)
+    psi = rb.three_section_shape(s2, bm.quad.s)
     lay = rf.SealingLayout.thesis()
-    F4 = rf.fluid_data()["sealing"]["base_fraction"]
-    X = rf.poiseuille_multiplier(s2, lambda s: rb.three_section_shape(s2, s), F4, lay)
-    rows.append(_row("X (Poiseuille)", X, valve.multiplier_poiseuille, "1",
-                     "eq 3.60, F4 = 0.5, reconstructed sections (Table 3.12)"))
-    rows.append(_row("F3", rf.annulus_pressure_fraction(proto.tip_radius - lay.land_width, proto.tip_radius),
-                     thesis_values()["table_3_12"]["F3"], "1", "eq 3.59, R_i = 6.35 mm, R_o = 7.94 mm"))
-    rows.append(_row("opening where X reaches 0", rf.PressureMultiplierFit.thesis().closing_opening, None, "m",
-                     "numerator root of eq 3.83 (the text: about 1.4 mm)"))
+    X = rf.poiseuille_multiplier(s2, lambda s: rb.three_section_shape(s2, s),
+                                 rf.fluid_data()["sealing"]["base_fraction"], lay)
+    return [
+        _row("A2 (eq 3.29)", rf.fluid_displacement_area(bm.quad.s, psi, bm.W, weights=bm.quad.weights), tv["A2"],
+             "m^2", "int W psi ds on stepped #2's load shape; the printed 338.4 mm^2 is the face area"),
+        _row("face area", proto.face_area, tv["A2"], "m^2", "W1 L1 + W2 (L - L1) - (2 - pi/2) R^2 (Table 3.5)"),
+        _row("X (Poiseuille)", X, valve.multiplier_poiseuille, "1",
+             "eq 3.60, F4 = 0.5, reconstructed sections (Table 3.12)"),
+        _row("F3", rf.annulus_pressure_fraction(proto.tip_radius - lay.land_width, proto.tip_radius), F3_thesis, "1",
+             "eq 3.59, R_i = 6.35 mm, R_o = 7.94 mm"),
+        _row("opening where X reaches 0", rf.PressureMultiplierFit.thesis().closing_opening, None, "m",
+             "numerator root of eq 3.83 (the text: about 1.4 mm)"),
+    ]
+
+
+def table_3_13() -> dict:
+    """The analytically computable entries of the prototype reed valve's parameter table (Table 3.13).
+
+    Returns
+    -------
+    dict
+        ``rows``: one per quantity, its ``value`` (SI), ``thesis_value``, ``unit`` and ``source``
+        (the equation); ``notes``.
+
+    References
+    ----------
+    Knutson (2016), Table 3.13 and the equations each row names (section 3.4).
+    """
+    tv = thesis_values()["table_3_13"]
+    mode_rows = _mode_rows(_reed("stepped2"), thesis_values()["table_3_8"]["stepped2/load"])
+    rows = (mode_rows + _stiffness_rows(tv)
+            + _added_mass_rows(tv, thesis_values()["table_3_11"]["prototype"]["omega_fea"], mode_rows[2]["value"])
+            + _damping_rows(tv) + _flow_rows(tv, thesis_values()["table_3_12"]["F3"]))
     notes = ["value: computed by valvelab; thesis_value: printed (Table 3.13 or the text)."]
     return {"rows": rows, "notes": notes}

@@ -9,7 +9,7 @@ u_input) until the cyclic steady-state test passes (:meth:`lumped.run.revolution
 two revolutions at least), each draw of a task started from the state predicted from the draws
 solved before it (a warm start, :class:`lumped.run.warmstart.WarmStarts`, the draws visited in a
 nearest-neighbour chain of their standard scores). The simulations run on a dask cluster like
-the sweeps (:class:`studies.sweeps.design.runner.Cluster`), or in this process.
+the sweeps (:class:`studies.sweeps.cluster.Cluster`), or in this process.
 
 u_input of an output is the standard deviation of its draws. How well the sample knows
 it is measured, not assumed: :data:`SCRAMBLES` independent scrambles of the Sobol sequence
@@ -206,7 +206,7 @@ def propagate(points, *, quick: bool = False, seed: int = 0, cluster=None, progr
               outputs=tuple(OUTPUTS), draws: dict | None = None,
               per_scramble: int | None = None) -> dict[str, dict[str, InputUncertainty]]:
     """u_input of ``outputs`` at every :class:`Point` (see the module docstring); ``cluster``: a
-    :class:`studies.sweeps.design.runner.Cluster` (None: in this process). ``per_scramble``: a fixed
+    :class:`studies.sweeps.cluster.Cluster` (None: in this process). ``per_scramble``: a fixed
     budget of that many points per scramble (a power of two), else the adaptive doubling. ``draws``: a
     dict that receives {point: {"z": standard scores (n x d), "scramble": scramble of each draw (n),
     "keys": the declarations' keys, output: its value at each draw (NaN where undefined)}}, the draws in

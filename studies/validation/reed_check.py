@@ -34,6 +34,7 @@ QUANTITIES = ("omega_n", "kappa", "gamma1", "gamma2", "gamma3")
 REFERENCE_ORDER = ("solid", "plate", "beam", "analytic")
 #: Euler-Bernoulli fidelities, cheapest first, eligible to feed the pump model
 EB_ORDER = ("analytic", "beam")
+#: the deviation [%] beyond which a quantity is flagged (section 3.5.1: E-B reed stiffness "within ~4 %")
 DEFAULT_TOLERANCE_PCT = 4.0
 
 
@@ -50,20 +51,8 @@ def _run(fidelity: str, reed: Reed, mesh_size, modes: int = 0):
     return props, result.first(modes)
 
 
-def multi_fidelity_check(reed: Reed, fidelities=("analytic", "beam", "plate", "solid"),
-                         tolerance_pct: float = DEFAULT_TOLERANCE_PCT, mesh_size=None,
-                         progress: bool = True, modes: int = 0) -> dict:
-    """Run ``fidelities`` on ``reed`` and compare them (see the module docstring).
-
-    Returns a dict with ``rows`` (one per fidelity: the Table 3.4 values, ``dofs``,
-    ``mesh_size``, ``seconds``, ``deviation_pct`` per quantity vs the reference and
-    ``flags``), ``reference``, ``tolerance_pct``, ``flagged`` (list of "fidelity.quantity")
-    and ``selected``: ``{"fidelity", "reason",
-    "properties": ReedProperties}``. ``mesh_size`` None uses each FEA fidelity's converged
-    default. Progress goes to stderr. ``modes`` > 0 adds each row's ``frequencies`` [rad/s],
-    ``mode_kinds`` and ``mode_deviation_pct`` (see the module docstring) and a top-level
-    ``modes`` summary ``{"count", "labels"}``.
-    """
+def _run_all(reed: Reed, fidelities, mesh_size, progress: bool, modes: int) -> tuple[dict, dict, dict]:
+    """Each fidelity's properties, modes and run time (progress on stderr)."""
     results: dict[str, ReedProperties] = {}
     mode_sets: dict[str, tuple] = {}
     seconds: dict[str, float] = {}
@@ -73,45 +62,91 @@ def multi_fidelity_check(reed: Reed, fidelities=("analytic", "beam", "plate", "s
         t0 = time.perf_counter()
         results[fid], mode_sets[fid] = _run(fid, reed, mesh_size, modes)
         seconds[fid] = time.perf_counter() - t0
+    return results, mode_sets, seconds
+
+
+def _mode_deviations(mode_set: tuple, reference_set: tuple) -> dict:
+    """A fidelity's frequencies and mode names, and each mode's % deviation from the reference's mode of the
+    same name (None where the reference has none)."""
+    freqs, kinds = mode_set
+    ref_by = {}
+    for w, lab in zip(*reference_set):
+        ref_by.setdefault(lab, w)
+    return {"frequencies": freqs, "mode_kinds": kinds,
+            "mode_deviation_pct": {lab: (None if lab not in ref_by else (w - ref_by[lab]) / ref_by[lab] * 100.0)
+                                   for w, lab in zip(freqs, kinds)}}
+
+
+def _row(fid: str, p: ReedProperties, ref: ReedProperties, tolerance_pct: float, seconds: float) -> dict:
+    """One fidelity's row: the Table 3.4 values, % deviations from the reference, flags beyond tolerance."""
+    dev = {q: (getattr(p, q) - getattr(ref, q)) / getattr(ref, q) * 100.0 for q in QUANTITIES}
+    row = {"fidelity": fid}
+    row.update({q: float(getattr(p, q)) for q in QUANTITIES})
+    row.update({"h_eff": float(p.h_eff), "dofs": p.dofs, "mesh_size": p.mesh_size, "seconds": round(seconds, 3),
+                "deviation_pct": dev, "flags": [q for q in QUANTITIES if abs(dev[q]) > tolerance_pct]})
+    return row
+
+
+def _select(rows: list, reference: str, tolerance_pct: float) -> tuple[str, str]:
+    """The fidelity that feeds the pump model, and why (see the module docstring)."""
+    for fid in EB_ORDER:
+        row = next((r for r in rows if r["fidelity"] == fid), None)
+        if row is None or fid == reference:
+            continue
+        if not row["flags"]:
+            return fid, (f"{fid} (Euler-Bernoulli) agrees with {reference} within {tolerance_pct:g} % "
+                         "on omega_n, kappa and gamma1..3")
+        return reference, (f"{fid} deviates from {reference} by more than {tolerance_pct:g} % in "
+                           + ", ".join(row["flags"]) + f"; the {reference} values are used")
+    return reference, f"{reference} is the reference"
+
+
+def multi_fidelity_check(reed: Reed, fidelities=("analytic", "beam", "plate", "solid"),
+                         tolerance_pct: float = DEFAULT_TOLERANCE_PCT, mesh_size=None,
+                         progress: bool = True, modes: int = 0) -> dict:
+    """Run several fidelities on a reed and compare them (see the module docstring).
+
+    Parameters
+    ----------
+    reed : geometry.reed.Reed
+        The reed.
+    fidelities : sequence of str
+        Among ``analytic``, ``beam``, ``plate``, ``solid``.
+    tolerance_pct : float
+        Deviation [%] from the reference beyond which a quantity is flagged (default 4 %, the
+        thesis's accuracy of E-B reed stiffness, section 3.5.1).
+    mesh_size : float, optional
+        FEA element size [m]; None uses each FEA fidelity's converged default.
+    progress : bool
+        Progress on stderr.
+    modes : int
+        With N > 0, each fidelity's first N natural frequencies named by nodal pattern.
+
+    Returns
+    -------
+    dict
+        ``rows`` (one per fidelity: omega_n [rad/s], kappa [Pa/m], gamma1..3, h_eff [m],
+        ``dofs``, ``mesh_size``, ``seconds``, ``deviation_pct`` per quantity vs the reference
+        and ``flags``), ``reference``, ``tolerance_pct``, ``flagged`` (list of
+        "fidelity.quantity") and ``selected``: ``{"fidelity", "reason", "properties":
+        ReedProperties}``. With ``modes``, each row's ``frequencies`` [rad/s], ``mode_kinds`` and
+        ``mode_deviation_pct``, and a top-level ``modes`` summary ``{"count", "labels"}``.
+
+    References
+    ----------
+    Knutson (2016), section 3.5.1 and Table 3.4 (the mode-function parameters gamma1..3).
+    """
+    results, mode_sets, seconds = _run_all(reed, fidelities, mesh_size, progress, modes)
     ran = list(results)
     reference = next((f for f in REFERENCE_ORDER if f in results), ran[0])
-    ref = results[reference]
-    rows, flagged = [], []
+    rows = []
     for fid in ran:
-        p = results[fid]
-        dev = {q: (getattr(p, q) - getattr(ref, q)) / getattr(ref, q) * 100.0 for q in QUANTITIES}
-        flags = [q for q in QUANTITIES if abs(dev[q]) > tolerance_pct]
-        flagged += [f"{fid}.{q}" for q in flags]
-        row = {"fidelity": fid}
-        row.update({q: float(getattr(p, q)) for q in QUANTITIES})
-        row.update({
-            "h_eff": float(p.h_eff), "dofs": p.dofs, "mesh_size": p.mesh_size,
-            "seconds": round(seconds[fid], 3), "deviation_pct": dev, "flags": flags,
-        })
+        row = _row(fid, results[fid], results[reference], tolerance_pct, seconds[fid])
         if modes:
-            freqs, kinds = mode_sets[fid]
-            ref_f, ref_k = mode_sets[reference]
-            ref_by = {}
-            for w, lab in zip(ref_f, ref_k):
-                ref_by.setdefault(lab, w)
-            row["frequencies"] = freqs
-            row["mode_kinds"] = kinds
-            row["mode_deviation_pct"] = {
-                lab: (None if lab not in ref_by else (w - ref_by[lab]) / ref_by[lab] * 100.0)
-                for w, lab in zip(freqs, kinds)}
+            row.update(_mode_deviations(mode_sets[fid], mode_sets[reference]))
         rows.append(row)
-    selected, reason = reference, f"{reference} is the reference"
-    for fid in EB_ORDER:
-        if fid in results and fid != reference:
-            row = next(r for r in rows if r["fidelity"] == fid)
-            if not row["flags"]:
-                selected = fid
-                reason = (f"{fid} (Euler-Bernoulli) agrees with {reference} within {tolerance_pct:g} % "
-                          "on omega_n, kappa and gamma1..3")
-            else:
-                reason = (f"{fid} deviates from {reference} by more than {tolerance_pct:g} % in "
-                          + ", ".join(row["flags"]) + f"; the {reference} values are used")
-            break
+    flagged = [f"{r['fidelity']}.{q}" for r in rows for q in r["flags"]]
+    selected, reason = _select(rows, reference, tolerance_pct)
     out = {
         "geometry": reed.name, "reference": reference, "tolerance_pct": float(tolerance_pct),
         "rows": rows, "flagged": flagged,
@@ -126,7 +161,18 @@ def multi_fidelity_check(reed: Reed, fidelities=("analytic", "beam", "plate", "s
 
 
 def check_as_json(check: dict) -> dict:
-    """The check as plain JSON types (the selected ReedProperties as its contract object)."""
+    """The check as plain JSON types.
+
+    Parameters
+    ----------
+    check : dict
+        :func:`multi_fidelity_check`'s result.
+
+    Returns
+    -------
+    dict
+        The selected ReedProperties as its contract object (SI).
+    """
     out = {k: v for k, v in check.items() if k != "selected"}
     sel = check["selected"]
     out["selected"] = {
@@ -137,7 +183,18 @@ def check_as_json(check: dict) -> dict:
 
 
 def render_check(c: dict) -> str:
-    """Readable table of a (JSON) check: values and % deviations from the reference."""
+    """A readable table of a check: values and % deviations from the reference.
+
+    Parameters
+    ----------
+    c : dict
+        :func:`check_as_json`'s result.
+
+    Returns
+    -------
+    str
+        omega_n [rad/s], kappa [MPa/m], gamma1..3, dofs, seconds per fidelity; the modes, the flags and the selection.
+    """
     head = f"{'fidelity':<9} {'omega_n':>9} {'kappa':>9} {'gamma1':>7} {'gamma2':>7} {'gamma3':>7} {'dofs':>7} {'s':>6}"
     lines = [f"reed {c['geometry']}: multi-fidelity check (reference {c['reference']}, "
              f"tolerance {c['tolerance_pct']:g} %)", head,

@@ -30,6 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
+from studies.validation import reed_dynamics_report as report
+from studies.validation.reed_dynamics_report import as_json, fmt as _fmt
+
 #: modal reeds tried (modes), besides eq 3.21 and the FE reed
 MODES = (1, 2, 3, 6)
 #: the fast stepper's rtol where the comparison runs on it (validate's): the reference stepper's numerics are
@@ -68,27 +71,61 @@ class ReedCase:
 
 
 def off_axis_port(reed) -> dict:
-    """A port off the reed's axis: s from 0.3 L to 0.8 L, 0.3 of the narrowest width there across, centred a
-    quarter of that width off the centre line (inside the outline of any reed; the load twists it)."""
+    """A port off a reed's axis, whose load twists the reed.
+
+    s from 0.3 L to 0.8 L, 0.3 of the narrowest width there across, centred a quarter of that
+    width off the centre line (inside the outline of any reed).
+
+    Parameters
+    ----------
+    reed : geometry.reed.Reed
+
+    Returns
+    -------
+    dict
+        ``s_start``, ``s_end``, ``width``, ``y_center`` [m] (the model file's ``valves.port`` keys).
+    """
     length = reed.length
     w = float(np.min(reed.width(np.linspace(0.3 * length, 0.8 * length, 101))))
     return {"s_start": 0.3 * length, "s_end": 0.8 * length, "width": 0.3 * w, "y_center": 0.25 * w}
 
 
 def mid_port(reed) -> dict:
-    """A port on the axis from 0.1 L to 0.5 L, 0.9 of the narrowest width there across: the load sits where the
-    first mode hardly moves, so its static shape is far from that mode's (one mode misses 12 % of the static
-    opening of the prototype, three modes 0.05 %: docs/reed_dynamics.md)."""
+    """A port on a reed's axis near the clamp, where the first mode hardly moves.
+
+    s from 0.1 L to 0.5 L, 0.9 of the narrowest width there across: the static shape of its load
+    is far from the first mode's (docs/reed_dynamics.md).
+
+    Parameters
+    ----------
+    reed : geometry.reed.Reed
+
+    Returns
+    -------
+    dict
+        ``s_start``, ``s_end``, ``width`` [m].
+    """
     length = reed.length
     w = float(np.min(reed.width(np.linspace(0.1 * length, 0.5 * length, 101))))
     return {"s_start": 0.1 * length, "s_end": 0.5 * length, "width": 0.9 * w}
 
 
 def study_reeds(reed) -> list[ReedCase]:
-    """The reed and five made from it where one mode should fail: twice as long and half as thick
-    (Reed.scaled), a port off its axis (torsion, plate modes), a heavy tip (Reed.with_heavy_tip: the rounded tip
-    three times as thick), and two designed so that it does: three times as long and half as thick, and a port
-    on the axis near the clamp (:func:`mid_port`)."""
+    """The reeds of the study: the reed, and five made from it.
+
+    Three where one mode should fail: twice as long and half as thick (Reed.scaled), a port off
+    its axis (torsion, plate modes), a heavy tip (Reed.with_heavy_tip: the rounded tip three
+    times as thick); two designed so that it does: three times as long and half as thick, and a
+    port on the axis near the clamp (:func:`mid_port`).
+
+    Parameters
+    ----------
+    reed : geometry.reed.Reed
+
+    Returns
+    -------
+    list of ReedCase
+    """
     return [
         ReedCase(reed.name, reed, "beam", {}, "the reed as given"),
         ReedCase("long_thin", reed.scaled(2.0, 0.5, name="long_thin"), "beam", {},
@@ -120,7 +157,21 @@ def _model(case: ReedCase, dynamics: str, modes: int | None = None):
 
 
 def variants(case: ReedCase, modes=MODES, fe: bool = True) -> list[tuple[str, dict]]:
-    """(label, how) of the models compared: eq 3.21, N modes, the FE reed (where it is the reference)."""
+    """The models compared on a reed.
+
+    Parameters
+    ----------
+    case : ReedCase
+    modes : sequence of int
+        The modal reeds' numbers of modes.
+    fe : bool
+        Include the whole FE reed (where it is the reference).
+
+    Returns
+    -------
+    list of (str, dict)
+        (label, how): eq 3.21 (``one-mode``), ``modalN``, ``fe``.
+    """
     out = [("one-mode", {"dynamics": "one-mode"})]
     out += [(f"modal{n}", {"dynamics": "modal", "modes": n}) for n in modes]
     if fe and case.reference == "fe":
@@ -154,15 +205,48 @@ def _worst_angle(row: dict, ref: dict) -> float:
 
 
 def case_label(op: dict) -> str:
-    """An operating point's name, e.g. ``low_speed_inlet`` (the thesis figure's condition and valve)."""
+    """An operating point's name.
+
+    Parameters
+    ----------
+    op : dict
+        With ``condition`` and ``measured_valve``.
+
+    Returns
+    -------
+    str
+        e.g. ``low_speed_inlet`` (the thesis figure's condition and valve).
+    """
     return f"{op['condition']}_{op['measured_valve']}"
 
 
 def run_point(case: ReedCase, op: dict, revolutions: int = 3, method: str = "reference", trace: bool = False,
               models=None, progress=None) -> tuple[dict, dict]:
-    """Every model of ``models`` (default :func:`variants`) at one operating point: ({label: row}, {label:
-    trace}). Eq 3.21 and the modal reeds on ``method``'s stepper ("fast": at rtol FAST_RTOL), the FE reed on
-    the reference one."""
+    """Every model at one operating point.
+
+    Parameters
+    ----------
+    case : ReedCase
+    op : dict
+        ``speed_rpm`` [rpm], ``load_pressure`` [Pa], ``air_content``, ``condition``, ``measured_valve``.
+    revolutions : int
+    method : str
+        The stepper of eq 3.21 and the modal reeds (``fast``: at rtol :data:`FAST_RTOL`); the FE
+        reed runs on the reference one.
+    trace : bool
+        Keep each run's trace.
+    models : list, optional
+        (label, how) pairs (default :func:`variants`).
+    progress : callable, optional
+        Called (reed, label) after each run.
+
+    Returns
+    -------
+    rows : dict
+        {label: row}: delivery [cc/rev], each valve's angles [deg], peak opening [mm], impact speeds [m/s].
+    traces : dict
+        {label: (trace, mode names)} with ``trace``.
+    """
     from lumped import simulate
 
     by_label, traces = {}, {}
@@ -192,15 +276,36 @@ def _against(by_label: dict, reference: str) -> None:
 
 def dynamics_study(reeds: list[ReedCase] | None = None, cases=None, revolutions: int = 3, progress: bool = True,
                    stress: bool = True, traces: bool = True, method: str = "reference") -> dict:
-    """Run the study (see the module docstring); returns {"reeds": [...], "rows": [...], "numerics": [...],
-    "traces": {...}, "tolerances": {...}}.
+    """Run the study (see the module docstring).
 
-    ``cases``: the operating points (dicts with condition, measured_valve, speed_rpm, load_pressure,
-    air_content; default the six of Table 5.6); ``stress``: compute the peak root stress from the solid FEA
-    (a static solve per reed); ``method``: the stepper of eq 3.21 and the modal reeds (the FE reed runs on the
-    reference stepper). The study compares model forms, so its numerics must sit well below its 0.1 %: the
-    reference stepper (rtol 1e-6) by default; per reed the first case's richest modal reed runs on the other
-    stepper too (the fast one at its default tolerances), and ``numerics`` reports the difference.
+    Parameters
+    ----------
+    reeds : list of ReedCase, optional
+        Default :func:`study_reeds` of the prototype.
+    cases : list of dict, optional
+        The operating points (default the six of Table 5.6).
+    revolutions : int
+    progress : bool
+        A count of the runs on stderr.
+    stress : bool
+        The peak root stress from the solid FEA (a static solve per reed).
+    traces : bool
+        Keep the first case's traces (for :func:`studies.validation.reed_dynamics_report.plot`).
+    method : str
+        The stepper of eq 3.21 and the modal reeds (the FE reed runs on the reference stepper). The
+        study compares model forms, so its numerics must sit well below its 0.1 %: the reference
+        stepper (rtol 1e-6) by default; per reed the first case's richest modal reed runs on the
+        other stepper too, and ``numerics`` reports the difference.
+
+    Returns
+    -------
+    dict
+        ``reeds`` (per reed: modes needed for 0.1 % delivery and 0.5 deg timing, eq 3.21's worst
+        differences), ``rows`` (every run), ``numerics``, ``traces``, ``tolerances``.
+
+    References
+    ----------
+    Knutson (2016), eq 3.21 (the one-mode reed) and Table 5.6.
     """
     from geometry import load_reed
     from studies.validation.chain import cases as all_cases
@@ -327,141 +432,35 @@ def _mode_names(model) -> list | None:
 
 
 # --------------------------------------------------------------------------- outputs
-def plot(study: dict, folder) -> list:
-    """Per reed: the delivery valve's opening over a revolution for every model [mm vs deg], and the six-mode
-    reed's modal participation (each mode's share e_i q_i of the opening) over the cycle."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out = []
-    for reed, by_label in study["traces"].items():
-        fig, (ax, bx) = plt.subplots(2, 1, figsize=(8, 7), sharex=True, constrained_layout=True)
-        for label, (tr, _) in by_label.items():
-            ax.plot(tr.crank_deg, tr.delivery_position * 1e3, lw=2.0 if label in ("fe", "one-mode") else 1.0,
-                    ls="--" if label == "one-mode" else "-", label=_LABELS.get(label, label))
-        ax.set_ylabel("delivery reed opening x [mm]")
-        first = next(r["case"] for r in study["rows"] if r["reed"] == reed)
-        ax.set_title(f"{reed}: delivery valve opening by reed model ({first.replace('_', ' ')})")
-        ax.legend(fontsize=8)
-        tr, kinds = by_label.get(f"modal{MODES[-1]}", (None, None))
-        if tr is not None and kinds:
-            for i, kind in enumerate(kinds):
-                bx.plot(tr.crank_deg, getattr(tr, f"delivery_mode{i + 1}_position") * 1e3, label=kind)
-            bx.legend(fontsize=8)
-        bx.set_xlabel("crank angle from TDC [deg]")
-        bx.set_ylabel("share of the opening e_i q_i [mm]")
-        bx.set_title(f"modal participation, {MODES[-1]} modes")
-        path = Path(folder) / f"reed_dynamics_{reed}.png"
-        fig.savefig(path, dpi=120)
-        plt.close(fig)
-        out.append(path)
-    return out
-
-
-_LABELS = {"one-mode": "eq 3.21 (one mode)", "fe": "whole FE reed"}
-
-
-def as_json(study: dict) -> dict:
-    """The study without its traces, a timing difference that cannot be taken (a valve that opens in one
-    model and not the other) as null."""
-    def clean(v):
-        if isinstance(v, dict):
-            return {k: clean(x) for k, x in v.items()}
-        if isinstance(v, (list, tuple)):
-            return [clean(x) for x in v]
-        if isinstance(v, np.generic):          # numpy scalars (a bool_ is no JSON bool)
-            v = v.item()
-        return None if isinstance(v, float) and not math.isfinite(v) else v
-
-    return clean({k: v for k, v in study.items() if k != "traces"})
-
-
-def _fmt(v, spec: str, missing: str = "n/a (opens in one model only)") -> str:
-    return missing if v is None or not math.isfinite(v) else format(v, spec)
-
-
-def _md(header: list[str], rows: list[list[str]]) -> list[str]:
-    return ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)] + ["| " + " | ".join(r) + " |" for r in rows]
-
-
-def _summary_table(study: dict) -> list[str]:
-    """Per reed: eq 3.21's and each N's worst difference from the reference, and the modes needed."""
-    header = ["reed", "reference", "eq 3.21: delivery % / timing deg"]
-    header += [f"N = {n}" for n in MODES] + [f"modes for {DELIVERY_TOL * 100:g} % and {ANGLE_TOL_DEG:g} deg",
-                                            "numerics: fast vs reference stepper"]
-    rows = []
-    for s in study["reeds"]:
-        cells = [s["reed"], "whole FE reed (beam)" if s["reference"] == "fe" else f"{s['reference']} ({s['fidelity']})",
-                 f"{_fmt(s['one_mode_worst_delivery_pct'], '.3f', 'n/a')} / {_fmt(s['one_mode_worst_angle_deg'], '.2f', 'n/a')}"]
-        for n in MODES:
-            w = s["modal_worst"].get(f"modal{n}")
-            cells.append("-" if w is None or f"modal{n}" == s["reference"] else
-                         f"{_fmt(w['delivery_pct'], '.4f', 'n/a')} / {_fmt(w['angle_deg'], '.3f', 'n/a')}")
-        need = "more than " + str(MODES[-1]) if s["modes_needed"] is None else str(s["modes_needed"])
-        cells.append(need + (" (eq 3.21 enough)" if s["one_mode_enough"] else " (eq 3.21 not enough)"))
-        cells.append(f"{_fmt(s.get('numerical_pct'), '.4f', '-')} % / {_fmt(s.get('numerical_deg'), '.3f', '-')} deg")
-        rows.append(cells)
-    return _md(header, rows)
-
-
-def _case_table(study: dict, reed: str) -> list[str]:
-    """One reed: each model's delivery against the reference per case [%], and its worst timing [deg]."""
-    mine = [r for r in study["rows"] if r["reed"] == reed]
-    cases = list(dict.fromkeys(r["case"] for r in mine))
-    models = list(dict.fromkeys(r["model"] for r in mine))
-    header = ["model"] + [c.replace("_", " ") + " [%]" for c in cases] + ["worst timing [deg]"]
-    rows = []
-    for m in models:
-        by_case = {r["case"]: r for r in mine if r["model"] == m}
-        worst = max(r["worst_angle_vs_reference_deg"] for r in by_case.values())
-        rows.append([_LABELS.get(m, m)] + [f"{by_case[c]['delivery_vs_reference_pct']:+.4f}" for c in cases]
-                    + [_fmt(worst, ".3f", "n/a")])
-    return _md(header, rows)
-
-
-def _detail_table(study: dict, reed: str) -> list[str]:
-    """One reed at its first case: every model's outputs (delivery, timings, peak opening, impacts, stress)."""
-    mine = [r for r in study["rows"] if r["reed"] == reed]
-    first = mine[0]["case"]
-    header = ["model", "delivery [cc/rev]", "inlet opens / closes [deg]", "delivery opens / closes [deg]",
-              "delivery peak opening [mm]", "delivery seat / stop impact [m/s]", "peak root stress [MPa]"]
-    rows = []
-    for r in (r for r in mine if r["case"] == first):
-        rows.append([_LABELS.get(r["model"], r["model"]), f"{r['delivery_cc']:.5f}",
-                     f"{_fmt(r['inlet_opening_deg'], '.2f', '-')} / {_fmt(r['inlet_closing_deg'], '.2f', '-')}",
-                     f"{_fmt(r['delivery_opening_deg'], '.2f', '-')} / {_fmt(r['delivery_closing_deg'], '.2f', '-')}",
-                     f"{r['delivery_peak_opening_mm']:.4f}",
-                     f"{_fmt(r['delivery_seat_impact_m_s'], '.4f', '-')} / {_fmt(r['delivery_stop_impact_m_s'], '.4f', '-')}",
-                     _fmt(r.get("peak_root_stress_mpa"), ".2f", "-")])
-    return _md(header, rows)
-
-
 def markdown(study: dict) -> str:
-    """The study's tables in Markdown: the verdict per reed, each reed's delivery differences per case, and its
-    first case in full."""
-    t = study["tolerances"]
-    steppers = ("every model on the reference stepper" if t["method"] == "reference" else
-                f"the fast stepper at rtol {t['fast_rtol']:g}, the FE reed on the reference stepper")
-    out = [f"Against each reed's reference, over {study['reeds'][0]['cases']} operating point(s) of Table 5.6 "
-           f"({steppers}); largest |delivery difference| [%] / largest valve timing difference [deg]; the "
-           "numerics column: the six-mode reed at the first point, fast stepper "
-           f"({study['numerics'][0]['fast_stepper'] if study['numerics'] else '-'}) against the reference:", ""]
-    out += _summary_table(study)
-    for s in study["reeds"]:
-        port = "" if not s["port"] else " Port: " + ", ".join(f"{k} {v * 1e3:.2f} mm" for k, v in s["port"].items()) + "."
-        out += ["", f"**{s['reed']}** ({s['why']}; {s['fidelity']} modes).{port} Delivery against the reference:", ""]
-        out += _case_table(study, s["reed"])
-        first = next(r["case"] for r in study["rows"] if r["reed"] == s["reed"])
-        out += ["", f"{s['reed']}, {first.replace('_', ' ')}:", ""]
-        out += _detail_table(study, s["reed"])
-    return "\n".join(out) + "\n"
+    """The study's tables in Markdown (:func:`studies.validation.reed_dynamics_report.markdown`).
+
+    Parameters
+    ----------
+    study : dict
+        :func:`dynamics_study`'s result.
+
+    Returns
+    -------
+    str
+        The verdict per reed, each reed's delivery differences per case [%], and its first case in full.
+    """
+    return report.markdown(study, MODES)
 
 
 def write_outputs(study: dict, folder) -> list[Path]:
-    """reed_dynamics.json (the study without traces), .md (:func:`markdown`), .csv (every run's row) and the
-    plots (:func:`plot`) into ``folder``."""
+    """Write the study into a folder.
+
+    Parameters
+    ----------
+    study : dict
+    folder : str or os.PathLike
+
+    Returns
+    -------
+    list of pathlib.Path
+        reed_dynamics.json (without traces), .md (:func:`markdown`), the runs' CSV, the plots.
+    """
     import json
 
     from studies.outputs import Table
@@ -470,11 +469,20 @@ def write_outputs(study: dict, folder) -> list[Path]:
     (folder / "reed_dynamics.json").write_text(json.dumps(as_json(study), indent=2) + "\n")
     (folder / "reed_dynamics.md").write_text(markdown(study))
     csv = Table("reed dynamics", tuple(as_json({"rows": study["rows"]})["rows"])).write(folder / "reed_dynamics_runs")
-    return [folder / "reed_dynamics.json", folder / "reed_dynamics.md", csv[0], *plot(study, folder)]
+    return [folder / "reed_dynamics.json", folder / "reed_dynamics.md", csv[0], *report.plot(study, folder, MODES)]
 
 
 def render(study: dict) -> str:
-    """The per-reed verdicts as text, and the numerical part of the differences."""
+    """The per-reed verdicts as text, and the numerical part of the differences.
+
+    Parameters
+    ----------
+    study : dict
+
+    Returns
+    -------
+    str
+    """
     lines = [f"reed dynamics against the reference (tolerances {DELIVERY_TOL * 100:g} % delivery, "
              f"{ANGLE_TOL_DEG:g} deg timing):"]
     for s in study["reeds"]:
@@ -490,11 +498,23 @@ def render(study: dict) -> str:
 
 # --------------------------------------------------------------------------- the validation chain's part
 def prototype_adequacy(quick: bool = False, progress: bool = True) -> dict:
-    """Is the one-mode model (eq 3.21) adequate for the prototype reed? Eq 3.21, the modal reed with N = 1, 2,
-    3, 6 (beam modes) and the whole FE reed at the operating point ``VALIDATE_CASE`` of Table 5.6 (one point:
-    the FE reed runs on the reference stepper), with the numerical part of the differences (the six-mode
-    reed on both steppers). ``quick``: no FE reed, the six-mode reed is the reference (cheaper; says so).
-    Returns {"case", "reference", "note", "rows", "summary"}."""
+    """Whether the one-mode model (eq 3.21) is adequate for the prototype reed: the validation chain's part.
+
+    Eq 3.21, the modal reed with N = 1, 2, 3, 6 (beam modes) and the whole FE reed at the
+    operating point :data:`VALIDATE_CASE` of Table 5.6 (one point: the FE reed runs on the
+    reference stepper), with the numerical part of the differences (the six-mode reed on both steppers).
+
+    Parameters
+    ----------
+    quick : bool
+        No FE reed: the six-mode reed is the reference (cheaper; the note says so).
+    progress : bool
+
+    Returns
+    -------
+    dict
+        ``case``, ``reference``, ``quick``, ``note``, ``rows`` and ``summary``.
+    """
     from geometry import load_reed
     from studies.validation.chain import cases as all_cases
 
@@ -538,7 +558,16 @@ def _adequacy_row(r: dict) -> dict:
 
 
 def adequacy_words(result: dict) -> str:
-    """The verdict of :func:`prototype_adequacy` in one sentence, with the numerical part."""
+    """The verdict of :func:`prototype_adequacy` in one sentence, with the numerical part.
+
+    Parameters
+    ----------
+    result : dict
+
+    Returns
+    -------
+    str
+    """
     s = result["summary"]
     ref = "the whole FE reed" if result["reference"] == "fe" else "the six-mode reed"
     enough = "adequate" if s["one_mode_enough"] else "not adequate"
@@ -549,7 +578,19 @@ def adequacy_words(result: dict) -> str:
 
 
 def write_adequacy(result: dict, stem) -> list[Path]:
-    """``stem.md`` and ``stem.csv``: the rows of :func:`prototype_adequacy` with its verdict and note."""
+    """Write the rows of :func:`prototype_adequacy` with its verdict and note.
+
+    Parameters
+    ----------
+    result : dict
+    stem : str or os.PathLike
+        The files' path without suffix.
+
+    Returns
+    -------
+    list of pathlib.Path
+        ``stem.csv`` and ``stem.md``.
+    """
     from studies.outputs import Table
 
     title = "One mode against N modes and the whole FE reed: the prototype reed in the pump"

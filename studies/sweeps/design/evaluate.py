@@ -37,7 +37,16 @@ CACHE_SIZE = 64
 
 
 def check(name: str, value) -> None:
-    """Vet one input before a run (the key paths are checked by :mod:`studies.sweeps.design.spec` against the model)."""
+    """Vet one input before a run (the key paths are checked by :mod:`studies.sweeps.design.spec` against the model).
+
+    Parameters
+    ----------
+    name : str
+        The input.
+    value : object
+        Its value: ``max_revolutions`` an integer from 2 to 100000, ``stress_calibration_<valve>``
+        a number >= 0; the others as :func:`studies.sweeps.pump.check`.
+    """
     from geometry.errors import InputError
 
     if name == "max_revolutions":
@@ -51,7 +60,18 @@ def check(name: str, value) -> None:
 
 
 def model_values(design: dict) -> dict:
-    """The model-file key paths of a design (every input that is not an operating or run input)."""
+    """The model-file key paths of a design.
+
+    Parameters
+    ----------
+    design : dict
+        Its inputs.
+
+    Returns
+    -------
+    dict
+        Every input that is not an operating or run input, by its model-file key path.
+    """
     return {translate(k): v for k, v in design.items() if k not in OPERATING and k not in EXTRA}
 
 
@@ -79,23 +99,41 @@ def _model_for(design: dict):
 
 
 def build_design_model(model_path: str, keys: dict):
-    """The PumpModel of ``model_path`` with the key paths ``keys`` (from this worker's cache when it built it)."""
+    """The model of a design (from this worker's cache when it built it already).
+
+    Parameters
+    ----------
+    model_path : str
+        The base model file.
+    keys : dict
+        The design's key paths.
+
+    Returns
+    -------
+    lumped.model.pump_model.PumpModel
+    """
     return _model_for({"model": model_path, **keys})
 
 
 def evaluate(design: dict, warm=None) -> dict:
-    """Simulate the design at its operating point and return the outputs (fast path unless ``method``);
-    ``warm`` (:class:`studies.sweeps.locality.WarmSlot`): start from the nearest solved row's TDC state."""
-    from lumped.run.simulate import simulate
+    """Simulate a design at its operating point to cyclic steady state and return its outputs.
 
+    Parameters
+    ----------
+    design : dict
+        The inputs (module docstring): ``model``, ``speed_rpm`` [rpm], ``load_pressure`` [Pa],
+        run settings, key paths, ``stress_calibration_<valve>``.
+    warm : studies.sweeps.locality.WarmSlot, optional
+        Start from the TDC state of the nearest row solved before it in its batch.
+
+    Returns
+    -------
+    dict
+        The sweep's outputs (:data:`studies.sweeps.pump.OUTPUTS`, SI) and per reed valve kappa [Pa/m],
+        omega_n [rad/s] and the bending stress [Pa] at maximum lift and at the peak opening.
+    """
     model = _model_for(design)
-    kw = {k: design[k] for k in ("rtol", "atol") if k in design}
-    res = simulate(model, design.get("speed_rpm"), design.get("load_pressure"),
-                   air_content=design.get("air_content"), stop=sweep_pump.stop_rule(design),
-                   circuit=design.get("circuit"), method=design.get("method", "fast"),
-                   initial_state=sweep_pump.start_of(design, warm, model), **kw)
-    if warm is not None:
-        warm.solved(res.tdc_state)
+    res = sweep_pump.simulate_design(model, design, warm)
     # a valve that never reseats (held off its seat by the squeeze film's C2 u / x^3) has no timing:
     # lumped.run.simulate reports its angles as None, which the outputs keep as missing
     out = sweep_pump.outputs_of(res, design.get("on_warning", "flag"))

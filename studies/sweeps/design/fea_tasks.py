@@ -29,6 +29,14 @@ REQUIRED = ("model", "task")
 
 
 def check(name: str, value) -> None:
+    """Vet one input before a run.
+
+    Parameters
+    ----------
+    name : str
+        The input (``task`` must be ``calibrate`` or ``fea``; the key paths are checked against the model).
+    value : object
+    """
     from geometry.errors import InputError
 
     if name == "task" and value not in ("calibrate", "fea"):
@@ -56,12 +64,24 @@ def _model(design: dict):
     return with_values(load_model(design["model"], field="model"), values)
 
 
-def _reed_positions(model):
-    return [pos for pos in POSITIONS if getattr(model.valve(pos), "reed", None) is not None]
-
-
 def evaluate(design: dict) -> dict:
-    from studies.sweeps.design.stress import calibration_row, eb_kappa, eb_stress, lift_deflection, solid_stress
+    """Run one FEA task on a design's reeds (see the module docstring).
+
+    Parameters
+    ----------
+    design : dict
+        ``model``, ``task``, the design's key paths, ``mesh_size`` [m], ``tolerance_pct`` and
+        ``stress_tolerance_pct`` [%], ``stress_calibration_<valve>``.
+
+    Returns
+    -------
+    dict
+        ``calibrate``: per reed valve the E-B estimate and the solid FEA's stress [Pa] and their
+        ratio; ``fea``: per reed valve kappa [Pa/m] and omega_n [rad/s] analytic and solid, the %
+        deviations of kappa, omega_n and gamma1..3, the stress estimate and the solid FEA's stress
+        [Pa] with its % deviation, the solid's dofs, the flags; and ``flagged``.
+    """
+    from studies.sweeps.design.study import reed_positions
 
     ensure_gmsh()
     model = _model(design)
@@ -69,54 +89,63 @@ def evaluate(design: dict) -> dict:
     mesh = None if mesh is None or (isinstance(mesh, float) and mesh != mesh) else mesh
     out = dict.fromkeys(OUTPUTS)
     done: dict = {}   # reed -> (deflection, result): the two valves often share one reed
-    if design["task"] == "calibrate":
-        for pos in _reed_positions(model):
-            v = model.valve(pos)
-            d = lift_deflection(v)
-            if v.reed in done:
-                d0, row0 = done[v.reed]
-                row = {k: (x * d / d0 if k.endswith("_pa") else x) for k, x in row0.items()}
-            else:
-                row = calibration_row(v.reed, d, mesh)
-                done[v.reed] = (d, row)
-            for k in _CAL:
-                out[f"{pos}_{k}"] = row[k]
-        return out
+    task = _calibrate if design["task"] == "calibrate" else _check_fea
+    flagged = False
+    for pos in reed_positions(model):
+        flagged = task(model.valve(pos), design, (mesh, done), out, pos) or flagged
+    if design["task"] == "fea":
+        out["flagged"] = flagged
+    return out
 
+
+def _calibrate(v, design: dict, shared: tuple, out: dict, pos: str) -> bool:
+    """One reed valve's calibration row into ``out`` (a reed shared with the other valve scaled by deflection)."""
+    from studies.sweeps.design.stress import calibration_row, lift_deflection
+
+    mesh, done = shared
+    d = lift_deflection(v)
+    if v.reed in done:
+        d0, row0 = done[v.reed]
+        row = {k: (x * d / d0 if k.endswith("_pa") else x) for k, x in row0.items()}
+    else:
+        row = calibration_row(v.reed, d, mesh)
+        done[v.reed] = (d, row)
+    for k in _CAL:
+        out[f"{pos}_{k}"] = row[k]
+    return False
+
+
+def _check_fea(v, design: dict, shared: tuple, out: dict, pos: str) -> bool:
+    """One reed valve's check against the solid FEA into ``out``; whether it is flagged."""
+    from studies.sweeps.design.stress import eb_kappa, eb_stress, lift_deflection, solid_stress
     from studies.validation.reed_check import multi_fidelity_check
 
-    tol = float(design.get("tolerance_pct", 4.0))
-    stol = float(design.get("stress_tolerance_pct", 10.0))
-    flagged = False
-    for pos in _reed_positions(model):
-        v = model.valve(pos)
-        d = lift_deflection(v)
-        if v.reed in done:
-            d0, (chk, sol) = done[v.reed]
-            sol = {k: (x * d / d0 if k in ("away", "max", "pressure") else x) for k, x in sol.items()}
-        else:
-            chk = multi_fidelity_check(v.reed, ("analytic", "solid"), tolerance_pct=tol, mesh_size=mesh,
-                                       progress=False)
-            sol = solid_stress(v.reed, d, mesh)
-            done[v.reed] = (d, (chk, sol))
-        rows = {r["fidelity"]: r for r in chk["rows"]}
-        a, s = rows["analytic"], rows["solid"]
-        flags = [f.split(".", 1)[1] for f in chk["flagged"]]
-        out[f"{pos}_kappa_analytic"], out[f"{pos}_kappa_solid"] = a["kappa"], s["kappa"]
-        out[f"{pos}_omega_analytic"], out[f"{pos}_omega_solid"] = a["omega_n"], s["omega_n"]
-        for q in ("kappa", "omega", "gamma1", "gamma2", "gamma3"):
-            out[f"{pos}_{q}_dev_pct"] = a["deviation_pct"]["omega_n" if q == "omega" else q]
-        cal = float(design.get(f"stress_calibration_{pos}", 0.0) or 0.0)
-        est = cal * eb_stress(v.reed, d, eb_kappa(v)) if cal else None
-        out[f"{pos}_stress_estimate_pa"] = est
-        out[f"{pos}_stress_solid_pa"], out[f"{pos}_stress_solid_max_pa"] = sol["away"], sol["max"]
-        out[f"{pos}_solid_dofs"] = float(sol["dofs"])
-        if est is not None:
-            dev = (est - sol["away"]) / sol["away"] * 100.0
-            out[f"{pos}_stress_dev_pct"] = dev
-            if dev < -stol:
-                flags.append("stress")
-        out[f"{pos}_flags"] = ",".join(flags)
-        flagged = flagged or bool(flags)
-    out["flagged"] = flagged
-    return out
+    mesh, done = shared
+    d = lift_deflection(v)
+    if v.reed in done:
+        d0, (chk, sol) = done[v.reed]
+        sol = {k: (x * d / d0 if k in ("away", "max", "pressure") else x) for k, x in sol.items()}
+    else:
+        chk = multi_fidelity_check(v.reed, ("analytic", "solid"), tolerance_pct=float(design.get("tolerance_pct", 4.0)),
+                                   mesh_size=mesh, progress=False)
+        sol = solid_stress(v.reed, d, mesh)
+        done[v.reed] = (d, (chk, sol))
+    rows = {r["fidelity"]: r for r in chk["rows"]}
+    a, s = rows["analytic"], rows["solid"]
+    flags = [f.split(".", 1)[1] for f in chk["flagged"]]
+    out[f"{pos}_kappa_analytic"], out[f"{pos}_kappa_solid"] = a["kappa"], s["kappa"]
+    out[f"{pos}_omega_analytic"], out[f"{pos}_omega_solid"] = a["omega_n"], s["omega_n"]
+    for q in ("kappa", "omega", "gamma1", "gamma2", "gamma3"):
+        out[f"{pos}_{q}_dev_pct"] = a["deviation_pct"]["omega_n" if q == "omega" else q]
+    cal = float(design.get(f"stress_calibration_{pos}", 0.0) or 0.0)
+    est = cal * eb_stress(v.reed, d, eb_kappa(v)) if cal else None
+    out[f"{pos}_stress_estimate_pa"] = est
+    out[f"{pos}_stress_solid_pa"], out[f"{pos}_stress_solid_max_pa"] = sol["away"], sol["max"]
+    out[f"{pos}_solid_dofs"] = float(sol["dofs"])
+    if est is not None:
+        dev = (est - sol["away"]) / sol["away"] * 100.0
+        out[f"{pos}_stress_dev_pct"] = dev
+        if dev < -float(design.get("stress_tolerance_pct", 10.0)):
+            flags.append("stress")
+    out[f"{pos}_flags"] = ",".join(flags)
+    return bool(flags)

@@ -34,7 +34,20 @@ class Output:
     kind: str = "point"
 
     def value(self, row) -> float | None:
-        """The output from an evaluation row (a mapping); None if missing (a valve that never opens, a disc's stress)."""
+        """The output's value in an evaluation row.
+
+        Parameters
+        ----------
+        row : mapping
+            One design at one operating point (SI columns).
+
+        Returns
+        -------
+        float or None
+            In the output's unit: the column times ``scale``, the largest of several (``max``), an angle
+            unwrapped (a delivery angle below pi rad gets 2 pi); None if a column is missing (a valve
+            that never opens, a disc's stress).
+        """
         vals = []
         for c in self.columns:
             v = row.get(c) if hasattr(row, "get") else row[c]
@@ -112,6 +125,16 @@ STRESS_OUTPUTS = tuple(n for n in PUMP_OUTPUTS if "reed_stress" in n)
 
 
 def module_outputs(mod) -> dict[str, Output]:
-    """The outputs of a sweep-model module (numeric OUTPUTS; units from its optional ``UNITS``)."""
+    """The outputs of a sweep-model module.
+
+    Parameters
+    ----------
+    mod : module
+        With ``OUTPUTS`` (its numeric ones count) and an optional ``UNITS`` {output: unit}.
+
+    Returns
+    -------
+    dict of str to Output
+    """
     units = getattr(mod, "UNITS", {})
     return {n: Output(n, units.get(n, "-"), n, (n,)) for n, k in mod.OUTPUTS.items() if k in ("float64", "int64")}

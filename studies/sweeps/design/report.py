@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from studies.plots import legend_outside
+
 
 def _fmt(v) -> str:
     if v is None:
@@ -52,12 +54,44 @@ def _safe(name: str) -> str:
 
 # --------------------------------------------------------------------------- sensitivity
 def write_sensitivity(out: Path, spec, indices: list[dict], analyses: list[dict], outputs) -> dict:
-    """indices.csv, indices.md and one bar plot per output (every operating point a panel)."""
+    """Write a sensitivity study's tables and plots.
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        The study folder.
+    spec : DesignSpec
+    indices : list of dict
+        One row per output, operating point and variable (:func:`studies.sweeps.design.sensitivity.analyse`).
+    analyses : list of dict
+        One per output and point.
+    outputs : list of Output
+        The outputs analysed.
+
+    Returns
+    -------
+    dict
+        ``csv`` (indices.csv), ``markdown`` (indices.md, the indices sorted per output and point)
+        and ``plots`` {output: bar plot, one panel per operating point}.
+    """
     method = spec.run_dict["method"]
     keys = ["S1", "S1_conf", "ST", "ST_conf"] if method == "sobol" else ["mu_star", "mu_star_conf", "sigma", "mu"]
     cols = ["output", "output_unit", "operating_point", "variable", "variable_unit", "method", *keys,
             "samples_used", "samples_dropped"]
     _write_csv(out / "indices.csv", indices, cols)
+    (out / "indices.md").write_text(_sensitivity_markdown(spec, indices, analyses))
+    plots = {}
+    conf = int(round(spec.run_dict["conf_level"] * 100))
+    for o in outputs:
+        path = out / f"sensitivity_{_safe(o.name)}.png"
+        plot_indices(indices, analyses, o, method, path, conf)
+        plots[o.name] = str(path)
+    return {"csv": str(out / "indices.csv"), "markdown": str(out / "indices.md"), "plots": plots}
+
+
+def _sensitivity_markdown(spec, indices: list[dict], analyses: list[dict]) -> str:
+    """indices.md: the method, then per output and point the indices sorted by ST (or mu*)."""
+    method = spec.run_dict["method"]
     lines = [f"# Sensitivity ({method}) of {spec.model}", ""]
     if spec.description:
         lines += [spec.description, ""]
@@ -90,17 +124,29 @@ def write_sensitivity(out: Path, spec, indices: list[dict], analyses: list[dict]
             lines += [f"| {x['variable']} [{x['variable_unit']}] | {_fmt(x['mu_star'])} | {_fmt(x['mu_star_conf'])} | "
                       f"{_fmt(x['sigma'])} | {_fmt(x['mu'])} |" for x in rows]
         lines.append("")
-    (out / "indices.md").write_text("\n".join(lines))
-    plots = {}
-    for o in outputs:
-        path = out / f"sensitivity_{_safe(o.name)}.png"
-        plot_indices(indices, analyses, o, method, path, conf)
-        plots[o.name] = str(path)
-    return {"csv": str(out / "indices.csv"), "markdown": str(out / "indices.md"), "plots": plots}
+    return "\n".join(lines)
 
 
 def plot_indices(indices, analyses, output, method, path: Path, conf: int) -> Path:
-    """Bars with intervals: S1 and ST (Sobol) or mu* and sigma (Morris) per variable, one panel per point."""
+    """Draw an output's indices as bars with their intervals, one panel per operating point.
+
+    Parameters
+    ----------
+    indices, analyses : list of dict
+        As :func:`write_sensitivity`.
+    output : Output
+    method : str
+        ``sobol`` (S1 and ST [-]) or ``morris`` (mu* and sigma, in the output's unit per full range).
+    path : pathlib.Path
+        The PNG file.
+    conf : int
+        The intervals' confidence level [%].
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+    """
     plt = _plt()
     pts = [a["operating_point"] for a in analyses if a["output"] == output.name]
     variables = list(dict.fromkeys(x["variable"] for x in indices if x["output"] == output.name))
@@ -127,7 +173,7 @@ def plot_indices(indices, analyses, output, method, path: Path, conf: int) -> Pa
         ax.axhline(0.0, color="k", lw=0.6)
         ax.grid(axis="y", alpha=0.3)
         ax.set_xticks(x, [f"{v} [{units[v]}]" for v in variables], rotation=35, ha="right", fontsize=8)
-        ax.legend(fontsize=8)
+        legend_outside(ax, fontsize=8)
     axes[-1, 0].set_xlabel("variable [its unit]")
     fig.tight_layout()
     _save(fig, path)
@@ -136,7 +182,26 @@ def plot_indices(indices, analyses, output, method, path: Path, conf: int) -> Pa
 
 # --------------------------------------------------------------------------- optimisation
 def plot_front(path: Path, objectives, catalogue, all_f: np.ndarray | None, front: list[dict], baseline: dict | None):
-    """The objective space: every feasible design evaluated, the front (fast and re-checked), the baseline."""
+    """Draw the objective space: every feasible design evaluated, the front (fast and re-checked), the baseline.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The PNG file.
+    objectives : sequence of Objective
+    catalogue : dict
+        The outputs (units for the axes).
+    all_f : numpy.ndarray or None
+        The objective values of every feasible design evaluated, (designs, objectives).
+    front : list of dict
+        The design entries (:func:`studies.sweeps.design.entries.finish`).
+    baseline : dict or None
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``; with one objective, the front's values against the design's index.
+    """
     plt = _plt()
     m = len(objectives)
     pairs = [(i, j) for i in range(m) for j in range(i + 1, m)] or [(0, 0)]
@@ -169,26 +234,38 @@ def plot_front(path: Path, objectives, catalogue, all_f: np.ndarray | None, fron
         ax.set_xlabel(f"{oi.aggregate} {catalogue[oi.output].axis_label} ({oi.sense})")
         ax.set_ylabel(f"{oj.aggregate} {catalogue[oj.output].axis_label} ({oj.sense})")
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
+        legend_outside(ax, fontsize=7)
     fig.tight_layout()
     _save(fig, path)
     return path
 
 
 def plot_parallel(path: Path, variables, objectives, catalogue, front: list[dict], baseline: dict | None):
-    """Parallel coordinates: each design's variables (as a fraction of their range) and objectives (scaled to the
-    front's span); the axis ticks give the physical values and units."""
+    """Draw the front in parallel coordinates.
+
+    Each design's variables as a fraction of their range and its objectives scaled to the front's
+    span; the ticks give the physical ends and units; the baseline dashed.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The PNG file.
+    variables : sequence of Variable
+    objectives : sequence of Objective
+    catalogue : dict
+        The outputs (units).
+    front : list of dict
+        The design entries.
+    baseline : dict or None
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+    """
     plt = _plt()
     axes_names = [v.name for v in variables] + [o.output for o in objectives]
-    lows, highs = [v.low for v in variables], [v.high for v in variables]
-    for o in objectives:
-        vals = [d["objectives"][o.output] for d in front] + ([baseline["objectives"][o.output]] if baseline else [])
-        vals = [x for x in vals if x is not None]
-        lo, hi = (min(vals), max(vals)) if vals else (0.0, 1.0)
-        if hi <= lo:
-            hi = lo + (abs(lo) * 1e-6 or 1e-9)
-        lows.append(lo)
-        highs.append(hi)
+    lows, highs = _parallel_ranges(variables, objectives, front, baseline)
     fig, ax = plt.subplots(figsize=(max(7.0, 1.25 * len(axes_names) + 1.5), 4.8))
     cmap = plt.get_cmap("viridis")
     key = objectives[0].output
@@ -205,7 +282,7 @@ def plot_parallel(path: Path, variables, objectives, catalogue, front: list[dict
         line(d, color=c, alpha=0.8, lw=1.2)
     if baseline is not None and baseline.get("variables"):
         line(baseline, color="C3", lw=2.4, ls="--", label=f"baseline ({baseline['name']})")
-        ax.legend(fontsize=8, loc="upper right")
+        legend_outside(ax, fontsize=8)
     units = {v.name: v.unit for v in variables}
     units.update({o.output: catalogue[o.output].unit for o in objectives})
     ax.set_xticks(range(len(axes_names)),
@@ -220,8 +297,38 @@ def plot_parallel(path: Path, variables, objectives, catalogue, front: list[dict
     return path
 
 
+def _parallel_ranges(variables, objectives, front: list[dict], baseline: dict | None) -> tuple[list, list]:
+    """Each parallel axis's ends: a variable's bounds, an objective's span over the front and the baseline."""
+    lows, highs = [v.low for v in variables], [v.high for v in variables]
+    for o in objectives:
+        vals = [d["objectives"][o.output] for d in front] + ([baseline["objectives"][o.output]] if baseline else [])
+        vals = [x for x in vals if x is not None]
+        lo, hi = (min(vals), max(vals)) if vals else (0.0, 1.0)
+        if hi <= lo:
+            hi = lo + (abs(lo) * 1e-6 or 1e-9)
+        lows.append(lo)
+        highs.append(hi)
+    return lows, highs
+
+
 def pareto_rows(designs: list[dict], variables, objectives, constraints) -> tuple[list[dict], list[str]]:
-    """Flat rows of the Pareto table (one per design) and their column order."""
+    """The Pareto table: one flat row per design.
+
+    Parameters
+    ----------
+    designs : list of dict
+        The design entries.
+    variables, objectives, constraints : sequence
+        Of the spec.
+
+    Returns
+    -------
+    rows : list of dict
+        Name, model file, flags, the variables (``name [unit]``), derived keys, objectives (re-checked
+        and fast) and constraints.
+    columns : list of str
+        Their order.
+    """
     rows = []
     for d in designs:
         r = {"design": d["name"], "model_file": d["model_file"], "on_front": d["on_front"],
@@ -243,6 +350,21 @@ def pareto_rows(designs: list[dict], variables, objectives, constraints) -> tupl
 
 
 def write_pareto(out: Path, rows: list[dict], cols: list[str]) -> dict:
+    """Write the Pareto table as Parquet and CSV.
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        The study folder.
+    rows : list of dict
+    columns : list of str
+        (:func:`pareto_rows`).
+
+    Returns
+    -------
+    dict
+        ``parquet`` and ``csv`` paths.
+    """
     import pandas as pd
 
     df = pd.DataFrame(rows, columns=cols)

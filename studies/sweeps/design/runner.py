@@ -11,21 +11,61 @@ from __future__ import annotations
 
 import math
 import shutil
-import sys
+from contextlib import contextmanager
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from geometry.errors import InputError
 from studies.sweeps import sweep
+from studies.sweeps.cluster import Cluster, check_options
 
 STAMP = ".design-digest"
 SPEC_COPY = "spec.toml"
 
 
-def check_study_arguments(spec, command: str, out, *, scheduler=None, workers=None, batch_size=None, force=False,
-                          progress=True) -> None:
-    """InputError naming the first bad argument of a study entry point (run_sensitivity, run_optimize)."""
+@dataclass(frozen=True)
+class StudyRun:
+    """How a sensitivity or optimisation study runs (the keyword arguments of its entry point).
+
+    Parameters
+    ----------
+    scheduler : str, optional
+        A dask scheduler's address; default a LocalCluster of ``workers`` processes.
+    workers : int, optional
+        Local worker processes (default: one per core).
+    client : distributed.Client, optional
+        An existing client to use.
+    batch_size : int, optional
+        Evaluations per dask task (default: automatic).
+    force : bool
+        Start over in a folder that holds another study.
+    progress : bool
+        Progress on stderr.
+    """
+
+    scheduler: str | None = None
+    workers: int | None = None
+    client: object = None
+    batch_size: int | None = None
+    force: bool = False
+    progress: bool = True
+
+
+def check_study_arguments(spec, command: str, out, run: StudyRun) -> None:
+    """Refuse the first bad argument of a study's entry point (run_sensitivity, run_optimize), before any work.
+
+    Parameters
+    ----------
+    spec : DesignSpec
+        Must be a spec of ``command``.
+    command : str
+        ``sensitivity`` or ``optimize``.
+    out : str or os.PathLike
+        The study folder.
+    run : StudyRun
+    """
     from geometry import validate
     from studies.sweeps.design.spec import DesignSpec
 
@@ -33,70 +73,62 @@ def check_study_arguments(spec, command: str, out, *, scheduler=None, workers=No
         raise InputError("spec", f"expected a {command} DesignSpec (studies.sweeps.design.spec.load_spec(path, "
                                  f"{command!r})), got {getattr(spec, 'command', type(spec).__name__)!r}")
     validate.path(out, "out")
-    if scheduler is not None:
-        validate.address(scheduler, "scheduler")
-    if workers is not None:
-        validate.number(workers, "workers", integer=True, bounds=(1, 1024))
-    if batch_size is not None:
-        validate.number(batch_size, "batch_size", integer=True, bounds=(1, 1_000_000))
-    validate.boolean(force, "force")
-    validate.boolean(progress, "progress")
+    check_options(run, "workers", ("force", "progress"))
 
 
-class Cluster:
-    """A dask client, started on first use: the scheduler at ``scheduler`` or a LocalCluster of ``workers``."""
+@contextmanager
+def open_study(spec, out: Path, model, run: StudyRun, subfolders: tuple[str, ...]):
+    """A running study: the cluster reachable, the folder prepared (:func:`prepare_study`), the base model written.
 
-    def __init__(self, scheduler: str | None = None, workers: int | None = None, client=None):
-        if workers is not None and workers < 1:
-            raise InputError("--workers", f"must be a positive integer, got {workers}")
-        self.scheduler, self.n_workers, self.client = scheduler, workers, client
-        self._own = None
-        self._given = client is not None
+    Parameters
+    ----------
+    spec : DesignSpec
+    out : pathlib.Path
+        The study folder.
+    model : lumped.model.pump_model.PumpModel or None
+        The base model (None for a module model).
+    run : StudyRun
+    subfolders : tuple of str
+        The folders the study computes into (a different spec in the folder clears them).
 
-    def get(self):
-        if self.client is None:
-            from distributed import Client, LocalCluster
+    Yields
+    ------
+    Study
+        The study's context; the cluster is closed when the block ends.
+    """
+    from studies.sweeps.design import study
 
-            if self.scheduler:
-                try:
-                    self.client = Client(self.scheduler, timeout=sweep.CONNECT_TIMEOUT)
-                except OSError as exc:
-                    raise InputError("--scheduler", f"cannot connect to {self.scheduler} ({exc})") from None
-            else:
-                self._own = LocalCluster(n_workers=self.n_workers or sweep.default_workers(), threads_per_worker=1,
-                                         processes=True, dashboard_address=None, silence_logs=40)
-                self.client = Client(self._own)
-        return self.client
-
-    @property
-    def workers(self) -> int:
-        if self.client is None:
-            return self.n_workers or sweep.default_workers()
-        return max(1, len(self.client.scheduler_info().get("workers", {})))
-
-    def check_reachable(self) -> None:
-        """Connect now to a --scheduler (a bad address is an input error before any computation)."""
-        if self.scheduler:
-            self.get()
-
-    def close(self) -> None:
-        if not self._given and self.client is not None:
-            self.client.close()
-            self.client = None
-        if self._own is not None:
-            self._own.close()
-            self._own = None
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
+    with Cluster(run.scheduler, run.workers, run.client) as cluster:
+        cluster.check_reachable()
+        prepare_study(out, spec, run.force, subfolders)
+        base_path = study.write_base_model(out, model) if model is not None else None
+        yield study.Study(spec, model, base_path, cluster, out, study.outputs_catalogue(spec), run.progress)
 
 
 # --------------------------------------------------------------------------- the study folder
 def prepare_study(out: Path, spec, force: bool, subfolders: tuple[str, ...]) -> Path:
-    """Create the study folder, or check that it holds this very study (else refuse, or start over with force)."""
+    """Create a study folder, or check that it holds this very study.
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        The study folder.
+    spec : DesignSpec
+    force : bool
+        Start over when it holds another study (its computed subfolders are removed).
+    subfolders : tuple of str
+        The folders the study computes into.
+
+    Returns
+    -------
+    pathlib.Path
+        ``out``, marked, with the spec's digest and a copy of its TOML.
+
+    Raises
+    ------
+    InputError
+        ``--out``: the folder holds a different study (or other valvelab results) and ``force`` is off.
+    """
     from studies.outputs import MARKER, check_output_dir, prepare_output_dir
 
     out = Path(out)
@@ -137,7 +169,22 @@ def _factor_of(name: str, values: list):
 
 
 def sweep_spec_of(model_module: str, rows: list[dict], fixed: dict) -> sweep.SweepSpec:
-    """A SweepSpec describing explicit rows (their columns) with fixed inputs ``fixed``."""
+    """A SweepSpec describing explicit rows (the sweep runner's record of what was run).
+
+    Parameters
+    ----------
+    model_module : str
+        The sweep model.
+    rows : list of dict
+        The rows' inputs.
+    fixed : dict
+        The inputs every row shares.
+
+    Returns
+    -------
+    SweepSpec
+        Sampler ``given``, one factor per column: a range (integers or numbers) or the levels seen.
+    """
     names: list[str] = []
     for r in rows:
         for k in r:
@@ -148,12 +195,32 @@ def sweep_spec_of(model_module: str, rows: list[dict], fixed: dict) -> sweep.Swe
                            fixed=tuple(fixed.items()), samples=len(rows))
 
 
-def evaluate_rows(cluster: Cluster, folder: Path, model_module: str, fixed: dict, rows: list[dict], *,
-                  group: int = 1, batch_size: int | None = None, progress: bool = True, desc: str = "designs"):
-    """Evaluate ``rows`` (inputs beyond ``fixed``) into the sweep folder ``folder`` (resumable); return
-    (DataFrame of every row in order, with a ``row`` column, the run_sweep summary).
+def evaluate_rows(cluster: Cluster, folder: Path, model_module: str, fixed: dict, rows: list[dict],
+                  **options):
+    """Evaluate explicit rows into a sweep folder (resumable).
 
-    ``group``: consecutive rows that belong together (a design's operating points) stay in one batch.
+    Parameters
+    ----------
+    cluster : Cluster
+        Started only if something is left to compute.
+    folder : pathlib.Path
+        The sweep folder of these rows.
+    model_module : str
+        The sweep model.
+    fixed : dict
+        The inputs every row shares.
+    rows : list of dict
+        The rows' other inputs (the same keys in each).
+    **options
+        ``group`` (consecutive rows that belong together, a design's operating points, stay in one
+        batch), ``batch_size``, ``progress``, ``desc``: as :class:`studies.sweeps.sweep.SweepRun`.
+
+    Returns
+    -------
+    results : pandas.DataFrame
+        Every row in order, with a ``row`` column (its index in ``rows``).
+    summary : dict
+        :func:`studies.sweeps.sweep.run_sweep`'s.
     """
     import pandas as pd
 
@@ -166,7 +233,9 @@ def evaluate_rows(cluster: Cluster, folder: Path, model_module: str, fixed: dict
     spec = sweep_spec_of(model_module, rows, fixed)
     folder = Path(folder)
     done = (folder / "results.parquet").is_file() and not (folder / sweep.PARTS_DIR).exists()
-    client = None if done else cluster.get()
+    client = None if done else cluster.get()      # started first: the batch size counts its workers
+    run = sweep.SweepRun(**{"desc": "designs", **options})
+    group, batch_size = run.group, run.batch_size
     if batch_size is None:
         n_groups = math.ceil(len(rows) / group)
         # a few tasks per worker balance the load; small batches (an optimiser generation) are not split finer
@@ -174,8 +243,7 @@ def evaluate_rows(cluster: Cluster, folder: Path, model_module: str, fixed: dict
         batch_size = per * group
     else:
         batch_size = max(group, (batch_size // group) * group)
-    summary = sweep.run_sweep(spec, folder, client=client, designs=rows, batch_size=batch_size, group=group,
-                              progress=progress, desc=desc)
+    summary = sweep.run_sweep(spec, folder, replace(run, client=client, designs=rows, batch_size=batch_size))
     mod = sweep.load_model(model_module)
     df = sweep.open_store(folder, spec, mod, "parquet").read()
     df = df.rename(columns={"design_id": "row"})
@@ -185,8 +253,23 @@ def evaluate_rows(cluster: Cluster, folder: Path, model_module: str, fixed: dict
 
 
 def output_matrix(df, output, n_designs: int, n_points: int, ok_only: bool = True) -> np.ndarray:
-    """The values of ``output`` (an :class:`~studies.sweeps.design.outputs.Output`) as (designs, points); NaN where the
-    evaluation failed or the value is missing. Rows are design-major (row = design * n_points + point)."""
+    """An output's values over the evaluation rows of a study, as (designs, points).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The evaluation rows, design-major (row = design x n_points + point).
+    output : Output
+        (:mod:`studies.sweeps.design.outputs`).
+    n_designs, n_points : int
+    ok_only : bool
+        Only rows with status ``ok``.
+
+    Returns
+    -------
+    numpy.ndarray
+        In the output's unit; NaN where the evaluation failed or the value is missing.
+    """
     vals = np.full(n_designs * n_points, np.nan)
     recs = df.to_dict("records")
     for r in recs:
@@ -196,14 +279,3 @@ def output_matrix(df, output, n_designs: int, n_points: int, ok_only: bool = Tru
         if v is not None:
             vals[int(r["row"])] = v
     return vals.reshape(n_designs, n_points)
-
-
-def status_counts(df) -> dict:
-    if df is None or not len(df):
-        return {}
-    return {str(k): int(v) for k, v in df["status"].value_counts().items()}
-
-
-def progress_note(msg: str, progress: bool = True) -> None:
-    if progress:
-        print(msg, file=sys.stderr, flush=True)

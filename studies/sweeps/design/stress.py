@@ -15,17 +15,15 @@ the largest Euler-Bernoulli (nominal) bending stress along the reed under the un
 kappa_EB (x_stop - x_0) that puts its tip at that deflection (the clamp root for the thesis
 reeds; grooves and steps enter I(s) and the fibre distance c(s);
 :func:`fea.reed_stress.beam_bending_stress`), times a calibration factor C measured with the
-solid FEA (:func:`studies.sweeps.design.study.calibrate`): by default the ratio solid / E-B of the
-base model's reed (0.95 for the prototype: 31.7 MPa / 33.3 MPa at its default mesh), so the
-estimate reproduces the solid FEA there.
+solid FEA (:func:`studies.sweeps.design.calibration.calibrate`): by default the ratio solid / E-B of the
+base model's reed, so the estimate reproduces the solid FEA there.
 
 What the estimate cannot see: the 3-D stress concentrations at a width step's re-entrant
-corner and at the groove ends, which set the solid's maximum away from the clamp. On the 12
-re-checked front designs of the reed example the ratio solid / estimate spans 0.78 to 1.75
-(docs/optimization.md), so every
-design of the final front is re-checked with the solid FEA itself, a design whose estimate is
-more than ``recheck.stress_tolerance_pct`` below the solid is flagged, and the final constraint
-check uses the solid value. ``stress.calibration = "conservative"`` takes the largest ratio over
+corner and at the groove ends, which set the solid's maximum away from the clamp, and which
+change from design to design (the spread measured on the reed example is in
+docs/optimization.md). So every design of the final front is re-checked with the solid FEA
+itself, a design whose estimate is more than ``recheck.stress_tolerance_pct`` below the solid
+is flagged, and the final constraint check uses the solid value. ``stress.calibration = "conservative"`` takes the largest ratio over
 the base, centre and range-end designs instead (safe in the loop, but it may exclude designs
 the solid FEA would accept, the prototype included).
 """
@@ -41,13 +39,36 @@ N_SECTIONS = 48
 
 
 def lift_deflection(valve, lift: float | None = None) -> float:
-    """Tip deflection [m] from the reed's unloaded shape at tip opening ``lift`` (default: the stop)."""
+    """The reed's tip deflection from its unloaded shape at a tip opening.
+
+    Parameters
+    ----------
+    valve : lumped.valves.reed.ReedValve
+    lift : float, optional
+        Tip opening [m] (default: the stop, ``stop.gap``; a larger one is capped there).
+
+    Returns
+    -------
+    float
+        x - x_0 [m], x_0 = ``seat.preload`` (a reed pressed onto its seat, x_0 < 0, is already bent when closed).
+    """
     x = valve.stop_gap if lift is None else min(float(lift), valve.stop_gap)
     return x - valve.preload
 
 
 def eb_kappa(valve) -> float:
-    """kappa [Pa/m] of the Euler-Bernoulli (analytic) model of a reed valve's geometry."""
+    """The stiffness of the Euler-Bernoulli (analytic) model of a reed valve's geometry.
+
+    Parameters
+    ----------
+    valve : lumped.valves.reed.ReedValve
+
+    Returns
+    -------
+    float
+        kappa [Pa/m]: the pressure per tip deflection of a uniform load (Knutson 2016, eq 3.33); the
+        valve's own when its fidelity is ``analytic``.
+    """
     if valve.fidelity == "analytic":
         return float(valve.stiffness)
     return _analytic_kappa(valve.reed)
@@ -71,8 +92,29 @@ def _sections(reed) -> np.ndarray:
 
 
 def eb_stress(reed, deflection: float, kappa: float) -> float:
-    """The largest E-B bending stress [Pa] along the reed with the tip deflected by ``deflection`` under a
-    uniform pressure p = kappa deflection."""
+    """The largest Euler-Bernoulli bending stress along a reed with its tip deflected under a uniform pressure.
+
+    sigma = max_s M(s) c(s) / I(s) with the uniform pressure p = kappa deflection
+    (:func:`fea.reed_stress.beam_bending_stress` at :data:`N_SECTIONS` sections and both sides of
+    each piece boundary).
+
+    Parameters
+    ----------
+    reed : geometry.reed.Reed
+    deflection : float
+        Tip deflection [m].
+    kappa : float
+        The reed's stiffness [Pa/m].
+
+    Returns
+    -------
+    float
+        [Pa].
+
+    References
+    ----------
+    Timoshenko and Gere (1972), Mechanics of Materials, section 5.2 (flexure formula).
+    """
     from fea.reed_stress import beam_bending_stress
 
     p = kappa * deflection
@@ -80,9 +122,21 @@ def eb_stress(reed, deflection: float, kappa: float) -> float:
 
 
 def reed_outputs(model, calibration: dict) -> dict:
-    """Per reed valve: kappa, omega and (with a geometry and a calibration factor) the estimated stress at the
-    stop; keys ``<pos>_kappa_pa_m``, ``<pos>_omega_rad_s``, ``<pos>_reed_stress_pa``, ``<pos>_reed_stress_eb_pa``
-    (``<pos>_reed_stress_peak_pa`` is filled per operating point by the caller)."""
+    """Per valve the reed outputs of a design that do not depend on the operating point.
+
+    Parameters
+    ----------
+    model : lumped.model.pump_model.PumpModel
+    calibration : dict
+        {valve: calibration factor C}; 0 or absent: no stress.
+
+    Returns
+    -------
+    dict
+        ``<pos>_kappa_pa_m`` [Pa/m] and ``<pos>_omega_rad_s`` [rad/s] of a reed valve; with a geometry
+        and C, ``<pos>_reed_stress_eb_pa`` (the E-B stress at the stop) and ``<pos>_reed_stress_pa``
+        (C times it) [Pa]; ``<pos>_reed_stress_peak_pa`` is filled per operating point by the caller.
+    """
     out = {}
     for pos in ("inlet", "delivery"):
         v = model.valve(pos)
@@ -101,8 +155,22 @@ def reed_outputs(model, calibration: dict) -> dict:
 
 
 def solid_stress(reed, deflection: float, mesh_size=None) -> dict:
-    """The solid FEA's stress with the tip at ``deflection``: ``away`` (the design stress), ``max`` (at the clamp
-    edge, mesh dependent), ``pressure``, ``dofs``, ``mesh_size`` (SI)."""
+    """The solid FEA's von Mises stress of a reed with its tip deflected (:func:`fea.reed_stress.max_opening_stress`).
+
+    Parameters
+    ----------
+    reed : geometry.reed.Reed
+    deflection : float
+        Tip deflection [m].
+    mesh_size : float, optional
+        Element size [m] (default: the solid's converged default).
+
+    Returns
+    -------
+    dict
+        ``away`` (the design stress, away from the clamp) and ``max`` (at the clamp edge, mesh
+        dependent) [Pa], the ``pressure`` that deflects it [Pa], ``dofs``, ``mesh_size`` [m].
+    """
     from fea.reed_stress import max_opening_stress
 
     sc = max_opening_stress(reed, x_stop=deflection, mesh_size=mesh_size)
@@ -111,7 +179,21 @@ def solid_stress(reed, deflection: float, mesh_size=None) -> dict:
 
 
 def calibration_row(reed, deflection: float, mesh_size=None) -> dict:
-    """One calibration reed: the E-B stress, the solid FEA's and their ratio (Pa)."""
+    """One reed of the stress calibration: the E-B stress, the solid FEA's and their ratio.
+
+    Parameters
+    ----------
+    reed : geometry.reed.Reed
+    deflection : float
+        Tip deflection [m].
+    mesh_size : float, optional
+        Element size [m].
+
+    Returns
+    -------
+    dict
+        ``eb_pa``, ``solid_away_pa``, ``solid_max_pa`` [Pa], ``ratio`` = solid away / E-B, ``dofs``, ``mesh_size``.
+    """
     eb = eb_stress(reed, deflection, _analytic_kappa(reed))
     sol = solid_stress(reed, deflection, mesh_size)
     return {"eb_pa": eb, "solid_away_pa": sol["away"], "solid_max_pa": sol["max"], "ratio": sol["away"] / eb,
