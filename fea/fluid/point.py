@@ -109,8 +109,8 @@ def parse_valve(spec: str, field: str = "VALVE") -> tuple[str, str]:
 
 def load_fluid_valve(spec, field: str = "VALVE") -> FluidValve:
     """The valve ``MODEL[:POSITION]`` (a shipped model name or a model file) with its model's oil."""
-    from lumped.model_file import load_model
-    from lumped.valve import kind_of
+    from lumped import load_model
+    from lumped.valves.kind import kind_of
 
     if isinstance(spec, FluidValve):
         return spec
