@@ -17,8 +17,9 @@ per lift. :func:`fit_forms` fits the forms the lumped model uses:
 - c_visc of eq 2.28: the Stokes drag at the stop (at smaller lifts the squeeze film adds to it,
   ``c_visc_by_lift``).
 
-The result, with its provenance (grid, mesh DOFs, fit residuals, code version, seconds), is a
-JSON file keyed by a hash of the valve's geometry, housing and oil (:func:`valve_key`): looked up
+The result, with its provenance (grid, mesh DOFs, fit residuals, code version, seconds, the oil it
+was computed with), is a JSON file keyed by a hash of the valve's geometry and housing
+(:func:`valve_key`; the forms are functions of Re, so not of the oil): looked up
 first among the shipped files (``fea/fluid/data``: the thesis disc's two valves), then in the
 cache directory (``VALVELAB_CACHE_DIR``, else ``$XDG_CACHE_HOME/valvelab``, else
 ``~/.cache/valvelab``; never inside the package), computed and stored there otherwise.
@@ -69,11 +70,12 @@ def cache_dir() -> Path:
 
 def valve_key(valve: FluidValve, resolution: float = DEFAULT_RESOLUTION) -> str:
     """Hash of what the forms depend on: the flow domain (valve geometry, disc mass, housing), the
-    oil's density and viscosity, the orifice perimeter of eq 2.46, the grid and FORMS_VERSION."""
+    orifice perimeter of eq 2.46, the grid and FORMS_VERSION. Not the oil: every form is a function
+    of the Reynolds number (the dimensionless flow depends on Re and the geometry alone), so one
+    characterisation serves every oil and temperature (a Monte Carlo over the viscosity reuses it)."""
     d = disc_domain(valve.params)
     what = {"domain": {k: round(float(v), 12) for k, v in asdict(d).items()},
-            "perimeter": round(valve.perimeter, 12), "density": round(valve.density, 9),
-            "viscosity": round(valve.viscosity, 12), "lifts": LIFT_FRACTIONS, "reynolds": REYNOLDS,
+            "perimeter": round(valve.perimeter, 12), "lifts": LIFT_FRACTIONS, "reynolds": REYNOLDS,
             "moving": MOVING_REYNOLDS, "dp_max": DP_MAX, "resolution": resolution, "version": FORMS_VERSION}
     return hashlib.sha256(json.dumps(what, sort_keys=True).encode()).hexdigest()[:20]
 

@@ -93,16 +93,17 @@ def run(args) -> dict:
         print(f"valvelab flow: {n} point(s) of {valve.name} by {fid.name}"
               f"{' on three meshes each' if args.gci else ''}: about {est:.0f} s", file=sys.stderr, flush=True)
     t0 = time.process_time()
-    points, solution = [], None
+    points, solution, shown = [], None, None
     for i, x in enumerate(lifts):
-        for r in res:
+        for r in sorted(res):
             if est > 3.0:
                 print(f"valvelab flow: point {len(points) + 1}/{n}: lift {x * 1e3:.4g} mm, Re {r:g}",
                       file=sys.stderr, flush=True)
             pt = fid.point(valve, x, r, opts)
             d = pt.as_dict()
             sol = d.pop("solution", None)
-            solution = solution or sol
+            if sol is not None and i == 0:      # the field shown: the first lift's highest Re
+                solution, shown = sol, d
             d.pop("u_num_all", None)
             points.append(d)
     out = {"valve": valve.name, "fidelity": fid.name, "points": points,
@@ -118,7 +119,7 @@ def run(args) -> dict:
             return float(discharge_coefficient(math.sqrt(re), 0.9720, -1.0801, 0.1058, 0.9505))
 
         field = "" if solution is None else \
-            f" (field at x = {points[0]['lift'] * 1e3:.3g} mm, Re = {points[0]['reynolds']:g})"
+            f" (field at x = {shown['lift'] * 1e3:.3g} mm, Re = {shown['reynolds']:g})"
         plot_flow(plot, points, eq_2_48, f"{valve.name}: {fid.name}{field}", solution)
         out["plot"] = str(plot)
     return out

@@ -189,6 +189,14 @@ def _run(args, jobs: int, pool) -> dict:
     for p in plots:
         files.append(p.result() if pool is not None else V.plot_case(*p))
 
+    if args.valve != "reed":      # the disc's fluid references (studies.validation.fluid)
+        from studies.validation.fluid import fluid_validation
+
+        _log("  fluid references: the disc's fluid parameters; Table 5.4 with fluid = \"predicted\"")
+        fl = fluid_validation(out, quick=args.quick, progress=True)
+        summary.update(fluid_validation=fl["fluid_validation"], fluid_pump=fl["fluid_pump"])
+        files += [Path(f) for f in fl["files"]]
+
     # 4. summary
     _log("step 4/4: summary")
     cpu = {}
