@@ -335,7 +335,7 @@ def solve_flow(mesh, bcs: FlowBCs, density: float, viscosity: float, length: flo
         x[sys_.fixed] = sys_.x_d[sys_.fixed]
         trial, total, ok = _newton(sys_, x, re_full, options, lin)
         if ok:
-            return _finish(sys_, trial, re_full, length, velocity, density, viscosity, bcs, total, t0, lin)
+            return _finish(sys_, trial, re_full, (length, velocity, density, viscosity), bcs, total, t0, lin)
     x = sys_.x_d.copy()
     x[sys_.free] = lin.solve(sys_.stokes, -sys_.residual(x, 0.0)[sys_.free])      # Stokes: linear
     total += 1
@@ -353,11 +353,13 @@ def solve_flow(mesh, bcs: FlowBCs, density: float, viscosity: float, length: flo
             raise RuntimeError(f"Newton did not converge at Re_l = {target * re_full:.4g} (density fraction "
                                f"{target:.3g}) even with continuation steps of {target - lam:.2g}")
         steps.insert(0, 0.5 * (lam + target))
-    return _finish(sys_, x, re_full, length, velocity, density, viscosity, bcs, total, t0, lin)
+    return _finish(sys_, x, re_full, (length, velocity, density, viscosity), bcs, total, t0, lin)
 
 
-def _finish(sys_, x, re, length, velocity, density, viscosity, bcs, newton, t0, lin) -> FlowSolution:
-    """Dimensional fields and the wall forces from the residual's reactions."""
+def _finish(sys_, x, re, scales, bcs, newton, t0, lin) -> FlowSolution:
+    """Dimensional fields and the wall forces from the residual's reactions; ``scales`` = (length, velocity,
+    density, viscosity)."""
+    length, velocity, density, viscosity = scales
     pscale = viscosity * velocity / length
     r = sys_.residual(x, re)
     fscale = 2 * math.pi * viscosity * velocity * length      # force of a unit dimensionless traction

@@ -193,6 +193,23 @@ def _active_set(A, f, p, free, floor: float, max_iter: int) -> tuple[np.ndarray,
     raise RuntimeError(f"the cavitation active set did not settle in {max_iter} iterations")
 
 
+def _assemble(mesh, gap: Field, viscosity: float, wall_velocity, options: FilmOptions):
+    """(basis, A, squeeze load, force weights b_i = int psi phi_i dA, area weights int phi_i dA) of the film."""
+    if not (np.isfinite(viscosity) and viscosity > 0):
+        raise InputError("viscosity", f"must be a positive viscosity in Pa s, got {viscosity!r}")
+    elem = _element(options.order)
+    basis = Basis(mesh, elem, intorder=options.intorder or 3 * options.order + 1)
+    h = at_quadrature(basis, gap, "gap")
+    if not np.all(np.isfinite(h)) or h.min() <= 0.0:
+        raise InputError("gap", f"the film thickness must be positive and finite, its least value is {h.min():g} m")
+    hdot = np.zeros_like(h) if wall_velocity is None else at_quadrature(basis, wall_velocity, "wall_velocity")
+    psi = np.ones_like(h) if options.weight is None else at_quadrature(basis, options.weight, "weight")
+    A = film_stiffness.assemble(basis, k=h**3 / (12.0 * viscosity)).tocsr()
+    f_sq = squeeze_load.assemble(basis, hdot=hdot)
+    b = weighted_area.assemble(basis, psi=psi)
+    return basis, A, f_sq, b, weighted_area.assemble(basis, psi=np.ones_like(h))
+
+
 def solve_film(mesh, gap: Field, viscosity: float, pressures: Mapping[str, float],
                wall_velocity: Field | None = None, options: FilmOptions = FilmOptions()) -> FilmSolution:
     """Solve the Reynolds equation on ``mesh``: pressure, force, boundary flows, Poiseuille/squeeze split.
@@ -227,19 +244,7 @@ def solve_film(mesh, gap: Field, viscosity: float, pressures: Mapping[str, float
     >>> print(f"{s.flows['out'] * 1e9:.3f} mm^3/s")    # 1e-15 * 1e-2 * 1e5 / (12 * 0.0683 * 1e-3)
     1.220 mm^3/s
     """
-    if not (np.isfinite(viscosity) and viscosity > 0):
-        raise InputError("viscosity", f"must be a positive viscosity in Pa s, got {viscosity!r}")
-    elem = _element(options.order)
-    basis = Basis(mesh, elem, intorder=options.intorder or 3 * options.order + 1)
-    h = at_quadrature(basis, gap, "gap")
-    if not np.all(np.isfinite(h)) or h.min() <= 0.0:
-        raise InputError("gap", f"the film thickness must be positive and finite, its least value is {h.min():g} m")
-    hdot = np.zeros_like(h) if wall_velocity is None else at_quadrature(basis, wall_velocity, "wall_velocity")
-    psi = np.ones_like(h) if options.weight is None else at_quadrature(basis, options.weight, "weight")
-    A = film_stiffness.assemble(basis, k=h**3 / (12.0 * viscosity)).tocsr()
-    f_sq = squeeze_load.assemble(basis, hdot=hdot)
-    b = weighted_area.assemble(basis, psi=psi)
-    area = float(weighted_area.assemble(basis, psi=np.ones_like(h)).sum())
+    basis, A, f_sq, b, w1 = _assemble(mesh, gap, viscosity, wall_velocity, options)
     bc = _dirichlet(basis, pressures)
     fixed = np.concatenate(list(bc.values()))
     free = np.setdiff1d(np.arange(basis.N), fixed)
@@ -252,9 +257,8 @@ def solve_film(mesh, gap: Field, viscosity: float, pressures: Mapping[str, float
     p_sq = np.zeros(basis.N)
     p_sq[free] = lu.solve(f_sq[free])
 
-    def flows(p, f):
-        r = A @ p - f
-        return {name: float(-r[dofs].sum()) for name, dofs in bc.items()}
+    def flows(p, f):         # the reactions of the Dirichlet values: the flow out of each boundary
+        return {name: float(-(A @ p - f)[dofs].sum()) for name, dofs in bc.items()}
 
     ref = options.reference_pressure
     f_pois = float(b @ p_pois) - ref * float(b.sum())
@@ -266,12 +270,10 @@ def solve_film(mesh, gap: Field, viscosity: float, pressures: Mapping[str, float
         if any(v < floor for v in pressures.values()):
             raise InputError("cavitation_pressure", f"a boundary pressure lies below the floor {floor:g} Pa")
         p, lam, iters = _active_set(A, f_sq, p_d, free, float(floor), options.max_active_set_iterations)
-        on = free[p[free] <= floor]
-        cav_area = float(weighted_area.assemble(basis, psi=np.ones_like(h))[on].sum())
-        source = float(lam.sum())
+        cav_area, source = float(w1[free[p[free] <= floor]].sum()), float(lam.sum())
     total_q = flows(p, f_sq) if iters else {k: q_pois[k] + q_sq[k] for k in bc}
     force = float(b @ p) - ref * float(b.sum()) if iters else f_pois + f_squeeze
     return FilmSolution(basis=basis, pressure=p, force=force, force_poiseuille=f_pois, force_squeeze=f_squeeze,
-                        flows=total_q, flows_poiseuille=q_pois, flows_squeeze=q_sq, area=area,
+                        flows=total_q, flows_poiseuille=q_pois, flows_squeeze=q_sq, area=float(w1.sum()),
                         weight_integral=float(b.sum()), cavitated_area=cav_area, cavity_source=source,
                         active_set_iterations=iters, dofs=int(basis.N))

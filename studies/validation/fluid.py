@@ -36,7 +36,9 @@ COLUMNS = ("valve", "parameter", "unit", "empirical", "predicted", "u_num", "ver
 BENCH_CD_REL = 0.025
 
 
-def _row(valve, parameter, unit, empirical, predicted, u_num, verdict, reference, note="") -> dict:
+def _row(valve, parameter, unit, values, verdict, reference, note="") -> dict:
+    """One row; ``values`` = (empirical, predicted, u_num)."""
+    empirical, predicted, u_num = values
     return {"valve": valve, "parameter": parameter, "unit": unit, "empirical": empirical, "predicted": predicted,
             "u_num": u_num, "verdict": verdict, "reference": reference, "note": note}
 
@@ -61,7 +63,7 @@ def _cd_rows(name: str, valve, data: dict) -> list[dict]:
         bench = float(discharge_coefficient(math.sqrt(re), v.cd_inf, v.cd_a, v.cd_b, v.cd_c))
         vv = vv20_row(f"{name} Re {re:g}", "cd", "-", pt["cd"], bench, pt["u_num"].get("cd", 0.0), 0.0,
                       BENCH_CD_REL * bench)
-        rows.append(_row(name, f"Cd(Re = {re:g})", "-", bench, pt["cd"], pt["u_num"].get("cd"), vv["verdict"],
+        rows.append(_row(name, f"Cd(Re = {re:g})", "-", (bench, pt["cd"], pt["u_num"].get("cd")), vv["verdict"],
                          "measured: eq 2.48 (flow bench, section 2.4.5)",
                          f"x = {stop * 1e3:.3g} mm; E = {vv['E']:+.4f} ({100 * vv['E'] / bench:+.1f} %), "
                          f"U_val = {vv['U_val']:.4f}"))
@@ -89,22 +91,22 @@ def parameter_rows(model: str = "thesis-disc", progress: bool = True) -> list[di
         for key, unit, label, emp in (("c1", "-", "C1", v.c1), ("c2", "N m^2 s", "C2", v.c2(valve.viscosity))):
             mid, g = lad["levels"][1], lad["gci"][key]
             u = g.band(1) / 1.15
-            rows.append(_row(name, label, unit, emp, getattr(mid, key), u,
+            rows.append(_row(name, label, unit, (emp, getattr(mid, key), u),
                              _closed_form_verdict(emp, getattr(mid, key), u),
                              f"closed form: eq {'2.14' if key == 'c1' else '2.15'}", "Reynolds film FE, 2-D"))
         est = "estimate: section 2.4.6 (f1 = f2 = 1)"
         rows += [
-            _row(name, "f1", "-", v.f1, f["f1"], f["u_f1"], "replaces_estimate", est, "mean over the orifice-regime "
+            _row(name, "f1", "-", (v.f1, f["f1"], f["u_f1"]), "replaces_estimate", est, "mean over the orifice-regime "
                  "lifts at Re 10 and 60 (quasi-steady moving disc)"),
-            _row(name, "f2", "-", v.f2, f["f2"], f["u_f2"], "replaces_estimate", est, "as f1"),
-            _row(name, "jet angle", "deg", math.degrees(v.jet_angle_value), math.degrees(f["jet_angle"]),
-                 None if f["u_jet_angle"] is None else math.degrees(f["u_jet_angle"]), "replaces_estimate",
+            _row(name, "f2", "-", (v.f2, f["f2"], f["u_f2"]), "replaces_estimate", est, "as f1"),
+            _row(name, "jet angle", "deg", (math.degrees(v.jet_angle_value), math.degrees(f["jet_angle"]),
+                 None if f["u_jet_angle"] is None else math.degrees(f["u_jet_angle"])), "replaces_estimate",
                  "assumption: eq 2.30, the bevel angle", "effective angle of eq 2.36, orifice regime, pump Re"),
-            _row(name, "c_visc", "-", v.viscous_drag, f["c_visc"], f["u_c_visc"], "replaces_estimate",
+            _row(name, "c_visc", "-", (v.viscous_drag, f["c_visc"], f["u_c_visc"]), "replaces_estimate",
                  "estimate: section 2.4.4 (a disc in unbounded oil, ~10)", "Stokes drag of the disc at the stop "
                  "in the modelled housing (depends on its assumed clearances, docs/fluid.md)"),
-            _row(name, "force coefficient (orifice regime)", "-", v.force_coefficient, f["force_coefficient_orifice"],
-                 f["u_force_coefficient_orifice"], "replaces_estimate", "assumption: eq 2.18, F = dP A_disc",
+            _row(name, "force coefficient (orifice regime)", "-",
+                 (v.force_coefficient, f["force_coefficient_orifice"], f["u_force_coefficient_orifice"]), "replaces_estimate", "assumption: eq 2.18, F = dP A_disc",
                  "F / (dP A_disc), mean over the orifice-regime lifts at the pump's Re"),
         ]
     return rows
