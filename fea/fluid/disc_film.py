@@ -8,9 +8,11 @@ from the apex along the surface and the circumference at s is 2 pi s sin(theta);
 axisymmetric film on the cone therefore obeys the same equation as a flat annulus of radii
 R_i' = R_i / sin(theta) .. R_o' = R_o / sin(theta) (eq 2.7), with
 
-    Q = sin(theta) Q'   (the flat annulus's flow, circumference 2 pi s instead of 2 pi s sin(theta)),
-    F = pi R_i^2 dP + sin^2(theta) int_annulus' (p - P_down) dA'   (eq 2.12: the axial projection
-                                                                   of the cone's area is sin^2 theta dA').
+    Q = sin(theta) Q',
+    F = pi R_i^2 dP + sin^2(theta) int_annulus' (p - P_down) dA',
+
+Q' the flat annulus's flow (its circumference is 2 pi s instead of 2 pi s sin(theta)); the axial
+projection of the cone's area is sin^2(theta) dA' (eq 2.12).
 
 The footprint is meshed as that flat annulus in two dimensions (a structured polar
 triangulation, every vertex on its circle, so three meshes in the ratio 2 are nested in
