@@ -30,7 +30,7 @@ USER_DOCUMENTS = [ROOT / "README.md", ROOT / "CONTRACT.md", *sorted(DOCS.glob("*
 HISTORY = re.compile(r"\bsessions?\b|\bissue \d{1,2}\b|closing note|\bhelpers?\b", re.I)
 #: command lines that take minutes (as tests/test_readme.py's)
 SLOW = re.compile(r"^valvelab (validate|check|modes|seat|table [35]\.|discrepancy|synth|sensitivity|optimize)|"
-                  r"--fidelity solid|^python benchmarks/|studies\.discrepancy\.confusion")
+                  r"--fidelity solid|--fidelity axisymmetric|^python benchmarks/|studies\.discrepancy\.confusion")
 
 
 def test_the_site_builds_with_warnings_as_errors(tmp_path):

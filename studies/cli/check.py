@@ -1,4 +1,8 @@
-"""``valvelab check GEOMETRY``: analytic vs beam, plate and solid FEA for one reed, side by side."""
+"""``valvelab check GEOMETRY``: analytic vs beam, plate and solid FEA for one reed, side by side.
+
+Given a pump model with disc valves instead (``thesis-disc``, ``my_pump.toml[:inlet|delivery]``), the
+``fluid`` section: its fluid fidelities side by side (:mod:`studies.validation.fluid`).
+"""
 
 from __future__ import annotations
 
@@ -14,7 +18,8 @@ from studies.validation.reed_check import (
     render_check,
 )
 
-HELP = "multi-fidelity check of a reed: analytic, beam, plate and solid FEA with % deviations"
+HELP = ("multi-fidelity check of a reed (analytic, beam, plate and solid FEA) or of a disc-valve model's fluid "
+        "(orifice laws, thin film, axisymmetric Navier-Stokes) with % deviations")
 FIDELITY_NAMES = ("analytic", "beam", "plate", "solid")
 
 
@@ -60,6 +65,12 @@ def _fidelities(text: str) -> tuple[str, ...]:
 def run(args) -> dict:
     """Run ``valvelab check``: multi-fidelity check of a reed: analytic, beam, plate and solid FEA with % deviations
     (the JSON of ``--json``; :mod:`studies.cli`)."""
+    from studies.validation.fluid import disc_model_spec
+
+    if disc_model_spec(args.geometry):
+        from studies.validation.fluid import fluid_check
+
+        return {"geometry": args.geometry, "fluid": fluid_check(args.geometry, progress=True)}
     reed = load_reed(args.geometry)
     if args.dynamics:
         return _run_dynamics(reed, args)
@@ -169,6 +180,10 @@ def _write_outputs(reed, fids, mesh_size, out_dir) -> list[str]:
 
 def render(r: dict) -> str:
     """The result of ``valvelab check`` as readable text."""
+    if "fluid" in r:
+        from studies.validation.fluid import render_check as render_fluid
+
+        return render_fluid(r["fluid"])
     if "dynamics" in r:
         from studies.validation.reed_dynamics import render as render_dynamics
 

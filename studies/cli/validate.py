@@ -263,6 +263,17 @@ def step_tables(r: Run) -> None:
     r.state["tables"] = tables
 
 
+def step_fluid(r: Run) -> None:
+    """The disc's fluid references (:mod:`studies.validation.fluid`): each fluid parameter, empirical against
+    predicted, and Table 5.4 with ``fluid = "predicted"``, written to fluid_validation.{md,csv}."""
+    if r.args.valve == "reed":
+        return
+    from studies.validation.fluid import fluid_validation
+
+    fl = fluid_validation(r.out, quick=r.args.quick, progress=True)
+    r.summary.update(fluid_validation=fl["fluid_validation"], fluid_pump=fl["fluid_pump"])
+
+
 def step_summary(r: Run) -> None:
     """The summary: what the data can detect first, then the chain, the tables and the verdicts (written last, with
     the wall time, as summary.md and summary.json)."""
@@ -279,6 +290,7 @@ STEPS = (
     ("the geometry chain's reed parameters in the reed pump", step_geometry_chain),
     ("the validation that can fail (ASME V&V 20: calibration, predictions, differences, power)", step_uncertainty),
     ("tables and plots", step_tables),
+    ("the fluid references: disc parameters predicted from geometry, Table 5.4 with them", step_fluid),
     ("summary", step_summary),
 )
 
