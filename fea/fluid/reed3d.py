@@ -1,0 +1,192 @@
+"""3-D laminar Navier-Stokes of a reed valve: Cd, the pressure load multiplier X, the flow force, A_Q.
+
+The fluid around the reed (:mod:`fea.fluid.reed_mesh`: port, gap, grooves, chamber up to
+the stop, half domain) with the reed deflected to a tip opening x along its static shape
+psi(s) (exact Euler-Bernoulli on the real grooved profile, :func:`lumped.reed_beam.shape`,
+or a FE fidelity's). Steady flow driven by the pressure difference dP between the port's
+bottom (inlet, traction -P_up n) and the chamber's open sides (outlet, P_down = 0); the
+solver is :mod:`fea.fluid.ns3d` (Taylor-Hood P2-P1, Newton). Outputs per (x, dP):
+
+- Q [m^3/s], the flow through the port (both halves);
+- Re = 4 rho Q / (p_o mu), eq 3.87's definition (corrected reciprocal, docs/errata.md);
+- Cd = Q / (l_o x sqrt(2 dP / rho)), eq 3.84 with the orifice area A_o = l_o x of eq 3.25;
+- X = iint psi dP_face dA / (dP int psi W ds), eq 3.49, with the face load of the full
+  fluid stress: the generalized force of the traction on every face of the reed for the
+  virtual displacement psi(s) e_z (pressure and viscous stress; ``X_pressure`` the pressure alone);
+- F [N], the net fluid force on the reed along z (the flow force with the pressure);
+- from moving-wall solves (dP = 0, the reed's faces moving at psi(s) u e_z): the fluid
+  displacement area A_Q = Q_port / u (eq 3.23) and f = (A_Q - A_1) / (A_2 - A_1) (eq 3.26),
+  at the two signs of u (f1 closing, f2 opening).
+
+l_o and p_o are the valve's (the model file's; for the prototype 19.4 mm and 91.2 mm, eqs
+3.25, 3.86), so Cd and Re compare with eq 3.89 as the bench data were reduced.
+"""
+
+from __future__ import annotations
+
+import resource
+import sys
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from skfem import ElementTetP1, ElementTetP2, FacetBasis, Functional
+
+from geometry.reed import Reed
+from geometry.reed_port import face_rule
+
+from . import ns3d
+from .reed_mesh import FluidMesh, MeshOptions, ReedSeat, fluid_mesh, plan_view
+
+
+@dataclass(frozen=True)
+class ReedValveFlow:
+    """What a reed flow solve needs besides the opening: geometry, shape, oil, orifice definitions (SI).
+
+    ``shape``: (s [m], psi) with psi(L) = 1 (the deflected shape and the mode function);
+    ``orifice_length`` l_o [m] and ``orifice_perimeter`` p_o [m] define Cd and Re (eqs 3.25,
+    3.86); ``area_min`` A_1 and ``area_max`` A_2 [m^2] define f (eq 3.26).
+    """
+
+    reed: Reed
+    seat: ReedSeat
+    shape: tuple[np.ndarray, np.ndarray]
+    fluid: ns3d.Fluid
+    orifice_length: float
+    orifice_perimeter: float
+    area_min: float
+    area_max: float
+    mesh: MeshOptions = field(default_factory=MeshOptions)
+
+    def psi(self, s):
+        """psi(s) on the reed (interpolated shape; 0 before the clamp, psi(L) beyond the tip)."""
+        s_psi, psi = self.shape
+        return np.interp(np.asarray(s, float), s_psi, psi)
+
+    @property
+    def modal_area(self) -> float:
+        """int_0^L psi W ds [m^2], the denominator of eq 3.49 (the whole face)."""
+        s, y, w = face_rule(self.reed)
+        return float(np.sum(w * self.psi(s)))
+
+
+@dataclass(frozen=True)
+class FlowPoint:
+    """One steady solve at tip opening x [m] and pressure difference dp [Pa] (SI; see the module docstring)."""
+
+    opening: float
+    dp: float
+    flow: float
+    reynolds: float
+    cd: float
+    multiplier: float
+    multiplier_pressure: float
+    force: float
+    dofs: int
+    newton_steps: int
+    seconds: float
+    peak_rss_gb: float
+
+
+def _peak_rss_gb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
+
+
+def reed_forces(system: ns3d.System, x: np.ndarray, valve: ReedValveFlow) -> tuple[float, float, float]:
+    """(generalized force of the full stress, of the pressure alone, net z force) on the reed [N], both halves.
+
+    Traction on the reed t = -sigma n with n the fluid's outward normal (pointing into the
+    reed), sigma = -p I + mu (grad u + grad u^T); weighted by psi(s) for the generalized force.
+    """
+    mesh, n, mu = system.mesh, system.nv, system.fluid.mu
+    facets = mesh.boundaries["reed"]
+    fv = FacetBasis(mesh, ElementTetP2(), facets=facets)
+    fq = FacetBasis(mesh, ElementTetP1(), facets=facets, quadrature=fv.quadrature)
+    u = [fv.interpolate(x[a * n:(a + 1) * n]) for a in range(3)]
+    p = fq.interpolate(x[3 * n:])
+
+    def tz(w, viscous: bool):
+        t = w["p"] * w.n[2]
+        if viscous:
+            g = [w[f"u{a}"].grad for a in range(3)]
+            t = t - mu * sum((g[2][b] + g[b][2]) * w.n[b] for b in range(3))
+        return t
+
+    @Functional
+    def gen(w):
+        return valve.psi(w.x[0]) * tz(w, True)
+
+    @Functional
+    def gen_p(w):
+        return valve.psi(w.x[0]) * tz(w, False)
+
+    @Functional
+    def net(w):
+        return tz(w, True)
+
+    kw = {"p": p, "u0": u[0], "u1": u[1], "u2": u[2]}
+    return tuple(2.0 * float(f.assemble(fv, **kw)) for f in (gen, gen_p, net))
+
+
+def point_outputs(system: ns3d.System, x: np.ndarray, valve: ReedValveFlow, opening: float, dp: float,
+                  steps: int, seconds: float) -> FlowPoint:
+    """The outputs of one steady pressure-driven solve (module docstring)."""
+    rho, mu = system.fluid.rho, system.fluid.mu
+    Q = -2.0 * ns3d.boundary_flux(system, x, "inlet")
+    gen, gen_p, net = reed_forces(system, x, valve)
+    area = valve.modal_area
+    return FlowPoint(opening=opening, dp=dp, flow=Q, reynolds=4 * rho * Q / (valve.orifice_perimeter * mu),
+                     cd=Q / (valve.orifice_length * opening * np.sqrt(2 * dp / rho)),
+                     multiplier=gen / (dp * area), multiplier_pressure=gen_p / (dp * area), force=net,
+                     dofs=system.ndofs, newton_steps=steps, seconds=seconds, peak_rss_gb=_peak_rss_gb())
+
+
+def _guess(history: list[tuple[float, np.ndarray]], dp: float, n3: int) -> np.ndarray:
+    """Initial state at dp from the last solutions: velocity scaled by (dp / dp_last)^a, a the
+    last two points' d ln|u| / d ln dp (1 in the Stokes regime, -> 1/2 with inertia); pressure by dp / dp_last."""
+    dp1, x1 = history[-1]
+    a = 1.0
+    if len(history) > 1:
+        dp0, x0 = history[-2]
+        u0, u1 = np.linalg.norm(x0[:n3]), np.linalg.norm(x1[:n3])
+        a = float(np.clip(np.log(u1 / u0) / np.log(dp1 / dp0), 0.5, 1.0))
+    x = x1.copy()
+    x[:n3] *= (dp / dp1) ** a
+    x[n3:] *= dp / dp1
+    return x
+
+
+def pressure_sweep(valve: ReedValveFlow, opening: float, dps, progress: bool = True) -> list[FlowPoint]:
+    """Steady flows at tip opening ``opening`` [m] for increasing pressure differences ``dps`` [Pa].
+
+    One mesh and Stokes factorization; Navier-Stokes by Newton with continuation in dP
+    (each point starts from the previous ones, :func:`_guess`, and reuses the last
+    factorization as GMRES preconditioner). The first output is the Stokes limit (Re -> 0)
+    at dP = 1 Pa. Stops at the first dP where Newton fails (ModelFailure printed on stderr).
+    """
+    t0 = time.perf_counter()
+    fm = fluid_mesh(valve.reed, valve.seat, opening, valve.shape, valve.mesh)
+    system = ns3d.assemble(fm.mesh, valve.fluid)
+    unit = ns3d.traction_load(system, {"inlet": 1.0})
+    x1 = ns3d.stokes(system, unit, np.zeros(len(system.fixed)))
+    out = [point_outputs(system, x1, valve, opening, 1.0, 0, time.perf_counter() - t0)]
+    if progress:
+        print(f"reed3d x = {opening * 1e3:.3g} mm: {system.ndofs} DOFs, Stokes in {out[0].seconds:.0f} s, "
+              f"Cd/sqrt(Re) = {out[0].cd / np.sqrt(out[0].reynolds):.3g}, X = {out[0].multiplier:.4f}", file=sys.stderr)
+    history, factor, n3 = [(1.0, x1)], None, 3 * system.nv
+    for dp in sorted(float(d) for d in dps):
+        t1 = time.perf_counter()
+        try:
+            x, steps, factor = ns3d.newton(system, dp * unit, _guess(history, dp, n3), factor=factor, progress=progress)
+        except Exception as exc:   # noqa: BLE001 - a failed point ends the sweep, reported
+            print(f"reed3d x = {opening * 1e3:.3g} mm, dP = {dp:.4g} Pa: {exc}", file=sys.stderr)
+            break
+        history.append((dp, x))
+        out.append(point_outputs(system, x, valve, opening, dp, steps, time.perf_counter() - t1))
+        if progress:
+            p = out[-1]
+            print(f"  dP = {dp:.4g} Pa: Re = {p.reynolds:.3g}, Cd = {p.cd:.4f}, X = {p.multiplier:.4f} "
+                  f"({steps} steps, {p.seconds:.0f} s, {p.peak_rss_gb:.1f} GB)", file=sys.stderr)
+    if factor is not None:
+        factor.free()
+    return out
