@@ -190,3 +190,65 @@ def pressure_sweep(valve: ReedValveFlow, opening: float, dps, progress: bool = T
     if factor is not None:
         factor.free()
     return out
+
+
+@dataclass(frozen=True)
+class DisplacementPoint:
+    """A moving-wall solve at tip opening x [m], tip speed u [m/s] and dP = 0 (eqs 3.23, 3.26)."""
+
+    opening: float
+    speed: float
+    flow: float             # Q through the port, toward downstream [m^3/s]
+    area: float             # A_Q = Q / u [m^2]
+    fraction: float         # f = (A_Q - A_1) / (A_2 - A_1)
+    newton_steps: int
+    seconds: float
+
+
+def _reed_velocity(system: ns3d.System, valve: ReedValveFlow, speed: float) -> np.ndarray:
+    """Dirichlet values on ``system.fixed``: the reed's faces at psi(s) u e_z, every other wall at rest."""
+    vals = np.zeros(system.ndofs)
+    n = system.nv
+    reed = system.V.get_dofs(system.mesh.boundaries["reed"]).all()
+    vals[2 * n + reed] = speed * valve.psi(system.V.doflocs[0, reed])
+    return vals[system.fixed]
+
+
+def displacement_sweep(valve: ReedValveFlow, opening: float, speeds, progress: bool = True) -> list[DisplacementPoint]:
+    """Fluid displacement area A_Q at tip opening ``opening`` [m] for tip speeds ``speeds`` [m/s] (either sign).
+
+    The reed's faces move at psi(s) u e_z in the frozen geometry (quasi-steady), inlet and
+    outlet at one pressure: the port flow Q gives A_Q = Q / u (eq 3.23). Stokes for u -> 0
+    (first entry, speed 0 meaning the limit, per unit speed), then Navier-Stokes by Newton
+    from the scaled Stokes field at each speed (the two signs differ through inertia only).
+    """
+    t0 = time.perf_counter()
+    fm = fluid_mesh(valve.reed, valve.seat, opening, valve.shape, valve.mesh)
+    system = ns3d.assemble(fm.mesh, valve.fluid)
+    zero = np.zeros(system.ndofs)
+    x1 = ns3d.stokes(system, zero, _reed_velocity(system, valve, 1.0))
+    out = [_displacement(system, x1, valve, opening, 0.0, 0, time.perf_counter() - t0)]
+    factor = None
+    for u in speeds:
+        t1 = time.perf_counter()
+        try:
+            x, steps, factor = ns3d.newton(system, zero, u * x1, factor=factor, progress=progress)
+        except Exception as exc:   # noqa: BLE001 - reported, the sweep goes on
+            print(f"reed3d x = {opening * 1e3:.3g} mm, u = {u:g} m/s: {exc}", file=sys.stderr)
+            continue
+        out.append(_displacement(system, x, valve, opening, u, steps, time.perf_counter() - t1))
+    if factor is not None:
+        factor.free()
+    if progress:
+        print("reed3d x = {:.3g} mm: ".format(opening * 1e3) + ", ".join(
+            f"u = {p.speed:g} m/s: f = {p.fraction:.3f}" for p in out), file=sys.stderr)
+    return out
+
+
+def _displacement(system, x, valve: ReedValveFlow, opening: float, speed: float, steps: int,
+                  seconds: float) -> DisplacementPoint:
+    Q = -2.0 * ns3d.boundary_flux(system, x, "inlet")
+    area = Q / (speed if speed != 0.0 else 1.0)
+    return DisplacementPoint(opening=opening, speed=speed, flow=Q, area=area,
+                             fraction=(area - valve.area_min) / (valve.area_max - valve.area_min),
+                             newton_steps=steps, seconds=seconds)
