@@ -101,6 +101,9 @@ def steady(valve: FluidValve, d: DiscDomain, mesh, lift: float, reynolds: float,
     v = valve.params
     q = valve.flow_of(reynolds)
     length, speed = _scales(valve, d, lift, q)
+    if initial is not None:       # a point at another Re: its field scaled to this flow starts Newton
+        ratio = q / -initial.flow("inlet")
+        initial = replace(initial, u=initial.u * ratio, p=initial.p * ratio)
     sol = solve_flow(mesh, _bcs(d, q), valve.density, valve.viscosity, length, speed, initial=initial)
     dp = sol.mean_pressure("inlet")
     a_o, a_port, rho = valve.orifice_area(lift), v.port_area, valve.density

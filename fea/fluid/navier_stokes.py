@@ -105,22 +105,22 @@ class FlowSolution:
         """Volume flow [m^3/s] through ``facets`` (a boundary name or indices), 2 pi int u . n r ds,
         along the facets' normals (outward on the domain boundary)."""
         fb = self._facets(facets)
-        uu = fb.interpolate(self.u)
-        r = fb.global_coordinates().value[0]
-        return float(2 * math.pi * ((uu.value[0] * fb.normals[0] + uu.value[1] * fb.normals[1]) * r * fb.dx).sum())
+        uu = np.asarray(fb.interpolate(self.u))
+        r = np.asarray(fb.global_coordinates())[0]
+        return float(2 * math.pi * ((uu[0] * fb.normals[0] + uu[1] * fb.normals[1]) * r * fb.dx).sum())
 
     def mean_pressure(self, facets) -> float:
         """Area-weighted mean pressure [Pa] over ``facets`` (int p r ds / int r ds)."""
         fb = self._facets(facets, scalar=True)
-        pp = fb.interpolate(self.p).value
-        r = fb.global_coordinates().value[0]
+        pp = np.asarray(fb.interpolate(self.p))
+        r = np.asarray(fb.global_coordinates())[0]
         return float((pp * r * fb.dx).sum() / (r * fb.dx).sum())
 
     def facet_integral(self, facets, integrand: Callable) -> float:
         """2 pi int integrand(u_r, u_z, r, z) r ds [SI] over ``facets`` (interior facets allowed)."""
         fb = self._facets(facets)
-        uu = fb.interpolate(self.u).value
-        x = fb.global_coordinates().value
+        uu = np.asarray(fb.interpolate(self.u))
+        x = np.asarray(fb.global_coordinates())
         return float(2 * math.pi * (integrand(uu[0], uu[1], x[0], x[1]) * x[0] * fb.dx).sum())
 
     def probe(self, r, z) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -198,7 +198,7 @@ class _System:
         for name, pb in bcs.pressure.items():
             fb = FacetBasis(self.mesh, self.ub.elem, facets=named[name], intorder=4)
             if callable(pb):
-                xy = fb.global_coordinates().value * length
+                xy = np.asarray(fb.global_coordinates()) * length
                 pb = np.asarray(pb(xy[0], xy[1]), dtype=float)
             self.f[: self.nu] += pressure_traction.assemble(fb, pb=pb / self.pscale)
         self.fixed = np.unique(np.concatenate(fixed)) if fixed else np.zeros(0, dtype=int)

@@ -141,11 +141,11 @@ def at_quadrature(basis: Basis, value: Field, name: str) -> np.ndarray:
     if arr.ndim == 0:
         return np.full(shape, float(arr))
     if arr.shape == (basis.N,):
-        return np.asarray(basis.interpolate(arr).value)
+        return np.asarray(np.asarray(basis.interpolate(arr)))
     mesh = basis.mesh
     if arr.shape == (mesh.p.shape[1],):
         p1 = Basis(mesh, ElementTriP1(), quadrature=basis.quadrature)
-        return np.asarray(p1.interpolate(arr).value)
+        return np.asarray(np.asarray(p1.interpolate(arr)))
     raise InputError(name, f"expected a number, a callable f(x, y) or {mesh.p.shape[1]} nodal values "
                      f"(or {basis.N} DOF values), got an array of shape {arr.shape}")
 
