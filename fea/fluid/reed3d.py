@@ -252,3 +252,65 @@ def _displacement(system, x, valve: ReedValveFlow, opening: float, speed: float,
     return DisplacementPoint(opening=opening, speed=speed, flow=Q, area=area,
                              fraction=(area - valve.area_min) / (valve.area_max - valve.area_min),
                              newton_steps=steps, seconds=seconds)
+
+
+# ------------------------------------------------------------------------------ set-up
+def orifice_definitions(reed: Reed, seat: ReedSeat, shape) -> tuple[float, float, float, float]:
+    """(l_o [m], p_o [m], A_1 [m^2], A_2 [m^2]) of a reed over the reconstructed port (eqs 3.24-3.29, 3.86).
+
+    C is the port's outline (its sides and tip, the edge where the sealing land begins; the
+    edge across at the port's start is in the base and does not open): l_o = int_C psi ds',
+    p_o = 2 int_C ds' (the orifice area's perimeter on the seat and on the reed), A_1 =
+    int W_o psi ds with W_o the port's width, A_2 = int W psi ds (eq 3.29).
+    """
+    s_psi, psi = (np.asarray(a, float) for a in shape)
+    a, end = seat.start(reed), reed.length - seat.land_width
+    s = np.linspace(a, end, 4001)
+    yp = np.asarray(seat.port_half_width(reed, s), dtype=float)
+    ps = np.interp(s, s_psi, psi)
+    ds, dy = np.diff(s), np.diff(yp)
+    dl = np.hypot(ds, dy)
+    mid = 0.5 * (ps[1:] + ps[:-1])
+    l_o = 2.0 * float(np.sum(mid * dl))
+    p_o = 2.0 * 2.0 * float(np.sum(dl))
+    A1 = float(np.trapezoid(2 * yp * ps, s))
+    S, _, w = face_rule(reed)
+    A2 = float(np.sum(w * np.interp(S, s_psi, psi)))
+    return l_o, p_o, A1, A2
+
+
+def valve_flow(reed: Reed, seat: ReedSeat | None = None, fidelity: str = "analytic", fluid: ns3d.Fluid | None = None,
+               definitions: tuple[float, float, float, float] | None = None,
+               mesh: MeshOptions | None = None) -> ReedValveFlow:
+    """A :class:`ReedValveFlow` for ``reed``: its static shape from the reed ``fidelity``
+    (:mod:`fea.fidelities`), the thesis oil at 22 C unless ``fluid``, and the orifice
+    definitions (l_o, p_o, A_1, A_2) given or computed over the port (:func:`orifice_definitions`)."""
+    from lumped.oil import thesis_oil_viscosity
+
+    from ..fidelities import get
+
+    seat = ReedSeat() if seat is None else seat
+    seat.check(reed)
+    props = get(fidelity).reed_properties(reed)
+    shape = (np.asarray(props.s, float), np.asarray(props.psi, float) / float(np.interp(reed.length, props.s, props.psi)))
+    if fluid is None:
+        rho, mu = thesis_oil_viscosity()
+        fluid = ns3d.Fluid(rho, mu)
+    defs = orifice_definitions(reed, seat, shape) if definitions is None else definitions
+    return ReedValveFlow(reed=reed, seat=seat, shape=shape, fluid=fluid, orifice_length=defs[0],
+                         orifice_perimeter=defs[1], area_min=defs[2], area_max=defs[3],
+                         mesh=MeshOptions() if mesh is None else mesh)
+
+
+def prototype_valve(mesh: MeshOptions | None = None) -> ReedValveFlow:
+    """The thesis's prototype reed valve with the definitions its bench data were reduced with:
+    l_o = 19.4 mm, p_o = 91.2 mm, A_1 = 55.1 mm^2, A_2 = 338.4 mm^2 and the oil of the
+    ``thesis-reed`` model (Table 3.13; A_2 as the model uses it, docs/errata.md)."""
+    from geometry.reed_io import load_reed
+    from lumped.model_file import load_model
+
+    model = load_model("thesis-reed")
+    v = model.inlet
+    fluid = ns3d.Fluid(model.oil.density, model.oil.viscosity)
+    return valve_flow(load_reed("prototype"), fluid=fluid, mesh=mesh,
+                      definitions=(v.orifice_length, v.orifice_perimeter, v.area_min, v.area_max))

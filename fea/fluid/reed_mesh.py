@@ -136,7 +136,9 @@ def _distance(points: np.ndarray, seg: np.ndarray) -> np.ndarray:
 def sealed_depth(reed: Reed, seat: ReedSeat, s, y) -> np.ndarray:
     """Groove depth [m] the flow sees at plan points (s, y): a groove that reaches the reed's
     free outline is sealed (depth 0) within one land width of it (module docstring)."""
-    s, y = np.asarray(s, float), np.asarray(y, float)
+    s, y = np.broadcast_arrays(np.asarray(s, float), np.asarray(y, float))
+    shape = s.shape
+    s, y = s.ravel(), y.ravel()
     depth = np.zeros(s.shape)
     seg = _free_outline(reed)
     tol = 1e-9 * reed.length
@@ -149,7 +151,7 @@ def sealed_depth(reed: Reed, seat: ReedSeat, s, y) -> np.ndarray:
             near = _distance(np.column_stack([s, y]), seg) < seat.land_width - tol
             inside &= ~near
         depth = np.maximum(depth, np.where(inside, g.depth, 0.0))
-    return depth
+    return depth.reshape(shape)
 
 
 def _groove_probe(g) -> np.ndarray:
