@@ -160,7 +160,7 @@ def _velocity_block(sys_: System, u: np.ndarray | None, newton: bool) -> sp.csr_
     if u is None:
         return sp.block_diag([diag] * 3, format="csr")
     comps = [V.interpolate(u[a * n:(a + 1) * n]) for a in range(3)]
-    diag = diag + rho * sys_.fast.convection([c.value for c in comps])
+    diag = diag + rho * sys_.fast.convection([np.asarray(c) for c in comps])
     blocks = [[diag if a == b else None for b in range(3)] for a in range(3)]
     if newton:
         for a in range(3):

@@ -36,7 +36,7 @@ from geometry.reed import Reed
 from geometry.reed_port import face_rule
 
 from . import ns3d
-from .reed_mesh import FluidMesh, MeshOptions, ReedSeat, fluid_mesh, plan_view
+from .reed_mesh import Layers, MeshOptions, ReedSeat, fluid_mesh
 
 
 @dataclass(frozen=True)
@@ -156,13 +156,28 @@ def _guess(history: list[tuple[float, np.ndarray]], dp: float, n3: int) -> np.nd
     return x
 
 
-def pressure_sweep(valve: ReedValveFlow, opening: float, dps, progress: bool = True) -> list[FlowPoint]:
-    """Steady flows at tip opening ``opening`` [m] for increasing pressure differences ``dps`` [Pa].
+def _next_dp(points: list[FlowPoint], reynolds: float) -> float:
+    """dP [Pa] expected to give ``reynolds`` from the last points: Re ~ dP^a with a the last
+    two points' log slope (1 in the Stokes limit, the first point), 1/2 <= a <= 1."""
+    last = points[-1]
+    a = 1.0
+    if len(points) > 1 and last.dp != points[-2].dp:
+        prev = points[-2]
+        a = float(np.clip(np.log(last.reynolds / prev.reynolds) / np.log(last.dp / prev.dp), 0.5, 1.0))
+    return last.dp * (reynolds / last.reynolds) ** (1.0 / a)
 
-    One mesh and Stokes factorization; Navier-Stokes by Newton with continuation in dP
-    (each point starts from the previous ones, :func:`_guess`, and reuses the last
-    factorization as GMRES preconditioner). The first output is the Stokes limit (Re -> 0)
-    at dP = 1 Pa. Stops at the first dP where Newton fails (ModelFailure printed on stderr).
+
+def pressure_sweep(valve: ReedValveFlow, opening: float, reynolds=(), progress: bool = True,
+                   on_point=None, dps=None) -> list[FlowPoint]:
+    """Steady flows at tip opening ``opening`` [m] toward increasing Reynolds numbers ``reynolds`` (eq 3.87).
+
+    One mesh; the Stokes limit first (at dP = 1 Pa, Re -> 0), then Navier-Stokes by Newton
+    with continuation: each dP is chosen from the previous points to aim at the next Reynolds
+    number (:func:`_next_dp`; the Re reached is the output, within ~10 % of the aim), starts
+    from the previous solutions (:func:`_guess`) and reuses the last factorization as GMRES
+    preconditioner. ``dps`` [Pa]: solve at these pressure differences instead (a mesh study
+    compares meshes at one dP). ``on_point(point)`` is called after each solve (e.g. to save
+    it). Stops at the first point where Newton fails (the reason on stderr).
     """
     t0 = time.perf_counter()
     fm = fluid_mesh(valve.reed, valve.seat, opening, valve.shape, valve.mesh)
@@ -172,17 +187,25 @@ def pressure_sweep(valve: ReedValveFlow, opening: float, dps, progress: bool = T
     out = [point_outputs(system, x1, valve, opening, 1.0, 0, time.perf_counter() - t0)]
     if progress:
         print(f"reed3d x = {opening * 1e3:.3g} mm: {system.ndofs} DOFs, Stokes in {out[0].seconds:.0f} s, "
-              f"Cd/sqrt(Re) = {out[0].cd / np.sqrt(out[0].reynolds):.3g}, X = {out[0].multiplier:.4f}", file=sys.stderr)
+              f"X = {out[0].multiplier:.4f}", file=sys.stderr)
+    if on_point is not None:
+        on_point(out[0])
     history, factor, n3 = [(1.0, x1)], None, 3 * system.nv
-    for dp in sorted(float(d) for d in dps):
+    aims = [(float(d), None) for d in sorted(dps)] if dps is not None else [
+        (None, float(r)) for r in sorted(reynolds)]
+    for dp, re in aims:
+        dp = _next_dp(out, re) if dp is None else dp
         t1 = time.perf_counter()
         try:
-            x, steps, factor = ns3d.newton(system, dp * unit, _guess(history, dp, n3), factor=factor, progress=progress)
+            x, steps, factor = ns3d.newton(system, dp * unit, _guess(history, dp, n3), factor=factor,
+                                           progress=progress)
         except Exception as exc:   # noqa: BLE001 - a failed point ends the sweep, reported
             print(f"reed3d x = {opening * 1e3:.3g} mm, dP = {dp:.4g} Pa: {exc}", file=sys.stderr)
             break
         history.append((dp, x))
         out.append(point_outputs(system, x, valve, opening, dp, steps, time.perf_counter() - t1))
+        if on_point is not None:
+            on_point(out[-1])
         if progress:
             p = out[-1]
             print(f"  dP = {dp:.4g} Pa: Re = {p.reynolds:.3g}, Cd = {p.cd:.4f}, X = {p.multiplier:.4f} "
@@ -314,3 +337,37 @@ def prototype_valve(mesh: MeshOptions | None = None) -> ReedValveFlow:
     fluid = ns3d.Fluid(model.oil.density, model.oil.viscosity)
     return valve_flow(load_reed("prototype"), fluid=fluid, mesh=mesh,
                       definitions=(v.orifice_length, v.orifice_perimeter, v.area_min, v.area_max))
+
+
+# ------------------------------------------------------------------------------ mesh study
+#: the three meshes of the GCI (plan sizes and layers refined together; the medium one is the default)
+STUDY_MESHES = (
+    MeshOptions(1.0e-3, 3.5e-3, Layers(port=1, gap=1, reed=1, above=2)),
+    MeshOptions(),
+    MeshOptions(0.5e-3, 1.8e-3, Layers(port=2, gap=3, reed=1, above=3)),
+)
+#: outputs a mesh study estimates u_num for
+STUDY_OUTPUTS = ("cd", "multiplier", "force")
+
+
+def mesh_study(valve: ReedValveFlow, opening: float, dps, meshes=STUDY_MESHES, progress: bool = True) -> dict:
+    """u_num of Cd, X and F at tip opening ``opening`` [m] and pressure differences ``dps`` [Pa]
+    by the GCI of three meshes (:func:`fea.convergence.gci`, Celik et al. 2008; h = N^(-1/3)
+    from the cell counts). Returns {dp: {output: GCI}} with the Stokes limit under dP = 1 Pa,
+    and the meshes' DOFs, cells, seconds and peak memory."""
+    from ..convergence import gci
+
+    runs, cells = [], []
+    for opts in meshes:
+        v = replace(valve, mesh=opts)
+        pts = pressure_sweep(v, opening, dps=dps, progress=progress)
+        runs.append({p.dp: p for p in pts})
+        cells.append(fluid_mesh(v.reed, v.seat, opening, v.shape, opts).cells)
+    out: dict = {"cells": cells, "dofs": [next(iter(r.values())).dofs for r in runs],
+                 "seconds": [sum(p.seconds for p in r.values()) for r in runs],
+                 "peak_rss_gb": [max(p.peak_rss_gb for p in r.values()) for r in runs]}
+    for dp in runs[0]:
+        if all(dp in r for r in runs):
+            vals = {k: [getattr(r[dp], k) for r in runs[::-1]] for k in STUDY_OUTPUTS}   # fine to coarse
+            out[dp] = {k: gci(v, cells=cells[::-1], dim=3) for k, v in vals.items()}
+    return out

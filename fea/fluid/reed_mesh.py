@@ -351,9 +351,9 @@ def _orient(p: np.ndarray, t: np.ndarray) -> np.ndarray:
 class MeshOptions:
     """Plan-view sizes [m] and element layers of a fluid mesh (defaults: the study's medium mesh)."""
 
-    size_min: float = 0.4e-3
-    size_max: float = 2.0e-3
-    layers: Layers = Layers()
+    size_min: float = 0.7e-3
+    size_max: float = 2.5e-3
+    layers: Layers = Layers(port=1, gap=2, reed=1, above=2)
 
     def refined(self, factor: float) -> "MeshOptions":
         """Sizes divided by ``factor`` and every layer count multiplied by it (rounded, at least 1)."""
