@@ -62,7 +62,7 @@ class ScalarAssembler:
     def __init__(self, V: Basis):
         self.n = V.N
         nl = len(V.basis)
-        self.phi = np.array([V.basis[i][0].value for i in range(nl)])        # (nl, ne, nq)
+        self.phi = np.array([np.asarray(V.basis[i][0]) for i in range(nl)])        # (nl, ne, nq)
         self.dphi = np.array([V.basis[i][0].grad for i in range(nl)])        # (nl, 3, ne, nq)
         self.dx = V.dx
         dofs = V.element_dofs                                                  # (nl, ne)
@@ -259,16 +259,28 @@ def _newton_step(J_ff: sp.csr_matrix, r: np.ndarray, factor: Factor | None) -> t
     return factor.solve(-r), factor, 0
 
 
+def _line_search(sys_: System, x: np.ndarray, d_full: np.ndarray, rhs: np.ndarray, free: np.ndarray,
+                 r0: float) -> tuple[np.ndarray, float]:
+    """Backtracking on the residual norm (free DOFs): the largest of 1, 1/2, 1/4, 1/8 of the
+    Newton step that lowers it (Armijo, c = 1e-4); the smallest if none does."""
+    for step in (1.0, 0.5, 0.25, 0.125):
+        trial = x + step * d_full
+        if np.linalg.norm(residual(sys_, trial, rhs)[free]) <= (1 - 1e-4 * step) * r0:
+            return trial, step
+    return trial, step
+
+
 def newton(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max_iter: int = 25,
            factor: Factor | None = None, progress: bool = False) -> tuple[np.ndarray, int, Factor]:
-    """Steady Navier-Stokes by (inexact) Newton from x0, which carries the Dirichlet values.
+    """Steady Navier-Stokes by (inexact, damped) Newton from x0, which carries the Dirichlet values.
 
     Each correction is solved by GMRES preconditioned with ``factor`` (a factorization of a
     nearby Jacobian, e.g. the previous pressure difference's) or, without one or when GMRES
-    stalls, by a new LU of the current Jacobian. Stops when the largest velocity update is
-    below ``tol`` of the largest velocity. Returns (state, steps, the factorization in use).
-    ModelFailure when it does not converge in ``max_iter`` steps (a steady laminar solution
-    may not exist at that Reynolds number).
+    stalls, by a new LU of the current Jacobian; the step is damped by backtracking on the
+    residual (:func:`_line_search`). Stops when the largest velocity update is below ``tol``
+    of the largest velocity after a full step. Returns (state, steps, the factorization in
+    use). ModelFailure when it does not converge in ``max_iter`` steps (a steady laminar
+    solution may not exist at that Reynolds number, or the mesh does not resolve it).
     """
     x = x0.copy()
     n3 = 3 * sys_.nv
@@ -280,12 +292,14 @@ def newton(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max
         J = _saddle(sys_, _velocity_block(sys_, x[:n3], True))
         R = residual(sys_, x, rhs)
         d, factor, kry = _newton_step(J[free][:, free].tocsr(), R[free], factor)
-        x[free] += d
-        change = np.max(np.abs(d[vel])) / max(np.max(np.abs(x[:n3])), 1e-300)
+        d_full = np.zeros_like(x)
+        d_full[free] = d
+        x, step = _line_search(sys_, x, d_full, rhs, free, float(np.linalg.norm(R[free])))
+        change = step * np.max(np.abs(d[vel])) / max(np.max(np.abs(x[:n3])), 1e-300)
         if progress:
-            print(f"  newton {it}: |du|/|u| = {change:.2e}, {kry} GMRES steps ({time.perf_counter() - t0:.1f} s)",
-                  file=sys.stderr)
-        if change < tol:
+            print(f"  newton {it}: |du|/|u| = {change:.2e}, step {step:g}, {kry} GMRES steps "
+                  f"({time.perf_counter() - t0:.1f} s)", file=sys.stderr)
+        if change < tol and step == 1.0:
             return x, it, factor
     raise ModelFailure(f"steady Navier-Stokes did not converge in {max_iter} Newton steps "
                        f"(last relative velocity update {change:.2e})")

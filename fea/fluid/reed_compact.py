@@ -1,0 +1,147 @@
+"""Compact forms of a reed valve's flow from its 3-D Navier-Stokes and film solves, cached on disk.
+
+:func:`characterise` runs, for one reed valve (:class:`fea.fluid.reed3d.ReedValveFlow`):
+
+- pressure sweeps (:func:`fea.fluid.reed3d.pressure_sweep`) at tip openings that are
+  fractions of the stop gap (:data:`OPENING_FRACTIONS`), aiming at the Reynolds numbers of
+  eq 3.87 in :data:`REYNOLDS` (up to the pump's maximum);
+- moving-wall solves (:func:`fea.fluid.reed3d.displacement_sweep`) at
+  :data:`DISPLACEMENT_FRACTIONS` of the stop and tip speeds +-:data:`TIP_SPEED`;
+- the sealing film (:func:`fea.fluid.reed_film.reed_film`) at the smallest opening: X in the
+  Poiseuille regime with F4 computed, and the squeeze coefficient;
+
+and :func:`fit_forms` turns them into the forms the lumped reed model reads:
+
+- Cd(Re) in eq 3.88's form (Wu et al. 2002; :func:`fea.fluid.compact.wu`), least squares over
+  every point, lift-independent and with an effective Reynolds number Re (x / x_stop)^k;
+- X(x) as a table: at each opening the mean of X over the points in the pump's Reynolds range
+  (:data:`PUMP_REYNOLDS`; the thesis's X depends on x only), below the smallest opening the
+  film's Poiseuille plateau; the opening where the table reaches 0, if it does;
+- f1, f2 (eq 3.26): the means over the openings of the closing and the opening speed.
+
+The result with its provenance (grid, DOFs, seconds, fit residuals) is a JSON file keyed by a
+hash of everything it depends on (:func:`reed_key`), in the cache directory of part one's
+forms (:func:`fea.fluid.compact.cache_dir`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+import time
+from dataclasses import asdict
+
+import numpy as np
+
+from .compact import cache_dir, fit_cd, store
+from .reed3d import ReedValveFlow, displacement_sweep, pressure_sweep
+from .reed_film import reed_film
+
+#: version of the reed forms (part of the cache key)
+FORMS_VERSION = "reed-1"
+#: tip openings of the pressure sweeps, fractions of the stop gap (0.1 to 1.7 mm for the prototype)
+OPENING_FRACTIONS = (0.05, 0.15, 0.3, 0.5, 0.7, 0.9)
+#: Reynolds numbers of eq 3.87 aimed at (the thesis pump peaks near 62: 1.1e-4 m^3/s at 893 rpm)
+REYNOLDS = (1.0, 3.0, 10.0, 25.0, 62.0)
+#: the pump's range of Re over which X is averaged
+PUMP_REYNOLDS = (3.0, 62.0)
+#: openings (fractions of the stop) and tip speed [m/s] of the moving-wall solves
+DISPLACEMENT_FRACTIONS = (0.15, 0.5, 0.9)
+TIP_SPEED = 0.1
+#: eq 3.89's coefficients: the start of the Cd fit
+CD_START = (0.5740, 6.144, 0.3661, 0.3379)
+
+
+def _say(progress: bool, text: str) -> None:
+    if progress:
+        print(text, file=sys.stderr)
+
+
+def reed_key(valve: ReedValveFlow) -> str:
+    """Hash of what the forms depend on: reed, seat, shape, oil, orifice definitions, mesh, grid, version."""
+    s, psi = valve.shape
+    what = {"reed": repr(valve.reed), "seat": asdict(valve.seat), "fluid": asdict(valve.fluid),
+            "shape": [round(float(v), 9) for v in np.interp(np.linspace(0, valve.reed.length, 41), s, psi)],
+            "definitions": [valve.orifice_length, valve.orifice_perimeter, valve.area_min, valve.area_max],
+            "mesh": repr(valve.mesh), "openings": OPENING_FRACTIONS, "reynolds": REYNOLDS,
+            "displacement": [DISPLACEMENT_FRACTIONS, TIP_SPEED], "version": FORMS_VERSION}
+    return hashlib.sha256(json.dumps(what, sort_keys=True, default=str).encode()).hexdigest()[:20]
+
+
+def characterise(valve: ReedValveFlow, progress: bool = True) -> dict:
+    """The 3-D and film points of :func:`fit_forms` (module docstring), with wall and CPU seconds."""
+    t0, c0 = time.perf_counter(), time.process_time()
+    stop = valve.seat.stop_gap
+    rows = []
+    for f in OPENING_FRACTIONS:
+        rows += [asdict(p) for p in pressure_sweep(valve, f * stop, REYNOLDS, progress=progress)]
+    moving = []
+    for f in DISPLACEMENT_FRACTIONS:
+        moving += [asdict(p) for p in displacement_sweep(valve, f * stop, (-TIP_SPEED, TIP_SPEED),
+                                                         progress=progress)]
+    film = reed_film(valve, OPENING_FRACTIONS[0] * stop / 5)
+    return {"rows": rows, "moving": moving, "film": asdict(film), "wall_seconds": time.perf_counter() - t0,
+            "cpu_seconds": time.process_time() - c0}
+
+
+def multiplier_table(rows: list[dict], plateau: float) -> dict:
+    """X(x): per opening the mean X over the rows in :data:`PUMP_REYNOLDS` (the Stokes limit where
+    none reached it), the film's plateau first; and where the table first reaches 0 (None if not)."""
+    xs = sorted({r["opening"] for r in rows})
+    table = [(0.0, plateau)]
+    for x in xs:
+        sel = [r["multiplier"] for r in rows if r["opening"] == x and PUMP_REYNOLDS[0] <= r["reynolds"] <= PUMP_REYNOLDS[1]]
+        if not sel:
+            sel = [r["multiplier"] for r in rows if r["opening"] == x and r["dp"] == 1.0]
+        table.append((x, float(np.mean(sel))))
+    zero = None
+    for (xa, Xa), (xb, Xb) in zip(table[:-1], table[1:]):
+        if Xa > 0.0 >= Xb:
+            zero = xa + (xb - xa) * Xa / (Xa - Xb)
+            break
+    return {"opening": [t[0] for t in table], "X": [t[1] for t in table], "zero_opening": zero}
+
+
+def fit_forms(raw: dict, valve: ReedValveFlow) -> dict:
+    """The compact forms (module docstring) from :func:`characterise`'s points."""
+    stop = valve.seat.stop_gap
+    rows = [r for r in raw["rows"] if r["dp"] != 1.0]       # the Stokes-limit rows have Re ~ 0
+    re = [r["reynolds"] for r in rows]
+    xr = [r["opening"] / stop for r in rows]
+    cd = [r["cd"] for r in rows]
+    closing = [m["fraction"] for m in raw["moving"] if m["speed"] < 0.0]
+    opening = [m["fraction"] for m in raw["moving"] if m["speed"] > 0.0]
+    film = raw["film"]
+    return {
+        "cd": fit_cd(re, xr, cd, False, p0=CD_START), "cd_lift": fit_cd(re, xr, cd, True, p0=CD_START),
+        "multiplier": multiplier_table(raw["rows"], film["multiplier"]),
+        "multiplier_poiseuille": film["multiplier"], "base_fraction": film["base_fraction"],
+        "f1": float(np.mean(closing)) if closing else None, "f2": float(np.mean(opening)) if opening else None,
+        "f1_by_opening": closing, "f2_by_opening": opening,
+        "reynolds_range": [float(min(re)), float(max(re))] if re else None,
+        "opening_range": [float(min(r["opening"] for r in raw["rows"])), float(max(r["opening"] for r in raw["rows"]))],
+        "pump_reynolds": list(PUMP_REYNOLDS),
+    }
+
+
+def compact_forms(valve: ReedValveFlow, recompute: bool = False, progress: bool = True) -> dict:
+    """The reed valve's compact forms: cached, or computed and cached. ``{"key", "forms", "points", "provenance"}``."""
+    key = reed_key(valve)
+    path = cache_dir() / f"reed-{key}.json"
+    if not recompute and path.exists():
+        try:
+            return json.loads(path.read_text())
+        except (OSError, ValueError):
+            pass
+    _say(progress, f"fluid: characterising the reed valve {valve.reed.name} ({len(OPENING_FRACTIONS)} openings x "
+                   f"{len(REYNOLDS)} Re in 3-D; tens of minutes, cached afterwards in {cache_dir()})")
+    raw = characterise(valve, progress=progress)
+    data = {"key": key, "reed": valve.reed.name, "forms": fit_forms(raw, valve),
+            "points": {"pressure": raw["rows"], "moving": raw["moving"], "film": raw["film"]},
+            "provenance": {"version": FORMS_VERSION, "mesh": repr(valve.mesh), "openings": OPENING_FRACTIONS,
+                           "reynolds": REYNOLDS, "tip_speed": TIP_SPEED, "wall_seconds": raw["wall_seconds"],
+                           "cpu_seconds": raw["cpu_seconds"], "density": valve.fluid.rho,
+                           "viscosity": valve.fluid.mu}}
+    store(data, path)
+    return data
