@@ -136,3 +136,28 @@ def test_moving_wall_conserves_volume(valve):
     # the port supplies part of the volume the reed's upstream face sweeps: 0 < A_Q < A_2 (eq 3.29)
     s, y, w = reed3d.face_rule(valve.reed)
     assert 0.0 < 2 * q_in < float(np.sum(w * valve.psi(s)))
+
+
+# ------------------------------------------------------------------------------ slow studies
+@pytest.mark.slow
+def test_small_opening_agrees_with_the_thin_film():
+    """At 0.05 mm (gap / land = 0.03) the 3-D Stokes flow's X and leakage within 2 % of the film's."""
+    from fea.fluid import reed_film
+
+    valve = reed3d.prototype_valve(reed3d.STUDY_MESHES[2])
+    x = 0.05e-3
+    p = reed3d.pressure_sweep(valve, x, ())[0]
+    film = reed_film.reed_film(valve, x)
+    assert p.multiplier == pytest.approx(film.multiplier, rel=0.02)
+    assert p.flow == pytest.approx(film.flow, rel=0.02)
+
+
+@pytest.mark.slow
+def test_mesh_study_converges_at_a_small_and_a_large_opening():
+    valve = reed3d.prototype_valve()
+    for x, dps in ((0.25e-3, (1.0,)), (1.0e-3, (1.0, 2.0e4))):
+        study = reed3d.mesh_study(valve, x, dps)
+        for dp in dps:
+            for key in ("cd", "multiplier"):
+                g = study[dp][key]
+                assert g.gci_fine_pct is not None and g.gci_fine_pct < 5.0, (x, dp, key, g.note)

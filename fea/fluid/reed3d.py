@@ -45,7 +45,8 @@ class ReedValveFlow:
 
     ``shape``: (s [m], psi) with psi(L) = 1 (the deflected shape and the mode function);
     ``orifice_length`` l_o [m] and ``orifice_perimeter`` p_o [m] define Cd and Re (eqs 3.25,
-    3.86); ``area_min`` A_1 and ``area_max`` A_2 [m^2] define f (eq 3.26).
+    3.86); ``area_min`` A_1 and ``area_max`` A_2 [m^2] define f (eq 3.26); ``stiffness``
+    kappa [Pa/m] (eq 3.30) sets the pressure differences worth computing (:func:`pressure_cap`).
     """
 
     reed: Reed
@@ -56,6 +57,7 @@ class ReedValveFlow:
     orifice_perimeter: float
     area_min: float
     area_max: float
+    stiffness: float
     mesh: MeshOptions = field(default_factory=MeshOptions)
 
     def psi(self, s):
@@ -141,6 +143,17 @@ def point_outputs(system: ns3d.System, x: np.ndarray, valve: ReedValveFlow, open
                      dofs=system.ndofs, newton_steps=steps, seconds=seconds, peak_rss_gb=_peak_rss_gb())
 
 
+#: the pressure differences a reed valve sees: up to this multiple of the quasi-static kappa x
+#: (eq 3.82 with X = 1: the reed held at x by its stiffness; X < 1 and the reed's inertia and
+#: damping raise dP above it in the pump, by less than this factor where X > 0.1)
+DP_SCALE = 10.0
+
+
+def pressure_cap(valve: ReedValveFlow, opening: float) -> float:
+    """Largest dP [Pa] of a sweep at tip opening ``opening`` [m]: DP_SCALE kappa x (module docstring)."""
+    return DP_SCALE * valve.stiffness * opening
+
+
 def _guess(history: list[tuple[float, np.ndarray]], dp: float, n3: int) -> np.ndarray:
     """Initial state at dp from the last solutions: velocity scaled by (dp / dp_last)^a, a the
     last two points' d ln|u| / d ln dp (1 in the Stokes regime, -> 1/2 with inertia); pressure by dp / dp_last."""
@@ -168,7 +181,7 @@ def _next_dp(points: list[FlowPoint], reynolds: float) -> float:
 
 
 def pressure_sweep(valve: ReedValveFlow, opening: float, reynolds=(), progress: bool = True,
-                   on_point=None, dps=None) -> list[FlowPoint]:
+                   on_point=None, dps=None, dp_max: float | None = None) -> list[FlowPoint]:
     """Steady flows at tip opening ``opening`` [m] toward increasing Reynolds numbers ``reynolds`` (eq 3.87).
 
     One mesh; the Stokes limit first (at dP = 1 Pa, Re -> 0), then Navier-Stokes by Newton
@@ -177,7 +190,9 @@ def pressure_sweep(valve: ReedValveFlow, opening: float, reynolds=(), progress: 
     from the previous solutions (:func:`_guess`) and reuses the last factorization as GMRES
     preconditioner. ``dps`` [Pa]: solve at these pressure differences instead (a mesh study
     compares meshes at one dP). ``on_point(point)`` is called after each solve (e.g. to save
-    it). Stops at the first point where Newton fails (the reason on stderr).
+    it). ``dp_max`` [Pa]: the largest pressure difference of a Reynolds-aimed sweep (the
+    last point is solved at it when an aim needs more; :func:`pressure_cap`). Stops at the
+    first point where Newton fails (the reason on stderr).
     """
     t0 = time.perf_counter()
     fm = fluid_mesh(valve.reed, valve.seat, opening, valve.shape, valve.mesh)
@@ -194,7 +209,11 @@ def pressure_sweep(valve: ReedValveFlow, opening: float, reynolds=(), progress: 
     aims = [(float(d), None) for d in sorted(dps)] if dps is not None else [
         (None, float(r)) for r in sorted(reynolds)]
     for dp, re in aims:
-        dp = _next_dp(out, re) if dp is None else dp
+        capped = False
+        if dp is None:
+            dp = _next_dp(out, re)
+            if dp_max is not None and dp >= dp_max:
+                dp, capped = dp_max, True
         t1 = time.perf_counter()
         try:
             x, steps, factor = ns3d.newton(system, dp * unit, _guess(history, dp, n3), factor=factor,
@@ -210,6 +229,8 @@ def pressure_sweep(valve: ReedValveFlow, opening: float, reynolds=(), progress: 
             p = out[-1]
             print(f"  dP = {dp:.4g} Pa: Re = {p.reynolds:.3g}, Cd = {p.cd:.4f}, X = {p.multiplier:.4f} "
                   f"({steps} steps, {p.seconds:.0f} s, {p.peak_rss_gb:.1f} GB)", file=sys.stderr)
+        if capped:
+            break
     if factor is not None:
         factor.free()
     return out
@@ -304,10 +325,11 @@ def orifice_definitions(reed: Reed, seat: ReedSeat, shape) -> tuple[float, float
 
 def valve_flow(reed: Reed, seat: ReedSeat | None = None, fidelity: str = "analytic", fluid: ns3d.Fluid | None = None,
                definitions: tuple[float, float, float, float] | None = None,
-               mesh: MeshOptions | None = None) -> ReedValveFlow:
+               mesh: MeshOptions | None = None, stiffness: float | None = None) -> ReedValveFlow:
     """A :class:`ReedValveFlow` for ``reed``: its static shape from the reed ``fidelity``
     (:mod:`fea.fidelities`), the thesis oil at 22 C unless ``fluid``, and the orifice
-    definitions (l_o, p_o, A_1, A_2) given or computed over the port (:func:`orifice_definitions`)."""
+    definitions (l_o, p_o, A_1, A_2) given or computed over the port (:func:`orifice_definitions`);
+    kappa [Pa/m] given or the fidelity's."""
     from lumped.oil import thesis_oil_viscosity
 
     from ..fidelities import get
@@ -322,20 +344,22 @@ def valve_flow(reed: Reed, seat: ReedSeat | None = None, fidelity: str = "analyt
     defs = orifice_definitions(reed, seat, shape) if definitions is None else definitions
     return ReedValveFlow(reed=reed, seat=seat, shape=shape, fluid=fluid, orifice_length=defs[0],
                          orifice_perimeter=defs[1], area_min=defs[2], area_max=defs[3],
+                         stiffness=float(props.kappa if stiffness is None else stiffness),
                          mesh=MeshOptions() if mesh is None else mesh)
 
 
 def prototype_valve(mesh: MeshOptions | None = None) -> ReedValveFlow:
     """The thesis's prototype reed valve with the definitions its bench data were reduced with:
     l_o = 19.4 mm, p_o = 91.2 mm, A_1 = 55.1 mm^2, A_2 = 338.4 mm^2 and the oil of the
-    ``thesis-reed`` model (Table 3.13; A_2 as the model uses it, docs/errata.md)."""
+    ``thesis-reed`` model (Table 3.13; A_2 as the model uses it, docs/errata.md), and its
+    measured kappa = 7.709 MPa/m."""
     from geometry.reed_io import load_reed
     from lumped.model_file import load_model
 
     model = load_model("thesis-reed")
     v = model.inlet
     fluid = ns3d.Fluid(model.oil.density, model.oil.viscosity)
-    return valve_flow(load_reed("prototype"), fluid=fluid, mesh=mesh,
+    return valve_flow(load_reed("prototype"), fluid=fluid, mesh=mesh, stiffness=v.stiffness,
                       definitions=(v.orifice_length, v.orifice_perimeter, v.area_min, v.area_max))
 
 

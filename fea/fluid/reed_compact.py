@@ -4,7 +4,9 @@
 
 - pressure sweeps (:func:`fea.fluid.reed3d.pressure_sweep`) at tip openings that are
   fractions of the stop gap (:data:`OPENING_FRACTIONS`), aiming at the Reynolds numbers of
-  eq 3.87 in :data:`REYNOLDS` (up to the pump's maximum);
+  eq 3.87 in :data:`REYNOLDS` (up to the pump's maximum) as far as the pressure differences a
+  reed held open by its stiffness sees (:func:`fea.fluid.reed3d.pressure_cap`): a small
+  opening never carries the pump's largest flows;
 - moving-wall solves (:func:`fea.fluid.reed3d.displacement_sweep`) at
   :data:`DISPLACEMENT_FRACTIONS` of the stop and tip speeds +-:data:`TIP_SPEED`;
 - the sealing film (:func:`fea.fluid.reed_film.reed_film`) at the smallest opening: X in the
@@ -35,7 +37,7 @@ from dataclasses import asdict
 import numpy as np
 
 from .compact import cache_dir, fit_cd, store
-from .reed3d import ReedValveFlow, displacement_sweep, pressure_sweep
+from .reed3d import ReedValveFlow, displacement_sweep, pressure_cap, pressure_sweep
 from .reed_film import reed_film
 
 #: version of the reed forms (part of the cache key)
@@ -69,17 +71,30 @@ def reed_key(valve: ReedValveFlow) -> str:
     return hashlib.sha256(json.dumps(what, sort_keys=True, default=str).encode()).hexdigest()[:20]
 
 
-def characterise(valve: ReedValveFlow, progress: bool = True) -> dict:
-    """The 3-D and film points of :func:`fit_forms` (module docstring), with wall and CPU seconds."""
+def characterise(valve: ReedValveFlow, progress: bool = True, log=None) -> dict:
+    """The 3-D and film points of :func:`fit_forms` (module docstring), with wall and CPU seconds.
+
+    ``log``: a path to which every point is appended as a JSON line as soon as it is solved.
+    """
     t0, c0 = time.perf_counter(), time.process_time()
     stop = valve.seat.stop_gap
+
+    def keep(point) -> dict:
+        row = {k: float(v) for k, v in asdict(point).items()}
+        if log is not None:
+            with open(log, "a") as fh:
+                fh.write(json.dumps(row) + "\n")
+        return row
+
     rows = []
     for f in OPENING_FRACTIONS:
-        rows += [asdict(p) for p in pressure_sweep(valve, f * stop, REYNOLDS, progress=progress)]
+        x = f * stop
+        rows += [keep(p) for p in pressure_sweep(valve, x, REYNOLDS, progress=progress,
+                                                 dp_max=pressure_cap(valve, x))]
     moving = []
     for f in DISPLACEMENT_FRACTIONS:
-        moving += [asdict(p) for p in displacement_sweep(valve, f * stop, (-TIP_SPEED, TIP_SPEED),
-                                                         progress=progress)]
+        moving += [keep(p) for p in displacement_sweep(valve, f * stop, (-TIP_SPEED, TIP_SPEED),
+                                                       progress=progress)]
     film = reed_film(valve, OPENING_FRACTIONS[0] * stop / 5)
     return {"rows": rows, "moving": moving, "film": asdict(film), "wall_seconds": time.perf_counter() - t0,
             "cpu_seconds": time.process_time() - c0}
@@ -125,8 +140,11 @@ def fit_forms(raw: dict, valve: ReedValveFlow) -> dict:
     }
 
 
-def compact_forms(valve: ReedValveFlow, recompute: bool = False, progress: bool = True) -> dict:
-    """The reed valve's compact forms: cached, or computed and cached. ``{"key", "forms", "points", "provenance"}``."""
+def compact_forms(valve: ReedValveFlow, recompute: bool = False, progress: bool = True, log=None) -> dict:
+    """The reed valve's compact forms: cached, or computed and cached. ``{"key", "forms", "points", "provenance"}``.
+
+    ``log``: a path that receives every solved point as a JSON line (:func:`characterise`).
+    """
     key = reed_key(valve)
     path = cache_dir() / f"reed-{key}.json"
     if not recompute and path.exists():
@@ -136,7 +154,7 @@ def compact_forms(valve: ReedValveFlow, recompute: bool = False, progress: bool 
             pass
     _say(progress, f"fluid: characterising the reed valve {valve.reed.name} ({len(OPENING_FRACTIONS)} openings x "
                    f"{len(REYNOLDS)} Re in 3-D; tens of minutes, cached afterwards in {cache_dir()})")
-    raw = characterise(valve, progress=progress)
+    raw = characterise(valve, progress=progress, log=log)
     data = {"key": key, "reed": valve.reed.name, "forms": fit_forms(raw, valve),
             "points": {"pressure": raw["rows"], "moving": raw["moving"], "film": raw["film"]},
             "provenance": {"version": FORMS_VERSION, "mesh": repr(valve.mesh), "openings": OPENING_FRACTIONS,
