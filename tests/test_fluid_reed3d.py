@@ -63,7 +63,7 @@ def test_duct_navier_stokes_keeps_the_developed_profile(duct):
     assert steps <= 8
 
 
-COARSE = MeshOptions(1.2e-3, 4e-3, Layers(port=1, gap=1, reed=1, above=1))
+COARSE = MeshOptions(1.2e-3, 4e-3, Layers(port=1, gap=2, reed=1, above=1))
 
 
 @pytest.fixture(scope="module")

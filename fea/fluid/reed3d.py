@@ -366,7 +366,7 @@ def prototype_valve(mesh: MeshOptions | None = None) -> ReedValveFlow:
 # ------------------------------------------------------------------------------ mesh study
 #: the three meshes of the GCI (plan sizes and layers refined together; the medium one is the default)
 STUDY_MESHES = (
-    MeshOptions(1.0e-3, 3.5e-3, Layers(port=1, gap=1, reed=1, above=2)),
+    MeshOptions(1.0e-3, 3.5e-3, Layers(port=1, gap=2, reed=1, above=1)),
     MeshOptions(),
     MeshOptions(0.5e-3, 1.8e-3, Layers(port=2, gap=3, reed=1, above=3)),
 )

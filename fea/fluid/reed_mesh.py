@@ -276,6 +276,15 @@ class Layers:
     reed: int = 1           # per interval between groove depths and the reed's thickness
     above: int = 3
 
+    def __post_init__(self):
+        # one element across the film puts every velocity node of its cells on a wall: pressure
+        # nodes there get no equation (a singular Taylor-Hood system)
+        if self.gap < 2:
+            raise InputError("layers.gap", f"the film needs at least 2 element layers, got {self.gap}")
+        for key in ("port", "reed", "above"):
+            if getattr(self, key) < 1:
+                raise InputError(f"layers.{key}", f"must be at least 1, got {getattr(self, key)}")
+
 
 @dataclass(frozen=True)
 class FluidMesh:
@@ -357,8 +366,8 @@ class MeshOptions:
 
     def refined(self, factor: float) -> "MeshOptions":
         """Sizes divided by ``factor`` and every layer count multiplied by it (rounded, at least 1)."""
-        lay = Layers(*(max(1, int(round(n * factor))) for n in (self.layers.port, self.layers.gap,
-                                                                  self.layers.reed, self.layers.above)))
+        lay = Layers(*(max(lo, int(round(n * factor))) for lo, n in zip((1, 2, 1, 1), (
+            self.layers.port, self.layers.gap, self.layers.reed, self.layers.above))))
         return MeshOptions(self.size_min / factor, self.size_max / factor, lay)
 
 
