@@ -101,7 +101,7 @@ def from_confusion(paths) -> list[dict]:
 
 def scaling(workers: int, figure: Path | None, progress: bool = True, largest: int | None = None) -> list[dict]:
     """Wall seconds and simulations of the O-ring story on 4-12 runs; a figure of both vs runs."""
-    from lumped.effects import Applied
+    from lumped.model.effects import Applied
     from studies.discrepancy.model_choice import choose
     from studies.discrepancy.synth import Condition, Noise, synthesize
     from studies.discrepancy.workflow import Settings, Workflow
@@ -166,7 +166,7 @@ def main() -> int:
     ap.add_argument("--save", action="store_true")
     args = ap.parse_args()
 
-    from lumped.cycle import ensure_compiled
+    from lumped.run.simulate import ensure_compiled
 
     load0 = os.getloadavg()
     compile_s = ensure_compiled()

@@ -4,7 +4,7 @@ Run on demand from the repository root: ``python benchmarks/bench_pump.py [--qui
 [--repeat R]``; prints one JSON object. For each valve type it simulates the thesis's
 validation cases (Tables 5.4 and 5.6; ``--quick``: the first of each) for five
 revolutions, as the thesis did (section 5.6: 23 s of CPU per simulated second), with
-``lumped.cycle.simulate`` on the fast stepper (compiled Rodas4P, default tolerances) and
+``lumped.run.simulate.simulate`` on the fast stepper (compiled Rodas4P, default tolerances) and
 on the reference stepper (scipy Radau, its defaults), one after the other in this
 process, and reports CPU seconds per simulated second of each (per case, the median over
 the cases of each valve kind, and the total), their ratio, steps per revolution and CPU
@@ -29,9 +29,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from lumped import steppers  # noqa: E402
-from lumped.cycle import DEFAULT_TOLERANCES, ensure_compiled, simulate  # noqa: E402
-from lumped.valve import KINDS  # noqa: E402
+from lumped.solver import steppers  # noqa: E402
+from lumped.run.simulate import DEFAULT_TOLERANCES, ensure_compiled, simulate  # noqa: E402
+from lumped.valves.kind import KINDS  # noqa: E402
 from studies.tables.thesis import experiments  # noqa: E402
 
 

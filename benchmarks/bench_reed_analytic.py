@@ -14,7 +14,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from geometry import PRESETS, load_reed  # noqa: E402
-from lumped import reed_beam as rb  # noqa: E402
+from lumped.reed import euler_bernoulli as rb  # noqa: E402
 
 
 def best_of(f, repeat):

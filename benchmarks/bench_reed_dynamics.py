@@ -28,7 +28,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from lumped import load_model, simulate, with_values  # noqa: E402
-from lumped.cycle import ensure_compiled  # noqa: E402
+from lumped.run.simulate import ensure_compiled  # noqa: E402
 from studies.validation.chain import cases as table_cases  # noqa: E402
 
 GEOMETRY = {"valves.geometry": "prototype", "valves.fidelity": "beam"}

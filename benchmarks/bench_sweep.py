@@ -117,7 +117,7 @@ def _long_run(design: dict) -> tuple[float, float, float]:
     """(delivery [m^3] of a 40-revolution run from today's start, spread of its last ten revolutions [-],
     delivery of the sharp reference [m^3]: 12 revolutions at rtol 1e-5, a hundred times tighter than the
     sweep's, whose last revolutions agree to ~1e-7)."""
-    from lumped.cycle import simulate
+    from lumped.run.simulate import simulate
     from studies.sweeps.pump import build_model
 
     model = build_model(design)

@@ -134,7 +134,7 @@ def _before(rev: str, plain: bool, full: bool) -> dict:
                        capture_output=True)
         try:
             print(f"compiling the fast path of {rev} ...", file=sys.stderr, flush=True)
-            subprocess.run([sys.executable, "-c", "from lumped.cycle import ensure_compiled; ensure_compiled()"],
+            subprocess.run([sys.executable, "-c", "from lumped.run.simulate import ensure_compiled; ensure_compiled()"],
                            cwd=tree, env={**os.environ, "PYTHONPATH": str(tree)}, check=True, capture_output=True)
             if plain:
                 print(f"validate --no-uncertainty ({rev}) ...", file=sys.stderr, flush=True)

@@ -9,13 +9,13 @@ rtol 1e-3 and 1e-4):
   31-40), from today's start (cold) and from the cycle of a design 3 % faster at a 3 % lower load
   (warm); the ratio of the second revolution's error to the first's bounds how much the
   steady-state test's change (the previous revolution's) overstates the last revolution's error
-  (lumped.revolutions.STEADY_TOL rests on it);
+  (lumped.run.revolutions.STEADY_TOL rests on it);
 - reference spread: what validate reports (delivery, peak openings) on the reference stepper,
   revolution after revolution of one cycle (the reed cases of Table 5.6);
 - solvers: revolutions until the steady-state test passes (change of delivery and TDC state
   below tol) and the delivery's error against the cycle then, for three ways to the cycle on the
   TDC state x (each valve's coordinates and rates over its stop gap, the masses over one swept
-  volume's): plain revolutions x <- F(x) (lumped.revolutions.run: what the studies use),
+  volume's): plain revolutions x <- F(x) (lumped.run.revolutions.run: what the studies use),
   Anderson acceleration (type II, memory 2; Walker & Ni 2011) and Newton on x - F(x) = 0 with a
   forward-difference Jacobian (one revolution per state, n_dyn + 1 per iteration). The
   simplified circuit (the complete circuit's needle-valve tuning moves the problem between
@@ -60,9 +60,9 @@ class Map:
     def __init__(self, model, speed, load, air, rtol):
         from dataclasses import replace
 
-        from lumped.cycle import _physics, ensure_compiled
-        from lumped.problem import PumpProblem
-        from lumped.steppers import METHODS
+        from lumped.run.simulate import _physics, ensure_compiled
+        from lumped.solver.problem import PumpProblem
+        from lumped.solver.steppers import METHODS
 
         ensure_compiled()
         m = replace(model, oil=replace(model.oil, air_content=air))
@@ -78,8 +78,8 @@ class Map:
         return self.problem.initial_state(self.physics.load_mass)[: self.n] / self.scale
 
     def __call__(self, x):
-        from lumped.layout import N_MODE
-        from lumped.revolutions import mode_for
+        from lumped.solver.layout import N_MODE
+        from lumped.run.revolutions import mode_for
 
         p = self.problem
         y = np.zeros(p.layout.n_states)
@@ -162,9 +162,9 @@ def predictors(n_designs: int = 40, seed: int = 5) -> dict:
 
     from scipy.stats import qmc
 
-    from lumped.cycle import simulate
-    from lumped.revolutions import StopRule
-    from lumped.warmstart import WarmStarts, chain_order
+    from lumped.run.simulate import simulate
+    from lumped.run.revolutions import StopRule
+    from lumped.run.warmstart import WarmStarts, chain_order
     from studies.sweeps.design import evaluate as dev
     from studies.sweeps.design import study
     from studies.sweeps.design.spec import parse_spec
@@ -212,8 +212,8 @@ def reference_spread(revolutions: int = 6) -> dict:
     on the reference stepper from the fast path's cycle, ``revolutions`` revolutions one at a time; the spread
     (max - min) of its delivery [cc] and of each valve's peak opening [mm] (the largest opening at the
     stepper's step ends) over them."""
-    from lumped.cycle import simulate
-    from lumped.warmstart import fast_start
+    from lumped.run.simulate import simulate
+    from lumped.run.warmstart import fast_start
     from studies.validation.chain import case_name, cases, thesis_model_of
 
     out = []
@@ -239,7 +239,7 @@ def reference_spread(revolutions: int = 6) -> dict:
 
 
 def run(n_random: int = 12) -> dict:
-    from lumped.cycle import simulate
+    from lumped.run.simulate import simulate
 
     contraction = []
     solvers = {name: {"cold": [], "warm": []} for name in ("plain", "anderson", "newton")}

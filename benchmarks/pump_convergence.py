@@ -16,7 +16,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from lumped.cycle import simulate  # noqa: E402
+from lumped.run.simulate import simulate  # noqa: E402
 
 CASES = {"disc": (593.0, 2.76e6), "reed": (595.0, 2.76e6)}
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from lumped.cycle import simulate  # noqa: E402
+from lumped.run.simulate import simulate  # noqa: E402
 from studies.validation.chain import cases  # noqa: E402
 
 

@@ -4,7 +4,7 @@ Run on demand from the repository root: ``python benchmarks/pump_step_anatomy.py
 disc|reed] [--speed-rpm N] [--load-pressure-mpa P] [--air-content R] [--effect NAME@TARGET ...]
 [--rtol TOL]``; prints one JSON object (progress on stderr). Default: the first validation case of
 each valve kind (Tables 5.4 and 5.6), the fast path's own tolerance. ``--effect``: a candidate effect
-of the discrepancy workflow's library (lumped/effect_library.py) at its prior values on the baseline
+of the discrepancy workflow's library (lumped/model/effect_library.py) at its prior values on the baseline
 (every effect off), repeatable, e.g. the slowest discrepancy dataset's models: ``--valve disc
 --speed-rpm 593 --load-pressure-mpa 2.76 --air-content 0.013 --rtol 1e-5 --effect
 seat_compliance@inlet --effect squeeze_film@delivery --effect flow_force@both``
@@ -16,8 +16,8 @@ from the first state the compiled run recorded in it to its end, by a plain nump
 the model's own compiled right-hand side, Jacobian and tolerances and the compiled solver's
 step-size controller (Gustafsson's, safety 0.9, step ratio 0.2-6), once with Rodas4P and once
 with Rodas5P (Steinebach 2023, 8 stages, order 5 with an embedded order-4 estimate; controller
-exponent 1/5), both the compiled solver's tableaus (:mod:`lumped.rodas`; the fast path takes
-Rodas5P at tight tolerances and with a flow force, ``lumped.steppers.rodas_order``). Events are not located inside a
+exponent 1/5), both the compiled solver's tableaus (:mod:`lumped.solver.rodas`; the fast path takes
+Rodas5P at tight tolerances and with a flow force, ``lumped.solver.steppers.rodas_order``). Events are not located inside a
 segment, so the counts leave out the event steps and their retries: they compare the methods
 on the smooth stretches, where the step size is the integrator's choice.
 
@@ -45,16 +45,16 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from lumped import rodas  # noqa: E402
-from lumped import steppers  # noqa: E402
-from lumped.cycle import ensure_compiled, simulate  # noqa: E402
+from lumped.solver import rodas  # noqa: E402
+from lumped.solver import steppers  # noqa: E402
+from lumped.run.simulate import ensure_compiled, simulate  # noqa: E402
 from studies.tables.thesis import experiments  # noqa: E402
 
 RHS_US, STEP_US = 0.43, 2.3   # README: per right-hand side with its stage solve; the rest of a step
 
 
 def rodas4p() -> tuple:
-    """(gamma, a, C, d, c, order) of Rodas4P in the transformed form of lumped.rodas (6 stages)."""
+    """(gamma, a, C, d, c, order) of Rodas4P in the transformed form of lumped.solver.rodas (6 stages)."""
     r = rodas
     a, cm, d, c = np.zeros((6, 6)), np.zeros((6, 6)), np.zeros(6), np.zeros(6)
     a[1, 0] = r.A21
@@ -73,7 +73,7 @@ def rodas4p() -> tuple:
 
 
 def rodas5p() -> tuple:
-    """(gamma, a, C, d, c, order) of Rodas5P (Steinebach 2023) in the same form (8 stages), from lumped.rodas."""
+    """(gamma, a, C, d, c, order) of Rodas5P (Steinebach 2023) in the same form (8 stages), from lumped.solver.rodas."""
     r = rodas
     a, cm, d, c = np.zeros((8, 8)), np.zeros((8, 8)), np.zeros(8), np.zeros(8)
     a[1, 0] = r.P_A21
@@ -199,8 +199,8 @@ def with_effects(valve: str, effects: list[str]):
     """The thesis model of ``valve`` with the effects ``NAME[@TARGET][:PARAM=VALUE,...]`` (as ``valvelab synth
     --effect`` reads them: unset parameters at their priors) on the baseline (every candidate effect off), as the
     discrepancy workflow simulates them; the shipped model itself if none."""
-    from lumped.effect_library import LIBRARY, baseline
-    from lumped.model_file import load_model
+    from lumped.model.effect_library import LIBRARY, baseline
+    from lumped.model.model_file import load_model
     from studies.cli.synth import parse_effect
 
     m = load_model(f"thesis-{valve}")

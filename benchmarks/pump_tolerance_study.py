@@ -12,8 +12,8 @@ setting below, and the study reports per setting and valve type: Rosenbrock step
 attempts per revolution (the machine-independent measure of work), CPU ms per
 simulated second (median of two runs), the worst delivery deviation and the worst
 opening/closing angle deviation from the reference, and how many cases count a different
-number of stop contacts. The defaults (``lumped.cycle.DEFAULT_TOLERANCES``, the per-state
-multipliers of ``lumped.steppers`` and each valve kind's contact tolerances) keep
+number of stop contacts. The defaults (``lumped.run.simulate.DEFAULT_TOLERANCES``, the per-state
+multipliers of ``lumped.solver.steppers`` and each valve kind's contact tolerances) keep
 every case within 0.03 % (delivery), 0.5 deg (angles, the bound of tests/test_pump_fast.py)
 and the reference's contact counts; a looser rtol saves a few percent of the steps for a
 larger deviation, and the margin is kept for designs outside these cases.
@@ -33,13 +33,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from lumped import steppers as fast  # noqa: E402
-from lumped.cycle import simulate  # noqa: E402
-from lumped.valve import KINDS  # noqa: E402
+from lumped.solver import steppers as fast  # noqa: E402
+from lumped.run.simulate import simulate  # noqa: E402
+from lumped.valves.kind import KINDS  # noqa: E402
 from studies.sweeps.random_designs import random_design  # noqa: E402
 from studies.tables.thesis import experiments  # noqa: E402
 
-# (name, attributes of lumped.steppers (or "kind.attribute" of a valve kind) to set, simulate keyword arguments)
+# (name, attributes of lumped.solver.steppers (or "kind.attribute" of a valve kind) to set, simulate keyword arguments)
 SETTINGS = [
     ("default", {}, {}),
     ("rtol 3e-4", {}, {"rtol": 3e-4}),
@@ -99,7 +99,7 @@ def _angle_error(a, b):
 
 
 def _run(c: dict, **kw):
-    """lumped.cycle.simulate of one case (its keys but the study's own "kind" and "label")."""
+    """lumped.run.simulate.simulate of one case (its keys but the study's own "kind" and "label")."""
     return simulate(**{k: v for k, v in c.items() if k not in ("kind", "label")}, **kw)
 
 

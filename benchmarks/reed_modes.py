@@ -30,7 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from geometry import load_reed  # noqa: E402
 from geometry.reed_port import ReedPort  # noqa: E402
-from lumped import reed_modes as rm  # noqa: E402
+from lumped.reed import modal_basis as rm  # noqa: E402
 
 #: beta_n L of the clamped-free uniform beam, roots of cos x cosh x = -1 (Blevins 1979, Table 8-1)
 BETA_L = (1.875104069, 4.694091133, 7.854757438, 10.99554073, 14.13716839, 17.27875953)

@@ -17,7 +17,7 @@ import scipy.sparse.linalg as spla
 from skfem import Basis, BilinearForm, ElementLineHermite, LinearForm, asm, condense, solve as fem_solve
 
 from geometry.reed import Reed
-from lumped.mode_function import ReedProperties
+from lumped.reed.mode_function import ReedProperties
 
 from .mesh import check_size, line_mesh
 from .modes import ModalResult, ModeShapes, bending_labels
@@ -204,7 +204,7 @@ def write_modes_vtu(result: BeamResult, reed: Reed, path) -> None:
     meshio.write(str(path), meshio.Mesh(pts, cells, point_data=data), file_format="vtu")
 
 
-# -- the modal reed and the whole FE reed (lumped.reed_modes) ---------------------------------
+# -- the modal reed and the whole FE reed (lumped.reed.modal_basis) ---------------------------------
 #: default elements per reed length of the whole FE reed: about 50-60 DOFs (2 per node),
 #: mode 6 within ~1e-4 of exact E-B on the thesis reeds (docs/reed_dynamics.md)
 FE_ELEMENTS_PER_LENGTH = 24
@@ -216,10 +216,10 @@ def default_fe_mesh_size(reed: Reed) -> float:
 
 
 def modal_basis(reed: Reed, port=None, mesh_size: float | None = None, n_modes: int = 6):
-    """The ``beam`` fidelity's modal basis (lumped.reed_modes.ModalBasis): the first bending modes
+    """The ``beam`` fidelity's modal basis (lumped.reed.modal_basis.ModalBasis): the first bending modes
     of the Hermite E-B beam, modal masses phi^T M phi [kg], loads and openings integrated
     exactly element by element. The same assembly as :func:`fe_reed` at the same mesh size."""
-    from lumped.reed_modes import build_basis
+    from lumped.reed.modal_basis import build_basis
 
     sys = assemble(reed, mesh_size)
     vals, vecs = _eigen(sys, n_modes)
@@ -230,11 +230,11 @@ def modal_basis(reed: Reed, port=None, mesh_size: float | None = None, n_modes: 
 
 
 def fe_reed(reed: Reed, port=None, mesh_size: float | None = None):
-    """The whole Hermite-beam reed (lumped.reed_modes.FEReed): dense M, K on the free DOFs
+    """The whole Hermite-beam reed (lumped.reed.modal_basis.FEReed): dense M, K on the free DOFs
     (w and ell w' at each node but the clamped one, both in metres), the exact consistent
     load of a unit pressure on the footprint, opening, tip and station rows. Default
     element length :func:`default_fe_mesh_size` (about 50-60 DOFs)."""
-    from lumped.reed_modes import fe_reed_from
+    from lumped.reed.modal_basis import fe_reed_from
 
     sys = assemble(reed, default_fe_mesh_size(reed) if mesh_size is None else mesh_size)
     M, K = sys.dense()

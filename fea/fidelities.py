@@ -5,7 +5,7 @@ finite-element models. Each fidelity's module offers ``reed_properties(reed, mes
 -> ReedProperties`` and ``properties_and_modes(reed, n, mesh_size=None) -> (ReedProperties,
 modes)`` (``modes.first(n)`` -> frequencies [rad/s], labels); the FE ones also
 ``default_mesh_size(reed)`` [m], ``mode_shapes`` and ``write_modes_vtu``. The pump only needs
-``reed_properties``, which :mod:`lumped.reed_fidelity` reaches through the entry points
+``reed_properties``, which :mod:`lumped.reed.fidelities` reaches through the entry points
 declared in pyproject.toml (so ``lumped`` never imports this layer).
 """
 
@@ -16,8 +16,8 @@ from types import ModuleType
 from typing import Callable
 
 from geometry.errors import InputError
-from lumped import reed_beam
-from lumped import reed_fidelity as _lumped_registry
+from lumped.reed import euler_bernoulli as reed_beam
+from lumped.reed import fidelities as _lumped_registry
 
 from . import beam, plate, solid
 
@@ -68,6 +68,6 @@ def get(name: str, field: str = "--fidelity") -> Fidelity:
     if name not in FIDELITIES:
         extra = [n for n in _lumped_registry.names() if n not in FIDELITIES]
         raise InputError(field, f"expected one of {', '.join([*FIDELITIES, *extra])}, got {name!r}"
-                         + (" (a fidelity registered in lumped.reed_fidelity only gives the pump its "
+                         + (" (a fidelity registered in lumped.reed.fidelities only gives the pump its "
                             "parameters; studies of modes need one of these)" if name in extra else ""))
     return FIDELITIES[name]

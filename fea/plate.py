@@ -28,7 +28,7 @@ from skfem import Basis, BilinearForm, ElementTriArgyris, LinearForm, asm, conde
 from skfem.helpers import dd, ddot, eye, trace
 
 from geometry.reed import Reed
-from lumped.mode_function import ReedProperties
+from lumped.reed.mode_function import ReedProperties
 
 from .mesh import FaceMesh, face_mesh, scaled_mesh_size
 from .modes import ModalResult, ModeShapes, describe_modes, face_grid, first_bending, pull_inside
@@ -323,7 +323,7 @@ def write_modes_vtu(result: PlateResult, path) -> None:
     write_vtu(path, result.face.mesh, data)
 
 
-# -- the modal reed and the whole FE reed (lumped.reed_modes) ---------------------------------
+# -- the modal reed and the whole FE reed (lumped.reed.modal_basis) ---------------------------------
 #: default element size of the whole FE plate reed on the 1 in thesis reeds (scaled for others):
 #: coarse, so the dense reed stays a few hundred DOFs (docs/reed_dynamics.md)
 FE_MESH_SIZE = 5.0e-3
@@ -335,10 +335,10 @@ def default_fe_mesh_size(reed: Reed) -> float:
 
 
 def modal_basis(reed: Reed, port=None, mesh_size: float | None = None, n_modes: int = 6):
-    """The ``plate`` fidelity's modal basis (lumped.reed_modes.ModalBasis): the first modes of the
+    """The ``plate`` fidelity's modal basis (lumped.reed.modal_basis.ModalBasis): the first modes of the
     Kirchhoff plate (bending, torsion and plate modes, named by nodal pattern), modal masses
     phi^T M phi [kg], loads, openings and station values from the plate's w(s, y)."""
-    from lumped.reed_modes import build_basis
+    from lumped.reed.modal_basis import build_basis
 
     r = solve(reed, mesh_size, n_modes=n_modes)
     sys = r.system
@@ -350,10 +350,10 @@ def modal_basis(reed: Reed, port=None, mesh_size: float | None = None, n_modes: 
 
 
 def fe_reed(reed: Reed, port=None, mesh_size: float | None = None):
-    """The whole Argyris plate reed (lumped.reed_modes.FEReed): dense M, K on the free DOFs (w and
+    """The whole Argyris plate reed (lumped.reed.modal_basis.FEReed): dense M, K on the free DOFs (w and
     its derivatives, scaled to metres by the element size), the load of a unit pressure on the
     footprint, opening, tip and station rows. Default element size :func:`default_fe_mesh_size`."""
-    from lumped.reed_modes import fe_reed_from
+    from lumped.reed.modal_basis import fe_reed_from
 
     sys = assemble(reed, default_fe_mesh_size(reed) if mesh_size is None else mesh_size)
     M, K = sys.dense()

@@ -37,7 +37,7 @@ YIELD_STRESS_DELRIN = 63.0e6
 
 def reed_stop_opening() -> float:
     """x_stop [m] of the prototype reed valve (thesis-reed's valves, stop.gap)."""
-    from lumped.model_file import load_model
+    from lumped.model.model_file import load_model
 
     return float(load_model("thesis-reed").delivery.stop_gap)
 

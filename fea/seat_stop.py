@@ -104,7 +104,7 @@ def _static_stiffness(mesh, material, load_facets, fixed_facets, load: float, me
 
 def _contact_mass() -> float:
     """The mass the thesis used in eq 2.23 (thesis-disc's mass.contact_reference) [kg]."""
-    from lumped.model_file import load_model
+    from lumped.model.model_file import load_model
 
     return float(load_model("thesis-disc").inlet.contact_mass)
 

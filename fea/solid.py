@@ -28,7 +28,7 @@ import scipy.sparse.linalg as spla
 from skfem import Basis, ElementHex2, FacetBasis
 
 from geometry.reed import Reed
-from lumped.mode_function import ReedProperties
+from lumped.reed.mode_function import ReedProperties
 
 from .mesh import SolidMesh, is_symmetric, scaled_mesh_size, solid_mesh, write_vtu
 from .modes import ModalResult, ModeShapes, describe_modes, face_grid, first_bending, probe_z, pull_inside
@@ -367,16 +367,16 @@ def write_modes_vtu(result: SolidResult, path) -> None:
     write_vtu(path, mesh, data)
 
 
-# -- the modal reed (lumped.reed_modes) ---------------------------------------------------------
+# -- the modal reed (lumped.reed.modal_basis) ---------------------------------------------------------
 def modal_basis(reed: Reed, port=None, mesh_size: float | None = None, n_modes: int = 6):
-    """The ``solid`` fidelity's modal basis (lumped.reed_modes.ModalBasis): the first out-of-plane
+    """The ``solid`` fidelity's modal basis (lumped.reed.modal_basis.ModalBasis): the first out-of-plane
     modes of the 3-D reed (bending, torsion, plate modes; in-plane modes, which the
     transverse reed model has no coordinate for, are left out), modal masses phi^T M phi [kg]
     of the whole reed (twice the half model's), and w = u_z on the upstream face (z = 0, or
     a groove's floor: where the pressure acts and the reed seals)."""
     from matplotlib.tri import Triangulation
 
-    from lumped.reed_modes import build_basis
+    from lumped.reed.modal_basis import build_basis
 
     from .mesh import is_symmetric
 

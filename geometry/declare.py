@@ -5,7 +5,7 @@ about that parameter: its key in an input file (``"spring.stiffness"``), its SI 
 where its value comes from, the physically plausible range, and whether the numerical
 model reads it from the flat parameter array. From these declarations the input-file
 reader (:func:`read_table`), the validation (:func:`check_value`), the flat array
-layout (``lumped.layout``), the model printout (``valvelab model show``) and the sweep
+layout (``lumped.solver.layout``), the model printout (``valvelab model show``) and the sweep
 variables (key paths) are all derived, so adding a parameter is one declaration plus
 its value in a data file.
 

@@ -1,6 +1,6 @@
 """Disc check valve geometry (thesis chapter 2): disc, seat, port, stop gaps and spring.
 
-One description of the part, used by the lumped model (``lumped.disc_valve``), the
+One description of the part, used by the lumped model (``lumped.valves.disc``), the
 seat/stop FEA and the thesis tables. The thesis valve is the preset ``thesis``
 (``geometry/data/disc_valve.toml``); a user's valve is a TOML file of the same schema::
 

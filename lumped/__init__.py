@@ -1,5 +1,19 @@
 """Lumped (ODE) models: oil, check valves of any registered kind, the piston pump.
 
+The subpackages are the architecture, lowest layer first (a module imports only from its own
+layer and the ones below; ``tests/test_layers.py`` checks it):
+
+- :mod:`lumped.fluid`: oil properties and the orifice flow law (plain float functions numba compiles);
+- :mod:`lumped.reed`: the reed as a structure (exact Euler-Bernoulli, mode functions, modal bases,
+  the fidelity registry, plucked-reed identification, the reed's fluid quantities);
+- :mod:`lumped.valves`: the valve-kind contract and registry (``kind``), the disc, reed and ball valves;
+- :mod:`lumped.model`: what a pump model is (pump and circuit, :class:`PumpModel`, effects and their
+  library, model files, input uncertainties);
+- :mod:`lumped.solver`: how it is integrated (state layout, right-hand side, Jacobian, switching
+  surfaces, the compiled Rodas steppers and scipy's reference stepper);
+- :mod:`lumped.run`: running a pump (:func:`simulate`, revolutions and stop rules, post-processing,
+  traces, warm starts); :mod:`lumped.conformance` checks a valve kind by running it.
+
 The public face (see README.md, "Python"):
 
 - models: :func:`load_model` (a shipped name or a model file), :class:`PumpModel`,
@@ -17,22 +31,22 @@ The public face (see README.md, "Python"):
 # the valve kinds register themselves on import; every module that packs or integrates a
 # model needs them registered first
 # (registration order is the kinds' ids and the order of the compiled dispatch: the thesis's first)
-from lumped import disc_valve as _disc_valve  # noqa: F401, I001
-from lumped import reed_valve as _reed_valve  # noqa: F401
-from lumped import ball_valve as _ball_valve  # noqa: F401
+from lumped.valves import disc as _disc_valve  # noqa: F401, I001
+from lumped.valves import reed as _reed_valve  # noqa: F401
+from lumped.valves import ball as _ball_valve  # noqa: F401
 from lumped.conformance import check_valve_kind
-from lumped.cycle import InvariantError, PumpResult, ValveResult, simulate
-from lumped.ball_valve import BallValve
-from lumped.disc_valve import DiscValve
-from lumped.effect_library import LIBRARY
-from lumped.model import PumpModel
-from lumped.model_file import SHIPPED, load_model, to_toml, with_values
-from lumped.reed_fidelity import reed_properties
-from lumped.reed_valve import ReedValve
-from lumped.revolutions import StopRule, TdcState
-from lumped.trace import Trace
-from lumped.valve import KINDS
-from lumped.warmstart import WarmStarts, chain_order
+from lumped.run.simulate import InvariantError, PumpResult, ValveResult, simulate
+from lumped.valves.ball import BallValve
+from lumped.valves.disc import DiscValve
+from lumped.model.effect_library import LIBRARY
+from lumped.model.pump_model import PumpModel
+from lumped.model.model_file import SHIPPED, load_model, to_toml, with_values
+from lumped.reed.fidelities import reed_properties
+from lumped.valves.reed import ReedValve
+from lumped.run.revolutions import StopRule, TdcState
+from lumped.run.trace import Trace
+from lumped.valves.kind import KINDS
+from lumped.run.warmstart import WarmStarts, chain_order
 
 __all__ = ["BallValve", "DiscValve", "InvariantError", "KINDS", "LIBRARY", "PumpModel", "PumpResult", "ReedValve", "SHIPPED",
            "StopRule", "TdcState", "Trace", "ValveResult", "WarmStarts", "chain_order", "check_valve_kind", "load_model", "reed_properties", "simulate", "to_toml", "with_values"]

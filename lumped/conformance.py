@@ -47,10 +47,10 @@ class ConformanceReport:
 def random_states(problem, rng, n: int = 8):
     """(t, y, mode) at states spread over every valve's contact states and regimes (and, for an air-free
     oil, a cavitating cylinder): the points the Jacobian is checked at."""
-    from lumped import rhs
-    from lumped.layout import BLOCK_OFFSET, CAVITATING, CAVITATION_SLOT, G, N_MODE, set_opening
-    from lumped.switching import initial_mode
-    from lumped.valve import VALVE
+    from lumped.solver import rhs
+    from lumped.solver.layout import BLOCK_OFFSET, CAVITATING, CAVITATION_SLOT, G, N_MODE, set_opening
+    from lumped.solver.switching import initial_mode
+    from lumped.valves.kind import VALVE
 
     p, lay = problem.p, problem.layout
     for i in range(n):
@@ -82,8 +82,8 @@ def central_differences(t, y, p, mode, n_dyn: int, scales, masses=()):
     steps 1e-7 of each state's scale, 1e-9 for the oil masses ``masses`` (indices: the pressures are stiff
     in them; but for the cylinder's while it cavitates: its pressure is held, and a step of 1e-9 would
     leave round-off of the accelerations above the weak dependence through the density)."""
-    from lumped import rhs
-    from lumped.layout import CAVITATING, CAVITATION_SLOT, S_MCYL
+    from lumped.solver import rhs
+    from lumped.solver.layout import CAVITATING, CAVITATION_SLOT, S_MCYL
 
     if int(mode[CAVITATION_SLOT]) == CAVITATING:
         masses = tuple(i for i in masses if i != S_MCYL)
@@ -105,7 +105,7 @@ def jacobian_errors(problem, seed: int, jac_fn, n: int = 8) -> tuple[float, floa
     """Largest normalised |analytic - central| over ``n`` states drawn, for df/dy and df/dt (< 1: agree).
 
     Each entry is measured against its own size (1e-3 of it) and the size of its row times the state's
-    scale (1e-6 of it); ``jac_fn`` is lumped.jacobian.pump_jacobian or its compiled copy.
+    scale (1e-6 of it); ``jac_fn`` is lumped.solver.jacobian.pump_jacobian or its compiled copy.
     """
     p, lay = problem.p, problem.layout
     n_dyn, scales = lay.n_dyn, problem.scales
@@ -135,7 +135,7 @@ def _angles(res) -> list:
 
 
 def _compare(report, label: str, model, speed: float, load: float, revolutions: int) -> None:
-    from lumped.cycle import simulate
+    from lumped.run.simulate import simulate
 
     r = simulate(model, speed, load, method="reference", revolutions=revolutions)
     f = simulate(model, speed, load, method="fast", revolutions=revolutions)
@@ -158,12 +158,12 @@ def _compare(report, label: str, model, speed: float, load: float, revolutions: 
 
 def _contract(report, kind) -> None:
     """The static contract: a frozen ValveParams dataclass whose common() is a checked Common."""
-    from lumped.model_file import kind_default_model, load_model
-    from lumped.valve import Common, ValveParams
+    from lumped.model.model_file import kind_default_model, load_model
+    from lumped.valves.kind import Common, ValveParams
 
     cls = kind.params
     if not (is_dataclass(cls) and cls.__dataclass_params__.frozen and issubclass(cls, ValveParams)):
-        report.failures.append(f"{cls.__name__} must be a frozen dataclass subclassing lumped.valve.ValveParams")
+        report.failures.append(f"{cls.__name__} must be a frozen dataclass subclassing lumped.valves.kind.ValveParams")
         return
     if "position" not in {f.name for f in fields(cls)}:
         report.failures.append(f"{cls.__name__} has no 'position' field")
@@ -175,7 +175,7 @@ def _contract(report, kind) -> None:
             return
         c = v.common(model.oil)
         if not isinstance(c, Common):
-            report.failures.append(f"{cls.__name__}.common() must return lumped.valve.Common")
+            report.failures.append(f"{cls.__name__}.common() must return lumped.valves.kind.Common")
             return
         extra = v.packed_extra(model.oil)
         missing = set(cls.DERIVED) - set(extra)
@@ -189,7 +189,7 @@ def _contract(report, kind) -> None:
 
 
 def _mixed(inlet: str, delivery: str):
-    from lumped.model_file import parse_model
+    from lumped.model.model_file import parse_model
 
     return parse_model({"name": f"mixed-{inlet}-{delivery}", "valves": {"inlet": {"kind": inlet},
                                                                          "delivery": {"kind": delivery}}})
@@ -201,7 +201,7 @@ def check_valve_kind(kind, *, points: int = 3, revolutions: int = 3, quick: bool
 
     Parameters
     ----------
-    kind : str or lumped.valve.ValveKind
+    kind : str or lumped.valves.kind.ValveKind
         The kind (its registered name).
     points : int
         Operating points (of :data:`POINTS`) the two steppers are compared on, for the pump with the
@@ -223,8 +223,8 @@ def check_valve_kind(kind, *, points: int = 3, revolutions: int = 3, quick: bool
     (True, [])
     """
     from geometry.errors import InputError
-    from lumped.model_file import kind_default_model, load_model
-    from lumped.valve import KINDS
+    from lumped.model.model_file import kind_default_model, load_model
+    from lumped.valves.kind import KINDS
 
     name = getattr(kind, "name", kind)
     if name not in KINDS:
@@ -263,12 +263,12 @@ def _guarded(report, label: str, fn, *args) -> None:
 
 def _check_jacobians(report, label: str, model, seed: int) -> None:
     """The analytic Jacobian of the flavour the fast path uses, against central differences, in both circuits."""
-    from lumped import compiled
-    from lumped.problem import PumpProblem
+    from lumped.solver import compiled
+    from lumped.solver.problem import PumpProblem
 
     for circuit in ("simplified", "complete"):
         problem = PumpProblem.build(model, 650.0, 2.8e6, circuit, needle_area=2e-7 if circuit == "complete" else None)
-        jac = compiled.cached("lumped.jacobian", "pump_jacobian", problem.layout.one_dof)
+        jac = compiled.cached("lumped.solver.jacobian", "pump_jacobian", problem.layout.one_dof)
         ej, et = jacobian_errors(problem, seed + 7, jac)
         what = f"{label}, {circuit} circuit: Jacobian vs central differences {ej:.3g} / {et:.3g} tolerance units"
         (report.checks if ej < 1.0 and et < 1.0 else report.failures).append(what)
@@ -277,7 +277,7 @@ def _check_jacobians(report, label: str, model, seed: int) -> None:
 def _check_round_trip(report, label: str, model) -> None:
     """``model show --toml`` read back by ``model check`` gives the same model."""
     from geometry.errors import InputError
-    from lumped.model_file import describe, parse_model, to_toml
+    from lumped.model.model_file import describe, parse_model, to_toml
 
     try:
         again = parse_model(tomllib.loads(to_toml(model)), name=model.name, source=model.source)
@@ -292,7 +292,7 @@ def _check_round_trip(report, label: str, model) -> None:
 
 def _check_designs(report, name: str, seed: int) -> None:
     """Random designs from the kind's design ranges are valid models."""
-    from lumped.valve import KINDS
+    from lumped.valves.kind import KINDS
 
     _random_design(np.random.default_rng(seed), name)
     report.checks.append(f"design_ranges {sorted(KINDS[name].design_ranges)} give valid models")
@@ -300,9 +300,9 @@ def _check_designs(report, name: str, seed: int) -> None:
 
 def _check_effects(report, model) -> None:
     """Every effect that applies to the kind's pump switches on at its priors and runs."""
-    from lumped.cycle import simulate
-    from lumped.effect_library import LIBRARY
-    from lumped.model_file import with_values
+    from lumped.run.simulate import simulate
+    from lumped.model.effect_library import LIBRARY
+    from lumped.model.model_file import with_values
 
     for e in LIBRARY.effects.values():
         targets = [t for t in e.targets if e.applies_to(model, t)]
@@ -317,8 +317,8 @@ def _check_effects(report, model) -> None:
 
 def _random_design(rng, name: str):
     """A model with the kind's design_ranges drawn (as studies.sweeps.random_designs does, in this layer)."""
-    from lumped.model_file import kind_default_model, load_model, with_values
-    from lumped.valve import KINDS
+    from lumped.model.model_file import kind_default_model, load_model, with_values
+    from lumped.valves.kind import KINDS
 
     values = {}
     for key, (lo, hi) in KINDS[name].design_ranges.items():

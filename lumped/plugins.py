@@ -2,7 +2,7 @@
 
 A higher layer adds to a registry of a lower one without the lower one importing it:
 ``fea`` declares its reed fidelities as entry points of the group
-``valvelab.reed_fidelities`` (pyproject.toml), which :mod:`lumped.reed_fidelity` loads
+``valvelab.reed_fidelities`` (pyproject.toml), which :mod:`lumped.reed.fidelities` loads
 on first use; a user's sweep model or discrepancy simulator is named as
 ``package.module`` and loaded here too.
 """

@@ -7,7 +7,7 @@ What can be decided before running is refused by ``valvelab model check`` (:func
 
 Where the conditions come from:
 
-- every valve kind declares its own in its module: :meth:`lumped.valve.ValveParams.validity` returns an
+- every valve kind declares its own in its module: :meth:`lumped.valves.kind.ValveParams.validity` returns an
   :class:`Envelope` (where the element rests, the pressure difference that lifts it off its seat, and
   :class:`Limit` records on what a run measures of it, :class:`ValveRun`); the base class gives the limits
   every kind shares (:func:`common_limits`), a kind adds its own, so a new kind touches nothing here;
@@ -89,7 +89,7 @@ class Envelope:
     rest_key: str | None = None
     cracking_pressure: float | None = None
     limits: tuple = ()
-    stop_gap: float | None = None          # the lift x_stop [m] (lumped.valve.Common)
+    stop_gap: float | None = None          # the lift x_stop [m] (lumped.valves.kind.Common)
 
 
 @dataclass(frozen=True)
@@ -101,7 +101,7 @@ class ValveRun:
     largest distance from its rest opening (None without a declared rest); ``max_reynolds`` the largest
     orifice Reynolds number 4 rho |Q_o| / (mu p) (eq 2.46); ``max_dp`` the largest pressure difference in
     the opening direction [Pa]; ``forward_volume``, ``backward_volume`` [m^3] through it each way
-    (orifice and displacement flow); ``energy_loss`` [J] (lumped.postprocess.losses).
+    (orifice and displacement flow); ``energy_loss`` [J] (lumped.run.postprocess.losses).
     """
 
     position: str
@@ -148,7 +148,7 @@ def plateau_reynolds(cd_inf: float, a: float, b: float, c: float, fraction: floa
     accurate estimate of the asymptotic value" (section 2.4.5): where Cd is within 5 % of Cd_inf the
     correlation is its asymptote, an extrapolation beyond the measured Reynolds numbers.
     """
-    from lumped.orifice import discharge_coefficient
+    from lumped.fluid.orifice import discharge_coefficient
 
     s = np.geomspace(1e-2, 1e4, 4001)
     cd = discharge_coefficient(s, cd_inf, a, b, c)
@@ -165,7 +165,7 @@ def plateau_reynolds(cd_inf: float, a: float, b: float, c: float, fraction: floa
 
 
 def common_limits(common) -> tuple[Limit, ...]:
-    """The limits every kind shares, from its :class:`lumped.valve.Common` quantities.
+    """The limits every kind shares, from its :class:`lumped.valves.kind.Common` quantities.
 
     - the seat and stop contacts (eq 2.20: linear, a compliant seat such as the thesis's O-ring) give way
       by at most the valve's lift x_stop: a seat that lets the element sink deeper than it ever opens is
@@ -186,7 +186,7 @@ def common_limits(common) -> tuple[Limit, ...]:
 
 # --------------------------------------------------------------------------- checks on a run
 def valve_warnings(valve, run: ValveRun, oil=None) -> list[ResultWarning]:
-    """The warnings of one valve: its kind's :class:`Envelope` (:meth:`lumped.valve.ValveParams.validity`)
+    """The warnings of one valve: its kind's :class:`Envelope` (:meth:`lumped.valves.kind.ValveParams.validity`)
     against what the run measured, and the conditions on any valve (it rests between its seat and its
     stop, it opens, its loss is not negative)."""
     env = valve.validity(oil)
@@ -216,7 +216,7 @@ def pump_warnings(runs: dict, delivery: float, rtol: float, cavitation_angle: fl
     """The pump's own conditions: a small vapour cavity in the cylinder, a delivery the tolerances resolve.
 
     - cavitation: the cylinder pressure held at the vapour pressure with the oil short of filling it is the
-      discrete vapour cavity model (lumped.rhs.cylinder_pressure; Wylie & Streeter 1993, section 8.5), which
+      discrete vapour cavity model (lumped.solver.rhs.cylinder_pressure; Wylie & Streeter 1993, section 8.5), which
       holds while the cavity stays below 10 % of the volume it forms in (Simpson & Bergant 1994, J. Hydraul.
       Eng. 120(3), 361-377); the thesis saw no cavitation (section 5.4.5);
     - accuracy: the delivery is what is left of the flows through the valves each way; when they are
@@ -261,7 +261,7 @@ def check_model(model, load_pressure: float | None = None) -> None:
     pump that cannot deliver: its :func:`compression_pressure` not above the tank pressure plus the
     delivery valve's cracking pressure (no load at all), or not above the load (the model's
     ``[operating]`` one, or ``load_pressure`` [Pa]) plus it. ``model``: resolved (its effects applied,
-    lumped.effect_library.resolve)."""
+    lumped.model.effect_library.resolve)."""
     from geometry.errors import InputError
 
     m = model

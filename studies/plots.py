@@ -59,7 +59,7 @@ def plot_reed_shapes(path, reed, shapes: dict, title: str | None = None) -> Path
 def figure_3_12(path) -> Path:
     """Mode functions of the uniform and stepped reeds in free vibration and under uniform load (Figure 3.12)."""
     from geometry import load_reed
-    from lumped import reed_beam as rb
+    from lumped.reed import euler_bernoulli as rb
 
     fig = Figure(figsize=(7.0, 4.5), layout="constrained")
     ax = fig.subplots()
@@ -85,8 +85,8 @@ def figure_3_12(path) -> Path:
 
 
 def plot_ringdown(path, traces, fits, title: str = "plucked reed: eq 3.67 fits") -> Path:
-    """Measured ring-down traces (t, v) with their eq 3.67 fits (:class:`lumped.reed_identify.RingdownFit`)."""
-    from lumped.reed_identify import ringdown
+    """Measured ring-down traces (t, v) with their eq 3.67 fits (:class:`lumped.reed.ringdown.RingdownFit`)."""
+    from lumped.reed.ringdown import ringdown
 
     fig = Figure(figsize=(7.0, 4.0), layout="constrained")
     ax = fig.subplots()

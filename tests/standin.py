@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from lumped.effects import PER_VALVE, PUMP, BOTH_VALVES, Effect, Library, Parameter
+from lumped.model.effects import PER_VALVE, PUMP, BOTH_VALVES, Effect, Library, Parameter
 from studies.discrepancy.gap import CycleTrace
 
 SEAT_AREA = 1.77e-4   # m^2, disc face area (thesis Table 2.3)

@@ -1,6 +1,6 @@
 """Cylinder cavitation: the pressure floor at the vapour pressure with a mass-conservative vapour volume.
 
-The model (``lumped.pump.cylinder_pressure``; Wylie's discrete vapour cavity, Wylie & Streeter 1993,
+The model (``lumped.model.pump.cylinder_pressure``; Wylie's discrete vapour cavity, Wylie & Streeter 1993,
 section 8.5): while the oil mass no longer fills the cylinder at the liquid's density at the vapour
 pressure, the pressure is held there and the rest of the volume is vapour, V - m / rho(P_vap); the
 mass stays the state, so the cavity collapses exactly as the piston returns. Checked against
@@ -16,8 +16,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from lumped.cycle import simulate
-from lumped.model_file import load_model, with_values
+from lumped.run.simulate import simulate
+from lumped.model.model_file import load_model, with_values
 from studies.validation import chain as V
 from studies.discrepancy.synth import thesis_conditions
 from studies.sweeps.random_designs import VALVES, random_design

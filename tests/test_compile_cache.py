@@ -17,10 +17,10 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def test_each_flavour_compiles_functions_of_its_own_names():
     """The physics mirrors and the solver's closures carry the flavour and the source digest in their names."""
-    from lumped import compiled
+    from lumped.solver import compiled
 
-    one = compiled.function("lumped.rhs", "evaluate", True).py_func.__qualname__
-    many = compiled.function("lumped.rhs", "evaluate", False).py_func.__qualname__
+    one = compiled.function("lumped.solver.rhs", "evaluate", True).py_func.__qualname__
+    many = compiled.function("lumped.solver.rhs", "evaluate", False).py_func.__qualname__
     assert one != many and compiled.source_digest() in one and compiled.source_digest() in many
 
 

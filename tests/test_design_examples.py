@@ -41,7 +41,7 @@ def _command(path: Path) -> tuple[str, str]:
 
 
 def _load_model(spec):
-    from lumped.model_file import load_model
+    from lumped.model.model_file import load_model
 
     return load_model(spec.model)
 

@@ -8,15 +8,15 @@ import pytest
 from scipy.integrate import quad, solve_ivp
 
 from geometry import load_disc_geometry
-from lumped import disc_valve as dv
-from lumped import valve as common
-from lumped.disc_valve import DISC, critical_damping
-from lumped.layout import pack
-from lumped.model_file import load_model
-from lumped.oil import thesis_oil_viscosity
-from lumped.orifice import discharge_coefficient, laminar_slope, orifice_flow
-from lumped.layout import OFF_IN
-from lumped.valve import ValveInputs
+from lumped.valves import disc as dv
+from lumped.valves import kind as common
+from lumped.valves.disc import DISC, critical_damping
+from lumped.solver.layout import pack
+from lumped.model.model_file import load_model
+from lumped.fluid.oil import thesis_oil_viscosity
+from lumped.fluid.orifice import discharge_coefficient, laminar_slope, orifice_flow
+from lumped.solver.layout import OFF_IN
+from lumped.valves.kind import ValveInputs
 from studies.tables.pump import table_2_3
 from studies.tables.thesis import thesis_values
 
@@ -148,7 +148,7 @@ def test_high_reynolds_flow_approaches_cd_inf():
 
 # ----------------------------------------------------------------- forces
 def disc_acc(x, u, dp, p_down, p_vap, rho, mu, q_o, cd, aq, dq_ddp, dq_dx, ddp_dt, p, o, contact, regime):
-    """The disc's acceleration with the pump's inputs spelt out (lumped.valve.ValveInputs)."""
+    """The disc's acceleration with the pump's inputs spelt out (lumped.valves.kind.ValveInputs)."""
     return dv.disc_acceleration(x, u, ValveInputs(dp, p_down, p_vap, rho, mu, q_o, cd, aq, dq_ddp, dq_dx, ddp_dt),
                                 p, o, contact, regime)
 

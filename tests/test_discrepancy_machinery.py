@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import standin
-from lumped.effects import Applied, Effect, Library, Parameter
+from lumped.model.effects import Applied, Effect, Library, Parameter
 from studies.discrepancy.workflow import CandidateFit, Settings, Workflow, conditions, split
 from studies.discrepancy.synth import Condition, Noise, synthesize
 

@@ -63,7 +63,7 @@ def test_a_dataset_of_other_valves_is_refused(cli, tmp_path):
 def test_run_toml_names_a_shipped_model_or_a_file_relative_to_the_run(tmp_path, named):
     """run.toml's ``model``: a shipped model's name (what ``synth --model thesis-ball`` writes) is that model, not a
     file in the run folder; anything else is a file relative to the run folder."""
-    from lumped.model_file import load_model, to_toml
+    from lumped.model.model_file import load_model, to_toml
     from studies.discrepancy.measured import Run
     from studies.discrepancy.model_choice import choose
 

@@ -20,7 +20,7 @@ to get wrong (KNOWN_MISSES, each set out in docs/discrepancy.md) as strict expec
 import numpy as np
 import pytest
 
-from lumped.effects import Applied
+from lumped.model.effects import Applied
 from studies.discrepancy.confusion import CASES, MISMATCH, case_truth, run_case
 from studies.discrepancy.workflow import RunCondition, Settings
 from studies.discrepancy.pump_sim import LIBRARY, for_valve_type, model_for, simulate
@@ -68,7 +68,7 @@ def test_a_warm_started_revolution_is_the_cyclic_steady_state():
     """The workflow simulates two revolutions from a near neighbour's state at top dead centre, two or more from
     anywhere else (studies/discrepancy/pump_sim.py): both within 1e-4 of the delivery and, at the measurement
     times, 1 um and 1 kPa RMS of eight revolutions of the pump started at rest (the noise is 10 um, 10 kPa)."""
-    from lumped.cycle import simulate as pump
+    from lumped.run.simulate import simulate as pump
     from studies.discrepancy.gap import periodic_interp
     from studies.discrepancy.pump_sim import FIT_RTOL, WARM_REVOLUTIONS
 
@@ -98,7 +98,7 @@ def test_the_trace_is_sampled_finely_enough_to_interpolate():
     """The simulated trace is kept at the integrator's steps, their midpoints and 720 even angles: linear
     interpolation between them is within 0.5 kPa and 0.3 um RMS of the same integration's dense output at 20,000
     angles (a squeeze film's delivery-opening spike included; 1,440 even points left up to 9 kPa)."""
-    from lumped.cycle import simulate as pump
+    from lumped.run.simulate import simulate as pump
     from studies.discrepancy.gap import periodic_interp
     from studies.discrepancy.pump_sim import TIGHT_RTOL, revolution
 

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from lumped.effects import Applied
-from lumped.model_file import load_model
+from lumped.model.effects import Applied
+from lumped.model.model_file import load_model
 from studies.discrepancy import mismatch, validation as val
 from studies.discrepancy.gap import robust_pressure
 from studies.discrepancy.workflow import RunCondition
@@ -91,7 +91,7 @@ def test_every_model_form_variant_changes_what_it_says(name):
                "jet_weak": (Applied.of("flow_force", "both", {"theta_jet": 1.2, "L_t": 0.01}),),
                "seat_underdamped": (Applied.of("seat_compliance", "delivery", {"k_seat": 2e6}),)}.get(name, ())
     plain, changed = sim.model_for(cond, effects), ms.model_for(cond, effects)
-    from lumped.effect_library import resolve
+    from lumped.model.effect_library import resolve
     plain = resolve(plain)
     d = plain.delivery
     c = changed.delivery

@@ -4,10 +4,10 @@ import math
 
 import pytest
 
-from lumped.effect_library import LIBRARY, baseline, resolve
-from lumped.effects import Applied
-from lumped.model_file import load_model
-from lumped.reed_valve import modal_critical_damping
+from lumped.model.effect_library import LIBRARY, baseline, resolve
+from lumped.model.effects import Applied
+from lumped.model.model_file import load_model
+from lumped.valves.reed import modal_critical_damping
 from studies.discrepancy.workflow import RunCondition
 from studies.discrepancy.measured import Run
 from studies.discrepancy import pump_sim
@@ -95,8 +95,8 @@ def test_fluid_damping_and_leakage():
 def test_quadratic_drag_is_eq_3_21s_drag_term():
     """quadratic_drag switches on the gamma2 rho |x'| x' C_D / 2 term of eq 3.21 on both reeds (the thesis model
     leaves it off): the packed coefficient is gamma2 C_D / 2 (Table 3.8's gamma2 = 0.6986), prior C_D = 1."""
-    from lumped.layout import BLOCK_OFFSET, pack
-    from lumped.reed_valve import REED
+    from lumped.solver.layout import BLOCK_OFFSET, pack
+    from lumped.valves.reed import REED
 
     eff = LIBRARY["quadratic_drag"]
     assert eff.prior_values("reed") == {"C_D": 1.0} and not eff.applies_to("disc", "both")
@@ -134,7 +134,7 @@ def test_entrained_air_only_when_not_stated():
 
 
 def test_discharge_scale_scales_cd_everywhere():
-    from lumped.orifice import discharge_coefficient
+    from lumped.fluid.orifice import discharge_coefficient
     m0 = model_for(cond(), ())
     m = model_for(cond(), (Applied.of("discharge_scale", "both", {"scale": 1.03}),))
     for re in (1.0, 30.0, 1000.0):

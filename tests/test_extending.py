@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 from lumped import check_valve_kind
-from lumped.valve import KINDS
+from lumped.valves.kind import KINDS
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -35,8 +35,8 @@ def test_the_conformance_check_catches_a_broken_kind(monkeypatch):
     shared quantities are wrong cannot even be built (Common checks itself)."""
     import dataclasses
 
-    from lumped.ball_valve import BallValve
-    from lumped.model_file import load_model
+    from lumped.valves.ball import BallValve
+    from lumped.model.model_file import load_model
 
     given = BallValve.packed_extra
     monkeypatch.setattr(BallValve, "packed_extra", lambda self, oil=None: {
@@ -48,14 +48,14 @@ def test_the_conformance_check_catches_a_broken_kind(monkeypatch):
 
 
 def test_a_kind_registered_late_reaches_the_reference_physics():
-    """The generated dispatch is rebuilt when a kind registers (after lumped.layout and lumped.jacobian imported
+    """The generated dispatch is rebuilt when a kind registers (after lumped.solver.layout and lumped.solver.jacobian imported
     it by name): those modules must call the new one, or the reference path gets nan for the new kind."""
-    import lumped.jacobian
-    import lumped.layout
-    import lumped.valve as valve
+    import lumped.solver.jacobian
+    import lumped.solver.layout
+    import lumped.valves.kind as valve
 
     valve._build_dispatch()                     # what a late register() does
-    for mod in (lumped.layout, lumped.jacobian):
+    for mod in (lumped.solver.layout, lumped.solver.jacobian):
         assert mod.valve_acceleration is valve.valve_acceleration, mod.__name__
         assert mod.valve_accelerations is valve.valve_accelerations, mod.__name__
 
@@ -71,7 +71,7 @@ def test_extending_counts_its_files():
 
 def test_every_effect_is_in_the_contract():
     """An effect's second file is its row in CONTRACT.md's effect table."""
-    from lumped.effect_library import LIBRARY
+    from lumped.model.effect_library import LIBRARY
 
     contract = (ROOT / "CONTRACT.md").read_text()
     missing = [n for n in LIBRARY.names() if f"`{n}`" not in contract]
@@ -81,7 +81,7 @@ def test_every_effect_is_in_the_contract():
 @pytest.mark.slow
 def test_a_new_kind_by_the_recipe_in_three_files(tmp_path):
     # file 1: the kind's module (the ball's, renamed)
-    src = (ROOT / "lumped" / "ball_valve.py").read_text()
+    src = (ROOT / "lumped" / "valves" / "ball.py").read_text()
     src = re.sub(r'name="ball"', 'name="ball2"', src)
     src = src.replace("class BallValve", "class Ball2Valve").replace("BallValve", "Ball2Valve")
     model_file = tmp_path / "thesis-ball2.toml"

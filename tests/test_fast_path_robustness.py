@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 
 from geometry.errors import ModelFailure
-from lumped.cycle import InvariantError, simulate
-from lumped.effects import Applied
-from lumped.model_file import load_model
+from lumped.run.simulate import InvariantError, simulate
+from lumped.model.effects import Applied
+from lumped.model.model_file import load_model
 from studies.discrepancy.pump_sim import PumpSimulator
 from studies.discrepancy.synth import Condition
 

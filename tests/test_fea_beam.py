@@ -106,8 +106,8 @@ def test_beam_refinement_converges_monotonically():
 
 
 def test_beam_matches_analytic_model():
-    """Beam FE and the exact analytic E-B model (lumped.reed_beam) are the same theory: 0.05 %."""
-    from lumped import reed_beam as rb
+    """Beam FE and the exact analytic E-B model (lumped.reed.euler_bernoulli) are the same theory: 0.05 %."""
+    from lumped.reed import euler_bernoulli as rb
 
     for name in ("uniform", "stepped1", "stepped2", "prototype"):
         reed = load_reed(name)

@@ -129,7 +129,7 @@ def test_solid_reaches_the_timoshenko_beam():
     L, h, E, rho = 25.4e-3, 2.54e-3, 2.9e9, 1410.0
     reed = Reed(length=L, thickness=h, width_root=h, width_tip=h, step_fraction=0.0, tip_radius=0.0,
                 material=Material(E, rho, 0.0), name="bar")
-    from lumped import reed_beam as rb
+    from lumped.reed import euler_bernoulli as rb
 
     eb = rb.modes(reed, 3).omega
     ref = timoshenko_frequencies(L, E, E / 2, rho, h * h, h**4 / 12, 5 / 6, eb)

@@ -57,13 +57,13 @@ def test_sizes_ratio():
 
 
 def test_study_of_the_beam_estimates_its_true_error():
-    """Known converged value: the exact E-B model (lumped.reed_beam, 1e-10) is the beam's limit.
+    """Known converged value: the exact E-B model (lumped.reed.euler_bernoulli, 1e-10) is the beam's limit.
 
     On meshes L/16, L/32, L/64 of stepped reed #2 the Hermite beam is in its asymptotic range
     (order 1.5: the rounded tip's square-root width); the estimated error of the middle mesh is
     within a factor 1.5 of its actual error against the exact value (measured: 1.00).
     """
-    from lumped import reed_beam as rb
+    from lumped.reed import euler_bernoulli as rb
 
     reed = load_reed("stepped2")
     exact = rb.reed_properties(reed)

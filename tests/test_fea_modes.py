@@ -6,7 +6,7 @@ import pytest
 from fea import beam, plate
 from fea.modes import describe_mode, face_grid
 from geometry import load_reed
-from lumped import reed_beam as rb
+from lumped.reed import euler_bernoulli as rb
 
 
 def _field(reed, fn):

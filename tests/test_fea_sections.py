@@ -12,7 +12,7 @@ from fea import plate, solid
 from fea.mesh import face_mesh, solid_mesh
 from fea.solid import _scalar_basis, pressure_load
 from geometry import Material, load_reed, parse_reed
-from lumped import reed_beam as rb
+from lumped.reed import euler_bernoulli as rb
 
 MATERIAL = "[reed.material]\nyoungs_modulus = 2.9e9\ndensity = 1410.0\npoisson_ratio = 0.35\n"
 # the shipped example reed: thickness step, width step, taper, rounded tip

@@ -137,7 +137,7 @@ def test_every_fidelity_runs_at_default_meshes(dims):
 
     from fea import beam, plate
     from geometry import parse_reed
-    from lumped import reed_beam as rb
+    from lumped.reed import euler_bernoulli as rb
 
     L, W, h = dims
     reed = parse_reed({"reed": {"length": L, "width_tip": W, "thickness": h,

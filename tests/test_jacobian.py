@@ -1,4 +1,4 @@
-"""The analytic Jacobian of the pump (lumped.jacobian) against central differences of the right-hand side.
+"""The analytic Jacobian of the pump (lumped.solver.jacobian) against central differences of the right-hand side.
 
 Random parameter draws, each candidate effect switched on in turn, every valve kind, mixed
 kinds and both circuits, states in every contact state and regime (and a cavitating
@@ -10,14 +10,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lumped import compiled
-from lumped import jacobian as J
-from lumped import steppers  # noqa: F401  (compiled.cached digests its source: import it even when run alone)
+from lumped.solver import compiled
+from lumped.solver import jacobian as J
+from lumped.solver import steppers  # noqa: F401  (compiled.cached digests its source: import it even when run alone)
 from lumped.conformance import jacobian_errors as _errors
-from lumped.effect_library import LIBRARY
-from lumped.model_file import with_values
-from lumped.problem import PumpProblem
-from lumped.valve import KINDS
+from lumped.model.effect_library import LIBRARY
+from lumped.model.model_file import with_values
+from lumped.solver.problem import PumpProblem
+from lumped.valves.kind import KINDS
 from studies.sweeps.random_designs import random_design
 
 #: every effect of the library switched on at its priors, and the oil with and without air
@@ -25,7 +25,7 @@ EFFECTS = {"none": {}, **{name: {f"effects.{name}": True} for name in LIBRARY.na
            "entrained_air": {"oil.air_content": 0.02}, "air_free": {"oil.air_content": 0.0}}
 DESIGNS = (*KINDS, "mixed", "ball/reed", "modal")
 #: the design "modal": the reed pump with the prototype geometry and a three-mode delivery valve under an
-#: off-axis port (lumped/reed_dynamics.py), with the drag of eq 3.21 on (its partials are the reed's own)
+#: off-axis port (lumped/reed/structure.py), with the drag of eq 3.21 on (its partials are the reed's own)
 MODAL = {"valves.geometry": "prototype", "valves.delivery.dynamics": "modal", "valves.delivery.modes": 3,
          "valves.delivery.damping.drag": True, "valves.delivery.damping.drag_coefficient": 1.2,
          "valves.delivery.port.s_start": 8e-3, "valves.delivery.port.s_end": 20e-3,
@@ -40,7 +40,7 @@ def _design(rng, valve):
 
 
 def _applies(effect: str, valve: str) -> bool:
-    """Whether an effect has a meaning for a design's valves (lumped.effects.Effect.applies_to)."""
+    """Whether an effect has a meaning for a design's valves (lumped.model.effects.Effect.applies_to)."""
     if effect not in LIBRARY:
         return True
     _, _, _, model = _design(np.random.default_rng(0), valve)
@@ -66,7 +66,7 @@ def jacobian_errors(model, speed, load, circuit, seed, jac_fn):
 def test_jacobian_equals_central_differences(effect, valve, circuit):
     model, speed, load = _model(valve, effect, seed=CASES.index((effect, valve, circuit)))
     # the flavour of the compiled physics the fast path integrates the pump with
-    jac = compiled.cached("lumped.jacobian", "pump_jacobian", valve != "modal")
+    jac = compiled.cached("lumped.solver.jacobian", "pump_jacobian", valve != "modal")
     ej, et = jacobian_errors(model, speed, load, circuit, 7, jac)
     assert ej < 1.0, f"df/dy off by {ej:.3g} tolerance units"
     assert et < 1.0, f"df/dt off by {et:.3g} tolerance units"
@@ -81,7 +81,7 @@ def test_the_python_jacobian_is_the_compiled_one():
 @pytest.mark.parametrize("factor", [1.01, 0.99])
 def test_a_wrong_partial_is_caught(monkeypatch, factor):
     """Scale one partial (d mdot / d rho of the valve mass flows) by 1 %: the comparison fails."""
-    from lumped import valve as V
+    from lumped.valves import kind as V
 
     def bad_mass_flow(qo, aq, u, dp, rho, dq_ddp, dq_dx):
         m, d_dp, d_rho, d_x, d_u = V.mass_flow(qo, aq, u, dp, rho, dq_ddp, dq_dx)

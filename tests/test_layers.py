@@ -1,4 +1,5 @@
-"""The layers stay visible: geometry <- lumped, instruments <- fea <- studies.
+"""The layers stay visible: geometry <- lumped, instruments <- fea <- studies, and inside lumped
+plugins <- fluid <- validity, reed <- valves <- model <- solver <- run <- conformance.
 
 The test reads every module's imports (module level and inside functions, since a deferred
 import is still a dependency; ``if TYPE_CHECKING:`` blocks excepted) and fails on an import
@@ -14,6 +15,10 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 LAYER = {"geometry": 0, "lumped": 1, "instruments": 1, "fea": 2, "studies": 3}
+#: lumped's own layers, lowest first: the subpackage (or root module) a lumped module belongs to.
+#: A module may import from its own sub-layer and the ones below, never from one above.
+SUBLAYER = {"lumped.plugins": 0, "lumped.fluid": 1, "lumped.validity": 2, "lumped.reed": 2, "lumped.valves": 3,
+            "lumped.model": 4, "lumped.solver": 5, "lumped.run": 6, "lumped.conformance": 7, "lumped": 8}
 
 
 def _modules() -> dict[str, Path]:
@@ -39,7 +44,7 @@ def _type_checking_lines(tree: ast.AST) -> set[int]:
 
 
 def _owner(name: str) -> str | None:
-    """The module a dotted import name lands in (``lumped.pump.simulate`` -> ``lumped.pump``)."""
+    """The module a dotted import name lands in (``lumped.model.pump.simulate`` -> ``lumped.model.pump``)."""
     while name and name not in MODULES:
         if "." not in name:
             return None
@@ -85,6 +90,31 @@ def test_no_import_from_a_lower_layer_to_a_higher_one():
               if LAYER[b.split(".")[0]] > LAYER[a.split(".")[0]]
               or (b.split(".")[0] != a.split(".")[0] and LAYER[b.split(".")[0]] == LAYER[a.split(".")[0]])]
     assert not upward, "imports against the layers:\n" + "\n".join(sorted(upward))
+
+
+def sublayer(mod: str) -> tuple[str, int]:
+    """The lumped sub-layer of a lumped module (its subpackage or root module)."""
+    parts = mod.split(".")
+    for n in (2, 1):
+        key = ".".join(parts[:n])
+        if key in SUBLAYER:
+            return key, SUBLAYER[key]
+    raise KeyError(f"{mod} belongs to no lumped sub-layer: add its package to SUBLAYER")
+
+
+def test_lumped_sublayers():
+    """Inside lumped, the subpackages are layers too: reed and valve physics never reach up to the
+    model file, the solver or the run."""
+    mods = [m for m in GRAPH if m.split(".")[0] == "lumped"]
+    upward = []
+    for a in mods:
+        la = sublayer(a)
+        for b in GRAPH[a]:
+            if b.split(".")[0] == "lumped":
+                lb = sublayer(b)
+                if lb[1] > la[1] or (lb[1] == la[1] and lb[0] != la[0]):
+                    upward.append(f"{a} ({la[0]}) -> {b} ({lb[0]})")
+    assert not upward, "imports against lumped's sub-layers:\n" + "\n".join(sorted(upward))
 
 
 def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
@@ -133,4 +163,4 @@ def test_the_walker_sees_a_cycle_and_an_upward_import():
     """The checks can fail: a made-up graph with both faults is caught."""
     assert _cycles({"a": {"b"}, "b": {"a"}, "c": set()}) == [["a", "b"]]
     assert "studies" in {m.split(".")[0] for m in imports("studies.cli")} | {"studies"}
-    assert "lumped.cycle" in GRAPH["lumped"] or any(m.startswith("lumped.") for m in GRAPH["lumped"])
+    assert "lumped.run.simulate" in GRAPH["lumped"] or any(m.startswith("lumped.") for m in GRAPH["lumped"])

@@ -17,17 +17,17 @@ import pytest
 
 from geometry.declare import param, specs
 from geometry.errors import InputError
-from lumped import valve as V
-from lumped.cycle import simulate
-from lumped import disc_valve as dv
-from lumped.disc_valve import DiscValve, disc_acceleration
-from lumped.effect_library import resolve
-from lumped.layout import pack
-from lumped.model import Operating
-from lumped.model_file import SHIPPED, describe, key_paths, load_model, model_table, parse_model, to_toml, with_values
-from lumped.oil import Oil
-from lumped.layout import OFF_IN
-from lumped.pump import Circuit, Pump
+from lumped.valves import kind as V
+from lumped.run.simulate import simulate
+from lumped.valves import disc as dv
+from lumped.valves.disc import DiscValve, disc_acceleration
+from lumped.model.effect_library import resolve
+from lumped.solver.layout import pack
+from lumped.model.pump_model import Operating
+from lumped.model.model_file import SHIPPED, describe, key_paths, load_model, model_table, parse_model, to_toml, with_values
+from lumped.fluid.oil import Oil
+from lumped.solver.layout import OFF_IN
+from lumped.model.pump import Circuit, Pump
 from studies.cli import main
 
 MY_PUMP = """
@@ -347,7 +347,7 @@ WOBBLY = V.kind_block(WobblyDisc)
 
 @pytest.fixture
 def wobbly_kind(monkeypatch):
-    from lumped import model_file as MF
+    from lumped.model import model_file as MF
 
     kind = V.register(V.ValveKind(name="wobbly", params=WobblyDisc, acceleration=_wobbly_acceleration, block=WOBBLY))
     monkeypatch.setitem(MF.KIND_DEFAULTS, "wobbly", "thesis-disc")

@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from lumped import oil
-from lumped.model_file import load_model
+from lumped.fluid import oil
+from lumped.model.model_file import load_model
 from studies.tables.thesis import thesis_values
 
 RHO0, P0, BETA = 876.0, 101325.0, 1.84e9

@@ -1,4 +1,4 @@
-"""The Reynolds-consistent orifice solve of lumped/orifice.py against an independent solve."""
+"""The Reynolds-consistent orifice solve of lumped/fluid/orifice.py against an independent solve."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from lumped import orifice
-from lumped.model_file import load_model
+from lumped.fluid import orifice
+from lumped.model.model_file import load_model
 
 #: (Cd_inf, A, B, C) of eqs 2.48 (disc, last coefficient corrected) and 3.89 (reed)
 CORRELATIONS = {v: tuple(getattr(load_model(v).inlet, f) for f in ("cd_inf", "cd_a", "cd_b", "cd_c"))

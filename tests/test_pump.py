@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 
 from geometry.errors import InputError
-from lumped import pump as P
-from lumped import switching as sw
-from lumped.cycle import simulate
-from lumped.effect_library import baseline, resolve
-from lumped.layout import pack
-from lumped.model_file import load_model, with_values
-from lumped.layout import G, N_MODE, StateLayout
-from lumped import rhs as R
+from lumped.model import pump as P
+from lumped.solver import switching as sw
+from lumped.run.simulate import simulate
+from lumped.model.effect_library import baseline, resolve
+from lumped.solver.layout import pack
+from lumped.model.model_file import load_model, with_values
+from lumped.solver.layout import G, N_MODE, StateLayout
+from lumped.solver import rhs as R
 from studies.tables.thesis import experiments
 
 PUMP = load_model("thesis-disc").pump
@@ -216,7 +216,7 @@ def test_seated_valves_pass_no_flow(disc_run, reed_run):
 
 def test_delivery_converged_in_integrator_tolerance(disc_run, reed_run):
     """Delivery at the default tolerance agrees with a 10x tighter run to 0.1 % (README study)."""
-    from lumped.warmstart import fast_start
+    from lumped.run.warmstart import fast_start
 
     for r in (disc_run, reed_run):
         # the tight run starts from the fast path's cycle: at cyclic steady state after two revolutions
@@ -297,7 +297,7 @@ def test_a_valve_that_never_reseats_has_no_timing_not_zero_degrees():
     from dataclasses import replace as _replace
 
     from lumped import LIBRARY
-    from lumped.effects import Applied
+    from lumped.model.effects import Applied
 
     m = load_model("thesis-disc")
     film = LIBRARY.effects["squeeze_film"]

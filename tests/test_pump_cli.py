@@ -111,14 +111,14 @@ def test_validate_quick_writes_tables_plots_and_summary(cli, tmp_path):
 def _fake_props(reed=None, mesh_size=None):
     import numpy as np
 
-    from lumped.mode_function import ReedProperties
+    from lumped.reed.mode_function import ReedProperties
     return ReedProperties(fidelity="analytic", omega_n=2500.0, kappa=6.4e6, gamma1=1.62, gamma2=0.70, gamma3=0.87,
                           h_eff=1.2e-3, s=np.linspace(0, 0.0254, 9), psi=np.linspace(0, 1, 9) ** 2)
 
 
 def test_pump_takes_reed_parameters_from_a_reed_model(monkeypatch, capsys):
-    """--reed-geometry/--reed-fidelity go through the fidelity registry (lumped.reed_fidelity)."""
-    import lumped.reed_fidelity as rf
+    """--reed-geometry/--reed-fidelity go through the fidelity registry (lumped.reed.fidelities)."""
+    import lumped.reed.fidelities as rf
     from studies.cli import main
 
     monkeypatch.setattr(rf, "reed_model", lambda fidelity, field=None: _fake_props)

@@ -8,17 +8,17 @@ import numpy as np
 import pytest
 
 from geometry.errors import InputError
-from lumped import compiled
-from lumped import rhs as R
-from lumped import switching as sw
-from lumped.layout import G, N_MODE, OFF_IN, SWITCH, StateLayout
-from lumped.cycle import simulate
-from lumped.layout import pack
-from lumped.model_file import load_model, with_values
+from lumped.solver import compiled
+from lumped.solver import rhs as R
+from lumped.solver import switching as sw
+from lumped.solver.layout import G, N_MODE, OFF_IN, SWITCH, StateLayout
+from lumped.run.simulate import simulate
+from lumped.solver.layout import pack
+from lumped.model.model_file import load_model, with_values
 from studies.discrepancy import confusion
 from studies.discrepancy.pump_sim import for_valve_type
 from studies.discrepancy.workflow import RunCondition
-from lumped.valve import KINDS, VALVE
+from lumped.valves.kind import KINDS, VALVE
 from studies.sweeps.random_designs import mixed_model, random_design
 from studies.tables.thesis import experiments
 
@@ -43,10 +43,10 @@ def _random_states(model, rng, k=6):
 @pytest.mark.parametrize("name", [*(f"thesis-{k}" for k in KINDS), "mixed"])
 @pytest.mark.parametrize("one_dof", [True, False])
 def test_compiled_physics_is_the_reference_physics(name, one_dof):
-    """lumped.rhs.evaluate compiled by numba (both flavours, lumped.compiled.physics) gives the Python
+    """lumped.solver.rhs.evaluate compiled by numba (both flavours, lumped.solver.compiled.physics) gives the Python
     function's numbers (every field and every derivative)."""
     model = mixed_model() if name == "mixed" else load_model(name)
-    evaluate = compiled.cached("lumped.rhs", "evaluate", one_dof)
+    evaluate = compiled.cached("lumped.solver.rhs", "evaluate", one_dof)
     for p0, y, mode, t in _random_states(model, np.random.default_rng(5)):
         d_want, d_got = np.empty(len(y)), np.empty(len(y))
         want = R.evaluate(t, y.tolist(), p0.tolist(), mode.tolist(), d_want)
@@ -181,9 +181,9 @@ def test_a_stop_contact_needs_a_real_excursion():
     """A return to the stop counts only after the element was CONTACT_EXCURSION x gap clear of it."""
     from types import SimpleNamespace
 
-    from lumped.layout import Event
-    from lumped.postprocess import CONTACT_EXCURSION, stop_arrivals
-    from lumped.problem import PumpProblem
+    from lumped.solver.layout import Event
+    from lumped.run.postprocess import CONTACT_EXCURSION, stop_arrivals
+    from lumped.solver.problem import PumpProblem
 
     problem = PumpProblem.build(load_model("thesis-disc"), 600.0, 2.8e6)
     gap = problem.model.delivery.stop_gap
@@ -207,7 +207,7 @@ def _flow_force_model():
     """The discrepancy workflow's disc model with a flow force (jet 54 deg, L_t 12.5 mm) and Cd x 0.998 at
     593 rpm / 2.76 MPa: where the fast path lifted the inlet disc off 1.2 deg late while its opening
     decided the lift-off (a jet angle 2e-5 rad larger: 4.7 deg)."""
-    from lumped.effects import Applied
+    from lumped.model.effects import Applied
 
     effects = (Applied.of("discharge_scale", "both", {"scale": 0.998}),
                Applied.of("flow_force", "both", {"theta_jet": math.radians(54), "L_t": 0.0125}))
@@ -221,10 +221,10 @@ def test_lift_off_follows_the_reference_on_a_flow_force_model():
 @pytest.mark.parametrize("rtol", [1e-4, 1e-5])
 def test_rodas5p_follows_the_reference_on_a_flow_force_model_in_fewer_steps(rtol, monkeypatch):
     """Where a valve carries a flow force the fast path steps with Rodas5P at rtol <= 1e-4
-    (lumped.steppers.rodas_order): it matches scipy's Radau as Rodas4P must (delivery 0.1 %, angles 0.5 deg)
+    (lumped.solver.steppers.rodas_order): it matches scipy's Radau as Rodas4P must (delivery 0.1 %, angles 0.5 deg)
     and takes at least a quarter fewer steps than Rodas4P at the same tolerance (the transient force's
     slaved velocity, which Rodas4P's error estimate over-reads), with the same delivery to 2e-4."""
-    from lumped import steppers
+    from lumped.solver import steppers
 
     model = _flow_force_model()
     assert steppers.rodas_order(rtol, True) == 5 and steppers.rodas_order(1e-3, True) == 4

@@ -8,8 +8,8 @@ import math
 
 import pytest
 
-from lumped.cycle import simulate
-from lumped.model_file import load_model
+from lumped.run.simulate import simulate
+from lumped.model.model_file import load_model
 from studies.validation.chain import cases, run_cases, table_5_1_dead_volume_model, table_rows
 
 
@@ -32,7 +32,7 @@ def test_reed_offset_is_a_dead_volume_not_a_valve_effect():
 
 def test_complete_circuit_holds_the_load_pressure_and_agrees_with_the_simplified_one():
     """Section 4.2.2: the accumulator smooths the load, so the constant-load model is a fair stand-in."""
-    from lumped.warmstart import fast_start
+    from lumped.run.warmstart import fast_start
 
     c = _case("disc", "baseline", "inlet")
     # each reference run from the fast path's cycle of its circuit (the complete one's needle valve set there)

@@ -1,4 +1,4 @@
-"""Euler-Bernoulli reed models (lumped/reed_beam.py) against the thesis, closed forms and independent solvers."""
+"""Euler-Bernoulli reed models (lumped/reed/euler_bernoulli.py) against the thesis, closed forms and independent solvers."""
 
 import numpy as np
 import pytest
@@ -6,9 +6,9 @@ from scipy.integrate import quad
 from scipy.optimize import brentq
 
 from geometry import load_reed, parse_reed
-from lumped import reed_beam as rb
-from lumped.mode_function import effective_thickness, gamma1_alternative
-from lumped.quadrature import NODES_PER_PIECE, profile_breaks
+from lumped.reed import euler_bernoulli as rb
+from lumped.reed.mode_function import effective_thickness, gamma1_alternative
+from lumped.reed.quadrature import NODES_PER_PIECE, profile_breaks
 from studies.tables.thesis import thesis_values
 
 TV = thesis_values()
@@ -314,7 +314,7 @@ def test_brief_steel_reed_consistent_with_closed_forms():
 def test_sampled_shape_gammas_agree_with_spectral(name):
     """mode_parameters on a shape sampled like FEA output (201 uniform points) reproduces the
     spectral gammas: the piecewise integration does not lose accuracy at the step or tip."""
-    from lumped.mode_function import mode_parameters
+    from lumped.reed.mode_function import mode_parameters
 
     r = load_reed(name)
     p = rb.reed_properties(r)

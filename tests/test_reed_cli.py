@@ -116,7 +116,7 @@ def test_table_text_and_figure(cli, capsys, tmp_path):
 
 def test_user_reed_file_matches_closed_forms(capsys, tmp_path):
     """A 30 mm long, 0.8 mm thick steel reed with a 10/20 mm step at 30 % (square tip): eq 3.7 and eq 3.40."""
-    from lumped import reed_beam as rb
+    from lumped.reed import euler_bernoulli as rb
 
     f = tmp_path / "steel.toml"
     f.write_text("[reed]\nlength = 30e-3\nthickness = 0.8e-3\nwidth_root = 10e-3\nwidth_tip = 20e-3\n"

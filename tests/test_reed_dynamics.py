@@ -1,4 +1,4 @@
-"""The modal and FE reed valve in the pump (lumped/reed_dynamics.py, lumped.reed_valve.reed_accelerations).
+"""The modal and FE reed valve in the pump (lumped/reed/structure.py, lumped.valves.reed.reed_accelerations).
 
 Checked against independent numbers: the FE reed's own eigenvalues and static solution (dense
 linear algebra on its M, K), eq 3.21 (one mode), the reference stepper (scipy Radau on the Python
@@ -16,11 +16,11 @@ from scipy.linalg import expm
 
 from geometry.errors import InputError
 from lumped import load_model, simulate, with_values
-from lumped.layout import BLOCK_OFFSET, POSITIONS, opening
-from lumped.problem import PumpProblem
-from lumped.reed_dynamics import structure
-from lumped.reed_modes import fe_reed
-from lumped.valve import VALVE
+from lumped.solver.layout import BLOCK_OFFSET, POSITIONS, opening
+from lumped.solver.problem import PumpProblem
+from lumped.reed.structure import structure
+from lumped.reed.modal_basis import fe_reed
+from lumped.valves.kind import VALVE
 
 GEOMETRY = {"valves.geometry": "prototype", "valves.fidelity": "beam"}
 
@@ -31,7 +31,7 @@ def _model(**delivery):
 
 
 def _packed(model):
-    """(A, B, g, e, q0) of the delivery valve as the pump packed them (lumped.reed_dynamics.tail)."""
+    """(A, B, g, e, q0) of the delivery valve as the pump packed them (lumped.reed.structure.tail)."""
     pr = PumpProblem.build(model, 595.0, 2.76e6)
     o = BLOCK_OFFSET[POSITIONS.index("delivery")]
     n = pr.layout.dofs[1]
@@ -204,7 +204,7 @@ def test_the_command_line_reports_the_dynamics(tmp_path, capsys):
 def test_the_opening_is_the_first_packed_coordinate():
     """The modal reed's packed coordinates z = S q put the opening first (weights (1, 0, ..)): S T = I, and the
     packed matrices are the modal ones in those coordinates (the eigenvalues of A are the modal omega^2)."""
-    from lumped.reed_dynamics import coordinates
+    from lumped.reed.structure import coordinates
 
     m = _model(dynamics="modal", modes=3)
     a, _, g, e, _, pr = _packed(m)

@@ -1,4 +1,4 @@
-"""Fluid quantities of the reed model (lumped/reed_fluid.py) against the thesis and the equations they solve."""
+"""Fluid quantities of the reed model (lumped/reed/fluid.py) against the thesis and the equations they solve."""
 
 import numpy as np
 import pytest
@@ -6,8 +6,8 @@ from scipy.integrate import dblquad
 from scipy.optimize import minimize_scalar
 
 from geometry import load_reed
-from lumped import reed_beam as rb
-from lumped import reed_fluid as rf
+from lumped.reed import euler_bernoulli as rb
+from lumped.reed import fluid as rf
 from studies.tables.thesis import thesis_values
 
 TV = thesis_values()
@@ -84,7 +84,7 @@ def test_fluid_damping_1650_and_combined_1727():
     assert rel(rf.damping_per_length(mu), T13["R_f"]) < 1e-3
     c_f = rf.fluid_damping(bm.quad.s, psi, bm.W, mu, weights=bm.quad.weights)
     assert rel(c_f, T13["c_f"]) < 0.01
-    from lumped.model_file import load_model
+    from lumped.model.model_file import load_model
     c_c = load_model("thesis-reed").inlet.internal_damping
     assert rel(c_c + c_f, T13["c"]) < 0.01
     # with Simpson's rule on a dense uniform grid: the same to 1e-4

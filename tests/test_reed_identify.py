@@ -1,10 +1,10 @@
-"""Free-vibration identification (lumped/reed_identify.py): synthetic ring-downs and Table 3.10."""
+"""Free-vibration identification (lumped/reed/ringdown.py): synthetic ring-downs and Table 3.10."""
 
 import numpy as np
 import pytest
 
 from geometry.errors import InputError
-from lumped import reed_identify as ri
+from lumped.reed import ringdown as ri
 from studies.tables.thesis import thesis_values
 
 T10 = thesis_values()["table_3_10"]

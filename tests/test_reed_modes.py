@@ -1,4 +1,4 @@
-"""The modal reed (lumped.reed_modes) and the whole FE reed, structural side.
+"""The modal reed (lumped.reed.modal_basis) and the whole FE reed, structural side.
 
 Checked against independent numbers: the clamped-free beam's closed forms (beta_n L of
 Blevins 1979, its modal integrals and the static tip deflection W L^4 / 8 EI), eq 3.21 and
@@ -16,8 +16,8 @@ from scipy.linalg import expm
 from geometry import InputError, load_reed
 from geometry.reed_port import (ReedPort, check_port, edge_rule, face_rule, footprint_area, footprint_mask,
                                 parse_port, read_port, station_rule)
-from lumped import reed_modes as rm
-from lumped.quadrature import ProfileQuadrature, profile_breaks
+from lumped.reed import modal_basis as rm
+from lumped.reed.quadrature import ProfileQuadrature, profile_breaks
 
 #: beta_n L of the clamped-free uniform beam, cos x cosh x = -1 (Blevins 1979, Table 8-1)
 BETA_L = (1.875104069, 4.694091133, 7.854757438, 10.99554073, 14.13716839, 17.27875953)
@@ -151,7 +151,7 @@ def test_uniform_cantilever_modal_quantities_against_closed_forms():
 def _first_mode_integrals(reed, fidelity):
     """Table 3.4's integrals over the first mode shape psi (psi(L) = 1) found by another code path."""
     from fea import beam
-    from lumped import reed_beam
+    from lumped.reed import euler_bernoulli as reed_beam
 
     if fidelity == "analytic":   # power iteration on the flexibility operator, not the dense eig
         _, s, psi = reed_beam.free_vibration(reed, s_out=reed_beam.plot_grid(reed, 2001))
@@ -191,7 +191,7 @@ def test_one_mode_is_eq_3_21(fidelity, name):
         gamma3 * 870.0 * W2 * np.pi / 4 * ig["psi2W"], rel=2e-5)
     assert np.all(b.theta == 0.0) and b.opening[0] == b.tip[0]
     # today's one-mode valve takes gamma1, kappa from the static shape: about 1 % apart (documented)
-    from lumped.reed_fidelity import reed_properties
+    from lumped.reed.fidelities import reed_properties
 
     p = reed_properties(reed, fidelity)
     assert 0.004 < gamma1 / p.gamma1 - 1 < 0.009
@@ -213,7 +213,7 @@ def test_fe_reed_modes_equal_the_beam_basis_on_the_same_mesh():
     np.testing.assert_allclose(f * c / k, b.load * b.opening / b.modal_stiffness, rtol=1e-7, atol=1e-20)
     np.testing.assert_allclose(f * tip / k, b.load * b.tip / b.modal_stiffness, rtol=1e-7, atol=1e-20)
     # the FE reed's static deflection against exact E-B (spectral, another model): 56 DOFs
-    from lumped.reed_beam import exact_stiffness
+    from lumped.reed.euler_bernoulli import exact_stiffness
 
     whole = rm.fe_reed(PROTO)
     assert whole.static_deflection(1.0)[0] * exact_stiffness(PROTO) == pytest.approx(1.0, abs=1e-5)
@@ -222,7 +222,7 @@ def test_fe_reed_modes_equal_the_beam_basis_on_the_same_mesh():
 def test_opening_is_the_mean_lift_over_the_port_outline_scaled_to_the_tip():
     """c_i = <phi_i>_edge / <phi_1>_edge phi_1(L) with the edge integral written out for a beam:
     two sides along s and two across (w constant across)."""
-    from lumped import reed_beam
+    from lumped.reed import euler_bernoulli as reed_beam
 
     b = rm.modal_basis(PROTO, "analytic", 4, port=OFF_AXIS)
     modes = reed_beam.modes(PROTO, 4)
@@ -293,7 +293,7 @@ def test_basis_is_cached_truncated_and_read_only():
     with pytest.raises(ValueError):
         b6.omega[0] = 1.0
     # the width-mean deflection of a beam is its deflection (exact E-B shapes, max |w| = 1 at the tip)
-    from lumped import reed_beam
+    from lumped.reed import euler_bernoulli as reed_beam
 
     modes = reed_beam.modes(PROTO, 6)
     keep = np.append(np.diff(modes.s) > 1e-9, True)
@@ -335,7 +335,7 @@ def test_plate_free_release_needs_the_modes_past_torsion():
 @pytest.mark.slow
 def test_solid_basis_out_of_plane_modes_and_static_tip():
     from fea import solid
-    from lumped.reed_fidelity import reed_properties
+    from lumped.reed.fidelities import reed_properties
 
     b = rm.modal_basis(PROTO, "solid", 6)
     r = solid.modes(PROTO, 6)

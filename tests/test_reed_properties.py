@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from geometry import parse_reed
 from geometry.errors import InputError
-from lumped import reed_beam as rb
+from lumped.reed import euler_bernoulli as rb
 
 SETTINGS = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 

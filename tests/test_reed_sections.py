@@ -1,4 +1,4 @@
-"""Multi-section reeds in the Euler-Bernoulli models (lumped.reed_beam analytic, fea.beam) against
+"""Multi-section reeds in the Euler-Bernoulli models (lumped.reed.euler_bernoulli analytic, fea.beam) against
 independent solutions written here: the Naguleswaran characteristic equation of a stepped beam
 (beam functions per segment, continuity at each step) and a shooting solution of
 (EI w'')'' = m omega^2 w (and = q) integrated with scipy's solve_ivp through tapers."""
@@ -13,7 +13,7 @@ from scipy.optimize import brentq
 
 from fea import beam
 from geometry import parse_reed
-from lumped import reed_beam as rb
+from lumped.reed import euler_bernoulli as rb
 
 MATERIAL = "[reed.material]\nyoungs_modulus = 2.9e9\ndensity = 1410.0\npoisson_ratio = 0.35\n"
 

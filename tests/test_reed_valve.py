@@ -10,16 +10,16 @@ from scipy.optimize import brentq
 
 from geometry.errors import InputError
 from geometry import load_reed
-from lumped import reed_valve as rv
-from lumped.effect_library import resolve
-from lumped.layout import pack
-from lumped.mode_function import ReedProperties
-from lumped.model_file import load_model
-from lumped.orifice import discharge_coefficient, orifice_flow
-from lumped.layout import OFF_DEL, OFF_IN
-from lumped.valve import ValveInputs
-from lumped.reed_valve import REED
-from lumped.valve import displacement_area, valve_flow
+from lumped.valves import reed as rv
+from lumped.model.effect_library import resolve
+from lumped.solver.layout import pack
+from lumped.reed.mode_function import ReedProperties
+from lumped.model.model_file import load_model
+from lumped.fluid.orifice import discharge_coefficient, orifice_flow
+from lumped.solver.layout import OFF_DEL, OFF_IN
+from lumped.valves.kind import ValveInputs
+from lumped.valves.reed import REED
+from lumped.valves.kind import displacement_area, valve_flow
 from studies.tables.thesis import thesis_values
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from lumped import rodas
+from lumped.solver import rodas
 
 
 @numba.njit(cache=True)
@@ -262,9 +262,9 @@ def test_first_step_after_an_event_is_remembered_between_calls():
 
 
 def test_sampled_modes_decode_the_step_tags_of_the_layout():
-    """Each sample's mode is the mode the stepper tagged its step with (lumped.layout.mode_tag, the encoder),
+    """Each sample's mode is the mode the stepper tagged its step with (lumped.solver.layout.mode_tag, the encoder),
     a sample at a step's end belonging to that step."""
-    from lumped.layout import N_MODE, mode_tag
+    from lumped.solver.layout import N_MODE, mode_tag
 
     rng = np.random.default_rng(3)
     modes = rng.integers(0, 3, size=(6, N_MODE)).astype(float)

@@ -165,8 +165,8 @@ samples = 128
 def _oat(spec):
     """One-at-a-time differences of delivery [cc/rev] over each variable's full range (others at the centre),
     computed with the model API directly, not through the sensitivity code."""
-    from lumped.cycle import simulate
-    from lumped.model_file import load_model, with_values
+    from lumped.run.simulate import simulate
+    from lumped.model.model_file import load_model, with_values
 
     model = load_model("thesis-disc")
     centre = {v.name: 0.5 * (v.low + v.high) for v in spec.variables}
@@ -320,8 +320,8 @@ def test_killed_study_resumes_without_recomputing(tmp_path):
 def test_a_valve_that_never_reseats_has_no_timing():
     """With the squeeze film the disc is held off its seat all revolution (the raw simulation's open interval is
     the whole revolution and it never lands on the seat): its opening and closing angles are missing, not 0 deg."""
-    from lumped.cycle import simulate
-    from lumped.model_file import load_model, with_values
+    from lumped.run.simulate import simulate
+    from lumped.model.model_file import load_model, with_values
     from studies.sweeps.design.evaluate import evaluate
 
     model = with_values(load_model("thesis-disc"), {"effects.squeeze_film": True})

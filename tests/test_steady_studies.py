@@ -93,8 +93,8 @@ def test_monte_carlo_draws_warm_equal_cold():
     own from today's start, to 1e-5."""
     from dataclasses import replace
 
-    from lumped.model_file import load_model, with_values
-    from lumped.uncertainty import check_reach, numeric_keys, sample_values
+    from lumped.model.model_file import load_model, with_values
+    from lumped.model.uncertainty import check_reach, numeric_keys, sample_values
     from studies.validation.input_uncertainty import MC_ATOL, MC_RTOL, evaluate_draws
     from studies.validation.numerical import OUTPUTS, output_values
 
@@ -126,8 +126,8 @@ def test_validation_case_from_the_fast_cycle_equals_the_cold_reference():
 
 
 def test_packed_valve_block_cache_gives_the_uncached_block():
-    from lumped.layout import _valve_block, pack
-    from lumped.model_file import load_model
+    from lumped.solver.layout import _valve_block, pack
+    from lumped.model.model_file import load_model
 
     for name in ("thesis-disc", "thesis-reed"):
         m = load_model(name)

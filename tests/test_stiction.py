@@ -1,6 +1,6 @@
 """Fluid stiction that lets go: the squeeze film of eqs 2.7-2.18 with its pressure bounded at cavitation.
 
-The film force of ``lumped.disc_valve.film_force`` is checked against an independent solution of
+The film force of ``lumped.valves.disc.film_force`` is checked against an independent solution of
 the Reynolds equation with a cavity (quadrature of the piecewise pressure field, cavity edges by
 bracketing), and the separation of two plates pulled apart by a constant force against closed
 forms: Stefan's law without the cavitation limit, and with it the Reynolds-condition cavity
@@ -18,11 +18,11 @@ import pytest
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
-from lumped import disc_valve as dv
-from lumped.disc_valve import DISC, film_force
-from lumped.layout import pack
-from lumped.model_file import load_model
-from lumped.layout import OFF_IN
+from lumped.valves import disc as dv
+from lumped.valves.disc import DISC, film_force
+from lumped.solver.layout import pack
+from lumped.model.model_file import load_model
+from lumped.solver.layout import OFF_IN
 
 RI, RO = 5.24e-3, 7.5e-3           # the thesis disc's film annulus (Table 2.3)
 MU = 0.0683                         # Pa s
@@ -33,7 +33,7 @@ def reynolds_force(p_up, p_down, p_lim, k, ri=RI, ro=RO):
     """Force [N] on the face of an annulus ri..ro (p_up inside ri, p_down outside ro) from the
     Reynolds film P = k r^2 + A ln r + B, bounded at p_lim with the Reynolds (zero-gradient) cavity
     condition: each liquid zone solved on its own, edges found by bracketing, pressures integrated
-    by quadrature. Nothing from lumped.disc_valve is used."""
+    by quadrature. Nothing from lumped.valves.disc is used."""
     lnr = math.log(ro / ri)
     a = (p_down - p_up - k * (ro**2 - ri**2)) / lnr
     b = p_up - k * ri**2 - a * math.log(ri)
@@ -232,9 +232,9 @@ def test_pump_runs_and_both_valves_open_with_stiction(factor):
 @pytest.mark.slow
 def test_fast_and_reference_agree_with_the_squeeze_film():
     """The compiled fast path and the scipy reference run the same film (measured 1.6e-4 apart)."""
-    from lumped.cycle import simulate
-    from lumped.effect_library import baseline
-    from lumped.effects import Applied
+    from lumped.run.simulate import simulate
+    from lumped.model.effect_library import baseline
+    from lumped.model.effects import Applied
 
     m0 = baseline(load_model("thesis-disc"))
     m = m0.with_effects((Applied.of("squeeze_film", "both", {"C2": m0.inlet.c2(m0.oil.viscosity)}),))

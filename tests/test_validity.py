@@ -102,7 +102,7 @@ def test_reed_resting_beyond_its_stop_is_warned_and_refused_by_model_check(tmp_p
     assert message(r, "rest_beyond_stop") == ("delivery reed rests 5.00 mm open (seat.preload), beyond its 1.90 mm "
                                               "stop: it sits pressed on its stop")
     assert r.delivery_per_rev <= 1e-4 * r.swept_volume            # it pumped backwards before: efficiency -0.001
-    from lumped.model_file import describe
+    from lumped.model.model_file import describe
 
     with pytest.raises(InputError) as exc:
         describe(m)
@@ -141,7 +141,7 @@ def test_a_cylinder_that_cavitates_beyond_the_vapour_cavity_models_range():
 
 
 def _cylinder_volume(m, t, r):
-    """V(t) of eq 4.2 from the crank-slider geometry (independent of lumped.pump)."""
+    """V(t) of eq 4.2 from the crank-slider geometry (independent of lumped.model.pump)."""
     p = m.pump
     th = 2 * math.pi * r.speed_rpm / 60 * t
     a = math.pi * p.piston_diameter**2 / 4
@@ -247,7 +247,7 @@ def test_compression_bound_against_eq_4_11():
     ({"valves.inlet.spring.stiffness": 5000.0}, "valves.inlet.spring.preload", ("cannot fill",)),
 ])
 def test_model_check_refuses_a_pump_that_cannot_deliver(values, field, words):
-    from lumped.model_file import describe
+    from lumped.model.model_file import describe
 
     with pytest.raises(InputError) as exc:
         describe(with_values(load_model("thesis-disc"), values))

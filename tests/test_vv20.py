@@ -234,7 +234,7 @@ def test_monte_carlo_matches_a_finite_difference():
     from dataclasses import replace
 
     from lumped import load_model, simulate, with_values
-    from lumped.uncertainty import Uncertainty
+    from lumped.model.uncertainty import Uncertainty
     from studies.validation.input_uncertainty import MC_ATOL, MC_RTOL, Point, propagate
 
     m = load_model("thesis-disc")
@@ -257,7 +257,7 @@ def test_monte_carlo_matches_a_finite_difference():
 def test_declarations_draw_and_follow():
     """Scores of a uniform have unit variance and reach +-sqrt(3); a follower scales as a power law."""
     from lumped import load_model
-    from lumped.uncertainty import numeric_keys, sample_values, standard_scores
+    from lumped.model.uncertainty import numeric_keys, sample_values, standard_scores
 
     m = load_model("thesis-reed")
     decls = m.uncertainties

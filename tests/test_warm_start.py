@@ -1,4 +1,4 @@
-"""The stop rule at cyclic steady state and the warm start (lumped.revolutions, lumped.warmstart).
+"""The stop rule at cyclic steady state and the warm start (lumped.run.revolutions, lumped.run.warmstart).
 
 Judged against independent runs: a 40-revolution run from today's start (the delivery's
 spread over its last ten revolutions measures the integrator's noise), a run of the same
@@ -14,8 +14,8 @@ import pytest
 
 from geometry.errors import InputError
 from lumped import StopRule, TdcState, WarmStarts, chain_order, simulate
-from lumped.layout import S_MCYL
-from lumped.model_file import load_model
+from lumped.solver.layout import S_MCYL
+from lumped.model.model_file import load_model
 from studies.sweeps.random_designs import VALVES, random_design
 
 RTOL, ATOL = 1e-4, 1e-6        # the design studies' tolerances: noise ~1e-5 in delivery
@@ -79,7 +79,7 @@ def test_single_revolution_from_a_cycle_state_matches_a_40_revolution_run_and_a_
     revolutions from today's start, its residual below a fifth of the tolerance; from the state of a design
     1 % faster (the delivery valve, half open at TDC, a few 1e-3 of its gap elsewhere) the one-revolution
     test fails and the run goes on to the two-revolution test; a cold start never stops at one."""
-    from lumped.revolutions import SINGLE_FRACTION, STEADY_TOL
+    from lumped.run.revolutions import SINGLE_FRACTION, STEADY_TOL
 
     m = load_model("thesis-disc")
     rule = StopRule.steady(STEADY_TOL, single=True)
@@ -108,8 +108,8 @@ def test_carried_state_scales_masses_and_gaps():
     s = r.tdc_state
     big = replace(m, pump=replace(m.pump, dead_volume=2 * m.pump.dead_volume),
                   delivery=replace(m.delivery, stop_gap=1.5 * m.delivery.stop_gap))
-    from lumped.cycle import _physics
-    from lumped.problem import PumpProblem
+    from lumped.run.simulate import _physics
+    from lumped.solver.problem import PumpProblem
 
     prob = PumpProblem.build(big, 593, 2.76e6)
     y, mode = s.start(prob, _physics("fast1").load_mass)

@@ -14,7 +14,7 @@ import math
 
 from fea.fidelities import FIDELITIES
 from geometry import load_reed
-from lumped.reed_beam import uniform_natural_frequency
+from lumped.reed.euler_bernoulli import uniform_natural_frequency
 
 reed = load_reed("uniform")
 m = reed.material

@@ -15,7 +15,7 @@ import tempfile
 from pathlib import Path
 
 from lumped import load_model, simulate
-from lumped.pump import piston_position
+from lumped.model.pump import piston_position
 
 # no `base = ...`: keys left out come from the shipped thesis-disc model, but not its effects
 # (the thesis rig's O-ring seat compliance), so this pump has rigid seats

@@ -5,7 +5,7 @@ Adding an effect: a trapped volume on the cylinder (a gauge port, a drilled pass
 One `register(Effect(...))`, as docs/extending.md says, and the effect works everywhere an
 effect does: in a model's effects, in `valvelab synth --effect`, in the discrepancy
 workflow's candidates and in sweeps (here: in this process; a permanent one goes into
-lumped/effect_library.py).
+lumped/model/effect_library.py).
 
 Headline number: a trapped volume V adds to the dead volume, so with air-free oil the
 delivery falls by V (p_load - p_tank) / beta per revolution (eqs 4.11, 4.17); simulated
@@ -15,8 +15,8 @@ within 3 %.
 from dataclasses import replace
 
 from lumped import LIBRARY, load_model, simulate
-from lumped.effect_library import set_fields
-from lumped.effects import PUMP, Applied, Effect, Parameter
+from lumped.model.effect_library import set_fields
+from lumped.model.effects import PUMP, Applied, Effect, Parameter
 
 effect = LIBRARY.register(Effect(
     name="trapped_volume",

@@ -2,7 +2,7 @@
 A third valve kind: the ball check valve, added as docs/extending.md says, and checked
 ======================================================================================
 
-`lumped/ball_valve.py` (the kind: parameters, acceleration, registration), one import line in
+`lumped/valves/ball.py` (the kind: parameters, acceleration, registration), one import line in
 `lumped/__init__.py` and the shipped model `thesis-ball` (the thesis pump of Table 5.4 with
 ball valves) are all it took; every command, mixed pumps and the effects that apply to a
 ball then work, and `lumped.check_valve_kind` checks the kind against the contract by
@@ -10,7 +10,7 @@ running it.
 
 Headline number: a seated ball has no flow and no speed, so the inlet ball lifts off where the
 pressure difference over its seat circle balances the spring's preload,
-(P_tank - P_cyl) pi d_c^2 / 4 = k x_pre with d_c = d_b cos(alpha) (lumped/ball_valve.py): the
+(P_tank - P_cyl) pi d_c^2 / 4 = k x_pre with d_c = d_b cos(alpha) (lumped/valves/ball.py): the
 cylinder pressure at the located opening matches that closed form to the pressure change of
 0.05 deg of crank.
 """
@@ -20,7 +20,7 @@ import math
 import numpy as np
 
 from lumped import check_valve_kind, load_model, simulate
-from lumped.model_file import describe, parse_model
+from lumped.model.model_file import describe, parse_model
 
 model = load_model("thesis-ball")
 ball = model.inlet

@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-#: the run settings of the check: the pump at cyclic steady state (lumped.cycle.simulate)
+#: the run settings of the check: the pump at cyclic steady state (lumped.run.simulate.simulate)
 SETTINGS = {"revolutions": 3, "max_revolutions": 20}
 
 
@@ -14,7 +14,7 @@ def at_conditions(simulator, conditions, effects=(), names=None) -> list[dict]:
     A condition whose check run fails is skipped: the command's own simulation of it already succeeded or
     failed with its message."""
     from geometry.errors import ModelFailure
-    from lumped.cycle import simulate
+    from lumped.run.simulate import simulate
 
     model_for = getattr(simulator, "model_for", None)
     if model_for is None:

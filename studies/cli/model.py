@@ -18,7 +18,7 @@ def configure(p):
 
 
 def run(args) -> dict:
-    from lumped.model_file import describe, file_keys, key_paths, load_model, model_table, to_toml
+    from lumped.model.model_file import describe, file_keys, key_paths, load_model, model_table, to_toml
 
     model = load_model(args.model, field="model")
     if args.action == "show":
@@ -30,7 +30,7 @@ def run(args) -> dict:
         return out
     if args.toml:
         raise InputError("--toml", "applies to model show")
-    from lumped.uncertainty import check_reach
+    from lumped.model.uncertainty import check_reach
 
     check_reach(model)              # every draw of a declared uncertainty inside its key's range
     out = describe(model)

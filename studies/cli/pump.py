@@ -6,15 +6,15 @@ import csv
 
 from geometry.declare import spec_of
 from geometry.errors import InputError
-from lumped.model import LOAD_MPA, SPEED
-from lumped.model_file import kind_default_model
-from lumped.valve import kind_names
-from lumped.oil import Oil
+from lumped.model.pump_model import LOAD_MPA, SPEED
+from lumped.model.model_file import kind_default_model
+from lumped.valves.kind import kind_names
+from lumped.fluid.oil import Oil
 from studies.cli import flags
 
 HELP = "simulate a pump (a shipped model or your model file) with its check valves to cyclic steady state"
 
-#: plausible ranges of the engineering-unit flags (speed and load: lumped.model, with the model's)
+#: plausible ranges of the engineering-unit flags (speed and load: lumped.model.pump_model, with the model's)
 AIR_BOUNDS = spec_of(Oil, "air_content").bounds       # declared once, with the oil
 TOL_BOUNDS = (1e-14, 0.1)
 MAX_REVOLUTIONS = 100_000
@@ -60,7 +60,7 @@ def configure(p):
 
 def model_for(args, field: str = "--model"):
     """The PumpModel the flags describe: --model (or thesis-<--valve>) with the override flags applied."""
-    from lumped.model_file import load_model, with_values
+    from lumped.model.model_file import load_model, with_values
 
     if args.model is None and args.valve is None:
         raise InputError("--model", "give a model (--model thesis-disc, thesis-reed, thesis-ball or a model file) or --valve")
@@ -71,7 +71,7 @@ def model_for(args, field: str = "--model"):
     if args.dead_volume_m3 is not None:
         values["pump.dead_volume"] = args.dead_volume_m3
     if args.reed_fidelity is not None:
-        from lumped.reed_fidelity import reed_model
+        from lumped.reed.fidelities import reed_model
 
         reed_model(args.reed_fidelity, "--reed-fidelity")      # an unknown name, before anything else
     if args.reed_geometry is not None or args.reed_fidelity is not None:
@@ -104,7 +104,7 @@ def _check_args(args) -> None:
 
 
 def run(args) -> dict:
-    from lumped.cycle import simulate
+    from lumped.run.simulate import simulate
     from studies.outputs import check_distinct, check_new_file
 
     _check_args(args)
@@ -132,12 +132,12 @@ def run(args) -> dict:
                    max_revolutions=args.max_revolutions, circuit=args.circuit, rtol=args.rtol, atol=args.atol,
                    trace=bool(outputs), progress=True, method=args.method)
     out = res.to_dict()
-    from lumped.model_file import SHIPPED
+    from lumped.model.model_file import SHIPPED
 
     out["model"] = model.name if model.name in SHIPPED and model.source.startswith("lumped/") else model.source
     out["reed_parameters"] = _reed_source(model)
     if args.uncertainty:
-        from lumped.model_file import with_values
+        from lumped.model.model_file import with_values
         from studies.validation.vv20 import point_uncertainty
 
         m = model if args.air_content is None else with_values(model, {"oil.air_content": args.air_content})

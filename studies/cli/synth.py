@@ -7,9 +7,9 @@ from pathlib import Path
 
 from geometry import validate
 from geometry.errors import InputError
-from lumped.effects import Applied
-from lumped.model import LOAD_MPA, SPEED
-from lumped.valve import kind_names
+from lumped.model.effects import Applied
+from lumped.model.pump_model import LOAD_MPA, SPEED
+from lumped.valves.kind import kind_names
 from studies.cli import flags
 from studies.cli.pump import AIR_BOUNDS
 from studies.discrepancy.measured import MEASURED_VALVES
@@ -82,7 +82,7 @@ def parse_effect(spec: str, library, valve_type) -> Applied:
         values[k] = x
         given[k] = x
     if given and not isinstance(valve_type, str):    # a pump model: each value against its declared field
-        from lumped.effect_library import check_values
+        from lumped.model.effect_library import check_values
 
         check_values(eff, given, valve_type, target, f"--effect {name}")
     return Applied.of(name, target, values)
@@ -133,7 +133,7 @@ def run(args) -> dict:
                                  workers=args.workers)     # a ModelFailure: exit 1, one line (studies.cli)
     model_file = None
     if sim.context is not None and args.model is not None:
-        from lumped.model_file import SHIPPED, to_toml
+        from lumped.model.model_file import SHIPPED, to_toml
 
         if args.model in SHIPPED:
             runs = [replace(r, model=args.model) for r in runs]

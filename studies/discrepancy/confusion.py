@@ -26,7 +26,7 @@ import time
 
 import numpy as np
 
-from lumped.effects import Applied
+from lumped.model.effects import Applied
 
 from studies.discrepancy.workflow import ModelFailure, Settings, Workflow
 from studies.discrepancy.model_choice import choose

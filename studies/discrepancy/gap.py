@@ -25,15 +25,15 @@ from functools import lru_cache
 
 import numpy as np
 
-from lumped.model import POSITIONS
-from lumped.trace import Trace
+from lumped.model.pump_model import POSITIONS
+from lumped.run.trace import Trace
 from studies.discrepancy.measured import Run
 
 VALVES = POSITIONS          # the valves a trace holds
 
 
 class CycleTrace(Trace):
-    """One simulated revolution on crank angle: a :class:`lumped.trace.Trace` (positions [m] of both
+    """One simulated revolution on crank angle: a :class:`lumped.run.trace.Trace` (positions [m] of both
     valves, cylinder pressure [Pa] if known) with the delivery of that revolution [m^3/rev].
 
     Built from crank angles [deg] within [0, 360): the trace's clock is one revolution per second

@@ -24,7 +24,7 @@ import tomli_w
 
 from geometry import validate
 from geometry.errors import InputError
-from lumped.trace import Trace
+from lumped.run.trace import Trace
 
 from studies.outputs import check_new_file, prepare_output_dir
 
@@ -89,14 +89,14 @@ class Run:
 @cache
 def swept_volume_m3() -> float:
     """Piston swept volume 2 A_p r [m^3] of the thesis pump (thesis-disc, Table 5.1)."""
-    from lumped.model_file import load_model
+    from lumped.model.model_file import load_model
 
     return load_model("thesis-disc").pump.displacement
 
 
 def valve_types() -> tuple[str, ...]:
     """Accepted run.toml valve types: every registered kind, and mixed "<inlet>/<delivery>" labels."""
-    from lumped.valve import KINDS
+    from lumped.valves.kind import KINDS
 
     kinds = tuple(KINDS)
     return kinds + tuple(f"{a}/{b}" for a in kinds for b in kinds if a != b)

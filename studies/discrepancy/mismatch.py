@@ -41,8 +41,8 @@ from typing import Callable
 
 import numpy as np
 
-from lumped.effect_library import resolve
-from lumped.model import POSITIONS
+from lumped.model.effect_library import resolve
+from lumped.model.pump_model import POSITIONS
 
 from studies.discrepancy.pump_sim import PumpSimulator
 

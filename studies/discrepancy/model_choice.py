@@ -1,11 +1,11 @@
 """Which simulator the discrepancy and synth commands use: a pump model, or a model module.
 
 ``--model NAME|FILE`` (or ``model = "FILE"`` in run.toml, a path relative to the run
-folder) picks a pump model (``lumped.model_file``): valvelab's pump with the user's
+folder) picks a pump model (``lumped.model.model_file``): valvelab's pump with the user's
 pump, oil and valves (:class:`studies.discrepancy.pump_sim.PumpSimulator`). Default: the shipped
 thesis model of the dataset's valve type. ``--simulator MODULE`` swaps in another model
 altogether: a module with ``simulate(condition, applied_effects) -> CycleTrace`` and
-``LIBRARY`` (a :class:`lumped.effects.Library`); ``--model MODULE`` is still understood
+``LIBRARY`` (a :class:`lumped.model.effects.Library`); ``--model MODULE`` is still understood
 for a module name that is neither a shipped model nor a file, with a note on stderr.
 """
 
@@ -17,8 +17,8 @@ from pathlib import Path
 from typing import Callable
 
 from geometry.errors import InputError
-from lumped.model_file import SHIPPED, kind_default_model, model_ref
-from lumped.valve import KINDS
+from lumped.model.model_file import SHIPPED, kind_default_model, model_ref
+from lumped.valves.kind import KINDS
 
 
 @dataclass
@@ -49,7 +49,7 @@ def _is_model(name: str) -> bool:
 def choose(model: str | None = None, simulator: str | None = None, runs: list | None = None,
            valve_type: str | None = None) -> Simulator:
     """The simulator for a command (see the module docstring)."""
-    from lumped.model_file import load_model
+    from lumped.model.model_file import load_model
 
     from studies.discrepancy.pump_sim import LIBRARY, PumpSimulator
 

@@ -1,10 +1,10 @@
 """valvelab's pump as the discrepancy workflow's model: run condition + effects -> one revolution.
 
 A :class:`PumpSimulator` wraps a pump model (a shipped one or the user's model file).
-Its baseline (CONTRACT.md) is :func:`lumped.effect_library.baseline` of that model (every
+Its baseline (CONTRACT.md) is :func:`lumped.model.effect_library.baseline` of that model (every
 candidate effect off: its own effects dropped, air-free oil) with the air content of
-run.toml when the run states it; candidate effects are applied from ``lumped.effect_library.LIBRARY``
-(``lumped/effect_library.py``) with priors computed for that model.
+run.toml when the run states it; candidate effects are applied from ``lumped.model.effect_library.LIBRARY``
+(``lumped/model/effect_library.py``) with priors computed for that model.
 
 How a revolution is computed (measured in docs/discrepancy.md, "Cost"):
 
@@ -31,7 +31,7 @@ How a revolution is computed (measured in docs/discrepancy.md, "Cost"):
   final model).
 
 An integration that fails is retried: the fast path at its default tolerance, then the reference
-integrator (``lumped.cycle.simulate``), each with a step budget (a candidate deep in an implausible corner
+integrator (``lumped.run.simulate.simulate``), each with a step budget (a candidate deep in an implausible corner
 must fail in seconds).
 """
 
@@ -43,10 +43,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from lumped.cycle import InvariantError, check_invariants, simulate as pump_simulate
-from lumped.effect_library import LIBRARY, baseline, resolve
-from lumped.model import PumpModel
-from lumped.model_file import load_model
+from lumped.run.simulate import InvariantError, check_invariants, simulate as pump_simulate
+from lumped.model.effect_library import LIBRARY, baseline, resolve
+from lumped.model.pump_model import PumpModel
+from lumped.model.model_file import load_model
 
 from studies.discrepancy.gap import CycleTrace
 from studies.discrepancy.validation import INPUT, NUMERICS, TRUTH_RTOL   # noqa: F401 (TRUTH_RTOL: synth's tolerance)
@@ -55,14 +55,14 @@ __all__ = ["LIBRARY", "PumpSimulator", "simulate", "model_for", "fit_rtol"]
 
 #: revolutions from a cold start (the first is the transient from the pump at rest) or from the state of a
 #: model that is not a near neighbour; more, up to MAX_REVOLUTIONS, while the delivery or the state at TDC
-#: still changes between the last two by more than the tolerance (lumped.revolutions.StopRule). One
+#: still changes between the last two by more than the tolerance (lumped.run.revolutions.StopRule). One
 #: revolution from the baseline's state is not enough where an effect changes the cycle's character: a
 #: compliant seat with a squeeze film left 50-120 um and 27-107 kPa RMS after it (the disc sinks into the
 #: seat it starts on, then hovers on the film from the second revolution on), within 0.03-0.13 um and 0.1 kPa
 #: after two
 REVOLUTIONS = 2
 MAX_REVOLUTIONS = 4
-#: the steady-state test of those (lumped.revolutions.cycle_change: delivery, cylinder mass, openings at TDC):
+#: the steady-state test of those (lumped.run.revolutions.cycle_change: delivery, cylinder mass, openings at TDC):
 #: 1e-3 for the fits (a flow-force model's delivery still drifts by 1e-5 a revolution after the second, its
 #: valves' TDC states by ~1e-4, at 1,400-2,800 steps a revolution: 8 revolutions were 5x the cost for nothing
 #: the gap sees), 1e-5 for the truth (synthetic data, TRUTH_RTOL), up to 12 revolutions
@@ -123,14 +123,14 @@ class PumpSimulator:
         """The model of a run condition: baseline, the run's stated air content, then the applied effects.
 
         Two entries of ``effects`` are not library effects: ``input`` (target ``pump``) moves model keys
-        ({key path: value}, lumped.model_file.with_values; ``oil.air_content`` by its change from the
+        ({key path: value}, lumped.model.model_file.with_values; ``oil.air_content`` by its change from the
         model's own, on top of the run's stated air content) and ``numerics`` sets the tolerance (rtol), for
         the validation uncertainty (studies.discrepancy.validation)."""
         m = self.model
         inputs = {k: v for a in effects if a.name == INPUT for k, v in a.values}
         air_shift = 0.0
         if inputs:
-            from lumped.model_file import with_values
+            from lumped.model.model_file import with_values
 
             if "oil.air_content" in inputs:
                 air_shift = inputs.pop("oil.air_content") - m.oil.air_content
@@ -183,18 +183,18 @@ class PumpSimulator:
 
 def revolution(model: PumpModel, speed_rpm: float, load_pressure: float, warm: np.ndarray | None, rtol: float,
                max_steps: int, near: bool = False) -> CycleTrace:
-    """One revolution of cyclic steady state of the fast path (Rodas4P/5P, ``lumped.steppers``): from ``warm`` (a TDC
+    """One revolution of cyclic steady state of the fast path (Rodas4P/5P, ``lumped.solver.steppers``): from ``warm`` (a TDC
     state) WARM_REVOLUTIONS if ``near`` (a near neighbour's), else (another model's, or from the pump at rest)
     REVOLUTIONS and more until the delivery and the TDC state stop changing (at most MAX_REVOLUTIONS); the trace
     at the steps, their midpoints and TRACE_POINTS even angles. Raises InvariantError for a result that breaks
     the pump's invariants."""
-    from lumped import switching as sw
-    from lumped.cycle import _physics, ensure_compiled
-    from lumped.layout import N_MODE
-    from lumped.postprocess import COL, mass_balance
-    from lumped.problem import PumpProblem
-    from lumped.revolutions import StopRule, run
-    from lumped.steppers import METHODS
+    from lumped.solver import switching as sw
+    from lumped.run.simulate import _physics, ensure_compiled
+    from lumped.solver.layout import N_MODE
+    from lumped.run.postprocess import COL, mass_balance
+    from lumped.solver.problem import PumpProblem
+    from lumped.run.revolutions import StopRule, run
+    from lumped.solver.steppers import METHODS
 
     ensure_compiled()
     problem = PumpProblem.build(model, speed_rpm, load_pressure)
@@ -245,9 +245,9 @@ def _step_times(span) -> np.ndarray | None:
 
 
 def _check(problem, last, mass_error: float, p_cyl: np.ndarray) -> None:
-    """The invariants of lumped.cycle.check_invariants on one revolution: a finite delivery within the swept
+    """The invariants of lumped.run.simulate.check_invariants on one revolution: a finite delivery within the swept
     volume, the mass balance, a finite pressure."""
-    from lumped.cycle import DELIVERY_LIMITS, MASS_BALANCE_LIMIT
+    from lumped.run.simulate import DELIVERY_LIMITS, MASS_BALANCE_LIMIT
 
     if not (math.isfinite(last.delivery) and np.all(np.isfinite(p_cyl))):
         raise InvariantError("the integration left the model's domain (NaN)")
@@ -262,7 +262,7 @@ def _check(problem, last, mass_error: float, p_cyl: np.ndarray) -> None:
 
 
 def _via_simulate(model: PumpModel, speed: float, load: float, **kw) -> CycleTrace:
-    """lumped.cycle.simulate (the reference integrator, or a complete circuit): 2 revolutions from rest, the
+    """lumped.run.simulate.simulate (the reference integrator, or a complete circuit): 2 revolutions from rest, the
     trace at 4 x TRACE_POINTS even angles."""
     kw = {k: v for k, v in kw.items() if k in ("method", "rtol", "max_steps")}
     if kw.get("method") == "reference":
@@ -284,7 +284,7 @@ def fit_rtol(model: PumpModel) -> float:
 
 def _needs_smooth(model: PumpModel) -> bool:
     """Whether ``model`` is simulated at TIGHT_RTOL: an effect declared ``tight_tolerance`` applied, or a
-    valve that carries a squeeze film of its own (lumped.disc_valve: C2 > 0, effects applied)."""
+    valve that carries a squeeze film of its own (lumped.valves.disc: C2 > 0, effects applied)."""
     if any(a.name in LIBRARY and LIBRARY[a.name].tight_tolerance for a in model.effects):
         return True
     m = resolve(model)

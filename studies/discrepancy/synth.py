@@ -22,7 +22,7 @@ import numpy as np
 import tomli_w
 
 from geometry.errors import InputError
-from lumped.effects import Applied
+from lumped.model.effects import Applied
 
 from studies.discrepancy.workflow import ModelFailure, RunCondition, Simulations
 from studies.discrepancy.gap import periodic_interp
@@ -73,7 +73,7 @@ def check_synthesis(simulator, valve_type, conditions, truth, noise, seed, worke
     """InputError naming the first bad argument of :func:`synthesize` (types, ranges, the trace size)."""
     from geometry import validate
     from geometry.declare import check_value, spec_of
-    from lumped.model import SPEED, Operating
+    from lumped.model.pump_model import SPEED, Operating
     from studies.discrepancy.measured import MEASURED_VALVES
 
     if not callable(simulator):
@@ -92,7 +92,7 @@ def check_synthesis(simulator, valve_type, conditions, truth, noise, seed, worke
         if c.air_content is not None:
             validate.number(c.air_content, f"{where}.air_content", bounds=(0.0, 0.49))
     if not isinstance(truth, (list, tuple)) or not all(isinstance(a, Applied) for a in truth):
-        raise InputError("truth", f"expected a tuple of lumped.effects.Applied, got {truth!r}")
+        raise InputError("truth", f"expected a tuple of lumped.model.effects.Applied, got {truth!r}")
     if not isinstance(noise, Noise):
         raise InputError("noise", f"expected a studies.discrepancy.synth.Noise, got {noise!r}")
     for f in ("position_m", "pressure_pa", "delivery_frac", "vibration_m", "vibration_hz", "drift_m"):
@@ -243,7 +243,7 @@ def thesis_conditions(model, air: float | None) -> list[Condition]:
     whose pump thesis-ball shares, or the reed rig of Table 5.6) or a thesis valve type ("disc", "reed").
     Empty when the model is no thesis rig.
     """
-    from lumped.model_file import load_model
+    from lumped.model.model_file import load_model
 
     if isinstance(model, str):
         rig = model

@@ -8,7 +8,7 @@ U_val = k sqrt(u_num^2 + u_input^2 + u_D^2) (:func:`studies.validation.vv20.vv20
 - **u_num**: the output at the workflow's integrator tolerance against the truth tolerance (rtol
   1e-6), a two-level estimate (Fs = 3, order 1 in the tolerance; :func:`studies.validation.numerical.estimate`);
 - **u_input**: the model's declared input uncertainties (``[uncertainty."KEY"]`` of the model file,
-  lumped/uncertainty.py) propagated to first order (GUM eq 10): each key moved by one standard
+  lumped/model/uncertainty.py) propagated to first order (GUM eq 10): each key moved by one standard
   uncertainty, one simulation per key and run, u_input = sqrt(sum dS_k^2); the three largest
   contributors are listed. An air content stated in run.toml moves with the declared uncertainty of
   ``oil.air_content`` (it is the same unmeasured quantity);

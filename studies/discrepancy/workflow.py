@@ -2,7 +2,7 @@
 
 Given measured runs (``studies/discrepancy/measured.py``), a simulator (run condition + applied
 effects -> one simulated revolution) and a library of candidate effects
-(``lumped/effects.py``), the workflow
+(``lumped/model/effects.py``), the workflow
 
 1. simulates the baseline for every run and measures the gap (``studies/discrepancy/gap.py``);
 2. splits the runs by operating condition into fitting and held-out runs, and fits the
@@ -45,7 +45,7 @@ from tqdm import tqdm
 
 from geometry import validate
 from geometry.errors import InputError, ModelFailure  # noqa: F401  (ModelFailure re-exported)
-from lumped.effects import Applied, Effect, Library, Parameter
+from lumped.model.effects import Applied, Effect, Library, Parameter
 from studies.discrepancy import validation as val
 from studies.discrepancy.gap import (
     CycleTrace, Folded, GapScales, Nuisance, describe, findings, fit_nuisance, fold, predict, pressure_residual,
@@ -672,7 +672,7 @@ class Workflow:
             raise InputError("simulator", f"expected a callable (run condition, effects) -> CycleTrace, got "
                                           f"{simulator!r}")
         if not isinstance(library, Library):
-            raise InputError("library", f"expected a lumped.effects.Library (e.g. studies.discrepancy.pump_sim.LIBRARY),"
+            raise InputError("library", f"expected a lumped.model.effects.Library (e.g. studies.discrepancy.pump_sim.LIBRARY),"
                                         f" got {library!r}")
         if not isinstance(settings, Settings):
             raise InputError("settings", f"expected a studies.discrepancy.Settings, got {settings!r}")
@@ -1372,7 +1372,7 @@ class Workflow:
     def _validate(self, ev: Evaluation) -> dict | None:
         """The baseline's V&V 20 table per run (studies.discrepancy.validation): rows, the outputs beyond
         U_val, the declared input uncertainties used; None (with a note) for a simulator without inputs."""
-        from lumped.uncertainty import numeric_keys, sample_values
+        from lumped.model.uncertainty import numeric_keys, sample_values
         from studies.validation.measurement import dataset_uncertainty
 
         sim = self.sims.simulator

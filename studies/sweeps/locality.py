@@ -7,7 +7,7 @@ only designs of one group share a state layout. :func:`locality_order` orders de
 consecutive slices (the batches a sweep sends to a worker) hold near designs: a k-d split, each
 time along the feature of widest spread. :class:`WarmSlot` is what a sweep model's ``evaluate``
 receives as ``warm``: the state of the nearest design solved so far in its batch
-(:class:`lumped.warmstart.WarmStarts`), and the place to leave its own.
+(:class:`lumped.run.warmstart.WarmStarts`), and the place to leave its own.
 """
 
 from __future__ import annotations
@@ -79,7 +79,7 @@ class WarmSlot:
 
     def state(self):
         """The TDC state predicted from the nearest solved designs of the same group (None: start cold;
-        :meth:`lumped.warmstart.WarmStarts.predict`)."""
+        :meth:`lumped.run.warmstart.WarmStarts.predict`)."""
         return self.pool.predict(self.features, self.group)
 
     def solved(self, state) -> None:

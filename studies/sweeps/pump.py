@@ -9,7 +9,7 @@ Inputs, each a factor or a fixed value (SI units; names in CONTRACT.md, "Sweeps"
   ``[operating]``), ``air_content`` (R of eq 4.11; default: the model's);
 - run settings: how many revolutions (below), ``method`` ("fast", the default, or
   "reference"), ``rtol``, ``atol``, ``circuit``;
-- any key of the model file by its path (:func:`lumped.model_file.with_values`):
+- any key of the model file by its path (:func:`lumped.model.model_file.with_values`):
   ``pump.dead_volume``, ``valves.delivery.spring.stiffness``, ``valves.spring.stiffness``
   (both valves), ``valves.delivery.geometry.thickness`` (a reed's geometry),
   ``effects.seat_compliance.delivery.k_seat``, ``effects.piston_leakage = true|false``.
@@ -17,7 +17,7 @@ Inputs, each a factor or a fixed value (SI units; names in CONTRACT.md, "Sweeps"
   ``valves.<field>`` with the Python field names, ``effect.<name>``) are translated.
 
 How many revolutions: by default each design runs until the cyclic steady-state test passes
-(:meth:`lumped.revolutions.StopRule.steady`: the relative change of the delivery and of the
+(:meth:`lumped.run.revolutions.StopRule.steady`: the relative change of the delivery and of the
 state at TDC between the last two revolutions below ``steady_tol``, default 1e-3, or the
 integrator's rtol if larger; the last revolution is then within 1e-4 of the cycle, the map
 contracting by a factor 10 or more per revolution), two revolutions at least and ``max_revolutions`` (default
@@ -26,7 +26,7 @@ already solved in its batch (a warm start, :mod:`studies.sweeps.locality`; the b
 starts from today's start; ``warm_start = false``: every design from today's start, so that its
 answer does not depend on the batch it ran in). A warm-started design may stop after its first
 revolution, when the state at TDC it ends with is the state it started from to a fifth of the
-tolerance (:class:`lumped.revolutions.StopRule` ``single``; ``one_revolution = false``: two at
+tolerance (:class:`lumped.run.revolutions.StopRule` ``single``; ``one_revolution = false``: two at
 least). ``revolutions`` alone is a fixed count, as in the first sweep files; with
 ``max_revolutions`` it is the least number (above two, no run stops after one).
 
@@ -90,16 +90,16 @@ OPERATING = ("model", "valve", "speed_rpm", "load_pressure", "air_content", "rev
 MAX_REVOLUTIONS = 10
 #: the steady-state test's tolerance (floored at the integrator's rtol) unless ``steady_tol``: lumped's
 #: STEADY_TOL (the last revolution's delivery then within 1e-4 of the cycle's)
-from lumped.revolutions import STEADY_TOL  # noqa: E402
+from lumped.run.revolutions import STEADY_TOL  # noqa: E402
 
 
 # --------------------------------------------------------------------------- names of the first sweep files
 @lru_cache(maxsize=None)
 def _legacy_fields() -> dict:
     """Python field name -> model-file key of the valve kinds, pump and oil (from the declarations)."""
-    from lumped.oil import Oil
-    from lumped.pump import Pump
-    from lumped.valve import KINDS
+    from lumped.fluid.oil import Oil
+    from lumped.model.pump import Pump
+    from lumped.valves.kind import KINDS
 
     out = {"pump": {n: s.key for n, s in specs(Pump) if s.key}, "oil": {n: s.key for n, s in specs(Oil) if s.key},
            "valve": {}}
@@ -147,13 +147,13 @@ def check(name: str, value) -> None:
     """Vet one operating input (name and value) before a sweep runs; model keys are checked by
     :func:`check_inputs` against the base model."""
     from geometry.declare import check_value
-    from lumped.model import Operating
+    from lumped.model.pump_model import Operating
 
     if name == "valve":
         if value not in ("disc", "reed"):
             raise InputError(name, f"expected disc or reed, got {value!r}")
     elif name == "model":
-        from lumped.model_file import load_model
+        from lumped.model.model_file import load_model
         if not isinstance(value, str):
             raise InputError(name, f"expected a model name or file, got {value!r}")
         load_model(value, field=name)
@@ -195,7 +195,7 @@ def check(name: str, value) -> None:
 def check_inputs(fixed: dict, factors: dict) -> None:
     """Every model key of the sweep (fixed values and each factor's values or range ends) applied to its base
     model(s), before anything runs: an unknown key or an implausible value names the input."""
-    from lumped.model_file import load_model, with_values
+    from lumped.model.model_file import load_model, with_values
 
     bases = set()
     for src in ("model", "valve"):
@@ -239,7 +239,7 @@ def check_inputs(fixed: dict, factors: dict) -> None:
 
 def build_model(design: dict):
     """The PumpModel of a design: its base model with its key paths applied (validated)."""
-    from lumped.model_file import load_model, with_values
+    from lumped.model.model_file import load_model, with_values
 
     model = load_model(_base_name(design), field="model")
     values = {translate(k): v for k, v in design.items() if k not in OPERATING}
@@ -247,10 +247,10 @@ def build_model(design: dict):
 
 
 def stop_rule(design: dict):
-    """The :class:`lumped.revolutions.StopRule` of a design's run settings: until cyclic steady state (at
+    """The :class:`lumped.run.revolutions.StopRule` of a design's run settings: until cyclic steady state (at
     least ``revolutions``, default 2; at most ``max_revolutions``, default :data:`MAX_REVOLUTIONS`), or a
     fixed count when only ``revolutions`` is given."""
-    from lumped.revolutions import StopRule
+    from lumped.run.revolutions import StopRule
 
     tol = float(design.get("steady_tol", STEADY_TOL))
     if "revolutions" in design and "max_revolutions" not in design:
@@ -270,7 +270,7 @@ def stop_rule(design: dict):
 def evaluate(design: dict, warm=None) -> dict:
     """Simulate one design (fast path by default) and return the sweep outputs; ``warm``
     (:class:`studies.sweeps.locality.WarmSlot`): start from the nearest solved design's TDC state."""
-    from lumped.cycle import simulate
+    from lumped.run.simulate import simulate
 
     model = build_model(design)
     kw = {k: design[k] for k in ("rtol", "atol") if k in design}
@@ -285,13 +285,13 @@ def evaluate(design: dict, warm=None) -> dict:
 
 def start_of(design: dict, warm, model=None):
     """The TDC state a design starts from: on the reference stepper, the fast path's cycle of the design itself
-    (:func:`lumped.warmstart.fast_start`: a few milliseconds, and the reference is steady after its first
+    (:func:`lumped.run.warmstart.fast_start`: a few milliseconds, and the reference is steady after its first
     revolution); else the state predicted from its batch's solved designs (None: today's start, also with
     the input ``warm_start = false``)."""
     if design.get("warm_start", True) is False:
         return None
     if design.get("method", "fast") != "fast" and model is not None:
-        from lumped.warmstart import fast_start
+        from lumped.run.warmstart import fast_start
 
         return fast_start(model, design.get("speed_rpm"), design.get("load_pressure"),
                           air_content=design.get("air_content"), circuit=design.get("circuit"))

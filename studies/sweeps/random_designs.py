@@ -6,16 +6,16 @@ benchmarks/pump_tolerance_study.py, so all judge the fast path on the same popul
 A design names its valves: a kind ("disc", "reed", "ball", ... every registered one: the
 shipped model of that kind) or "<inlet kind>/<delivery kind>" (a mixed pump: the shipped pump
 with those valves); "mixed" is "disc/reed". Each kind declares the ranges its designs are
-drawn from (``lumped.valve.ValveKind.design_ranges``).
+drawn from (``lumped.valves.kind.ValveKind.design_ranges``).
 """
 
 from __future__ import annotations
 
 import math
 
-from lumped.model import PumpModel
-from lumped.model_file import kind_default_model, load_model, parse_model, with_values
-from lumped.valve import KINDS
+from lumped.model.pump_model import PumpModel
+from lumped.model.model_file import kind_default_model, load_model, parse_model, with_values
+from lumped.valves.kind import KINDS
 
 POSITIONS = ("inlet", "delivery")
 

@@ -191,7 +191,7 @@ _FACTOR_KEYS = {"low", "high", "scale", "levels", "values", "integer"}
 
 def _pump_model_name(model: str, base_dir: Path | None) -> str | None:
     """The pump model a ``[sweep] model`` names (a shipped name, or a model file made absolute), or None."""
-    from lumped.model_file import SHIPPED
+    from lumped.model.model_file import SHIPPED
 
     if model in SHIPPED:
         return model
@@ -201,7 +201,7 @@ def _pump_model_name(model: str, base_dir: Path | None) -> str | None:
             p = base_dir / p
         if not p.is_file():
             raise InputError("sweep.model", f"{model!r}: no such model file")
-        from lumped.model_file import load_model as load_pump_model
+        from lumped.model.model_file import load_model as load_pump_model
 
         load_pump_model(str(p), field="sweep.model")     # a bad file (a base cycle, a key) is named here
         return str(p.resolve())
@@ -279,7 +279,7 @@ def with_base_model(spec: SweepSpec, model: str) -> SweepSpec:
     """``spec`` with its pump model replaced (``--model``): a pump sweep whose fixed ``model`` is ``model``."""
     from dataclasses import replace as _replace
 
-    from lumped.model_file import load_model as load_pump_model
+    from lumped.model.model_file import load_model as load_pump_model
 
     if spec.model != "pump":
         raise InputError("--model", f"the sweep's model is the module {spec.model!r}, not the pump")
@@ -413,9 +413,9 @@ def evaluate_batch(model_name: str, fixed: dict, batch: list[tuple[int, dict]]) 
     rows = []
     order, slots = range(len(batch)), None
     if accepts_warm(model):
-        # each design starts from the nearest one already solved in this batch (lumped.warmstart), visited
+        # each design starts from the nearest one already solved in this batch (lumped.run.warmstart), visited
         # in a nearest-neighbour chain
-        from lumped.warmstart import WarmStarts, chain_order
+        from lumped.run.warmstart import WarmStarts, chain_order
         from studies.sweeps.locality import WarmSlot, features
 
         X, groups = features([inputs for _, inputs in batch])

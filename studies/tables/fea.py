@@ -4,7 +4,7 @@
 All FEA values here come from the 3-D solid (:mod:`fea.solid`) at its default mesh, whose
 discretisation error the convergence study puts at 0.005-0.22 % in omega_n and 0.01-0.42 %
 in kappa on the four reeds (docs/fea.md).
-E-B values come from the analytic model (``lumped.reed_beam``, exact E-B for the real
+E-B values come from the analytic model (``lumped.reed.euler_bernoulli``, exact E-B for the real
 profile).
 """
 
@@ -14,8 +14,8 @@ import sys
 
 
 from geometry import load_reed
-from lumped import reed_beam as rb
-from lumped.mode_function import gamma1_alternative
+from lumped.reed import euler_bernoulli as rb
+from lumped.reed.mode_function import gamma1_alternative
 
 from studies.tables.thesis import thesis_values
 
@@ -24,7 +24,7 @@ REEDS = ("uniform", "stepped1", "stepped2", "prototype")
 
 def _eb_properties(reed):
     """Exact E-B ReedProperties of the analytic model, and where they come from."""
-    return rb.reed_properties(reed), "analytic (lumped.reed_beam)"
+    return rb.reed_properties(reed), "analytic (lumped.reed.euler_bernoulli)"
 
 
 def _solid(reed, progress=True):

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 from geometry import load_disc_geometry
-from lumped import oil as oil_mod
-from lumped.disc_valve import c1_coefficient, c2_coefficient, critical_damping, helical_spring_stiffness
-from lumped.effect_library import resolve
-from lumped.model_file import load_model
+from lumped.fluid import oil as oil_mod
+from lumped.valves.disc import c1_coefficient, c2_coefficient, critical_damping, helical_spring_stiffness
+from lumped.model.effect_library import resolve
+from lumped.model.model_file import load_model
 from studies.tables.thesis import thesis_values
 from studies.validation.chain import add_table_5_1_column, cases, run_cases, table_rows
 

@@ -10,9 +10,9 @@ from __future__ import annotations
 from functools import cache
 
 from geometry import load_reed
-from lumped import reed_beam as rb
-from lumped import reed_fluid as rf
-from lumped.mode_function import gamma1_alternative
+from lumped.reed import euler_bernoulli as rb
+from lumped.reed import fluid as rf
+from lumped.reed.mode_function import gamma1_alternative
 
 from studies.tables.thesis import thesis_values
 
@@ -26,7 +26,7 @@ def _reed(name: str):
 
 def _valve():
     """The prototype reed valve (the inlet of lumped/data/models/thesis-reed.toml, Table 3.13)."""
-    from lumped.model_file import load_model
+    from lumped.model.model_file import load_model
 
     return load_model("thesis-reed").inlet
 

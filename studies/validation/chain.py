@@ -14,9 +14,9 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 
-from lumped.cycle import PumpResult, simulate
-from lumped.model import PumpModel
-from lumped.model_file import load_model
+from lumped.run.simulate import PumpResult, simulate
+from lumped.model.pump_model import PumpModel
+from lumped.model.model_file import load_model
 from studies.outputs import Table
 from studies.tables.thesis import experiments
 
@@ -31,8 +31,8 @@ FIGURES = {
 }
 
 #: run settings: at least ``revolutions`` (the traced ones), then until cyclic steady state
-#: (lumped.revolutions.StopRule, STEADY_TOL), at most ``max_revolutions``; each case starts from the
-#: fast path's cycle (lumped.warmstart.fast_start), so the reference is steady from its first revolution
+#: (lumped.run.revolutions.StopRule, STEADY_TOL), at most ``max_revolutions``; each case starts from the
+#: fast path's cycle (lumped.run.warmstart.fast_start), so the reference is steady from its first revolution
 FULL = dict(revolutions=3, max_revolutions=12, trace_revolutions=3)
 QUICK = dict(revolutions=2, max_revolutions=3, trace_revolutions=1)
 #: the settings before the warm start (five revolutions from today's start): benchmarks compare with them
@@ -64,14 +64,14 @@ def run_case(case: dict, *, params: PumpModel | None = None, quick: bool = False
              warm: bool = True) -> PumpResult:
     """Simulate one validation case to cyclic steady state (the thesis model unless ``params``).
 
-    ``method``: the stepper of :func:`lumped.cycle.simulate`, "reference" (scipy Radau, the
+    ``method``: the stepper of :func:`lumped.run.simulate.simulate`, "reference" (scipy Radau, the
     validation's default) or "fast" (compiled, delivery within 0.1 % of the reference).
     ``settings``: FULL (default), QUICK (``quick``) or LEGACY; ``warm``: the reference starts from
-    the fast path's cycle (:func:`lumped.warmstart.fast_start`), else from today's start. The
+    the fast path's cycle (:func:`lumped.run.warmstart.fast_start`), else from today's start. The
     steady-state test then passes at once, so the run is its ``revolutions`` traced revolutions.
     """
-    from lumped.revolutions import STEADY_TOL, StopRule
-    from lumped.warmstart import fast_start
+    from lumped.run.revolutions import STEADY_TOL, StopRule
+    from lumped.run.warmstart import fast_start
 
     s = settings or (QUICK if quick else FULL)
     model = params if params is not None else thesis_model_of(case)
@@ -154,7 +154,7 @@ def reed_parameter_chain(fidelities=("analytic", "beam", "plate", "solid"), quic
 
     Runs :func:`studies.validation.reed_check.multi_fidelity_check` on the prototype reed (``quick``:
     a 2 mm FEA mesh instead of each fidelity's converged default) and returns its rows,
-    the selected :class:`~lumped.mode_function.ReedProperties` that would feed the pump model, and why.
+    the selected :class:`~lumped.reed.mode_function.ReedProperties` that would feed the pump model, and why.
     """
     from geometry import load_reed
     from studies.validation.reed_check import multi_fidelity_check

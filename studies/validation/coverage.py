@@ -7,7 +7,7 @@ known exactly: no u_input). For each of ``draws`` seeded draws the V&V 20 row is
 ``valvelab validate`` builds it (S from the reference stepper, u_num from the tolerance
 ladder, u_D stated). With no model error the verdict should be "within" in about 95 % of
 the draws (k = 2); with a hidden model error (the truth's discharge coefficient 3 % higher,
-the ``discharge_scale`` effect the synthetic generator can inject, lumped/effect_library.py)
+the ``discharge_scale`` effect the synthetic generator can inject, lumped/model/effect_library.py)
 the verdict should be a model-form error whose interval contains the model's true error
 S - T. The default u_D makes that error four u_D: 0.075 % of the delivery.
 
@@ -32,8 +32,8 @@ BIAS_SCALE = 1.03
 def coverage_study(case: dict | None = None, *, draws: int = 200, seed: int = 0, u_D_rel: float = U_D_REL,
                    bias_scale: float = BIAS_SCALE, inputs: bool = False) -> dict:
     """Fractions of ``draws`` synthetic measurements with each verdict (see the module docstring)."""
-    from lumped.cycle import simulate
-    from lumped.model_file import with_values
+    from lumped.run.simulate import simulate
+    from lumped.model.model_file import with_values
     from studies.validation.chain import LEGACY, case_name, cases, thesis_model_of
     from studies.validation.numerical import numerical_uncertainty, output_values
     from studies.validation.vv20 import vv20_row
@@ -75,7 +75,7 @@ def coverage_study(case: dict | None = None, *, draws: int = 200, seed: int = 0,
         "expected_within_fraction": 0.9545,
     }
     if inputs:
-        from lumped.uncertainty import numeric_keys, sample_values, standard_scores
+        from lumped.model.uncertainty import numeric_keys, sample_values, standard_scores
         from scipy.stats import qmc
 
         from studies.validation.input_uncertainty import MC_ATOL, MC_RTOL, Point, propagate

@@ -1,13 +1,13 @@
 """u_input: the model file's declared input uncertainties propagated through the fast pump model by Monte Carlo.
 
 Each operating point draws its model's declarations (``[uncertainty."KEY"]``,
-:mod:`lumped.uncertainty`) on scrambled Sobol points (scipy.stats.qmc, seeded; the inverse
+:mod:`lumped.model.uncertainty`) on scrambled Sobol points (scipy.stats.qmc, seeded; the inverse
 CDF of each declaration's normal or uniform distribution), sets the keys
-(:func:`lumped.model_file.with_values`) and runs the compiled stepper at rtol 1e-4 (the
+(:func:`lumped.model.model_file.with_values`) and runs the compiled stepper at rtol 1e-4 (the
 sweeps' design tolerance: its numerical noise, ~1e-5 relative in delivery, is far below
-u_input) until the cyclic steady-state test passes (:meth:`lumped.revolutions.StopRule.steady`,
+u_input) until the cyclic steady-state test passes (:meth:`lumped.run.revolutions.StopRule.steady`,
 two revolutions at least), each draw of a task started from the state predicted from the draws
-solved before it (a warm start, :class:`lumped.warmstart.WarmStarts`, the draws visited in a
+solved before it (a warm start, :class:`lumped.run.warmstart.WarmStarts`, the draws visited in a
 nearest-neighbour chain of their standard scores). The simulations run on a dask cluster like
 the sweeps (:class:`studies.sweeps.design.runner.Cluster`), or in this process.
 
@@ -93,11 +93,11 @@ def evaluate_draws(model, speed_rpm: float, load_pressure: float, decls, keys: d
 
     ``settings``: ``revolutions`` (at least, default 2), ``max_revolutions``, ``circuit``; each draw runs
     until the cyclic steady-state test passes, warm-started from the draws solved before it."""
-    from lumped.cycle import simulate
-    from lumped.model_file import with_values
-    from lumped.revolutions import StopRule
-    from lumped.uncertainty import sample_values
-    from lumped.warmstart import WarmStarts, chain_order
+    from lumped.run.simulate import simulate
+    from lumped.model.model_file import with_values
+    from lumped.run.revolutions import StopRule
+    from lumped.model.uncertainty import sample_values
+    from lumped.run.warmstart import WarmStarts, chain_order
     from studies.validation.numerical import output_values
 
     settings = dict(settings)
@@ -125,7 +125,7 @@ class _State:
     def __init__(self, point: Point, seed: int, index: int):
         from scipy.stats import qmc
 
-        from lumped.uncertainty import check_reach, numeric_keys
+        from lumped.model.uncertainty import check_reach, numeric_keys
 
         self.point = point
         self.decls = tuple(point.model.uncertainties)
@@ -142,7 +142,7 @@ class _State:
 
     def next_draws(self, n: int) -> list[tuple[int, np.ndarray]]:
         """(scramble, standard scores) of the next ``n`` points of every scramble."""
-        from lumped.uncertainty import standard_scores
+        from lumped.model.uncertainty import standard_scores
 
         out = []
         for r, s in enumerate(self.samplers):

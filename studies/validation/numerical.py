@@ -19,7 +19,7 @@ The standard uncertainty is u_num = U / 1.15 (ASME V&V 20-2009, section 2-4:
 :data:`fea.convergence.GCI_STANDARD_FACTOR`). An output that is undefined (a valve that
 never opens or never reseats) has no u_num on the levels where it is missing: ``u`` is None
 and ``note`` says where. The cycle is part of the ladder: each level runs to cyclic steady
-state with the steady-state tolerance the integrator's rtol sets (lumped.cycle), so the
+state with the steady-state tolerance the integrator's rtol sets (lumped.run.simulate), so the
 iteration error of the periodic solution is included.
 """
 
@@ -115,7 +115,7 @@ def ladder_tolerances(quick: bool = False, rtol: float | None = None) -> tuple[f
 def run_ladder(model, speed_rpm: float, load_pressure: float, tolerances, *, revolutions: int = 5,
                max_revolutions: int | None = 12, circuit: str | None = None, outputs=OUTPUTS) -> list[dict]:
     """{output: value} of the fast path at each tolerance (coarse to fine, as given)."""
-    from lumped.cycle import simulate
+    from lumped.run.simulate import simulate
 
     out = []
     for t in tolerances:

@@ -26,7 +26,7 @@ import sys
 import time
 
 from geometry.reed import Reed
-from lumped.mode_function import ReedProperties
+from lumped.reed.mode_function import ReedProperties
 
 #: quantities compared, in table order
 QUANTITIES = ("omega_n", "kappa", "gamma1", "gamma2", "gamma3")
@@ -43,7 +43,7 @@ def _run(fidelity: str, reed: Reed, mesh_size, modes: int = 0):
 
     size = None if fidelity == "analytic" else mesh_size
     if not modes:     # through lumped's cache: a design study reuses a front design's FEA in its later stages
-        from lumped.reed_fidelity import reed_properties
+        from lumped.reed.fidelities import reed_properties
 
         return reed_properties(reed, fidelity, mesh_size=size), None
     props, result = get(fidelity).properties_and_modes(reed, modes, mesh_size=size)

@@ -2,7 +2,7 @@
 
 :func:`dynamics_study` runs the reed pump (thesis-reed's flow and damping data, Table 3.13) with a
 reed geometry at both valves, on the six operating points of Table 5.6, with the thesis's one-mode
-model (eq 3.21), the modal reed with N modes and the whole FE reed (lumped/reed_dynamics.py), and
+model (eq 3.21), the modal reed with N modes and the whole FE reed (lumped/reed/structure.py), and
 tabulates per case and model: delivery, each valve's opening and closing angle, peak opening, seat
 and stop impact speeds, and the peak root stress (the solid FEA's stress per unit tip deflection
 under a uniform pressure, fea.reed_stress.max_opening_stress, times the peak opening, as the reed
@@ -39,7 +39,7 @@ FAST_RTOL = 1e-5
 #: a model "needs" N modes when every case is within these of the reference
 DELIVERY_TOL = 1e-3
 ANGLE_TOL_DEG = 0.5
-#: the outputs compared, per valve: (name, attribute of lumped.cycle.ValveResult, scale to the table's unit)
+#: the outputs compared, per valve: (name, attribute of lumped.run.simulate.ValveResult, scale to the table's unit)
 VALVE_OUTPUTS = (("opening_deg", "opening_angle", 180 / math.pi), ("closing_deg", "closing_angle", 180 / math.pi),
                  ("peak_opening_mm", "peak_opening", 1e3), ("seat_impact_m_s", "seat_impact_velocity", 1.0),
                  ("stop_impact_m_s", "stop_impact_velocity", 1.0))
@@ -317,8 +317,8 @@ def _stress_per_tip(reed) -> float:
 
 def _mode_names(model) -> list | None:
     """The names of the delivery valve's modes (modal only; their shares of the opening are in the trace:
-    lumped.postprocess.trace)."""
-    from lumped.reed_dynamics import structure
+    lumped.run.postprocess.trace)."""
+    from lumped.reed.structure import structure
 
     v = model.delivery
     if getattr(v, "dynamics", "one-mode") != "modal":
@@ -521,7 +521,7 @@ def prototype_adequacy(quick: bool = False, progress: bool = True) -> dict:
 
 def _fe_mesh_note(case: ReedCase) -> str:
     """The FE reed's elements and how far its first three frequencies are from the default mesh's."""
-    from lumped.reed_modes import fe_reed
+    from lumped.reed.modal_basis import fe_reed
 
     coarse, default = fe_reed(case.reed, None, "beam", case.fe_mesh), fe_reed(case.reed, None, "beam")
     off = np.max(np.abs(coarse.modes()[0][:3] / default.modes()[0][:3] - 1.0))

@@ -2,7 +2,7 @@
 
     python -m studies.validation.stiction            # markdown table on stdout
 
-For C2 = factor x eq 2.15 (both discs, the film bounded at the vapour pressure, lumped.disc_valve.film_force)
+For C2 = factor x eq 2.15 (both discs, the film bounded at the vapour pressure, lumped.valves.disc.film_force)
 the pump runs to cyclic steady state at the thesis's baseline condition and each disc's opening is read
 from the trace: the crank angle where it first passes 10 % and 50 % of its stop gap after the stroke
 starts (inlet from TDC, delivery from BDC), the delay against the same pump without stiction, the
@@ -15,10 +15,10 @@ import sys
 
 import numpy as np
 
-from lumped.cycle import simulate
-from lumped.effect_library import baseline
-from lumped.effects import Applied
-from lumped.model_file import load_model
+from lumped.run.simulate import simulate
+from lumped.model.effect_library import baseline
+from lumped.model.effects import Applied
+from lumped.model.model_file import load_model
 
 FACTORS = (0.0, 0.1, 0.3, 1.0, 3.0, 10.0)
 STROKE_START_DEG = {"inlet": 0.0, "delivery": 180.0}

@@ -244,7 +244,7 @@ def pump_validation(selected, results, *, quick: bool = False, cluster=None, pro
     """
     import sys
 
-    from lumped.model_file import with_values
+    from lumped.model.model_file import with_values
     from studies.validation.chain import FULL, QUICK, case_name, thesis_model_of
     from studies.validation.input_uncertainty import Point, propagate
     from studies.validation.measurement import delivery_uncertainty

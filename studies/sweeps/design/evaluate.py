@@ -60,7 +60,7 @@ def _model_key(design: dict) -> tuple:
 
 
 def _model_for(design: dict):
-    from lumped.model_file import load_model, with_values
+    from lumped.model.model_file import load_model, with_values
 
     key = _model_key(design)
     if key not in _cache:
@@ -86,7 +86,7 @@ def build_design_model(model_path: str, keys: dict):
 def evaluate(design: dict, warm=None) -> dict:
     """Simulate the design at its operating point and return the outputs (fast path unless ``method``);
     ``warm`` (:class:`studies.sweeps.locality.WarmSlot`): start from the nearest solved row's TDC state."""
-    from lumped.cycle import simulate
+    from lumped.run.simulate import simulate
 
     model = _model_for(design)
     kw = {k: design[k] for k in ("rtol", "atol") if k in design}
@@ -97,7 +97,7 @@ def evaluate(design: dict, warm=None) -> dict:
     if warm is not None:
         warm.solved(res.tdc_state)
     # a valve that never reseats (held off its seat by the squeeze film's C2 u / x^3) has no timing:
-    # lumped.cycle reports its angles as None, which the outputs keep as missing
+    # lumped.run.simulate reports its angles as None, which the outputs keep as missing
     out = sweep_pump.outputs_of(res, design.get("on_warning", "flag"))
     from studies.sweeps.design.stress import lift_deflection, reed_outputs
 

@@ -15,7 +15,7 @@ Inputs: ``model`` (the base model file) and the design's model-file key paths, p
 
 from __future__ import annotations
 
-from lumped.model import POSITIONS
+from lumped.model.pump_model import POSITIONS
 
 TASK_INPUTS = ("task", "mesh_size", "tolerance_pct", "stress_tolerance_pct", "stress_calibration_inlet",
                "stress_calibration_delivery")
@@ -50,7 +50,7 @@ def ensure_gmsh() -> None:
 
 
 def _model(design: dict):
-    from lumped.model_file import load_model, with_values
+    from lumped.model.model_file import load_model, with_values
 
     values = {k: v for k, v in design.items() if k not in TASK_INPUTS and k != "model"}
     return with_values(load_model(design["model"], field="model"), values)

@@ -448,7 +448,7 @@ def _baseline(spec, model, base_path, cluster, out, cal, catalogue, progress) ->
 
 def base_value(model, path: str):
     """The value of a key path in a model (None if it cannot be read: an auxiliary variable, an effect off)."""
-    from lumped.model_file import model_table
+    from lumped.model.model_file import model_table
 
     if path == "speed_rpm":
         return model.operating.speed_rpm
@@ -612,12 +612,12 @@ def _final_constraints(spec, fin: dict, fea: dict | None, positions) -> dict:
 
 
 class _reed_cache:
-    """The study folder's ``.reed-cache/`` as lumped's FEA reed-property cache (lumped.reed_fidelity.CACHE_ENV) for
+    """The study folder's ``.reed-cache/`` as lumped's FEA reed-property cache (lumped.reed.fidelities.CACHE_ENV) for
     this process and the local workers it starts: a front design's solid FEA, run by the re-check, is then not run
     again for its reference runs and its model file."""
 
     def __init__(self, out: Path):
-        from lumped.reed_fidelity import CACHE_ENV
+        from lumped.reed.fidelities import CACHE_ENV
 
         self.env, self.path, self.old = CACHE_ENV, str(Path(out).resolve() / ".reed-cache"), None
 
@@ -666,7 +666,7 @@ def _build_on_workers(cluster, base_path: str, items) -> dict:
 
 def _finish(spec, model, out, catalogue, items, baseline, built: dict | None = None) -> list[dict]:
     """Design entries of the JSON: final objectives and constraints, the front re-sorted, model files written."""
-    from lumped.model_file import to_toml, with_values
+    from lumped.model.model_file import to_toml, with_values
 
     positions = study.reed_positions(model) if model is not None else []
     r = spec.run_dict

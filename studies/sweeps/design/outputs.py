@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from lumped.model import POSITIONS
+from lumped.model.pump_model import POSITIONS
 
 
 @dataclass(frozen=True)

@@ -414,7 +414,7 @@ def evaluate_expression(text: str, values: dict) -> float:
 # --------------------------------------------------------------------------- parsing
 def model_reference(model: str, base_dir: Path | None, field: str = "model") -> tuple[str, str]:
     """(name, kind) of a spec's model: a shipped pump model, a model file (made absolute) or a module."""
-    from lumped.model_file import SHIPPED
+    from lumped.model.model_file import SHIPPED
 
     if not isinstance(model, str) or not model:
         raise InputError(field, f"expected a model name, model file or module, got {model!r}")
@@ -459,12 +459,12 @@ def _parse_run(run: dict, command: str) -> dict:
         raise InputError(f"run.{k}", f"unknown key{hint}; expected some of {', '.join(sorted(RUN_KEYS[command]))}")
     out = {}
     out["seed"] = _int(run.get("seed", 0), "run.seed", 0, 2**32 - 1)
-    # at least `revolutions`, then until the cyclic steady-state test passes (lumped.revolutions.StopRule;
+    # at least `revolutions`, then until the cyclic steady-state test passes (lumped.run.revolutions.StopRule;
     # each row warm-started from a solved neighbour's state: two revolutions for most)
     out["revolutions"] = _int(run.get("revolutions", 2), "run.revolutions", 2, 10_000)
     out["max_revolutions"] = _int(run.get("max_revolutions", max(20, 4 * out["revolutions"])), "run.max_revolutions",
                                   out["revolutions"], 100_000)
-    from lumped.revolutions import STEADY_TOL
+    from lumped.run.revolutions import STEADY_TOL
 
     out["steady_tol"] = _num(run.get("steady_tol", STEADY_TOL), "run.steady_tol", positive=True)
     if not out["steady_tol"] < 0.1:
@@ -558,7 +558,7 @@ def _parse_operating(op, model_name: str, kind: str, var_names: set) -> tuple:
                                            "absolute) lists" + (" (load pressure in MPa: load_pressure_mpa)"
                                                                 if k == "load_pressure" else ""))
     from geometry.declare import check_value
-    from lumped.model import LOAD_MPA, SPEED
+    from lumped.model.pump_model import LOAD_MPA, SPEED
 
     lists = {}
     for k, spec in (("speed_rpm", SPEED), ("load_pressure_mpa", LOAD_MPA)):
@@ -579,7 +579,7 @@ def _parse_operating(op, model_name: str, kind: str, var_names: set) -> tuple:
         if len(set(v)) != len(v):
             raise InputError(f"operating.{k}", "has repeated values")
         lists[k] = [float(x) for x in v]
-    from lumped.model_file import load_model
+    from lumped.model.model_file import load_model
 
     model = load_model(model_name, field="model")
     for k, attr, scale in (("speed_rpm", "speed_rpm", 1.0), ("load_pressure_mpa", "load_pressure", 1e-6)):
@@ -601,7 +601,7 @@ def _parse_operating(op, model_name: str, kind: str, var_names: set) -> tuple:
 
 
 def _unit_of(model, path: str) -> str:
-    from lumped.model_file import key_paths
+    from lumped.model.model_file import key_paths
 
     if path in OPERATING_VARIABLES:
         return OPERATING_VARIABLES[path]
@@ -614,7 +614,7 @@ def _unit_of(model, path: str) -> str:
     if parts[0] == "valves" and len(parts) > 1 and parts[1] not in ("inlet", "delivery"):
         return units.get("valves.delivery." + ".".join(parts[1:]), units.get("valves.inlet." + ".".join(parts[1:]), "-"))
     if parts[0] == "effects":
-        from lumped.effect_library import LIBRARY
+        from lumped.model.effect_library import LIBRARY
 
         if len(parts) >= 3 and parts[1] in LIBRARY.names():
             for p in LIBRARY[parts[1]].parameters:
@@ -669,7 +669,7 @@ def parse_spec(doc: dict, command: str, text: str = "", base_dir: Path | None = 
 
     model_obj = None
     if kind == "pump":
-        from lumped.model_file import load_model
+        from lumped.model.model_file import load_model
 
         model_obj = load_model(model, field="model")
     # which names the derived expressions read

@@ -55,7 +55,7 @@ def eb_kappa(valve) -> float:
 
 @lru_cache(maxsize=256)
 def _analytic_kappa(reed) -> float:
-    from lumped.reed_fidelity import reed_properties
+    from lumped.reed.fidelities import reed_properties
 
     return float(reed_properties(reed, "analytic").kappa)
 

@@ -23,7 +23,7 @@ def base_model(spec: DesignSpec):
     """The base PumpModel with the spec's [fixed] keys applied (None for a module model)."""
     if spec.model_kind != "pump":
         return None
-    from lumped.model_file import load_model, with_values
+    from lumped.model.model_file import load_model, with_values
 
     model = load_model(spec.model, field="model")
     for k, v in spec.fixed:
@@ -44,7 +44,7 @@ def outputs_catalogue(spec: DesignSpec) -> dict:
 
 
 def _apply(model, spec: DesignSpec, values: dict):
-    from lumped.model_file import with_values
+    from lumped.model.model_file import with_values
 
     inputs = design_inputs(spec, values)
     keys = {k: v for k, v in inputs.items() if k not in ("speed_rpm", "load_pressure")}
@@ -55,7 +55,7 @@ def check_variables(spec: DesignSpec, model) -> None:
     """Every variable's range ends (or distribution quantiles, or levels) on the base model, the others at their
     centre; and the centre design itself. InputError names the variable and the end."""
     from geometry.declare import check_value
-    from lumped.model import LOAD_MPA, SPEED
+    from lumped.model.pump_model import LOAD_MPA, SPEED
 
     centre = {v.name: v.centre() for v in spec.variables}
     if spec.model_kind == "module":
@@ -69,7 +69,7 @@ def check_variables(spec: DesignSpec, model) -> None:
                     except InputError as exc:
                         raise InputError(f"variables.{_q(v.name)}", exc.message) from None
         return
-    from lumped.model_file import with_values
+    from lumped.model.model_file import with_values
 
     try:
         _apply(model, spec, centre)
@@ -104,7 +104,7 @@ def check_variables(spec: DesignSpec, model) -> None:
 
 def write_base_model(out: Path, model) -> str:
     """The base model as a complete model file in the study folder (the workers read it); its absolute path."""
-    from lumped.model_file import to_toml
+    from lumped.model.model_file import to_toml
 
     path = Path(out) / BASE_MODEL_FILE
     text = to_toml(model)
