@@ -146,3 +146,46 @@ def plot_mode_shapes(path, reed, s, y, w, omega, labels, title: str | None = Non
     fig.suptitle(title or f"mode shapes of reed {reed.name}")
     fig.savefig(path, dpi=110)
     return Path(path)
+
+
+def plot_flow(path, points: list, cd_reference, title: str, solution=None) -> Path:
+    """The ``valvelab flow`` figure: Cd(Re) of the points (one line per lift) against a reference
+    correlation ``cd_reference(re)`` (eq 2.48), and with a ``solution`` (fea.fluid FlowSolution) its
+    pressure [kPa] and velocity magnitude [m/s] over the (r, z) plane [mm]."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import matplotlib.tri as mtri
+    import numpy as np
+
+    panels = 3 if solution is not None else 1
+    fig, axes = plt.subplots(1, panels, figsize=(5.2 * panels, 4.6), squeeze=False)
+    ax = axes[0][-1]
+    re_all = sorted({pt["reynolds"] for pt in points})
+    grid = np.geomspace(max(min(re_all) / 2, 0.1), max(re_all) * 1.5, 200)
+    ax.semilogx(grid, [cd_reference(r) for r in grid], "k-", lw=1, label="eq 2.48 (bench fit)")
+    for lift in sorted({pt["lift"] for pt in points}):
+        sel = sorted((pt for pt in points if pt["lift"] == lift), key=lambda q: q["reynolds"])
+        ax.semilogx([q["reynolds"] for q in sel], [q["cd"] for q in sel], "o--", ms=4,
+                    label=f"x = {lift * 1e3:.3g} mm")
+    ax.set_xlabel("Reynolds number Re (eq 2.46) [-]")
+    ax.set_ylabel("discharge coefficient Cd (eq 2.44) [-]")
+    ax.set_title("Cd(Re)", fontsize=9)
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, frameon=False)
+    if solution is not None:
+        mesh = solution.pbasis.mesh
+        tri = mtri.Triangulation(mesh.p[0] * 1e3, mesh.p[1] * 1e3, mesh.t.T)
+        ur, uz, p = solution.probe(mesh.p[0], mesh.p[1])
+        for a, (field, label) in zip(axes[0][:2], ((p / 1e3, "pressure [kPa]"), (np.hypot(ur, uz), "velocity magnitude [m/s]"))):
+            cs = a.tripcolor(tri, field, shading="gouraud", cmap="viridis")
+            fig.colorbar(cs, ax=a, label=label)
+            a.set_aspect("equal")
+            a.set_xlabel("r [mm]")
+            a.set_ylabel("z [mm]")
+            a.set_title(label.split(" [")[0], fontsize=9)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return Path(path)

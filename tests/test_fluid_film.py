@@ -1,8 +1,8 @@
 """The Reynolds thin-film FE (fea.fluid.reynolds, fea.fluid.disc_film) against closed forms.
 
 Independent references: plane Poiseuille and squeeze flow between parallel plates (Hamrock
-et al. 2004, ch. 7), the disc's C1 and C2 (eqs 2.14-2.15, lumped.disc_valve), the viscous log
-law of radial flow, the closed-form cavitating film of lumped.disc_valve.film_force (Reynolds
+et al. 2004, ch. 7), the disc's C1 and C2 (eqs 2.14-2.15, lumped.valves.disc), the viscous log
+law of radial flow, the closed-form cavitating film of lumped.valves.disc.film_force (Reynolds
 condition at the cavity edges), conservation of volume, and the GCI's estimate against the
 true error of three meshes.
 """
@@ -19,7 +19,7 @@ from fea.fluid.disc_film import DiscFilm, annulus_mesh, closed_form, film_coeffi
 from fea.fluid.point import load_fluid_valve
 from fea.fluid.reynolds import FilmOptions, solve_film
 from geometry.errors import InputError
-from lumped.disc_valve import film_force
+from lumped.valves.disc import film_force
 
 MU = 0.0683
 #: the thesis disc (section 2.4.2) and two others: a wide 45 deg seat and a narrow flat one
@@ -104,7 +104,7 @@ def test_p2_is_more_accurate_than_p1():
 
 
 def test_cavitating_film_matches_the_closed_form():
-    # separating disc: the film falls to the floor over part of the annulus; lumped.disc_valve's
+    # separating disc: the film falls to the floor over part of the annulus; lumped.valves.disc's
     # film_force solves the same problem (Reynolds condition at the cavity edges) in closed form
     film = DISCS["thesis"]
     s_th = math.sin(film.bevel_angle)

@@ -27,8 +27,10 @@ from dataclasses import dataclass
 from typing import Callable
 
 from geometry.errors import InputError
+from lumped.valves import fluid_forms as _fluid_forms
 
 from .axisymmetric import axisymmetric_point
+from .compact import predicted_values
 from .disc_film import thin_film_point
 from .lumped_laws import orifice_point
 from .point import FlowPoint, FluidValve, load_fluid_valve
@@ -75,5 +77,8 @@ def get(name: str, kind: str | None = None, field: str = "--fidelity") -> FluidF
                          f"{', '.join(usable) or 'none yet'}")
     return fid
 
+
+# fluid = "predicted" in a model file reads the disc's compact forms (also an entry point, pyproject.toml)
+_fluid_forms.register("disc", predicted_values)
 
 __all__ = ["FIDELITIES", "FlowPoint", "FluidFidelity", "FluidValve", "get", "load_fluid_valve", "register"]

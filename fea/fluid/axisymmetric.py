@@ -57,13 +57,16 @@ WALLS = ("port_wall", "seat", "housing")
 class AxiOptions:
     """``resolution``: cells across the film (mesh refinement, :mod:`fea.fluid.valve_mesh`);
     ``gci``: run the three-mesh ladder for ``u_num``; ``moving``: the moving-wall solves (f1, f2,
-    c_visc, C2); ``disc_speed`` [m/s]; ``progress`` on stderr."""
+    c_visc, C2); ``disc_speed`` [m/s]; ``progress`` on stderr; ``keep_solution``: the default mesh's
+    steady :class:`~fea.fluid.navier_stokes.FlowSolution` in the point's ``extra["solution"]``
+    (for a plot; not JSON)."""
 
     resolution: float = DEFAULT_RESOLUTION
     gci: bool = False
     moving: bool = False
     disc_speed: float = DISC_SPEED
     progress: bool = False
+    keep_solution: bool = False
 
     @classmethod
     def of(cls, options) -> "AxiOptions":
@@ -71,7 +74,7 @@ class AxiOptions:
             return options
         opts = dict(options or {})
         moving = bool(opts.pop("displacement", False)) | bool(opts.pop("squeeze", False)) | bool(opts.pop("moving", False))
-        known = {k: opts[k] for k in ("resolution", "gci", "disc_speed", "progress") if k in opts}
+        known = {k: opts[k] for k in ("resolution", "gci", "disc_speed", "progress", "keep_solution") if k in opts}
         return cls(moving=moving, **known)
 
 
@@ -148,7 +151,7 @@ def solve_point(valve: FluidValve, d: DiscDomain, lift: float, reynolds: float, 
     out, sol = steady(valve, d, mesh, lift, reynolds)
     if opts.moving:
         out.update(moving(valve, d, mesh, lift, out["dp"], sol, opts.disc_speed))
-    out.update(dofs=sol.dofs, newton=sol.newton, cpu_seconds=time.process_time() - t0)
+    out.update(dofs=sol.dofs, newton=sol.newton, cpu_seconds=time.process_time() - t0, solution=sol)
     return out
 
 
@@ -190,6 +193,8 @@ def axisymmetric_point(valve: FluidValve, lift: float, reynolds: float, options=
         extra["film"] = {"C1": out["force_coefficient"], "C2": out["C2"], "F4": None}
     if opts.gci:
         extra["u_num_all"] = u_num
+    if opts.keep_solution:
+        extra["solution"] = out["solution"]
     return FlowPoint(lift=lift, reynolds=reynolds, flow=out["flow"], dp=out["dp"], cd=out["cd"], force=out["force"],
                      force_coefficient=out["force_coefficient"], flow_force=out["flow_force"],
                      u_num={k: u_num[k] for k in ("dp", "cd", "force", "force_coefficient", "flow_force") if k in u_num},

@@ -248,6 +248,7 @@ def compact_forms(valve: FluidValve, resolution: float = DEFAULT_RESOLUTION, rec
                    f"three meshes; a few minutes, cached afterwards in {cache_dir()})")
     raw = characterise(valve, resolution, ladder=True, progress=progress)
     data = {"key": key, "valve": valve.name, "forms": fit_forms(raw, valve), "points": raw["rows"],
+            "failed": raw["failed"],
             "provenance": {"version": FORMS_VERSION, "resolution_levels": raw["levels"], "dofs": raw["dofs"],
                            "lifts": raw["lifts"], "reynolds": raw["reynolds"],
                            "moving_reynolds": list(MOVING_REYNOLDS), "disc_speed": DISC_SPEED,
@@ -255,6 +256,13 @@ def compact_forms(valve: FluidValve, resolution: float = DEFAULT_RESOLUTION, rec
                            "density": valve.density, "viscosity": valve.viscosity}}
     store(data, cache_dir() / f"fluid-{key}.json")
     return data
+
+
+def refit(data: dict, valve: FluidValve) -> dict:
+    """``data`` with its forms fitted again from its stored points (no flow solve)."""
+    lifts = sorted({r["lift"] for r in data["points"]} | {f["lift"] for f in data.get("failed", [])})
+    raw = {"rows": data["points"], "lifts": lifts}
+    return {**data, "forms": fit_forms(raw, valve)}
 
 
 def store(data: dict, path: Path) -> None:
@@ -274,3 +282,26 @@ def _jsonable(obj):
     raise TypeError(type(obj).__name__)
 
 
+
+
+# ------------------------------------------------------------------ what the pump model reads
+def predicted_values(valve, oil) -> dict:
+    """The disc's predicted fluid parameters {DiscValve field: value} for ``fluid = "predicted"``
+    (the entry point of lumped.valves.fluid_forms): Cd(Re) of eq 2.47 with its lift exponent, the
+    orifice regime's force coefficient, the jet angle of eq 2.36, f1 and f2 of eq 2.42 and c_visc of
+    eq 2.28 from the compact forms of this valve's geometry and ``oil`` (computed once, cached)."""
+    from geometry.errors import InputError
+    from lumped.valves.kind import check_discharge
+
+    fv = FluidValve(name=f"disc:{valve.position}", kind="disc", position=valve.position, params=valve,
+                    density=oil.density, viscosity=oil.viscosity, vapour_pressure=oil.vapour_pressure)
+    forms = compact_forms(fv)["forms"]
+    cd = forms["cd_lift"]
+    try:
+        check_discharge(cd["cd_inf"], cd["a"], cd["b"], cd["c"], f"valves.{valve.position}.fluid")
+    except InputError as exc:
+        raise InputError(exc.field, f"the predicted Cd(Re) is not a usable correlation ({exc.message})") from None
+    return {"cd_inf": cd["cd_inf"], "cd_a": cd["a"], "cd_b": cd["b"], "cd_c": cd["c"],
+            "cd_lift_exponent": cd["lift_exponent"], "force_coefficient": forms["force_coefficient_orifice"],
+            "jet_angle": forms["jet_angle"], "f1": min(1.0, forms["f1"]), "f2": min(1.0, forms["f2"]),
+            "viscous_drag": forms["c_visc"]}

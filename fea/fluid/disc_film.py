@@ -141,7 +141,7 @@ def closed_form(film: DiscFilm, viscosity: float) -> dict:
     """The thesis's closed forms: C1 (eq 2.14), C2 (eq 2.15) and the conductance K of the film
     (Q = K x^3 dP, K = pi sin^4(theta) / (6 mu ln(R_o / R_i)): eq 2.11's Poiseuille part, the
     viscous log law of radial flow)."""
-    from lumped.disc_valve import c1_coefficient, c2_coefficient
+    from lumped.valves.disc import c1_coefficient, c2_coefficient
 
     ri, ro, th = film.inner_radius, film.outer_radius, film.bevel_angle
     return {"c1": c1_coefficient(ri, ro), "c2": c2_coefficient(ri, ro, th, viscosity),

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 
-from lumped.orifice import discharge_coefficient
+from lumped.fluid.orifice import discharge_coefficient
 
 from .point import FlowPoint, FluidValve, check_lift, check_reynolds
 

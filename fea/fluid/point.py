@@ -11,7 +11,7 @@ mapping of the fidelity's settings. The keys of :class:`FlowPoint` are those of 
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field, fields
 
 from geometry.errors import InputError
 
@@ -76,9 +76,8 @@ class FlowPoint:
 
     def as_dict(self) -> dict:
         """The point's JSON object: the CONTRACT keys, then the extras."""
-        d = asdict(self)
-        extra = d.pop("extra")
-        return {**d, **extra}
+        d = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "extra"}
+        return {**d, "u_num": dict(self.u_num), **self.extra}
 
 
 def check_reynolds(reynolds: float, field: str = "--reynolds") -> float:
@@ -109,8 +108,8 @@ def parse_valve(spec: str, field: str = "VALVE") -> tuple[str, str]:
 
 def load_fluid_valve(spec, field: str = "VALVE") -> FluidValve:
     """The valve ``MODEL[:POSITION]`` (a shipped model name or a model file) with its model's oil."""
-    from lumped.model_file import load_model
-    from lumped.valve import kind_of
+    from lumped import load_model
+    from lumped.valves.kind import kind_of
 
     if isinstance(spec, FluidValve):
         return spec

@@ -107,7 +107,7 @@ def rim_height(disc_mass: float, inner_radius: float, outer_radius: float, bevel
 
 
 def disc_domain(valve, housing=None) -> DiscDomain:
-    """The domain of a disc valve (``lumped.disc_valve.DiscValve``) in the thesis housing
+    """The domain of a disc valve (``lumped.valves.disc.DiscValve``) in the thesis housing
     (``geometry.seat_stop.load_housing_stop()`` unless given); InputError naming the field when
     the port is wider than the seat's inner radius or the disc wider than the housing."""
     from geometry.seat_stop import load_housing_stop

@@ -42,6 +42,7 @@ from lumped.model.effects import Applied
 from lumped.model.pump_model import POSITIONS, Operating, PumpModel
 from lumped.fluid.oil import Oil
 from lumped.model.pump import Circuit, Pump
+from lumped.valves import fluid_forms as _fluid_forms
 from lumped.valves.kind import KINDS, kind_of
 
 #: shipped model name -> file in lumped/data/models (every TOML file there)
@@ -210,6 +211,7 @@ def parse_model(data: dict, source: str = "", base_dir: Path | None = None, name
     model = PumpModel(pump=comps["pump"], oil=comps["oil"], inlet=valves["inlet"], delivery=valves["delivery"],
                       circuit=comps["circuit"], operating=comps["operating"], name=name, source=source)
     _check_pump(model)
+    model = _fluid_forms.apply(model)          # fluid = "predicted": the fluid references' compact forms
     effects = list(base.effects) if (base is not None and base_name is not None) else []
     effects = _parse_effects(_table(data, "effects", ""), model, effects, data, base_name)
     model = replace(model, effects=tuple(effects))

@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 from geometry.declare import param, read_table
 from geometry.disc import load_disc_geometry
 from geometry.errors import InputError
-from lumped.valves.kind import Common, ValveKind, ValveParams, check_discharge, contact_reaction, kind_block, register
+from lumped.valves.kind import Common, fluid_param, ValveKind, ValveParams, check_discharge, contact_reaction, kind_block, register
 
 EQ_2_23 = "critical damping 2 sqrt(k m) of eq 2.23 with the contact mass (derived when left out)"
 
@@ -90,6 +90,12 @@ class DiscValve(ValveParams):
     cd_a: float = param("discharge.a", "-", "eq 2.48", bounds=(-100.0, 100.0))
     cd_b: float = param("discharge.b", "-", "eq 2.48", bounds=(0.0, 100.0), positive=True)
     cd_c: float = param("discharge.c", "-", "eq 2.48", bounds=(0.0, 100.0), positive=True)
+    cd_lift_exponent: float = param("discharge.lift_exponent", "-", "k: Cd(Re) of eq 2.47 taken at the effective "
+                                    "Reynolds number Re (x / x_stop)^k (0: eq 2.48, Cd independent of the lift; "
+                                    "fluid = \"predicted\" fits it, docs/fluid.md)", bounds=(-3.0, 3.0))
+    force_coefficient: float = param("flow.force_coefficient", "-", "K_o: the pressure force of eq 2.18's orifice "
+                                     "regime is K_o dP A_disc (eq 2.18: 1; fluid = \"predicted\": the axisymmetric "
+                                     "flow's, docs/fluid.md)", bounds=(0.05, 2.0), positive=True, packed=True)
     drag: bool = param("drag.enabled", "-", "drag of eq 2.28 on the moving disc")
     viscous_drag: float = param("drag.viscous_coefficient", "-", "c_visc of eq 2.28 (section 2.4.4)",
                                 bounds=(0.0, 1e3))
@@ -134,6 +140,7 @@ class DiscValve(ValveParams):
                                      default=0.0, effect="flow_force", packed=True)
     flow_force_transient: float = param(None, "-", "multiplier of the transient flow force, eq 2.37",
                                         bounds=(0.0, 10.0), default=0.0, effect="flow_force", packed=True)
+    fluid: str = fluid_param()
 
     #: keys a geometry supplies (dropped from inherited defaults when a file names another geometry)
     FROM_GEOMETRY = ("seat.inner_radius", "seat.outer_radius", "seat.bevel_angle", "port.diameter", "port.length",
@@ -231,7 +238,7 @@ class DiscValve(ValveParams):
             moving_mass=self.moving_mass, stop_gap=self.stop_gap, seat_k=self.seat_stiffness,
             seat_c=self.seat_damping_value, stop_k=self.stop_stiffness, stop_c=self.stop_damping_value,
             area_1=self.port_area, area_2=self.disc_area, f_closing=self.f1, f_opening=self.f2,
-            cd_inf=self.cd_inf, cd_a=self.cd_a, cd_b=self.cd_b, cd_c=self.cd_c,
+            cd_inf=self.cd_inf, cd_a=self.cd_a, cd_b=self.cd_b, cd_c=self.cd_c, cd_lift_exponent=self.cd_lift_exponent,
             perimeter=self.perimeter_factor * math.pi * self.port_diameter,
             average_density=self.orifice_density == "average",
             area_per_opening=math.pi * self.port_diameter * math.sin(self.bevel_angle),   # eq 2.40: A_o / x
@@ -282,7 +289,7 @@ class DiscValve(ValveParams):
         from lumped.validity import Limit
 
         env = super().validity(oil)
-        area = self.disc_area * (self.c1 if self.poiseuille_regime else 1.0)
+        area = self.disc_area * (self.c1 if self.poiseuille_regime else self.force_coefficient)
         x_port = self.port_diameter / (4.0 * math.sin(self.bevel_angle))
         port = Limit("port_area", "peak_opening", x_port, f"the {x_port * 1e3:.3g} mm where its curtain area "
                      "(eq 2.40) reaches the port area: the port, not the gap, throttles there")
@@ -396,19 +403,19 @@ def pressure_force(x: float, u: float, dp: float, p_down: float, p_vap: float, p
     Poiseuille regime: C1 dP A_disc (eq 2.13); with the squeeze_film effect the Reynolds film of
     eqs 2.7-2.13 over the bevelled annulus, x + min_gap thick, its pressure bounded below at the
     vapour pressure minus the oil's tensile strength (eq 2.17 applied to the film pressure, not
-    only the total: :func:`film_force`). Orifice regime: dP A_disc. With the regime switch off the
-    orifice form always applies. The film squeezes off the seat only (``contact`` free or stop; -1:
+    only the total: :func:`film_force`). Orifice regime: K_o dP A_disc (eq 2.18: K_o = 1; the
+    ``flow.force_coefficient``). With the regime switch off the orifice form always applies. The film squeezes off the seat only (``contact`` free or stop; -1:
     decided from x > 0): on the seat the disc moves with the seat's compliance, the film stays
     min_gap thick, and a free disc inside the switch's hysteresis (x just below 0) keeps its film,
     so the force has no jump inside a mode.
     """
     a_disc = p[o + DISC.disc_area]
     if p[o + DISC.poiseuille] < 0.5:
-        return dp * a_disc
+        return p[o + DISC.force_coefficient] * dp * a_disc
     if regime < 0:
         regime = 0 if x < p[o + DISC.regime_opening] else 1
     if regime == 1:
-        return dp * a_disc
+        return p[o + DISC.force_coefficient] * dp * a_disc
     kf = p[o + DISC.film_coefficient]
     h = x + p[o + DISC.squeeze_min_gap]
     if kf > 0.0 and h > 0.0 and (contact > 0 or (contact < 0 and x > 0.0)):

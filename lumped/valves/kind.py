@@ -35,7 +35,8 @@ import math
 from dataclasses import dataclass, fields
 from typing import Callable, ClassVar, NamedTuple
 
-from lumped.fluid.orifice import orifice_flow
+from geometry.declare import param
+from lumped.fluid.orifice import discharge_slope, orifice_flow
 
 #: quantities every kind packs first, at these offsets of its block (lumped.solver.layout): the fields of
 #: :class:`Common`, then the bookkeeping the layout writes
@@ -55,6 +56,7 @@ COMMON = (
     "cd_a",
     "cd_b",
     "cd_c",
+    "cd_lift_exponent",  # k: Cd at the effective Re (x / x_stop)^k (0: independent of the opening)
     "perimeter",       # orifice perimeter of the Reynolds number [m]
     "average_density",  # 1: orifice density is the mean of both sides (section 4.3.5), 0: cylinder's
     "area_per_opening",  # A_o / x at small openings [m]
@@ -110,7 +112,8 @@ class Common:
     displacement area of eqs 2.42, 3.26; ``cd_inf``, ``cd_a``, ``cd_b``, ``cd_c`` the Cd(Re)
     correlation of eqs 2.47, 3.89; ``perimeter`` [m] of its Reynolds number; ``average_density``
     (section 4.3.5); ``area_per_opening`` A_o / x [m] and ``area_curvature`` [-], the orifice area
-    A_o = area_per_opening x + area_curvature x^2; ``regime_opening`` [m] of a pressure-regime
+    A_o = area_per_opening x + area_curvature x^2; ``cd_lift_exponent`` k [-]: Cd(Re) is taken at
+    the effective Reynolds number Re (x / x_stop)^k (0: Cd independent of the opening, eqs 2.47, 3.89); ``regime_opening`` [m] of a pressure-regime
     switch (eq 2.18; None: none); ``contact_area`` [m^2] that turns a contact force into a
     pressure load (1 for a per-unit-area kind); ``flow_in_acceleration``: the acceleration reads
     the flow inputs (then the Jacobian recomputes the flow at each perturbation).
@@ -137,6 +140,7 @@ class Common:
     regime_opening: float | None = None
     flow_in_acceleration: bool = False
     area_curvature: float = 0.0
+    cd_lift_exponent: float = 0.0
 
     #: fields that must be > 0 and those that must be >= 0
     POSITIVE: ClassVar[tuple] = ("moving_mass", "stop_gap", "seat_k", "stop_k", "perimeter", "area_per_opening",
@@ -170,6 +174,18 @@ class Common:
 
 
 _COMMON_FIELDS = tuple(f.name for f in fields(Common))
+
+
+#: the choices of a valve's ``fluid`` key (lumped.valves.fluid_forms)
+FLUID_CHOICES = ("empirical", "predicted")
+
+
+def fluid_param():
+    """The declaration of a valve's ``fluid`` key, shared by the kinds that offer predicted fluid parameters."""
+    return param("fluid", "-", 'the valve\'s fluid parameters: "empirical" (the thesis\'s correlations and '
+                 'estimates, as given) or "predicted" (the compact forms the fluid references compute for this '
+                 'geometry and oil, lumped.valves.fluid_forms; docs/fluid.md)', choices=FLUID_CHOICES,
+                 default="empirical")
 
 
 class ValveParams:
@@ -473,12 +489,24 @@ def valve_flow(x: float, u: float, dp: float, rho: float, mu: float, p, o: int,
     k_area = p[o + VALVE.area_per_opening]
     k2 = p[o + VALVE.area_curvature]
     per = p[o + VALVE.perimeter]
-    q, cd, dq_ddp, dq_da = orifice_flow(k_area * x + k2 * x * x, dp, rho, mu, per, p[o + VALVE.cd_inf],
+    lift_k = p[o + VALVE.cd_lift_exponent]
+    if lift_k != 0.0:
+        # Re_eff = Re (x / x_stop)^k: the same law with the perimeter p (x_stop / x)^k
+        per = per * (p[o + VALVE.stop_gap] / x) ** lift_k
+    area = k_area * x + k2 * x * x
+    q, cd, dq_ddp, dq_da = orifice_flow(area, dp, rho, mu, per, p[o + VALVE.cd_inf],
                                         p[o + VALVE.cd_a], p[o + VALVE.cd_b], p[o + VALVE.cd_c],
                                         p[o + VALVE.orifice_start])
     # the root sqrt(Re) starts the next solve of this valve (2-3 Halley steps become ~1)
-    p[o + VALVE.orifice_start] = math.sqrt(4.0 * rho * abs(q) / (mu * per))
-    return q, cd, aq, dq_ddp, dq_da * (k_area + 2.0 * k2 * x)
+    s = math.sqrt(4.0 * rho * abs(q) / (mu * per))
+    p[o + VALVE.orifice_start] = s
+    dq_dx = dq_da * (k_area + 2.0 * k2 * x)
+    if lift_k != 0.0 and cd > 0.0:
+        # the perimeter's share: dQ/dp_er = -dQ/dA A Cd'(s) s / (2 p_er Cd) (implicit in s^2 = 4 rho |Q| /
+        # (mu p_er), Q = Cd(s) A V), with dp_er/dx = -k p_er / x
+        slope = discharge_slope(s, p[o + VALVE.cd_inf], p[o + VALVE.cd_a], p[o + VALVE.cd_b], p[o + VALVE.cd_c])
+        dq_dx += dq_da * area * slope * s * lift_k / (2.0 * cd * x)
+    return q, cd, aq, dq_ddp, dq_dx
 
 
 def mass_flow(qo: float, aq: float, u: float, dp: float, rho: float, dq_ddp: float,

@@ -114,6 +114,19 @@ def build_parser(selected: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def _fluid_forms() -> None:
+    """Offer the disc's predicted fluid parameters (``fluid = "predicted"``) to the model loader without
+    importing the fluid references until a model asks (the installed entry point does the same)."""
+    from lumped.valves import fluid_forms
+
+    def disc(valve, oil):
+        from fea.fluid.compact import predicted_values
+
+        return predicted_values(valve, oil)
+
+    fluid_forms.FORMS.setdefault("disc", disc)
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     # importing every command module (scipy, matplotlib, skfem...) costs seconds per call
@@ -125,6 +138,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     mod = args._module
     try:
+        _fluid_forms()
         result = mod.run(args)
         _finite(result)
     except InputError as exc:

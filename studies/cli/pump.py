@@ -136,6 +136,7 @@ def run(args) -> dict:
 
     out["model"] = model.name if model.name in SHIPPED and model.source.startswith("lumped/") else model.source
     out["reed_parameters"] = _reed_source(model)
+    out["fluid"] = {pos: getattr(model.valve(pos), "fluid", "empirical") for pos in ("inlet", "delivery")}
     if args.uncertainty:
         from lumped.model.model_file import with_values
         from studies.validation.vv20 import point_uncertainty
