@@ -15,7 +15,7 @@ from skfem import MeshTri
 from fea.fluid import reed_film
 from fea.fluid.disc_film import annulus_mesh
 from fea.fluid.reynolds import FilmOptions, solve_film
-from lumped.reed_fluid import annulus_pressure_fraction
+from lumped.reed.fluid import annulus_pressure_fraction
 
 MU = 0.0683
 STRIP = MeshTri.init_tensor(np.linspace(0.0, 10e-3, 41), np.linspace(0.0, 1.5875e-3, 9)).with_boundaries(

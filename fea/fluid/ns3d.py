@@ -105,9 +105,10 @@ class System:
     Q: Basis                 # P1 pressure
     K: sp.csr_matrix         # scalar Laplacian
     B: sp.csr_matrix         # (nQ, 3 nV): -int q div u
-    fixed: np.ndarray        # Dirichlet velocity DOFs (global numbering)
+    fixed: np.ndarray        # Dirichlet DOFs (global numbering): velocities, and the orphan pressures
     fluid: Fluid
     fast: ScalarAssembler
+    orphans: np.ndarray      # pressure DOFs (global) coupled to no free velocity (see :func:`assemble`)
 
     @property
     def nv(self) -> int:
@@ -134,7 +135,32 @@ def assemble(mesh: skfem.MeshTet, fluid: Fluid, no_slip=("wall", "reed"), symmet
     sym = _facet_dofs(V, mesh, [symmetry])
     n = V.N
     fixed = np.unique(np.concatenate([ns, ns + n, ns + 2 * n, sym + n]))
-    return System(mesh=mesh, V=V, Q=Q, K=K, B=B, fixed=fixed, fluid=fluid, fast=ScalarAssembler(V))
+    # a pressure node whose cells have every velocity node on a wall (a corner of a one-layer
+    # pocket at a wall) has no continuity equation and no effect on the momentum rows: the
+    # discrete problem leaves it free, so it is fixed in the solve and set afterwards to the mean
+    # of its neighbours (fill_orphans)
+    free_v = np.ones(3 * n, bool)
+    free_v[fixed] = False
+    coupled = np.asarray(abs(B[:, free_v]).sum(axis=1)).ravel() > 0
+    orphans = 3 * n + np.flatnonzero(~coupled)
+    return System(mesh=mesh, V=V, Q=Q, K=K, B=B, fixed=np.concatenate([fixed, orphans]), fluid=fluid,
+                  fast=ScalarAssembler(V), orphans=orphans)
+
+
+def fill_orphans(sys_: System, x: np.ndarray) -> np.ndarray:
+    """x with every orphan pressure (:func:`assemble`) set to the mean of the pressures it shares a cell with."""
+    if not len(sys_.orphans):
+        return x
+    n3 = 3 * sys_.nv
+    t = sys_.mesh.t
+    x = x.copy()
+    for dof in sys_.orphans:
+        node = dof - n3
+        cells = np.flatnonzero(np.any(t == node, axis=0))
+        nb = np.setdiff1d(np.unique(t[:, cells]), sys_.orphans - n3)
+        if len(nb):
+            x[dof] = x[n3 + nb].mean()
+    return x
 
 
 def traction_load(sys_: System, pressures: dict[str, float]) -> np.ndarray:
@@ -223,7 +249,8 @@ def _dirichlet_solve(M: sp.csr_matrix, rhs: np.ndarray, fixed: np.ndarray, value
 
 def stokes(sys_: System, rhs: np.ndarray, wall_values: np.ndarray) -> np.ndarray:
     """Stokes solution [u_x, u_y, u_z, p] (SI) for load ``rhs`` and Dirichlet values on ``sys_.fixed``."""
-    return _dirichlet_solve(_saddle(sys_, _velocity_block(sys_, None, False)), rhs, sys_.fixed, wall_values)
+    x = _dirichlet_solve(_saddle(sys_, _velocity_block(sys_, None, False)), rhs, sys_.fixed, wall_values)
+    return fill_orphans(sys_, x)
 
 
 def residual(sys_: System, x: np.ndarray, rhs: np.ndarray) -> np.ndarray:
@@ -300,7 +327,7 @@ def newton(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max
             print(f"  newton {it}: |du|/|u| = {change:.2e}, step {step:g}, {kry} GMRES steps "
                   f"({time.perf_counter() - t0:.1f} s)", file=sys.stderr)
         if change < tol and step == 1.0:
-            return x, it, factor
+            return fill_orphans(sys_, x), it, factor
     raise ModelFailure(f"steady Navier-Stokes did not converge in {max_iter} Newton steps "
                        f"(last relative velocity update {change:.2e})")
 

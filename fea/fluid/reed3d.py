@@ -330,7 +330,7 @@ def valve_flow(reed: Reed, seat: ReedSeat | None = None, fidelity: str = "analyt
     (:mod:`fea.fidelities`), the thesis oil at 22 C unless ``fluid``, and the orifice
     definitions (l_o, p_o, A_1, A_2) given or computed over the port (:func:`orifice_definitions`);
     kappa [Pa/m] given or the fidelity's."""
-    from lumped.oil import thesis_oil_viscosity
+    from lumped.fluid.oil import thesis_oil_viscosity
 
     from ..fidelities import get
 
@@ -354,7 +354,7 @@ def prototype_valve(mesh: MeshOptions | None = None) -> ReedValveFlow:
     ``thesis-reed`` model (Table 3.13; A_2 as the model uses it, docs/errata.md), and its
     measured kappa = 7.709 MPa/m."""
     from geometry.reed_io import load_reed
-    from lumped.model_file import load_model
+    from lumped.model.model_file import load_model
 
     model = load_model("thesis-reed")
     v = model.inlet
