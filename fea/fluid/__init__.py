@@ -81,4 +81,14 @@ def get(name: str, kind: str | None = None, field: str = "--fidelity") -> FluidF
 # fluid = "predicted" in a model file reads the disc's compact forms (also an entry point, pyproject.toml)
 _fluid_forms.register("disc", predicted_values)
 
+
+def _reed_predicted(valve, oil) -> dict:
+    """The reed's predicted fluid parameters (:func:`fea.fluid.reed_compact.predicted_values`, imported when asked)."""
+    from .reed_compact import predicted_values as reed_values
+
+    return reed_values(valve, oil)
+
+
+_fluid_forms.register("reed", _reed_predicted)
+
 __all__ = ["FIDELITIES", "FlowPoint", "FluidFidelity", "FluidValve", "get", "load_fluid_valve", "register"]

@@ -163,3 +163,57 @@ def compact_forms(valve: ReedValveFlow, recompute: bool = False, progress: bool 
                            "viscosity": valve.fluid.mu}}
     store(data, path)
     return data
+
+
+# ------------------------------------------------------------------------------ the pump's use
+def fit_multiplier(table: dict, plateau: float) -> dict:
+    """eq 3.83's coefficients (x in m) fitted to the X(x) table by least squares, eq 3.83's own
+    values as the start; the plateau is the film's. The fit's zero -n0/n1 beyond the table's last
+    opening is an extrapolation (the pump warns when an opening leaves the computed range)."""
+    from scipy.optimize import least_squares
+
+    x = np.asarray(table["opening"][1:], float)
+    X = np.asarray(table["X"][1:], float)
+
+    def rational(p, xx):
+        n1, n0, d2, d1, d0 = p
+        return (n1 * xx + n0) / (xx**3 + d2 * xx**2 + d1 * xx + d0)
+
+    def res(p):
+        return np.minimum(rational(p, x), plateau) - X
+
+    sol = least_squares(res, [-52.28, 0.07158, 0.8145, -50.23, 0.08292], x_scale="jac")
+    r = res(sol.x)
+    names = ("n1", "n0", "d2", "d1", "d0")
+    return {**dict(zip(names, map(float, sol.x))), "poiseuille": float(plateau),
+            "max_abs": float(np.abs(r).max()), "zero_opening": float(-sol.x[1] / sol.x[0])}
+
+
+def predicted_values(valve, oil) -> dict:
+    """The reed's predicted fluid parameters {ReedValve field: value} for ``fluid = "predicted"`` (the
+    entry point of lumped.valves.fluid_forms): Cd(Re) in eq 3.88's form, X(x) in eq 3.83's form with
+    the film's plateau, f1 and f2 of eq 3.26, from the compact forms of this reed's geometry, the
+    valve's l_o, p_o, A_1, A_2 and kappa and ``oil`` (computed once, cached)."""
+    from geometry.errors import InputError
+    from lumped.valves.kind import check_discharge
+
+    from . import ns3d
+    from .reed3d import valve_flow
+
+    where = f"valves.{valve.position}"
+    if valve.reed is None:
+        raise InputError(f"{where}.geometry", 'fluid = "predicted" needs the reed\'s geometry (a preset, a reed '
+                         "file or an inline table): the flow is computed around it")
+    flow = valve_flow(valve.reed, fluid=ns3d.Fluid(oil.density, oil.viscosity), stiffness=valve.stiffness,
+                      definitions=(valve.orifice_length, valve.orifice_perimeter, valve.area_min, valve.area_max))
+    forms = compact_forms(flow)["forms"]
+    cd = forms["cd"]
+    try:
+        check_discharge(cd["cd_inf"], cd["a"], cd["b"], cd["c"], f"{where}.fluid")
+    except InputError as exc:
+        raise InputError(exc.field, f"the predicted Cd(Re) is not a usable correlation ({exc.message})") from None
+    X = fit_multiplier(forms["multiplier"], forms["multiplier_poiseuille"])
+    return {"cd_inf": cd["cd_inf"], "cd_a": cd["a"], "cd_b": cd["b"], "cd_c": cd["c"],
+            "multiplier_poiseuille": X["poiseuille"], "multiplier_n1": X["n1"], "multiplier_n0": X["n0"],
+            "multiplier_d2": X["d2"], "multiplier_d1": X["d1"], "multiplier_d0": X["d0"],
+            "f1": float(np.clip(forms["f1"], 0.0, 1.0)), "f2": float(np.clip(forms["f2"], 0.0, 1.0))}
