@@ -304,7 +304,7 @@ def newton(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max
     Each correction is solved by GMRES preconditioned with ``factor`` (a factorization of a
     nearby Jacobian, e.g. the previous pressure difference's) or, without one or when GMRES
     stalls, by a new LU of the current Jacobian; the step is damped by backtracking on the
-    residual (:func:`_line_search`). Stops when the largest velocity update is below ``tol``
+    residual (``_line_search``). Stops when the largest velocity update is below ``tol``
     of the largest velocity after a full step. Returns (state, steps, the factorization in
     use). ModelFailure when it does not converge in ``max_iter`` steps (a steady laminar
     solution may not exist at that Reynolds number, or the mesh does not resolve it).

@@ -2,7 +2,7 @@
 
 The fluid around the reed (:mod:`fea.fluid.reed_mesh`: port, gap, grooves, chamber up to
 the stop, half domain) with the reed deflected to a tip opening x along its static shape
-psi(s) (exact Euler-Bernoulli on the real grooved profile, :func:`lumped.reed_beam.shape`,
+psi(s) (exact Euler-Bernoulli on the real grooved profile, :func:`lumped.reed.euler_bernoulli.shape`,
 or a FE fidelity's). Steady flow driven by the pressure difference dP between the port's
 bottom (inlet, traction -P_up n) and the chamber's open sides (outlet, P_down = 0); the
 solver is :mod:`fea.fluid.ns3d` (Taylor-Hood P2-P1, Newton). Outputs per (x, dP):
@@ -186,8 +186,8 @@ def pressure_sweep(valve: ReedValveFlow, opening: float, reynolds=(), progress: 
 
     One mesh; the Stokes limit first (at dP = 1 Pa, Re -> 0), then Navier-Stokes by Newton
     with continuation: each dP is chosen from the previous points to aim at the next Reynolds
-    number (:func:`_next_dp`; the Re reached is the output, within ~10 % of the aim), starts
-    from the previous solutions (:func:`_guess`) and reuses the last factorization as GMRES
+    number (``_next_dp``; the Re reached is the output, within ~10 % of the aim), starts
+    from the previous solutions (``_guess``) and reuses the last factorization as GMRES
     preconditioner. ``dps`` [Pa]: solve at these pressure differences instead (a mesh study
     compares meshes at one dP). ``on_point(point)`` is called after each solve (e.g. to save
     it). ``dp_max`` [Pa]: the largest pressure difference of a Reynolds-aimed sweep (the

@@ -48,8 +48,9 @@ OPENING_FRACTIONS = (0.05, 0.15, 0.3, 0.5, 0.7, 0.9)
 REYNOLDS = (1.0, 3.0, 10.0, 25.0, 62.0)
 #: the pump's range of Re over which X is averaged
 PUMP_REYNOLDS = (3.0, 62.0)
-#: openings (fractions of the stop) and tip speed [m/s] of the moving-wall solves
+#: openings of the moving-wall solves (fractions of the stop)
 DISPLACEMENT_FRACTIONS = (0.15, 0.5, 0.9)
+#: tip speed of the moving-wall solves [m/s], either sign
 TIP_SPEED = 0.1
 #: eq 3.89's coefficients: the start of the Cd fit
 CD_START = (0.5740, 6.144, 0.3661, 0.3379)
