@@ -91,4 +91,15 @@ def _reed_predicted(valve, oil) -> dict:
 
 _fluid_forms.register("reed", _reed_predicted)
 
+
+def _reed_point(valve, lift, reynolds, options=None):
+    """The reed's 3-D point (:func:`fea.fluid.reed3d.reed_point`, imported when asked)."""
+    from .reed3d import reed_point
+
+    return reed_point(valve, lift, reynolds, options)
+
+
+register(FluidFidelity("3d", ("reed",), _reed_point,
+                       summary="the reed valve's laminar Navier-Stokes flow in 3-D, Taylor-Hood P2-P1, Newton"))
+
 __all__ = ["FIDELITIES", "FlowPoint", "FluidFidelity", "FluidValve", "get", "load_fluid_valve", "register"]

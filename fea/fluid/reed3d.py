@@ -395,3 +395,25 @@ def mesh_study(valve: ReedValveFlow, opening: float, dps, meshes=STUDY_MESHES, p
             vals = {k: [getattr(r[dp], k) for r in runs[::-1]] for k in STUDY_OUTPUTS}   # fine to coarse
             out[dp] = {k: gci(v, cells=cells[::-1], dim=3) for k, v in vals.items()}
     return out
+
+
+def reed_point(valve, lift: float, reynolds: float, options=None):
+    """The ``3d`` fluid fidelity's point (:mod:`fea.fluid`): a reed valve (a
+    :class:`fea.fluid.point.FluidValve` whose model names the reed's geometry) at tip opening
+    ``lift`` [m], aiming at ``reynolds`` (eq 3.87) from the Stokes limit on the default mesh."""
+    from geometry.errors import InputError
+
+    from .point import FlowPoint, check_lift, check_reynolds
+
+    lift, reynolds = check_lift(valve, lift), check_reynolds(reynolds)
+    v = valve.params
+    if v.reed is None:
+        raise InputError(f"valves.{valve.position}.geometry", "the 3-D flow needs the reed's geometry (a preset, a "
+                         "reed file or an inline table)")
+    flow = valve_flow(v.reed, fluid=ns3d.Fluid(valve.density, valve.viscosity), stiffness=v.stiffness,
+                      definitions=(v.orifice_length, v.orifice_perimeter, v.area_min, v.area_max))
+    p = pressure_sweep(flow, lift, (reynolds,), progress=bool((options or {}).get("progress", True)))[-1]
+    return FlowPoint(lift=lift, reynolds=p.reynolds, flow=p.flow, dp=p.dp, cd=float(p.cd), force=p.force,
+                     force_coefficient=p.force / (p.dp * v.reed.face_area), pressure_load_multiplier=p.multiplier,
+                     extra={"multiplier_pressure": p.multiplier_pressure, "dofs": int(p.dofs),
+                            "seconds": p.seconds, "peak_rss_gb": p.peak_rss_gb})
