@@ -14,8 +14,11 @@
 
 and :func:`fit_forms` turns them into the forms the lumped reed model reads:
 
-- Cd(Re) in eq 3.88's form (Wu et al. 2002; :func:`fea.fluid.compact.wu`), least squares over
-  every point, lift-independent and with an effective Reynolds number Re (x / x_stop)^k;
+- Cd(Re) in eq 3.88's form (Wu et al. 2002; :func:`fea.fluid.compact.wu`): lift-independent,
+  fitted on the valve's static operating line kappa (x - x_0) = X dP (:func:`equilibrium_points`,
+  where the thesis's bench measured it: off that line Cd depends on x as well as Re, Cd ~
+  sqrt(Re x) in the film regime), and over every point with an effective Reynolds number
+  Re (x / x_stop)^k;
 - X(x) as a table: at each opening the mean of X over the points in the pump's Reynolds range
   (:data:`PUMP_REYNOLDS`; the thesis's X depends on x only), below the smallest opening the
   film's Poiseuille plateau; the opening where the table reaches 0, if it does;
@@ -119,18 +122,64 @@ def multiplier_table(rows: list[dict], plateau: float) -> dict:
     return {"opening": [t[0] for t in table], "X": [t[1] for t in table], "zero_opening": zero}
 
 
-def fit_forms(raw: dict, valve: ReedValveFlow) -> dict:
-    """The compact forms (module docstring) from :func:`characterise`'s points."""
+def _at_dp(pts: list[dict], dp: float, key: str) -> float | None:
+    """``key`` at pressure difference ``dp`` [Pa], log-log (flow) or log-linear (others) between the
+    bracketing points of one opening (the first is the Stokes limit at 1 Pa: flow ~ dP below the
+    first Navier-Stokes point); None beyond the last point."""
+    dps = np.array([p["dp"] for p in pts])
+    if dp > dps[-1] * (1 + 1e-9):
+        return None
+    k = int(np.clip(np.searchsorted(dps, dp) - 1, 0, len(pts) - 2)) if len(pts) > 1 else 0
+    if len(pts) == 1:
+        return pts[0][key] * (dp if key == "flow" else 1.0)
+    a, b = pts[k], pts[k + 1]
+    t = np.log(dp / a["dp"]) / np.log(b["dp"] / a["dp"])
+    if key == "flow":
+        return float(np.exp(np.log(a["flow"]) + t * (np.log(b["flow"]) - np.log(a["flow"]))))
+    return float(a[key] + t * (b[key] - a[key]))
+
+
+def equilibrium_points(rows: list[dict], valve: ReedValveFlow, preload: float = 0.0) -> list[dict]:
+    """The points on the valve's static operating line: at each opening x the dP at which the reed is
+    held there by its stiffness, kappa (x - x_0) = X dP (eq 3.82, as on the thesis's bench), with X
+    and the flow interpolated between the computed points (:func:`_at_dp`, two fixed-point passes);
+    openings whose line lies beyond the computed dP are left out. Cd and Re as eqs 3.84, 3.87."""
+    out = []
+    rho, mu = valve.fluid.rho, valve.fluid.mu
+    for x in sorted({r["opening"] for r in rows}):
+        pts = sorted((r for r in rows if r["opening"] == x), key=lambda r: r["dp"])
+        X = pts[0]["multiplier"]
+        dp = None
+        for _ in range(3):
+            dp = valve.stiffness * (x - preload) / X
+            X = _at_dp(pts, dp, "multiplier")
+            if X is None or X <= 0.0:
+                break
+        if X is None or X <= 0.0:
+            continue
+        Q = _at_dp(pts, dp, "flow")
+        out.append({"opening": x, "dp": dp, "flow": Q, "multiplier": X,
+                    "cd": Q / (valve.orifice_length * x * np.sqrt(2 * dp / rho)),
+                    "reynolds": 4 * rho * Q / (valve.orifice_perimeter * mu)})
+    return out
+
+
+def fit_forms(raw: dict, valve: ReedValveFlow, preload: float = 0.0) -> dict:
+    """The compact forms (module docstring) from :func:`characterise`'s points; ``preload`` x_0 [m]
+    of the static operating line the lift-independent Cd(Re) is fitted on (:func:`equilibrium_points`)."""
     stop = valve.seat.stop_gap
     rows = [r for r in raw["rows"] if r["dp"] != 1.0]       # the Stokes-limit rows have Re ~ 0
     re = [r["reynolds"] for r in rows]
     xr = [r["opening"] / stop for r in rows]
     cd = [r["cd"] for r in rows]
+    line = equilibrium_points(raw["rows"], valve, preload)
     closing = [m["fraction"] for m in raw["moving"] if m["speed"] < 0.0]
     opening = [m["fraction"] for m in raw["moving"] if m["speed"] > 0.0]
     film = raw["film"]
     return {
-        "cd": fit_cd(re, xr, cd, False, p0=CD_START), "cd_lift": fit_cd(re, xr, cd, True, p0=CD_START),
+        "cd": fit_cd([p["reynolds"] for p in line], [1.0] * len(line), [p["cd"] for p in line], False, p0=CD_START)
+        if len(line) >= 4 else None,
+        "cd_lift": fit_cd(re, xr, cd, True, p0=CD_START), "operating_line": line, "preload": preload,
         "multiplier": multiplier_table(raw["rows"], film["multiplier"]),
         "multiplier_poiseuille": film["multiplier"], "base_fraction": film["base_fraction"],
         "f1": float(np.mean(closing)) if closing else None, "f2": float(np.mean(opening)) if opening else None,
