@@ -81,4 +81,25 @@ def get(name: str, kind: str | None = None, field: str = "--fidelity") -> FluidF
 # fluid = "predicted" in a model file reads the disc's compact forms (also an entry point, pyproject.toml)
 _fluid_forms.register("disc", predicted_values)
 
+
+def _reed_predicted(valve, oil) -> dict:
+    """The reed's predicted fluid parameters (:func:`fea.fluid.reed_compact.predicted_values`, imported when asked)."""
+    from .reed_compact import predicted_values as reed_values
+
+    return reed_values(valve, oil)
+
+
+_fluid_forms.register("reed", _reed_predicted)
+
+
+def _reed_point(valve, lift, reynolds, options=None):
+    """The reed's 3-D point (:func:`fea.fluid.reed3d.reed_point`, imported when asked)."""
+    from .reed3d import reed_point
+
+    return reed_point(valve, lift, reynolds, options)
+
+
+register(FluidFidelity("3d", ("reed",), _reed_point,
+                       summary="the reed valve's laminar Navier-Stokes flow in 3-D, Taylor-Hood P2-P1, Newton"))
+
 __all__ = ["FIDELITIES", "FlowPoint", "FluidFidelity", "FluidValve", "get", "load_fluid_valve", "register"]

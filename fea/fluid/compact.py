@@ -156,10 +156,11 @@ def wu(re, x_rel, cd_inf: float, a: float, b: float, c: float, k: float = 0.0):
     return a * np.expm1(-b * s) - (cd_inf + a) * np.expm1(-c * s)
 
 
-def fit_cd(re, x_rel, cd, with_lift: bool) -> dict:
-    """Least-squares fit of :func:`wu` (eq 2.47) to points (Re, x / x_stop, Cd); eq 2.48 starts it."""
+def fit_cd(re, x_rel, cd, with_lift: bool, p0=None) -> dict:
+    """Least-squares fit of :func:`wu` (eq 2.47) to points (Re, x / x_stop, Cd); eq 2.48 starts it
+    unless ``p0`` = (cd_inf, a, b, c) is given (the reed's eq 3.89, same form: eq 3.88)."""
     re, x_rel, cd = (np.asarray(v, float) for v in (re, x_rel, cd))
-    p0 = [0.972, -1.0801, 0.1058, 0.9505] + ([0.5] if with_lift else [])
+    p0 = list(p0 if p0 is not None else (0.972, -1.0801, 0.1058, 0.9505)) + ([0.5] if with_lift else [])
     lo = [0.05, -20.0, 1e-4, 1e-4] + ([-3.0] if with_lift else [])
     hi = [2.0, 20.0, 50.0, 50.0] + ([3.0] if with_lift else [])
 

@@ -30,7 +30,7 @@ from geometry.errors import InputError
 from geometry.reed import Reed
 from lumped.valves.kind import (
     SEAT, STOP, Common, ValveKind, ValveParams, check_discharge, contact_reaction, contact_slopes, contact_state,
-    kind_block, register,
+    fluid_param, kind_block, register,
 )
 
 CRITICAL = "critical damping of the modal equation (eq 2.23: 2 sqrt(gamma1 k rho_c h_eff) / gamma1), derived when left out"
@@ -119,6 +119,7 @@ class ReedValve(ValveParams):
                                              effect="fluid_damping")
     hydrodynamic_function: float = param(None, "-", "Gamma_f of eq 3.13 (added mass)", bounds=(0.0, 1e3),
                                          default=0.0, effect="added_mass")
+    fluid: str = fluid_param()
     reed: Reed | None = None         # the parsed geometry (None: parameters given directly)
     source: str = "given"            # where kappa, gammas and h_eff come from
 

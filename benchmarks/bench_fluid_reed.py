@@ -1,0 +1,81 @@
+"""Benchmark of the reed valve's fluid models (the reed rows of the fluid benchmark). Run on demand:
+
+    python benchmarks/bench_fluid_reed.py [--point] [--forms]
+
+Prints one JSON object: the load average when it started (timings on a loaded machine are
+not the code's), the thin film of the prototype (seconds per point, DOFs, X, F4); with
+``--point`` one 3-D point (the default mesh at 0.5 mm: Stokes and one Navier-Stokes solve near
+Re 10; DOFs, seconds, peak resident memory of that process); with ``--forms`` the
+prototype's compact forms computed afresh (wall and CPU seconds, the fitted forms).
+:func:`reed_rows` is what ``benchmarks/bench_fluid.py`` adds as its reed rows.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from fea.fluid import reed3d, reed_film  # noqa: E402
+
+#: the 3-D point's target (one point: under 5 min and 8 GB on the 2-core machine)
+POINT_OPENING = 0.5e-3
+POINT_REYNOLDS = 10.0
+
+
+def film_row() -> dict:
+    valve = reed3d.prototype_valve()
+    reed_film.reed_film(valve, 0.05e-3)                 # warm-up (imports, gmsh)
+    t = time.perf_counter()
+    film = reed_film.reed_film(valve, 0.05e-3)
+    return {"thin_film_seconds_per_point": round(time.perf_counter() - t, 3), "thin_film_dofs": film.dofs,
+            "thin_film_X": round(film.multiplier, 5), "thin_film_F4": round(film.base_fraction, 4),
+            "thin_film_squeeze_Pa_s_per_m": round(film.squeeze_coefficient, 1)}
+
+
+def point_row() -> dict:
+    valve = reed3d.prototype_valve()
+    t = time.perf_counter()
+    pts = reed3d.pressure_sweep(valve, POINT_OPENING, (POINT_REYNOLDS,), progress=True)
+    last = pts[-1]
+    return {"point_opening_mm": POINT_OPENING * 1e3, "point_reynolds": round(last.reynolds, 3),
+            "point_cd": round(last.cd, 5), "point_X": round(last.multiplier, 5), "point_dofs": int(last.dofs),
+            "point_seconds_stokes_and_ns": round(time.perf_counter() - t, 1),
+            "point_peak_rss_gb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6, 2)}
+
+
+def forms_row() -> dict:
+    from fea.fluid.reed_compact import compact_forms
+
+    data = compact_forms(reed3d.prototype_valve(), recompute=True, progress=True)
+    prov = data["provenance"]
+    return {"forms_wall_seconds": round(prov["wall_seconds"], 1), "forms_cpu_seconds": round(prov["cpu_seconds"], 1),
+            "forms": data["forms"]}
+
+
+def reed_rows(point: bool = False, forms: bool = False) -> dict:
+    out = {"loadavg_at_start": os.getloadavg()[0], "cores": os.cpu_count()}
+    out.update(film_row())
+    if point:
+        out.update(point_row())
+    if forms:
+        out.update(forms_row())
+    return out
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--point", action="store_true", help="time one 3-D point")
+    ap.add_argument("--forms", action="store_true", help="compute the prototype's compact forms afresh")
+    args = ap.parse_args(argv)
+    print(json.dumps(reed_rows(args.point, args.forms), indent=1))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,344 @@
+"""Steady incompressible laminar Navier-Stokes on tetrahedra: Taylor-Hood P2-P1, Newton, scikit-fem.
+
+rho (u . grad) u = div(sigma), div u = 0, sigma = -p I + mu (grad u + grad u^T), in the weak form
+with the Laplacian viscous term mu grad u : grad v (equal to the symmetric one for
+incompressible flow with no-slip walls; its natural boundary condition, mu du/dn - p n =
+-P n, is the "do-nothing" traction of open inlets and outlets at pressure P). Taylor-Hood
+P2 velocity / P1 pressure is inf-sup stable, so no stabilisation is added: the solver is for
+the laminar regime the reed valve works in (Re of eq 3.87 of order 1-100).
+
+The velocity block is assembled from scalar P2 matrices (Laplacian, convection, and the nine
+Newton reaction blocks d w_a / d x_b), 9x fewer entries than a vector form; the saddle-point
+system [[A, B^T], [B, 0]] is solved directly (PARDISO through pypardiso when installed, else
+SuperLU). Newton starts from the Stokes solution (or a given state) and stops when the
+velocity update is below ``tol`` of the velocity (relative, max norm).
+
+SI units throughout. References: Elman, Silvester and Wathen (2014), Finite Elements and
+Fast Iterative Solvers, ch. 3 and 8 (Taylor-Hood, Newton for steady Navier-Stokes).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import skfem
+from skfem import Basis, BilinearForm, ElementTetP1, ElementTetP2, FacetBasis, Functional, LinearForm
+from skfem.helpers import dot, grad
+
+from geometry.errors import ModelFailure
+
+
+@dataclass(frozen=True)
+class Fluid:
+    """A Newtonian liquid: density rho [kg/m^3] and dynamic viscosity mu [Pa s]."""
+
+    rho: float
+    mu: float
+
+
+@BilinearForm
+def _laplace(u, v, w):
+    return dot(grad(u), grad(v))
+
+
+@BilinearForm
+def _mass(u, v, w):
+    return u * v
+
+
+class ScalarAssembler:
+    """Fast assembly of the scalar P2 matrices that change with the velocity (one sparsity pattern).
+
+    The convection matrix int (w . grad phi_j) phi_i and the weighted masses int g phi_j phi_i
+    are built from the basis values at the quadrature points and summed into a CSR pattern
+    computed once (``np.bincount`` over the element entries); ~10x faster than a
+    ``BilinearForm`` per matrix for the nine Newton reaction blocks.
+    """
+
+    def __init__(self, V: Basis):
+        self.n = V.N
+        nl = len(V.basis)
+        self.phi = np.array([np.asarray(V.basis[i][0]) for i in range(nl)])        # (nl, ne, nq)
+        self.dphi = np.array([V.basis[i][0].grad for i in range(nl)])        # (nl, 3, ne, nq)
+        self.dx = V.dx
+        dofs = V.element_dofs                                                  # (nl, ne)
+        rows = np.repeat(dofs[:, None, :], nl, axis=1).ravel()                 # [i, j, e] -> dof_i
+        cols = np.repeat(dofs[None, :, :], nl, axis=0).ravel()                 # [i, j, e] -> dof_j
+        key = rows.astype(np.int64) * self.n + cols
+        uniq, self.inverse = np.unique(key, return_inverse=True)
+        self.indices = (uniq % self.n).astype(np.int32)
+        self.indptr = np.searchsorted(uniq // self.n, np.arange(self.n + 1)).astype(np.int32)
+
+    def _csr(self, local: np.ndarray) -> sp.csr_matrix:
+        """CSR of element matrices local[i, j, e] (test i, trial j)."""
+        data = np.bincount(self.inverse, weights=local.ravel(), minlength=len(self.indices))
+        return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
+
+    def weighted_mass(self, g: np.ndarray) -> sp.csr_matrix:
+        """int g phi_j phi_i dx for g at the quadrature points (ne, nq)."""
+        gp = self.phi * (g * self.dx)[None]
+        return self._csr(np.einsum("ieq,jeq->ije", self.phi, gp, optimize=True))
+
+    def convection(self, w: list[np.ndarray]) -> sp.csr_matrix:
+        """int (w . grad phi_j) phi_i dx for the velocity w (3 arrays (ne, nq))."""
+        adv = sum(w[b][None] * self.dphi[:, b] for b in range(3)) * self.dx[None]   # (nl, ne, nq), trial j
+        return self._csr(np.einsum("ieq,jeq->ije", self.phi, adv, optimize=True))
+
+
+def _div_form(a: int) -> BilinearForm:
+    @BilinearForm
+    def form(u, q, w):
+        return -u.grad[a] * q
+    return form
+
+
+@dataclass
+class System:
+    """The discrete Taylor-Hood system on one mesh: bases, fixed matrices, Dirichlet data."""
+
+    mesh: skfem.MeshTet
+    V: Basis                 # scalar P2 (each velocity component)
+    Q: Basis                 # P1 pressure
+    K: sp.csr_matrix         # scalar Laplacian
+    B: sp.csr_matrix         # (nQ, 3 nV): -int q div u
+    fixed: np.ndarray        # Dirichlet DOFs (global numbering): velocities, and the orphan pressures
+    fluid: Fluid
+    fast: ScalarAssembler
+    orphans: np.ndarray      # pressure DOFs (global) coupled to no free velocity (see :func:`assemble`)
+
+    @property
+    def nv(self) -> int:
+        return self.V.N
+
+    @property
+    def ndofs(self) -> int:
+        return 3 * self.V.N + self.Q.N
+
+
+def _facet_dofs(V: Basis, mesh, names) -> np.ndarray:
+    """Scalar P2 DOFs on the named boundaries."""
+    return np.unique(np.concatenate([V.get_dofs(mesh.boundaries[n]).all() for n in names
+                                     if n in mesh.boundaries] or [np.zeros(0, int)]))
+
+
+def assemble(mesh: skfem.MeshTet, fluid: Fluid, no_slip=("wall", "reed"), symmetry: str = "symmetry") -> System:
+    """Bases and the Stokes matrices; velocity fixed on ``no_slip`` boundaries and u_y on ``symmetry``."""
+    V = Basis(mesh, ElementTetP2())
+    Q = Basis(mesh, ElementTetP1(), quadrature=V.quadrature)
+    K = _laplace.assemble(V).tocsr()
+    B = sp.hstack([_div_form(a).assemble(V, Q) for a in range(3)]).tocsr()
+    ns = _facet_dofs(V, mesh, no_slip)
+    sym = _facet_dofs(V, mesh, [symmetry])
+    n = V.N
+    fixed = np.unique(np.concatenate([ns, ns + n, ns + 2 * n, sym + n]))
+    # a pressure node whose cells have every velocity node on a wall (a corner of a one-layer
+    # pocket at a wall) has no continuity equation and no effect on the momentum rows: the
+    # discrete problem leaves it free, so it is fixed in the solve and set afterwards to the mean
+    # of its neighbours (fill_orphans)
+    free_v = np.ones(3 * n, bool)
+    free_v[fixed] = False
+    coupled = np.asarray(abs(B[:, free_v]).sum(axis=1)).ravel() > 0
+    orphans = 3 * n + np.flatnonzero(~coupled)
+    return System(mesh=mesh, V=V, Q=Q, K=K, B=B, fixed=np.concatenate([fixed, orphans]), fluid=fluid,
+                  fast=ScalarAssembler(V), orphans=orphans)
+
+
+def fill_orphans(sys_: System, x: np.ndarray) -> np.ndarray:
+    """x with every orphan pressure (:func:`assemble`) set to the mean of the pressures it shares a cell with."""
+    if not len(sys_.orphans):
+        return x
+    n3 = 3 * sys_.nv
+    t = sys_.mesh.t
+    x = x.copy()
+    for dof in sys_.orphans:
+        node = dof - n3
+        cells = np.flatnonzero(np.any(t == node, axis=0))
+        nb = np.setdiff1d(np.unique(t[:, cells]), sys_.orphans - n3)
+        if len(nb):
+            x[dof] = x[n3 + nb].mean()
+    return x
+
+
+def traction_load(sys_: System, pressures: dict[str, float]) -> np.ndarray:
+    """Right-hand side of the open boundaries: -int P n . v over each named boundary at pressure P [Pa]."""
+    rhs = np.zeros(sys_.ndofs)
+    n = sys_.nv
+    for name, P in pressures.items():
+        if P == 0.0 or name not in sys_.mesh.boundaries:
+            continue
+        fb = FacetBasis(sys_.mesh, ElementTetP2(), facets=sys_.mesh.boundaries[name])
+        for a in range(3):
+            @LinearForm
+            def load(v, w, a=a):
+                return -P * w.n[a] * v
+            rhs[a * n:(a + 1) * n] += load.assemble(fb)
+    return rhs
+
+
+def _velocity_block(sys_: System, u: np.ndarray | None, newton: bool) -> sp.csr_matrix:
+    """mu K + rho N(u) on each component (+ the rho d u_a / d x_b reaction blocks for Newton)."""
+    mu, rho, n, V = sys_.fluid.mu, sys_.fluid.rho, sys_.nv, sys_.V
+    diag = mu * sys_.K
+    if u is None:
+        return sp.block_diag([diag] * 3, format="csr")
+    comps = [V.interpolate(u[a * n:(a + 1) * n]) for a in range(3)]
+    diag = diag + rho * sys_.fast.convection([np.asarray(c) for c in comps])
+    blocks = [[diag if a == b else None for b in range(3)] for a in range(3)]
+    if newton:
+        for a in range(3):
+            for b in range(3):
+                C = rho * sys_.fast.weighted_mass(comps[a].grad[b])
+                blocks[a][b] = C if blocks[a][b] is None else blocks[a][b] + C
+    return sp.bmat(blocks, format="csr")
+
+
+def _saddle(sys_: System, A: sp.csr_matrix) -> sp.csr_matrix:
+    return sp.bmat([[A, sys_.B.T], [sys_.B, None]], format="csr")
+
+
+class Factor:
+    """An LU factorization of a (condensed) sparse matrix: PARDISO when installed, else SuperLU.
+
+    ``solve(b)`` applies the inverse; used directly, or as the preconditioner of GMRES for a
+    nearby matrix (a later Newton step or pressure difference).
+    """
+
+    def __init__(self, M: sp.csr_matrix):
+        self.matrix = M
+        try:
+            import pypardiso
+        except ImportError:  # pragma: no cover - the fallback when pypardiso is absent
+            self._lu = sp.linalg.splu(M.tocsc())
+            self._pardiso = None
+        else:
+            self._pardiso = pypardiso.PyPardisoSolver(mtype=11)
+            self._pardiso.factorize(M)
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        if self._pardiso is None:  # pragma: no cover
+            return self._lu.solve(b)
+        # phase 33 (solve with the stored factors) directly: pypardiso's solve() hashes the
+        # whole matrix on every call to see whether it is the factorized one
+        self._pardiso.set_phase(33)
+        return self._pardiso._call_pardiso(self.matrix, np.asarray(b, dtype=float))
+
+    def free(self) -> None:
+        if self._pardiso is not None:
+            self._pardiso.free_memory(everything=True)
+
+
+def _free_dofs(n: int, fixed: np.ndarray) -> np.ndarray:
+    return np.setdiff1d(np.arange(n), fixed)
+
+
+def _dirichlet_solve(M: sp.csr_matrix, rhs: np.ndarray, fixed: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Solve M x = rhs with x[fixed] = values (condensed, direct)."""
+    x = np.zeros(M.shape[0])
+    x[fixed] = values
+    free = _free_dofs(M.shape[0], fixed)
+    b = rhs[free] - M[free][:, fixed] @ values
+    lu = Factor(M[free][:, free].tocsr())
+    x[free] = lu.solve(b)
+    lu.free()
+    return x
+
+
+def stokes(sys_: System, rhs: np.ndarray, wall_values: np.ndarray) -> np.ndarray:
+    """Stokes solution [u_x, u_y, u_z, p] (SI) for load ``rhs`` and Dirichlet values on ``sys_.fixed``."""
+    x = _dirichlet_solve(_saddle(sys_, _velocity_block(sys_, None, False)), rhs, sys_.fixed, wall_values)
+    return fill_orphans(sys_, x)
+
+
+def residual(sys_: System, x: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Navier-Stokes residual of the state x (free DOFs only matter)."""
+    n3 = 3 * sys_.nv
+    A = _velocity_block(sys_, x[:n3], False)
+    return _saddle(sys_, A) @ x - rhs
+
+
+#: GMRES with a frozen factorization as preconditioner: a correction is accepted when the
+#: preconditioned residual fell below KRYLOV_ACCEPT of its start (inexact Newton: the outer
+#: loop checks the update); after KRYLOV_MAX iterations without that the factorization is
+#: renewed at the current state
+KRYLOV_ACCEPT = 1e-4
+KRYLOV_MAX = 30
+
+
+def _newton_step(J_ff: sp.csr_matrix, r: np.ndarray, factor: Factor | None) -> tuple[np.ndarray, Factor, int]:
+    """Solve J_ff d = -r: GMRES preconditioned by ``factor`` when given, else (or when it stalls) a new LU."""
+    if factor is not None:
+        M = sp.linalg.LinearOperator(J_ff.shape, matvec=factor.solve, dtype=float)
+        count = [0]
+
+        def cb(_):
+            count[0] += 1
+        d, _ = sp.linalg.gmres(J_ff, -r, M=M, rtol=0.1 * KRYLOV_ACCEPT, restart=KRYLOV_MAX, maxiter=1,
+                               callback=cb, callback_type="pr_norm")
+        start = np.linalg.norm(factor.solve(-r))
+        if np.linalg.norm(factor.solve(-r - J_ff @ d)) <= KRYLOV_ACCEPT * start:
+            return d, factor, count[0]
+        factor.free()
+    factor = Factor(J_ff)
+    return factor.solve(-r), factor, 0
+
+
+def _line_search(sys_: System, x: np.ndarray, d_full: np.ndarray, rhs: np.ndarray, free: np.ndarray,
+                 r0: float) -> tuple[np.ndarray, float]:
+    """Backtracking on the residual norm (free DOFs): the largest of 1, 1/2, 1/4, 1/8 of the
+    Newton step that lowers it (Armijo, c = 1e-4); the smallest if none does."""
+    for step in (1.0, 0.5, 0.25, 0.125):
+        trial = x + step * d_full
+        if np.linalg.norm(residual(sys_, trial, rhs)[free]) <= (1 - 1e-4 * step) * r0:
+            return trial, step
+    return trial, step
+
+
+def newton(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max_iter: int = 25,
+           factor: Factor | None = None, progress: bool = False) -> tuple[np.ndarray, int, Factor]:
+    """Steady Navier-Stokes by (inexact, damped) Newton from x0, which carries the Dirichlet values.
+
+    Each correction is solved by GMRES preconditioned with ``factor`` (a factorization of a
+    nearby Jacobian, e.g. the previous pressure difference's) or, without one or when GMRES
+    stalls, by a new LU of the current Jacobian; the step is damped by backtracking on the
+    residual (``_line_search``). Stops when the largest velocity update is below ``tol``
+    of the largest velocity after a full step. Returns (state, steps, the factorization in
+    use). ModelFailure when it does not converge in ``max_iter`` steps (a steady laminar
+    solution may not exist at that Reynolds number, or the mesh does not resolve it).
+    """
+    x = x0.copy()
+    n3 = 3 * sys_.nv
+    free = _free_dofs(sys_.ndofs, sys_.fixed)
+    vel = np.flatnonzero(free < n3)            # velocity entries of the condensed vector
+    change = np.inf
+    for it in range(1, max_iter + 1):
+        t0 = time.perf_counter()
+        J = _saddle(sys_, _velocity_block(sys_, x[:n3], True))
+        R = residual(sys_, x, rhs)
+        d, factor, kry = _newton_step(J[free][:, free].tocsr(), R[free], factor)
+        d_full = np.zeros_like(x)
+        d_full[free] = d
+        x, step = _line_search(sys_, x, d_full, rhs, free, float(np.linalg.norm(R[free])))
+        change = step * np.max(np.abs(d[vel])) / max(np.max(np.abs(x[:n3])), 1e-300)
+        if progress:
+            print(f"  newton {it}: |du|/|u| = {change:.2e}, step {step:g}, {kry} GMRES steps "
+                  f"({time.perf_counter() - t0:.1f} s)", file=sys.stderr)
+        if change < tol and step == 1.0:
+            return fill_orphans(sys_, x), it, factor
+    raise ModelFailure(f"steady Navier-Stokes did not converge in {max_iter} Newton steps "
+                       f"(last relative velocity update {change:.2e})")
+
+
+def boundary_flux(sys_: System, x: np.ndarray, name: str) -> float:
+    """Volume flow OUT of the domain through boundary ``name`` [m^3/s]: int u . n dA."""
+    fb = FacetBasis(sys_.mesh, ElementTetP2(), facets=sys_.mesh.boundaries[name])
+    n = sys_.nv
+    comps = [fb.interpolate(x[a * n:(a + 1) * n]) for a in range(3)]
+
+    @Functional
+    def flux(w):
+        return w["u0"] * w.n[0] + w["u1"] * w.n[1] + w["u2"] * w.n[2]
+    return float(flux.assemble(fb, u0=comps[0], u1=comps[1], u2=comps[2]))

@@ -1,0 +1,419 @@
+"""3-D laminar Navier-Stokes of a reed valve: Cd, the pressure load multiplier X, the flow force, A_Q.
+
+The fluid around the reed (:mod:`fea.fluid.reed_mesh`: port, gap, grooves, chamber up to
+the stop, half domain) with the reed deflected to a tip opening x along its static shape
+psi(s) (exact Euler-Bernoulli on the real grooved profile, :func:`lumped.reed.euler_bernoulli.shape`,
+or a FE fidelity's). Steady flow driven by the pressure difference dP between the port's
+bottom (inlet, traction -P_up n) and the chamber's open sides (outlet, P_down = 0); the
+solver is :mod:`fea.fluid.ns3d` (Taylor-Hood P2-P1, Newton). Outputs per (x, dP):
+
+- Q [m^3/s], the flow through the port (both halves);
+- Re = 4 rho Q / (p_o mu), eq 3.87's definition (corrected reciprocal, docs/errata.md);
+- Cd = Q / (l_o x sqrt(2 dP / rho)), eq 3.84 with the orifice area A_o = l_o x of eq 3.25;
+- X = iint psi dP_face dA / (dP int psi W ds), eq 3.49, with the face load of the full
+  fluid stress: the generalized force of the traction on every face of the reed for the
+  virtual displacement psi(s) e_z (pressure and viscous stress; ``X_pressure`` the pressure alone);
+- F [N], the net fluid force on the reed along z (the flow force with the pressure);
+- from moving-wall solves (dP = 0, the reed's faces moving at psi(s) u e_z): the fluid
+  displacement area A_Q = Q_port / u (eq 3.23) and f = (A_Q - A_1) / (A_2 - A_1) (eq 3.26),
+  at the two signs of u (f1 closing, f2 opening).
+
+l_o and p_o are the valve's (the model file's; for the prototype 19.4 mm and 91.2 mm, eqs
+3.25, 3.86), so Cd and Re compare with eq 3.89 as the bench data were reduced.
+"""
+
+from __future__ import annotations
+
+import resource
+import sys
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from skfem import ElementTetP1, ElementTetP2, FacetBasis, Functional
+
+from geometry.reed import Reed
+from geometry.reed_port import face_rule
+
+from . import ns3d
+from .reed_mesh import Layers, MeshOptions, ReedSeat, fluid_mesh
+
+
+@dataclass(frozen=True)
+class ReedValveFlow:
+    """What a reed flow solve needs besides the opening: geometry, shape, oil, orifice definitions (SI).
+
+    ``shape``: (s [m], psi) with psi(L) = 1 (the deflected shape and the mode function);
+    ``orifice_length`` l_o [m] and ``orifice_perimeter`` p_o [m] define Cd and Re (eqs 3.25,
+    3.86); ``area_min`` A_1 and ``area_max`` A_2 [m^2] define f (eq 3.26); ``stiffness``
+    kappa [Pa/m] (eq 3.30) sets the pressure differences worth computing (:func:`pressure_cap`).
+    """
+
+    reed: Reed
+    seat: ReedSeat
+    shape: tuple[np.ndarray, np.ndarray]
+    fluid: ns3d.Fluid
+    orifice_length: float
+    orifice_perimeter: float
+    area_min: float
+    area_max: float
+    stiffness: float
+    mesh: MeshOptions = field(default_factory=MeshOptions)
+
+    def psi(self, s):
+        """psi(s) on the reed (interpolated shape; 0 before the clamp, psi(L) beyond the tip)."""
+        s_psi, psi = self.shape
+        return np.interp(np.asarray(s, float), s_psi, psi)
+
+    @property
+    def modal_area(self) -> float:
+        """int_0^L psi W ds [m^2], the denominator of eq 3.49 (the whole face)."""
+        s, y, w = face_rule(self.reed)
+        return float(np.sum(w * self.psi(s)))
+
+
+@dataclass(frozen=True)
+class FlowPoint:
+    """One steady solve at tip opening x [m] and pressure difference dp [Pa] (SI; see the module docstring)."""
+
+    opening: float
+    dp: float
+    flow: float
+    reynolds: float
+    cd: float
+    multiplier: float
+    multiplier_pressure: float
+    force: float
+    dofs: int
+    newton_steps: int
+    seconds: float
+    peak_rss_gb: float
+
+
+def _peak_rss_gb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
+
+
+def reed_forces(system: ns3d.System, x: np.ndarray, valve: ReedValveFlow) -> tuple[float, float, float]:
+    """(generalized force of the full stress, of the pressure alone, net z force) on the reed [N], both halves.
+
+    Traction on the reed t = -sigma n with n the fluid's outward normal (pointing into the
+    reed), sigma = -p I + mu (grad u + grad u^T); weighted by psi(s) for the generalized force.
+    """
+    mesh, n, mu = system.mesh, system.nv, system.fluid.mu
+    facets = mesh.boundaries["reed"]
+    fv = FacetBasis(mesh, ElementTetP2(), facets=facets)
+    fq = FacetBasis(mesh, ElementTetP1(), facets=facets, quadrature=fv.quadrature)
+    u = [fv.interpolate(x[a * n:(a + 1) * n]) for a in range(3)]
+    p = fq.interpolate(x[3 * n:])
+
+    def tz(w, viscous: bool):
+        t = w["p"] * w.n[2]
+        if viscous:
+            g = [w[f"u{a}"].grad for a in range(3)]
+            t = t - mu * sum((g[2][b] + g[b][2]) * w.n[b] for b in range(3))
+        return t
+
+    @Functional
+    def gen(w):
+        return valve.psi(w.x[0]) * tz(w, True)
+
+    @Functional
+    def gen_p(w):
+        return valve.psi(w.x[0]) * tz(w, False)
+
+    @Functional
+    def net(w):
+        return tz(w, True)
+
+    kw = {"p": p, "u0": u[0], "u1": u[1], "u2": u[2]}
+    return tuple(2.0 * float(f.assemble(fv, **kw)) for f in (gen, gen_p, net))
+
+
+def point_outputs(system: ns3d.System, x: np.ndarray, valve: ReedValveFlow, opening: float, dp: float,
+                  steps: int, seconds: float) -> FlowPoint:
+    """The outputs of one steady pressure-driven solve (module docstring)."""
+    rho, mu = system.fluid.rho, system.fluid.mu
+    Q = -2.0 * ns3d.boundary_flux(system, x, "inlet")
+    gen, gen_p, net = reed_forces(system, x, valve)
+    area = valve.modal_area
+    return FlowPoint(opening=opening, dp=dp, flow=Q, reynolds=4 * rho * Q / (valve.orifice_perimeter * mu),
+                     cd=Q / (valve.orifice_length * opening * np.sqrt(2 * dp / rho)),
+                     multiplier=gen / (dp * area), multiplier_pressure=gen_p / (dp * area), force=net,
+                     dofs=system.ndofs, newton_steps=steps, seconds=seconds, peak_rss_gb=_peak_rss_gb())
+
+
+#: the pressure differences a reed valve sees: up to this multiple of the quasi-static kappa x
+#: (eq 3.82 with X = 1: the reed held at x by its stiffness; X < 1 and the reed's inertia and
+#: damping raise dP above it in the pump, by less than this factor where X > 0.1)
+DP_SCALE = 10.0
+
+
+def pressure_cap(valve: ReedValveFlow, opening: float) -> float:
+    """Largest dP [Pa] of a sweep at tip opening ``opening`` [m]: DP_SCALE kappa x (module docstring)."""
+    return DP_SCALE * valve.stiffness * opening
+
+
+def _guess(history: list[tuple[float, np.ndarray]], dp: float, n3: int) -> np.ndarray:
+    """Initial state at dp from the last solutions: velocity scaled by (dp / dp_last)^a, a the
+    last two points' d ln|u| / d ln dp (1 in the Stokes regime, -> 1/2 with inertia); pressure by dp / dp_last."""
+    dp1, x1 = history[-1]
+    a = 1.0
+    if len(history) > 1:
+        dp0, x0 = history[-2]
+        u0, u1 = np.linalg.norm(x0[:n3]), np.linalg.norm(x1[:n3])
+        a = float(np.clip(np.log(u1 / u0) / np.log(dp1 / dp0), 0.5, 1.0))
+    x = x1.copy()
+    x[:n3] *= (dp / dp1) ** a
+    x[n3:] *= dp / dp1
+    return x
+
+
+def _next_dp(points: list[FlowPoint], reynolds: float) -> float:
+    """dP [Pa] expected to give ``reynolds`` from the last points: Re ~ dP^a with a the last
+    two points' log slope (1 in the Stokes limit, the first point), 1/2 <= a <= 1."""
+    last = points[-1]
+    a = 1.0
+    if len(points) > 1 and last.dp != points[-2].dp:
+        prev = points[-2]
+        a = float(np.clip(np.log(last.reynolds / prev.reynolds) / np.log(last.dp / prev.dp), 0.5, 1.0))
+    return last.dp * (reynolds / last.reynolds) ** (1.0 / a)
+
+
+def pressure_sweep(valve: ReedValveFlow, opening: float, reynolds=(), progress: bool = True,
+                   on_point=None, dps=None, dp_max: float | None = None) -> list[FlowPoint]:
+    """Steady flows at tip opening ``opening`` [m] toward increasing Reynolds numbers ``reynolds`` (eq 3.87).
+
+    One mesh; the Stokes limit first (at dP = 1 Pa, Re -> 0), then Navier-Stokes by Newton
+    with continuation: each dP is chosen from the previous points to aim at the next Reynolds
+    number (``_next_dp``; the Re reached is the output, within ~10 % of the aim), starts
+    from the previous solutions (``_guess``) and reuses the last factorization as GMRES
+    preconditioner. ``dps`` [Pa]: solve at these pressure differences instead (a mesh study
+    compares meshes at one dP). ``on_point(point)`` is called after each solve (e.g. to save
+    it). ``dp_max`` [Pa]: the largest pressure difference of a Reynolds-aimed sweep (the
+    last point is solved at it when an aim needs more; :func:`pressure_cap`). Stops at the
+    first point where Newton fails (the reason on stderr).
+    """
+    t0 = time.perf_counter()
+    fm = fluid_mesh(valve.reed, valve.seat, opening, valve.shape, valve.mesh)
+    system = ns3d.assemble(fm.mesh, valve.fluid)
+    unit = ns3d.traction_load(system, {"inlet": 1.0})
+    x1 = ns3d.stokes(system, unit, np.zeros(len(system.fixed)))
+    out = [point_outputs(system, x1, valve, opening, 1.0, 0, time.perf_counter() - t0)]
+    if progress:
+        print(f"reed3d x = {opening * 1e3:.3g} mm: {system.ndofs} DOFs, Stokes in {out[0].seconds:.0f} s, "
+              f"X = {out[0].multiplier:.4f}", file=sys.stderr)
+    if on_point is not None:
+        on_point(out[0])
+    history, factor, n3 = [(1.0, x1)], None, 3 * system.nv
+    aims = [(float(d), None) for d in sorted(dps)] if dps is not None else [
+        (None, float(r)) for r in sorted(reynolds)]
+    for dp, re in aims:
+        capped = False
+        if dp is None:
+            dp = _next_dp(out, re)
+            if dp_max is not None and dp >= dp_max:
+                dp, capped = dp_max, True
+        t1 = time.perf_counter()
+        try:
+            x, steps, factor = ns3d.newton(system, dp * unit, _guess(history, dp, n3), factor=factor,
+                                           progress=progress)
+        except Exception as exc:   # noqa: BLE001 - a failed point ends the sweep, reported
+            print(f"reed3d x = {opening * 1e3:.3g} mm, dP = {dp:.4g} Pa: {exc}", file=sys.stderr)
+            break
+        history.append((dp, x))
+        out.append(point_outputs(system, x, valve, opening, dp, steps, time.perf_counter() - t1))
+        if on_point is not None:
+            on_point(out[-1])
+        if progress:
+            p = out[-1]
+            print(f"  dP = {dp:.4g} Pa: Re = {p.reynolds:.3g}, Cd = {p.cd:.4f}, X = {p.multiplier:.4f} "
+                  f"({steps} steps, {p.seconds:.0f} s, {p.peak_rss_gb:.1f} GB)", file=sys.stderr)
+        if capped:
+            break
+    if factor is not None:
+        factor.free()
+    return out
+
+
+@dataclass(frozen=True)
+class DisplacementPoint:
+    """A moving-wall solve at tip opening x [m], tip speed u [m/s] and dP = 0 (eqs 3.23, 3.26)."""
+
+    opening: float
+    speed: float
+    flow: float             # Q through the port, toward downstream [m^3/s]
+    area: float             # A_Q = Q / u [m^2]
+    fraction: float         # f = (A_Q - A_1) / (A_2 - A_1)
+    newton_steps: int
+    seconds: float
+
+
+def _reed_velocity(system: ns3d.System, valve: ReedValveFlow, speed: float) -> np.ndarray:
+    """Dirichlet values on ``system.fixed``: the reed's faces at psi(s) u e_z, every other wall at rest."""
+    vals = np.zeros(system.ndofs)
+    n = system.nv
+    reed = system.V.get_dofs(system.mesh.boundaries["reed"]).all()
+    vals[2 * n + reed] = speed * valve.psi(system.V.doflocs[0, reed])
+    return vals[system.fixed]
+
+
+def displacement_sweep(valve: ReedValveFlow, opening: float, speeds, progress: bool = True) -> list[DisplacementPoint]:
+    """Fluid displacement area A_Q at tip opening ``opening`` [m] for tip speeds ``speeds`` [m/s] (either sign).
+
+    The reed's faces move at psi(s) u e_z in the frozen geometry (quasi-steady), inlet and
+    outlet at one pressure: the port flow Q gives A_Q = Q / u (eq 3.23). Stokes for u -> 0
+    (first entry, speed 0 meaning the limit, per unit speed), then Navier-Stokes by Newton
+    from the scaled Stokes field at each speed (the two signs differ through inertia only).
+    """
+    t0 = time.perf_counter()
+    fm = fluid_mesh(valve.reed, valve.seat, opening, valve.shape, valve.mesh)
+    system = ns3d.assemble(fm.mesh, valve.fluid)
+    zero = np.zeros(system.ndofs)
+    x1 = ns3d.stokes(system, zero, _reed_velocity(system, valve, 1.0))
+    out = [_displacement(system, x1, valve, opening, 0.0, 0, time.perf_counter() - t0)]
+    factor = None
+    for u in speeds:
+        t1 = time.perf_counter()
+        try:
+            x, steps, factor = ns3d.newton(system, zero, u * x1, factor=factor, progress=progress)
+        except Exception as exc:   # noqa: BLE001 - reported, the sweep goes on
+            print(f"reed3d x = {opening * 1e3:.3g} mm, u = {u:g} m/s: {exc}", file=sys.stderr)
+            continue
+        out.append(_displacement(system, x, valve, opening, u, steps, time.perf_counter() - t1))
+    if factor is not None:
+        factor.free()
+    if progress:
+        print("reed3d x = {:.3g} mm: ".format(opening * 1e3) + ", ".join(
+            f"u = {p.speed:g} m/s: f = {p.fraction:.3f}" for p in out), file=sys.stderr)
+    return out
+
+
+def _displacement(system, x, valve: ReedValveFlow, opening: float, speed: float, steps: int,
+                  seconds: float) -> DisplacementPoint:
+    Q = -2.0 * ns3d.boundary_flux(system, x, "inlet")
+    area = Q / (speed if speed != 0.0 else 1.0)
+    return DisplacementPoint(opening=opening, speed=speed, flow=Q, area=area,
+                             fraction=(area - valve.area_min) / (valve.area_max - valve.area_min),
+                             newton_steps=steps, seconds=seconds)
+
+
+# ------------------------------------------------------------------------------ set-up
+def orifice_definitions(reed: Reed, seat: ReedSeat, shape) -> tuple[float, float, float, float]:
+    """(l_o [m], p_o [m], A_1 [m^2], A_2 [m^2]) of a reed over the reconstructed port (eqs 3.24-3.29, 3.86).
+
+    C is the port's outline (its sides and tip, the edge where the sealing land begins; the
+    edge across at the port's start is in the base and does not open): l_o = int_C psi ds',
+    p_o = 2 int_C ds' (the orifice area's perimeter on the seat and on the reed), A_1 =
+    int W_o psi ds with W_o the port's width, A_2 = int W psi ds (eq 3.29).
+    """
+    s_psi, psi = (np.asarray(a, float) for a in shape)
+    a, end = seat.start(reed), reed.length - seat.land_width
+    s = np.linspace(a, end, 4001)
+    yp = np.asarray(seat.port_half_width(reed, s), dtype=float)
+    ps = np.interp(s, s_psi, psi)
+    ds, dy = np.diff(s), np.diff(yp)
+    dl = np.hypot(ds, dy)
+    mid = 0.5 * (ps[1:] + ps[:-1])
+    l_o = 2.0 * float(np.sum(mid * dl))
+    p_o = 2.0 * 2.0 * float(np.sum(dl))
+    A1 = float(np.trapezoid(2 * yp * ps, s))
+    S, _, w = face_rule(reed)
+    A2 = float(np.sum(w * np.interp(S, s_psi, psi)))
+    return l_o, p_o, A1, A2
+
+
+def valve_flow(reed: Reed, seat: ReedSeat | None = None, fidelity: str = "analytic", fluid: ns3d.Fluid | None = None,
+               definitions: tuple[float, float, float, float] | None = None,
+               mesh: MeshOptions | None = None, stiffness: float | None = None) -> ReedValveFlow:
+    """A :class:`ReedValveFlow` for ``reed``: its static shape from the reed ``fidelity``
+    (:mod:`fea.fidelities`), the thesis oil at 22 C unless ``fluid``, and the orifice
+    definitions (l_o, p_o, A_1, A_2) given or computed over the port (:func:`orifice_definitions`);
+    kappa [Pa/m] given or the fidelity's."""
+    from lumped.fluid.oil import thesis_oil_viscosity
+
+    from ..fidelities import get
+
+    seat = ReedSeat() if seat is None else seat
+    seat.check(reed)
+    props = get(fidelity).reed_properties(reed)
+    shape = (np.asarray(props.s, float), np.asarray(props.psi, float) / float(np.interp(reed.length, props.s, props.psi)))
+    if fluid is None:
+        rho, mu = thesis_oil_viscosity()
+        fluid = ns3d.Fluid(rho, mu)
+    defs = orifice_definitions(reed, seat, shape) if definitions is None else definitions
+    return ReedValveFlow(reed=reed, seat=seat, shape=shape, fluid=fluid, orifice_length=defs[0],
+                         orifice_perimeter=defs[1], area_min=defs[2], area_max=defs[3],
+                         stiffness=float(props.kappa if stiffness is None else stiffness),
+                         mesh=MeshOptions() if mesh is None else mesh)
+
+
+def prototype_valve(mesh: MeshOptions | None = None) -> ReedValveFlow:
+    """The thesis's prototype reed valve with the definitions its bench data were reduced with:
+    l_o = 19.4 mm, p_o = 91.2 mm, A_1 = 55.1 mm^2, A_2 = 338.4 mm^2 and the oil of the
+    ``thesis-reed`` model (Table 3.13; A_2 as the model uses it, docs/errata.md), and its
+    measured kappa = 7.709 MPa/m."""
+    from geometry.reed_io import load_reed
+    from lumped.model.model_file import load_model
+
+    model = load_model("thesis-reed")
+    v = model.inlet
+    fluid = ns3d.Fluid(model.oil.density, model.oil.viscosity)
+    return valve_flow(load_reed("prototype"), fluid=fluid, mesh=mesh, stiffness=v.stiffness,
+                      definitions=(v.orifice_length, v.orifice_perimeter, v.area_min, v.area_max))
+
+
+# ------------------------------------------------------------------------------ mesh study
+#: the three meshes of the GCI (plan sizes and layers refined together; the medium one is the default)
+STUDY_MESHES = (
+    MeshOptions(1.0e-3, 3.5e-3, Layers(port=1, gap=2, reed=1, above=1)),
+    MeshOptions(),
+    MeshOptions(0.5e-3, 1.8e-3, Layers(port=2, gap=3, reed=1, above=3)),
+)
+#: outputs a mesh study estimates u_num for
+STUDY_OUTPUTS = ("cd", "multiplier", "force")
+
+
+def mesh_study(valve: ReedValveFlow, opening: float, dps, meshes=STUDY_MESHES, progress: bool = True) -> dict:
+    """u_num of Cd, X and F at tip opening ``opening`` [m] and pressure differences ``dps`` [Pa]
+    by the GCI of three meshes (:func:`fea.convergence.gci`, Celik et al. 2008; h = N^(-1/3)
+    from the cell counts). Returns {dp: {output: GCI}} with the Stokes limit under dP = 1 Pa,
+    and the meshes' DOFs, cells, seconds and peak memory."""
+    from ..convergence import gci
+
+    runs, cells = [], []
+    for opts in meshes:
+        v = replace(valve, mesh=opts)
+        pts = pressure_sweep(v, opening, dps=dps, progress=progress)
+        runs.append({p.dp: p for p in pts})
+        cells.append(fluid_mesh(v.reed, v.seat, opening, v.shape, opts).cells)
+    out: dict = {"cells": cells, "dofs": [next(iter(r.values())).dofs for r in runs],
+                 "seconds": [sum(p.seconds for p in r.values()) for r in runs],
+                 "peak_rss_gb": [max(p.peak_rss_gb for p in r.values()) for r in runs]}
+    for dp in runs[0]:
+        if all(dp in r for r in runs):
+            vals = {k: [getattr(r[dp], k) for r in runs[::-1]] for k in STUDY_OUTPUTS}   # fine to coarse
+            out[dp] = {k: gci(v, cells=cells[::-1], dim=3) for k, v in vals.items()}
+    return out
+
+
+def reed_point(valve, lift: float, reynolds: float, options=None):
+    """The ``3d`` fluid fidelity's point (:mod:`fea.fluid`): a reed valve (a
+    :class:`fea.fluid.point.FluidValve` whose model names the reed's geometry) at tip opening
+    ``lift`` [m], aiming at ``reynolds`` (eq 3.87) from the Stokes limit on the default mesh."""
+    from geometry.errors import InputError
+
+    from .point import FlowPoint, check_lift, check_reynolds
+
+    lift, reynolds = check_lift(valve, lift), check_reynolds(reynolds)
+    v = valve.params
+    if v.reed is None:
+        raise InputError(f"valves.{valve.position}.geometry", "the 3-D flow needs the reed's geometry (a preset, a "
+                         "reed file or an inline table)")
+    flow = valve_flow(v.reed, fluid=ns3d.Fluid(valve.density, valve.viscosity), stiffness=v.stiffness,
+                      definitions=(v.orifice_length, v.orifice_perimeter, v.area_min, v.area_max))
+    p = pressure_sweep(flow, lift, (reynolds,), progress=bool((options or {}).get("progress", True)))[-1]
+    return FlowPoint(lift=lift, reynolds=p.reynolds, flow=p.flow, dp=p.dp, cd=float(p.cd), force=p.force,
+                     force_coefficient=p.force / (p.dp * v.reed.face_area), pressure_load_multiplier=p.multiplier,
+                     extra={"multiplier_pressure": p.multiplier_pressure, "dofs": int(p.dofs),
+                            "seconds": p.seconds, "peak_rss_gb": p.peak_rss_gb})

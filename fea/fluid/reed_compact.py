@@ -1,0 +1,272 @@
+"""Compact forms of a reed valve's flow from its 3-D Navier-Stokes and film solves, cached on disk.
+
+:func:`characterise` runs, for one reed valve (:class:`fea.fluid.reed3d.ReedValveFlow`):
+
+- pressure sweeps (:func:`fea.fluid.reed3d.pressure_sweep`) at tip openings that are
+  fractions of the stop gap (:data:`OPENING_FRACTIONS`), aiming at the Reynolds numbers of
+  eq 3.87 in :data:`REYNOLDS` (up to the pump's maximum) as far as the pressure differences a
+  reed held open by its stiffness sees (:func:`fea.fluid.reed3d.pressure_cap`): a small
+  opening never carries the pump's largest flows;
+- moving-wall solves (:func:`fea.fluid.reed3d.displacement_sweep`) at
+  :data:`DISPLACEMENT_FRACTIONS` of the stop and tip speeds +-:data:`TIP_SPEED`;
+- the sealing film (:func:`fea.fluid.reed_film.reed_film`) at the smallest opening: X in the
+  Poiseuille regime with F4 computed, and the squeeze coefficient;
+
+and :func:`fit_forms` turns them into the forms the lumped reed model reads:
+
+- Cd(Re) in eq 3.88's form (Wu et al. 2002; :func:`fea.fluid.compact.wu`): lift-independent,
+  fitted on the valve's static operating line kappa (x - x_0) = X dP (:func:`equilibrium_points`,
+  where the thesis's bench measured it: off that line Cd depends on x as well as Re, Cd ~
+  sqrt(Re x) in the film regime), and over every point with an effective Reynolds number
+  Re (x / x_stop)^k;
+- X(x) as a table: at each opening the mean of X over the points in the pump's Reynolds range
+  (:data:`PUMP_REYNOLDS`; the thesis's X depends on x only), below the smallest opening the
+  film's Poiseuille plateau; the opening where the table reaches 0, if it does;
+- f1, f2 (eq 3.26): the means over the openings of the closing and the opening speed.
+
+The result with its provenance (grid, DOFs, seconds, fit residuals) is a JSON file keyed by a
+hash of everything it depends on (:func:`reed_key`), in the cache directory of part one's
+forms (:func:`fea.fluid.compact.cache_dir`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+import time
+from dataclasses import asdict
+
+import numpy as np
+
+from .compact import cache_dir, fit_cd, store
+from .reed3d import ReedValveFlow, displacement_sweep, pressure_cap, pressure_sweep
+from .reed_film import reed_film
+
+#: version of the reed forms (part of the cache key)
+FORMS_VERSION = "reed-1"
+#: tip openings of the pressure sweeps, fractions of the stop gap (0.1 to 1.7 mm for the prototype)
+OPENING_FRACTIONS = (0.05, 0.15, 0.3, 0.5, 0.7, 0.9)
+#: Reynolds numbers of eq 3.87 aimed at (the thesis pump peaks near 62: 1.1e-4 m^3/s at 893 rpm)
+REYNOLDS = (1.0, 3.0, 10.0, 25.0, 62.0)
+#: the pump's range of Re over which X is averaged
+PUMP_REYNOLDS = (3.0, 62.0)
+#: openings of the moving-wall solves (fractions of the stop)
+DISPLACEMENT_FRACTIONS = (0.15, 0.5, 0.9)
+#: tip speed of the moving-wall solves [m/s], either sign
+TIP_SPEED = 0.1
+#: eq 3.89's coefficients: the start of the Cd fit
+CD_START = (0.5740, 6.144, 0.3661, 0.3379)
+
+
+def _say(progress: bool, text: str) -> None:
+    if progress:
+        print(text, file=sys.stderr)
+
+
+def reed_key(valve: ReedValveFlow) -> str:
+    """Hash of what the forms depend on: reed, seat, shape, oil, orifice definitions, mesh, grid, version."""
+    s, psi = valve.shape
+    what = {"reed": repr(valve.reed), "seat": asdict(valve.seat), "fluid": asdict(valve.fluid),
+            "shape": [round(float(v), 9) for v in np.interp(np.linspace(0, valve.reed.length, 41), s, psi)],
+            "definitions": [valve.orifice_length, valve.orifice_perimeter, valve.area_min, valve.area_max],
+            "mesh": repr(valve.mesh), "openings": OPENING_FRACTIONS, "reynolds": REYNOLDS,
+            "displacement": [DISPLACEMENT_FRACTIONS, TIP_SPEED], "version": FORMS_VERSION}
+    return hashlib.sha256(json.dumps(what, sort_keys=True, default=str).encode()).hexdigest()[:20]
+
+
+def characterise(valve: ReedValveFlow, progress: bool = True, log=None) -> dict:
+    """The 3-D and film points of :func:`fit_forms` (module docstring), with wall and CPU seconds.
+
+    ``log``: a path to which every point is appended as a JSON line as soon as it is solved.
+    """
+    t0, c0 = time.perf_counter(), time.process_time()
+    stop = valve.seat.stop_gap
+
+    def keep(point) -> dict:
+        row = {k: float(v) for k, v in asdict(point).items()}
+        if log is not None:
+            with open(log, "a") as fh:
+                fh.write(json.dumps(row) + "\n")
+        return row
+
+    rows = []
+    for f in OPENING_FRACTIONS:
+        x = f * stop
+        rows += [keep(p) for p in pressure_sweep(valve, x, REYNOLDS, progress=progress,
+                                                 dp_max=pressure_cap(valve, x))]
+    moving = []
+    for f in DISPLACEMENT_FRACTIONS:
+        moving += [keep(p) for p in displacement_sweep(valve, f * stop, (-TIP_SPEED, TIP_SPEED),
+                                                       progress=progress)]
+    film = reed_film(valve, OPENING_FRACTIONS[0] * stop / 5)
+    return {"rows": rows, "moving": moving, "film": asdict(film), "wall_seconds": time.perf_counter() - t0,
+            "cpu_seconds": time.process_time() - c0}
+
+
+def multiplier_table(rows: list[dict], plateau: float) -> dict:
+    """X(x): per opening the mean X over the rows in :data:`PUMP_REYNOLDS` (the Stokes limit where
+    none reached it), the film's plateau first; and where the table first reaches 0 (None if not)."""
+    xs = sorted({r["opening"] for r in rows})
+    table = [(0.0, plateau)]
+    for x in xs:
+        sel = [r["multiplier"] for r in rows if r["opening"] == x and PUMP_REYNOLDS[0] <= r["reynolds"] <= PUMP_REYNOLDS[1]]
+        if not sel:
+            sel = [r["multiplier"] for r in rows if r["opening"] == x and r["dp"] == 1.0]
+        table.append((x, float(np.mean(sel))))
+    zero = None
+    for (xa, Xa), (xb, Xb) in zip(table[:-1], table[1:]):
+        if Xa > 0.0 >= Xb:
+            zero = xa + (xb - xa) * Xa / (Xa - Xb)
+            break
+    return {"opening": [t[0] for t in table], "X": [t[1] for t in table], "zero_opening": zero}
+
+
+def _at_dp(pts: list[dict], dp: float, key: str) -> float | None:
+    """``key`` at pressure difference ``dp`` [Pa], log-log (flow) or log-linear (others) between the
+    bracketing points of one opening (the first is the Stokes limit at 1 Pa: flow ~ dP below the
+    first Navier-Stokes point); None beyond the last point."""
+    dps = np.array([p["dp"] for p in pts])
+    if dp > dps[-1] * (1 + 1e-9):
+        return None
+    k = int(np.clip(np.searchsorted(dps, dp) - 1, 0, len(pts) - 2)) if len(pts) > 1 else 0
+    if len(pts) == 1:
+        return pts[0][key] * (dp if key == "flow" else 1.0)
+    a, b = pts[k], pts[k + 1]
+    t = np.log(dp / a["dp"]) / np.log(b["dp"] / a["dp"])
+    if key == "flow":
+        return float(np.exp(np.log(a["flow"]) + t * (np.log(b["flow"]) - np.log(a["flow"]))))
+    return float(a[key] + t * (b[key] - a[key]))
+
+
+def equilibrium_points(rows: list[dict], valve: ReedValveFlow, preload: float = 0.0) -> list[dict]:
+    """The points on the valve's static operating line: at each opening x the dP at which the reed is
+    held there by its stiffness, kappa (x - x_0) = X dP (eq 3.82, as on the thesis's bench), with X
+    and the flow interpolated between the computed points (:func:`_at_dp`, two fixed-point passes);
+    openings whose line lies beyond the computed dP are left out. Cd and Re as eqs 3.84, 3.87."""
+    out = []
+    rho, mu = valve.fluid.rho, valve.fluid.mu
+    for x in sorted({r["opening"] for r in rows}):
+        pts = sorted((r for r in rows if r["opening"] == x), key=lambda r: r["dp"])
+        X = pts[0]["multiplier"]
+        dp = None
+        for _ in range(3):
+            dp = valve.stiffness * (x - preload) / X
+            X = _at_dp(pts, dp, "multiplier")
+            if X is None or X <= 0.0:
+                break
+        if X is None or X <= 0.0:
+            continue
+        Q = _at_dp(pts, dp, "flow")
+        out.append({"opening": x, "dp": dp, "flow": Q, "multiplier": X,
+                    "cd": Q / (valve.orifice_length * x * np.sqrt(2 * dp / rho)),
+                    "reynolds": 4 * rho * Q / (valve.orifice_perimeter * mu)})
+    return out
+
+
+def fit_forms(raw: dict, valve: ReedValveFlow, preload: float = 0.0) -> dict:
+    """The compact forms (module docstring) from :func:`characterise`'s points; ``preload`` x_0 [m]
+    of the static operating line the lift-independent Cd(Re) is fitted on (:func:`equilibrium_points`)."""
+    stop = valve.seat.stop_gap
+    rows = [r for r in raw["rows"] if r["dp"] != 1.0]       # the Stokes-limit rows have Re ~ 0
+    re = [r["reynolds"] for r in rows]
+    xr = [r["opening"] / stop for r in rows]
+    cd = [r["cd"] for r in rows]
+    line = equilibrium_points(raw["rows"], valve, preload)
+    closing = [m["fraction"] for m in raw["moving"] if m["speed"] < 0.0]
+    opening = [m["fraction"] for m in raw["moving"] if m["speed"] > 0.0]
+    film = raw["film"]
+    return {
+        "cd": fit_cd([p["reynolds"] for p in line], [1.0] * len(line), [p["cd"] for p in line], False, p0=CD_START)
+        if len(line) >= 4 else None,
+        "cd_lift": fit_cd(re, xr, cd, True, p0=CD_START), "operating_line": line, "preload": preload,
+        "multiplier": multiplier_table(raw["rows"], film["multiplier"]),
+        "multiplier_poiseuille": film["multiplier"], "base_fraction": film["base_fraction"],
+        "f1": float(np.mean(closing)) if closing else None, "f2": float(np.mean(opening)) if opening else None,
+        "f1_by_opening": closing, "f2_by_opening": opening,
+        "reynolds_range": [float(min(re)), float(max(re))] if re else None,
+        "opening_range": [float(min(r["opening"] for r in raw["rows"])), float(max(r["opening"] for r in raw["rows"]))],
+        "pump_reynolds": list(PUMP_REYNOLDS),
+    }
+
+
+def compact_forms(valve: ReedValveFlow, recompute: bool = False, progress: bool = True, log=None) -> dict:
+    """The reed valve's compact forms: cached, or computed and cached. ``{"key", "forms", "points", "provenance"}``.
+
+    ``log``: a path that receives every solved point as a JSON line (:func:`characterise`).
+    """
+    key = reed_key(valve)
+    path = cache_dir() / f"reed-{key}.json"
+    if not recompute and path.exists():
+        try:
+            return json.loads(path.read_text())
+        except (OSError, ValueError):
+            pass
+    _say(progress, f"fluid: characterising the reed valve {valve.reed.name} ({len(OPENING_FRACTIONS)} openings x "
+                   f"{len(REYNOLDS)} Re in 3-D; tens of minutes, cached afterwards in {cache_dir()})")
+    raw = characterise(valve, progress=progress, log=log)
+    data = {"key": key, "reed": valve.reed.name, "forms": fit_forms(raw, valve),
+            "points": {"pressure": raw["rows"], "moving": raw["moving"], "film": raw["film"]},
+            "provenance": {"version": FORMS_VERSION, "mesh": repr(valve.mesh), "openings": OPENING_FRACTIONS,
+                           "reynolds": REYNOLDS, "tip_speed": TIP_SPEED, "wall_seconds": raw["wall_seconds"],
+                           "cpu_seconds": raw["cpu_seconds"], "density": valve.fluid.rho,
+                           "viscosity": valve.fluid.mu}}
+    store(data, path)
+    return data
+
+
+# ------------------------------------------------------------------------------ the pump's use
+def fit_multiplier(table: dict, plateau: float) -> dict:
+    """eq 3.83's coefficients (x in m) fitted to the X(x) table by least squares, eq 3.83's own
+    values as the start; the plateau is the film's. The fit's zero -n0/n1 beyond the table's last
+    opening is an extrapolation (the pump warns when an opening leaves the computed range)."""
+    from scipy.optimize import least_squares
+
+    x = np.asarray(table["opening"][1:], float)
+    X = np.asarray(table["X"][1:], float)
+
+    def rational(p, xx):
+        n1, n0, d2, d1, d0 = p
+        return (n1 * xx + n0) / (xx**3 + d2 * xx**2 + d1 * xx + d0)
+
+    def res(p):
+        return np.minimum(rational(p, x), plateau) - X
+
+    sol = least_squares(res, [-52.28, 0.07158, 0.8145, -50.23, 0.08292], x_scale="jac")
+    r = res(sol.x)
+    names = ("n1", "n0", "d2", "d1", "d0")
+    return {**dict(zip(names, map(float, sol.x))), "poiseuille": float(plateau),
+            "max_abs": float(np.abs(r).max()), "zero_opening": float(-sol.x[1] / sol.x[0])}
+
+
+def predicted_values(valve, oil) -> dict:
+    """The reed's predicted fluid parameters {ReedValve field: value} for ``fluid = "predicted"`` (the
+    entry point of lumped.valves.fluid_forms): Cd(Re) in eq 3.88's form, X(x) in eq 3.83's form with
+    the film's plateau, f1 and f2 of eq 3.26, from the compact forms of this reed's geometry, the
+    valve's l_o, p_o, A_1, A_2 and kappa and ``oil`` (computed once, cached)."""
+    from geometry.errors import InputError
+    from lumped.valves.kind import check_discharge
+
+    from . import ns3d
+    from .reed3d import valve_flow
+
+    where = f"valves.{valve.position}"
+    if valve.reed is None:
+        raise InputError(f"{where}.geometry", 'fluid = "predicted" needs the reed\'s geometry (a preset, a reed '
+                         "file or an inline table): the flow is computed around it")
+    flow = valve_flow(valve.reed, fluid=ns3d.Fluid(oil.density, oil.viscosity), stiffness=valve.stiffness,
+                      definitions=(valve.orifice_length, valve.orifice_perimeter, valve.area_min, valve.area_max))
+    forms = compact_forms(flow)["forms"]
+    cd = forms["cd"]
+    if cd is None:
+        raise InputError(f"{where}.fluid", "the compact forms have fewer than 4 points on the valve's operating "
+                         "line kappa (x - x_0) = X dP: no Cd(Re) to predict; use \"empirical\"")
+    try:
+        check_discharge(cd["cd_inf"], cd["a"], cd["b"], cd["c"], f"{where}.fluid")
+    except InputError as exc:
+        raise InputError(exc.field, f"the predicted Cd(Re) is not a usable correlation ({exc.message})") from None
+    X = fit_multiplier(forms["multiplier"], forms["multiplier_poiseuille"])
+    return {"cd_inf": cd["cd_inf"], "cd_a": cd["a"], "cd_b": cd["b"], "cd_c": cd["c"],
+            "multiplier_poiseuille": X["poiseuille"], "multiplier_n1": X["n1"], "multiplier_n0": X["n0"],
+            "multiplier_d2": X["d2"], "multiplier_d1": X["d1"], "multiplier_d0": X["d0"],
+            "f1": float(np.clip(forms["f1"], 0.0, 1.0)), "f2": float(np.clip(forms["f2"], 0.0, 1.0))}
