@@ -142,7 +142,7 @@ def _at_dp(pts: list[dict], dp: float, key: str) -> float | None:
 def equilibrium_points(rows: list[dict], valve: ReedValveFlow, preload: float = 0.0) -> list[dict]:
     """The points on the valve's static operating line: at each opening x the dP at which the reed is
     held there by its stiffness, kappa (x - x_0) = X dP (eq 3.82, as on the thesis's bench), with X
-    and the flow interpolated between the computed points (:func:`_at_dp`, two fixed-point passes);
+    and the flow interpolated between the computed points (``_at_dp``, two fixed-point passes);
     openings whose line lies beyond the computed dP are left out. Cd and Re as eqs 3.84, 3.87."""
     out = []
     rho, mu = valve.fluid.rho, valve.fluid.mu
