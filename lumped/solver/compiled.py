@@ -1,7 +1,7 @@
 """The reference physics, compiled: numba copies of the very functions the reference path runs.
 
 ``_jit_physics`` compiles every function of :data:`physics_modules` (oil, orifice,
-valve kinds, pump kinematics, layout, right-hand side, switching, Jacobian) with ``numba.njit``: each function's own code
+the valves' shared data and force terms, valve kinds, pump kinematics, layout, right-hand side, switching, Jacobian) with ``numba.njit``: each function's own code
 object, its module globals re-pointed at the compiled siblings. Nothing is written
 twice; the fast stepper (``lumped.solver.steppers.RodasStepper``) integrates these.
 
@@ -27,7 +27,8 @@ def physics_modules() -> tuple[str, ...]:
     """Modules whose functions are the physics, in dependency order (valve kinds from the registry)."""
     kinds = tuple(sorted({f.__module__ for k in KINDS.values() for f in (k.acceleration, k.accelerations)
                           if f is not None}))
-    return ("lumped.fluid.oil", "lumped.fluid.orifice", "lumped.valves.kind", *kinds, "lumped.model.pump", "lumped.solver.layout", "lumped.solver.rhs",
+    return ("lumped.fluid.oil", "lumped.fluid.orifice", "lumped.valves.common", "lumped.valves.forces",
+            "lumped.valves.kind", *kinds, "lumped.model.pump", "lumped.solver.layout", "lumped.solver.rhs",
             "lumped.solver.switching", "lumped.solver.jacobian")
 
 

@@ -37,7 +37,10 @@ from dataclasses import dataclass
 
 from geometry.declare import param, read_table
 from geometry.errors import InputError
-from lumped.valves.kind import Common, ValveKind, ValveParams, check_discharge, contact_reaction, kind_block, register
+from lumped.valves.kind import (
+    Common, ValveKind, ValveParams, check_discharge, contact_reaction, kind_block, register, spring_force,
+    steady_flow_force,
+)
 
 CRITICAL = "critical damping 2 sqrt(k m) of eq 2.23 with the moving mass (derived when left out)"
 
@@ -146,25 +149,9 @@ class BallValve(ValveParams):
         """pi d_b^2 / 4 [m^2] (= A_2 of eq 2.42, and the drag area)."""
         return math.pi * self.ball_diameter**2 / 4.0
 
-    @property
-    def seat_damping_value(self) -> float:
-        """c_seat [N s/m]: as given, else critical for the moving mass (eq 2.23)."""
-        return 2.0 * math.sqrt(self.seat_stiffness * self.moving_mass) if self.seat_damping is None else self.seat_damping
-
-    @property
-    def stop_damping_value(self) -> float:
-        """c_stop [N s/m]: as given, else critical for the moving mass (eq 2.23)."""
-        return 2.0 * math.sqrt(self.stop_stiffness * self.moving_mass) if self.stop_damping is None else self.stop_damping
-
     def natural_frequency(self) -> float:
         """Undamped natural frequency of the ball on its spring sqrt(k_spr / m) [rad/s]."""
         return math.sqrt(self.spring_stiffness / self.moving_mass)
-
-    def damping_ratios(self) -> dict:
-        """Contact damping ratios c / (2 sqrt(k m)) with the moving mass (eq 2.23 gives 1)."""
-        m = self.moving_mass
-        return {"seat": self.seat_damping_value / (2.0 * math.sqrt(self.seat_stiffness * m)),
-                "stop": self.stop_damping_value / (2.0 * math.sqrt(self.stop_stiffness * m))}
 
     def common(self, oil=None) -> Common:
         """The quantities every kind shares (lumped.valves.kind.Common): eqs 2.3, 2.20, 2.42, 2.47 and ball 1."""
@@ -225,15 +212,11 @@ def ball_acceleration(x: float, u: float, f, p, o: int, contact: int, regime: in
     """
     dp, rho = f.dp, f.rho
     force = dp * p[o + BALL.seat_area]
-    force -= p[o + BALL.spring_stiffness] * (x + p[o + BALL.spring_preload])
+    force -= spring_force(x, p[o + BALL.spring_stiffness], p[o + BALL.spring_preload])
     force += contact_reaction(x, u, p, o, contact)
     force -= p[o + BALL.viscous_term] * f.mu * u + p[o + BALL.inertial_term] * rho * abs(u) * u
     if p[o + BALL.flow_force_on] > 0.5:
-        q = f.q_o + f.aq * u
-        a_o = 0.0
-        if contact != 0 and x > 0.0:
-            a_o = (p[o + BALL.area_per_opening] + p[o + BALL.area_curvature] * x) * x
-        force += rho * q * q / p[o + BALL.port_area] - 2.0 * f.cd * f.cd * a_o * abs(dp) * p[o + BALL.cos_jet]
+        force += steady_flow_force(x, u, f, p, o, contact, p[o + BALL.port_area], p[o + BALL.cos_jet])
     return force / p[o + BALL.moving_mass]
 
 
@@ -246,7 +229,7 @@ KIND = register(ValveKind(
     contact_velocity_atol=100.0,
     contact_position_atol=1000.0,
     free_velocity_atol=3.0,
-    # designs the fast path is checked on (studies.sweeps.random_designs)
+    # designs the fast path is checked on (lumped.model.random_designs)
     design_ranges={"spring.stiffness": (150.0, 300.0), "ball.diameter": (12.3e-3, 14.0e-3),
                    "flow.f1": (0.6, 1.0), "flow.f2": (0.6, 1.0)},
     summary="spring-loaded ball on a conical seat (Merritt 1967; valvelab)",

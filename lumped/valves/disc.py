@@ -20,7 +20,10 @@ from dataclasses import dataclass, replace
 from geometry.declare import param, read_table
 from geometry.disc import load_disc_geometry
 from geometry.errors import InputError
-from lumped.valves.kind import Common, ValveKind, ValveParams, check_discharge, contact_reaction, kind_block, register
+from lumped.valves.kind import (  # noqa: F401 - critical_damping: eq 2.23 as the thesis tables use it
+    Common, ValveKind, ValveParams, check_discharge, contact_reaction, critical_damping, kind_block, register,
+    spring_force, steady_flow_force,
+)
 
 EQ_2_23 = "critical damping 2 sqrt(k m) of eq 2.23 with the contact mass (derived when left out)"
 
@@ -49,11 +52,6 @@ def helical_spring_stiffness(wire_diameter: float, coil_diameter: float, shear_m
                              active_coils: float) -> float:
     """k_spr = d^4 G / (8 D^3 N_a) [N/m] (eq 2.43)."""
     return wire_diameter**4 * shear_modulus / (8.0 * coil_diameter**3 * active_coils)
-
-
-def critical_damping(stiffness: float, mass: float) -> float:
-    """c_critical = 2 sqrt(k m) (eq 2.23), SI units of k and m."""
-    return 2.0 * math.sqrt(stiffness * mass)
 
 
 # ----------------------------------------------------------------- parameters
@@ -203,27 +201,14 @@ class DiscValve(ValveParams):
         """m_disc + m_s/3 + m_f [kg] (eq 2.3)."""
         return self.disc_mass + self.spring_mass / 3 + self.added_mass
 
-    @property
-    def seat_damping_value(self) -> float:
-        """c_seat [N s/m]: as given, else critical for the contact mass (eq 2.23)."""
-        return critical_damping(self.seat_stiffness, self.contact_mass) if self.seat_damping is None \
-            else self.seat_damping
-
-    @property
-    def stop_damping_value(self) -> float:
-        """c_stop [N s/m]: as given, else critical for the contact mass (eq 2.23)."""
-        return critical_damping(self.stop_stiffness, self.contact_mass) if self.stop_damping is None \
-            else self.stop_damping
+    def damping_reference(self) -> tuple[float, float]:
+        """(m_contact, 1): a contact left without its damping is critical for ``mass.contact_reference``
+        (eq 2.23; the thesis used Table 2.1's 3.9 g, docs/errata.md), not the moving mass."""
+        return self.contact_mass, 1.0
 
     def natural_frequency(self) -> float:
         """Undamped natural frequency of disc on spring sqrt(k_spr / m) [rad/s] (eq 2.3 without fluid)."""
         return math.sqrt(self.spring_stiffness / self.moving_mass)
-
-    def damping_ratios(self) -> dict:
-        """Contact damping ratios c / (2 sqrt(k m)) with the moving mass (eq 2.23 gives 1)."""
-        m = self.moving_mass
-        return {"seat": self.seat_damping_value / critical_damping(self.seat_stiffness, m),
-                "stop": self.stop_damping_value / critical_damping(self.stop_stiffness, m)}
 
     def common(self, oil=None) -> Common:
         """The quantities every kind shares (lumped.valves.kind.Common): eqs 2.3, 2.20, 2.40-2.42, 2.47, 2.18."""
@@ -430,7 +415,7 @@ def disc_acceleration(x: float, u: float, f, p, o: int, contact: int, regime: in
     dp, rho = f.dp, f.rho
     m = p[o + DISC.moving_mass]
     force = pressure_force(x, u, dp, f.p_down, f.p_vap, p, o, regime, contact)
-    force -= p[o + DISC.spring_stiffness] * (x + p[o + DISC.spring_preload])
+    force -= spring_force(x, p[o + DISC.spring_stiffness], p[o + DISC.spring_preload])
     force += contact_reaction(x, u, p, o, contact)
     # drag (eq 2.28) opposes the motion
     force -= p[o + DISC.viscous_drag] * f.mu * u * p[o + DISC.disc_diameter] \
@@ -438,11 +423,8 @@ def disc_acceleration(x: float, u: float, f, p, o: int, contact: int, regime: in
     ks = p[o + DISC.flow_force_steady]
     kt = p[o + DISC.flow_force_transient]
     if ks > 0.0 or kt > 0.0:
+        force += ks * steady_flow_force(x, u, f, p, o, contact, p[o + DISC.port_area], p[o + DISC.cos_jet])
         q = f.q_o + f.aq * u
-        a_o = 0.0
-        if contact != 0 and x > 0.0:
-            a_o = p[o + DISC.area_per_opening] * x
-        force += ks * (rho * q * q / p[o + DISC.port_area] - 2.0 * f.cd * f.cd * a_o * abs(dp) * p[o + DISC.cos_jet])
         arm = p[o + DISC.transient_arm] + x
         force -= kt * rho * (q * u + arm * (f.dq_ddp * f.ddp_dt + f.dq_dx * u))
         m += kt * rho * arm * f.aq
@@ -460,7 +442,7 @@ KIND = register(ValveKind(
     # contacts are counted after a real excursion (lumped.run.simulate.CONTACT_EXCURSION).
     contact_velocity_atol=100.0,
     contact_position_atol=1000.0,
-    # designs the fast path is checked on (studies.sweeps.random_designs): the O-ring compliance of
+    # designs the fast path is checked on (lumped.model.random_designs): the O-ring compliance of
     # the delivery seat (section 2.4.3.2), its displacement factors and the inlet spring
     design_ranges={"effects.seat_compliance.delivery.k_seat": (10**5.5, 1e7), "delivery.flow.f1": (0.6, 1.0),
                    "delivery.flow.f2": (0.6, 1.0), "inlet.spring.stiffness": (150.0, 300.0)},

@@ -30,7 +30,7 @@ from geometry.errors import InputError
 from geometry.reed import Reed
 from lumped.valves.kind import (
     SEAT, STOP, Common, ValveKind, ValveParams, check_discharge, contact_reaction, contact_slopes, contact_state,
-    kind_block, register,
+    critical_damping, kind_block, register,
 )
 
 CRITICAL = "critical damping of the modal equation (eq 2.23: 2 sqrt(gamma1 k rho_c h_eff) / gamma1), derived when left out"
@@ -38,8 +38,23 @@ DERIVED = "left out when the valve names a geometry: derived from it by the fide
 
 
 def modal_critical_damping(stiffness: float, gamma1: float, modal_mass: float) -> float:
-    """Critical damping of M x'' + gamma1 c x' + gamma1 k x [Pa s/m]: 2 sqrt(gamma1 k M) / gamma1 (eq 2.23)."""
-    return 2.0 * math.sqrt(gamma1 * stiffness * modal_mass) / gamma1
+    """Critical damping [Pa s/m] of the modal equation M x'' + gamma1 (c x' + k x) = F (eq 3.21 with eq 2.23).
+
+    Parameters
+    ----------
+    stiffness : float
+        k [Pa/m] (kappa, or a contact's stiffness per unit area).
+    gamma1 : float
+        The modal factor of eq 3.21 [-].
+    modal_mass : float
+        M = rho_c h_eff [kg/m^2].
+
+    Returns
+    -------
+    float
+        2 sqrt(gamma1 k M) / gamma1 (:func:`lumped.valves.forces.critical_damping` with gamma = gamma1).
+    """
+    return critical_damping(stiffness, modal_mass, gamma1)
 
 
 @dataclass(frozen=True)
@@ -262,30 +277,20 @@ class ReedValve(ValveParams):
         return (self.density * self.effective_thickness
                 + self.gamma3 * density * self.width_tip * math.pi / 4 * self.hydrodynamic_function)
 
-    def _critical(self, k: float) -> float:
-        return modal_critical_damping(k, self.gamma1, self.density * self.effective_thickness)
-
-    @property
-    def seat_damping_value(self) -> float:
-        """c_seat [Pa s/m]: as given, else critical for the reed's modal mass rho_c h_eff."""
-        return self._critical(self.seat_stiffness) if self.seat_damping is None else self.seat_damping
-
-    @property
-    def stop_damping_value(self) -> float:
-        """c_stop [Pa s/m]: as given, else critical for the modal mass."""
-        return self._critical(self.stop_stiffness) if self.stop_damping is None else self.stop_damping
+    def critical_mass(self) -> tuple[float, float]:
+        """(rho_c h_eff [kg/m^2], gamma1): the modal equation 3.21, M x'' + gamma1 (c x' + k x) = F, in
+        vacuum; its contacts left without their damping are critical for it (eq 2.23)."""
+        return self.density * self.effective_thickness, self.gamma1
 
     def natural_frequency(self) -> float:
         """Undamped tip frequency in vacuum sqrt(gamma1 kappa / (rho_c h_eff)) [rad/s] (eq 3.21)."""
         return math.sqrt(self.gamma1 * self.stiffness / (self.density * self.effective_thickness))
 
     def damping_ratios(self) -> dict:
-        """Damping ratios of the free reed (c = c_c + c_f) and of its seat and stop contacts."""
-        m = self.density * self.effective_thickness
-        crit = modal_critical_damping(self.stiffness, self.gamma1, m)
-        return {"structure": self.damping / crit,
-                "seat": self.seat_damping_value / modal_critical_damping(self.seat_stiffness, self.gamma1, m),
-                "stop": self.stop_damping_value / modal_critical_damping(self.stop_stiffness, self.gamma1, m)}
+        """Damping ratios of the free reed (c = c_c + c_f against kappa) and of its seat and stop contacts, each
+        against the critical damping of eq 3.21's modal equation (:meth:`critical_mass`, eq 2.23)."""
+        m, g1 = self.critical_mass()
+        return {"structure": self.damping / critical_damping(self.stiffness, m, g1), **super().damping_ratios()}
 
     def common(self, oil) -> Common:
         """The quantities every kind shares (lumped.valves.kind.Common), per unit area (eqs 3.21, 3.23-3.26, 3.89)."""
@@ -418,11 +423,24 @@ def pressure_load_multiplier_slope(x: float, plateau: float, n1: float, n0: floa
     return (n1 * den - num * ((3.0 * x + 2.0 * d2) * x + d1)) / (den * den)
 
 
+def packed_multiplier(x: float, p, o: int) -> float:
+    """X(x) of eq 3.83 [-] (:func:`pressure_load_multiplier`) with the fit packed in the reed's block at ``o``."""
+    return pressure_load_multiplier(x, p[o + REED.multiplier_poiseuille], p[o + REED.multiplier_n1],
+                                    p[o + REED.multiplier_n0], p[o + REED.multiplier_d2], p[o + REED.multiplier_d1],
+                                    p[o + REED.multiplier_d0], p[o + REED.x_zero])
+
+
+def packed_multiplier_slope(x: float, p, o: int) -> float:
+    """dX/dx [1/m] of eq 3.83 (:func:`pressure_load_multiplier_slope`) with the fit packed at ``o``."""
+    return pressure_load_multiplier_slope(x, p[o + REED.multiplier_poiseuille], p[o + REED.multiplier_n1],
+                                          p[o + REED.multiplier_n0], p[o + REED.multiplier_d2],
+                                          p[o + REED.multiplier_d1], p[o + REED.multiplier_d0], p[o + REED.x_zero])
+
+
 def reed_acceleration(x: float, u: float, f, p, o: int, contact: int, regime: int) -> float:
     """Tip acceleration x'' [m/s^2] of the reed from eq 3.21 (per unit area, Pa)."""
     g1 = p[o + REED.gamma1]
-    X = pressure_load_multiplier(x, p[o + REED.multiplier_poiseuille], p[o + REED.multiplier_n1], p[o + REED.multiplier_n0],
-                                 p[o + REED.multiplier_d2], p[o + REED.multiplier_d1], p[o + REED.multiplier_d0], p[o + REED.x_zero])
+    X = packed_multiplier(x, p, o)
     force = g1 * (f.dp * X - p[o + REED.damping_total] * u - p[o + REED.stiffness] * (x - p[o + REED.preload]))
     force += g1 * contact_reaction(x, u, p, o, contact)
     force -= p[o + REED.drag_term] * f.rho * abs(u) * u
@@ -445,9 +463,7 @@ def reed_accelerations(y, s: int, n: int, x: float, u: float, f, p, o: int, cont
     a_m = w + 3 * n
     b_m = a_m + n * n
     r = s + n                                  # its rates, and where their derivatives go
-    load = f.dp * pressure_load_multiplier(
-        x, p[o + REED.multiplier_poiseuille], p[o + REED.multiplier_n1], p[o + REED.multiplier_n0],
-        p[o + REED.multiplier_d2], p[o + REED.multiplier_d1], p[o + REED.multiplier_d0], p[o + REED.x_zero])
+    load = f.dp * packed_multiplier(x, p, o)
     load += contact_reaction(x, u, p, o, contact)
     if COMPILED:
         for i in range(n):
@@ -496,9 +512,7 @@ def reed_accelerations_jacobian(y, s: int, n: int, x: float, u: float, f, p, o: 
     g, a_m = w + n, w + 3 * n
     b_m = a_m + n * n
     fx, fu = contact_slopes(x, p, o, contact)
-    lx = fx + f.dp * pressure_load_multiplier_slope(
-        x, p[o + REED.multiplier_poiseuille], p[o + REED.multiplier_n1], p[o + REED.multiplier_n0],
-        p[o + REED.multiplier_d2], p[o + REED.multiplier_d1], p[o + REED.multiplier_d0], p[o + REED.x_zero])
+    lx = fx + f.dp * packed_multiplier_slope(x, p, o)
     r = s + n
     for i in range(n):
         gi = p[g + i]
@@ -530,7 +544,7 @@ KIND = register(ValveKind(
     # steps; benchmarks/pump_tolerance_study.py --effects)
     contact_velocity_atol=1.0,
     contact_position_atol=3.0,
-    # designs the fast path is checked on (studies.sweeps.random_designs): stiffness and the
+    # designs the fast path is checked on (lumped.model.random_designs): stiffness and the
     # displacement factors of section 5.5.3
     design_ranges={"flow.f1": (0.1, 0.4), "flow.f2": (0.2, 0.5), "structure.stiffness": (5e6, 1e7)},
     summary="cantilevered reed over a slotted seat, single-mode tip model (thesis chapter 3)",
