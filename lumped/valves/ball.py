@@ -222,10 +222,9 @@ def ball_acceleration(x: float, u: float, f, p, o: int, contact: int, regime: in
 
 KIND = register(ValveKind(
     name="ball", default_model="thesis-ball", params=BallValve, acceleration=ball_acceleration, block=BALL,
-    # a stiff steel seat and a housing stop like the disc's: the disc's contact tolerances; in free
-    # flight the ball's velocity decides its timing (it floats on the flow between seat and stop): x3
-    # atol (the kinds' default x100 put it 0.08 % / 0.29 deg off a tight reference on the six points of
-    # lumped.conformance.POINTS; x3 0.006 % / 0.05 deg with 16 % more steps)
+    # the fast path's tolerances (docs/models.md, "The fast path's tolerances"): a stiff steel seat and a
+    # housing stop like the disc's, its lift-off decided by the net force; in free flight the ball floats on
+    # the flow between seat and stop, and its velocity decides its timing
     contact_velocity_atol=100.0,
     contact_position_atol=1000.0,
     free_velocity_atol=3.0,

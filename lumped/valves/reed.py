@@ -537,11 +537,9 @@ def reed_accelerations_jacobian(y, s: int, n: int, x: float, u: float, f, p, o: 
 KIND = register(ValveKind(
     name="reed", default_model="thesis-reed", params=ReedValve, acceleration=reed_acceleration, block=REED,
     accelerations=reed_accelerations, accelerations_jacobian=reed_accelerations_jacobian,
-    # a reed lifting off its seat at near-zero speed is the most sensitive timing: the lift-off
-    # angle drifts by 1 deg at x100, so it keeps x1; its stop rebounds (the tip a few hundred
-    # nanometres into the stop) need the opening to 3 x atol x the deflection: at the default
-    # x30 a reed with added mass closed 1.02 deg off the reference (0.41 deg at x3, 10 % more
-    # steps; benchmarks/pump_tolerance_study.py --effects)
+    # the fast path's tolerances (docs/models.md, "The fast path's tolerances"): a reed lifts off its seat at
+    # near-zero speed, the most sensitive timing, so its velocity in contact keeps the kinds' default; its
+    # stop rebounds are a few hundred nanometres deep, so its opening in contact is held tighter
     contact_velocity_atol=1.0,
     contact_position_atol=3.0,
     # designs the fast path is checked on (lumped.model.random_designs): stiffness and the
