@@ -219,14 +219,14 @@ def modal_basis(reed: Reed, port=None, mesh_size: float | None = None, n_modes: 
     """The ``beam`` fidelity's modal basis (lumped.reed.modal_basis.ModalBasis): the first bending modes
     of the Hermite E-B beam, modal masses phi^T M phi [kg], loads and openings integrated
     exactly element by element. The same assembly as :func:`fe_reed` at the same mesh size."""
-    from lumped.reed.modal_basis import build_basis
+    from lumped.reed.modal_basis import Modes, Sampling, build_basis
 
     sys = assemble(reed, mesh_size)
     vals, vecs = _eigen(sys, n_modes)
     raw = np.einsum("ij,ij->j", vecs, sys.M[sys.free][:, sys.free] @ vecs) * sys.ell
-    return build_basis(reed, port, "beam", np.sqrt(vals), bending_labels(len(vals)), raw,
-                       lambda s, y: sys.probe(s) @ vecs, breaks=sys.nodes(), mesh_size=sys.mesh_size,
-                       dofs=len(sys.free))
+    modes = Modes(np.sqrt(vals), bending_labels(len(vals)), raw, lambda s, y: sys.probe(s) @ vecs,
+                  mesh_size=sys.mesh_size, dofs=len(sys.free))
+    return build_basis(reed, port, "beam", modes, Sampling(breaks=sys.nodes()))
 
 
 def fe_reed(reed: Reed, port=None, mesh_size: float | None = None):
@@ -234,10 +234,10 @@ def fe_reed(reed: Reed, port=None, mesh_size: float | None = None):
     (w and ell w' at each node but the clamped one, both in metres), the exact consistent
     load of a unit pressure on the footprint, opening, tip and station rows. Default
     element length :func:`default_fe_mesh_size` (about 50-60 DOFs)."""
-    from lumped.reed.modal_basis import fe_reed_from
+    from lumped.reed.modal_basis import FESystem, Sampling, fe_reed_from
 
     sys = assemble(reed, default_fe_mesh_size(reed) if mesh_size is None else mesh_size)
     M, K = sys.dense()
-    return fe_reed_from(reed, port, "beam", M, K, lambda s, y: sys.probe(s), breaks=sys.nodes(),
-                        mesh_size=sys.mesh_size,
-                        dof_units=f"w [m] and ell w' [m] at each node, ell = {sys.ell:.6g} m")
+    system = FESystem(M, K, lambda s, y: sys.probe(s), mesh_size=sys.mesh_size,
+                      dof_units=f"w [m] and ell w' [m] at each node, ell = {sys.ell:.6g} m")
+    return fe_reed_from(reed, port, "beam", system, Sampling(breaks=sys.nodes()))

@@ -199,20 +199,31 @@ def gci(values, sizes=None, cells=None, dim: int | None = None, order: float | N
     if len(h) != len(f) or not all(0.0 < a < b for a, b in zip(h, h[1:])) or h[0] <= 0.0:
         raise ValueError("sizes must be positive and increase from the finest to the coarsest solution")
     ratios = tuple(b / a for a, b in zip(h, h[1:]))
-    changes = [abs(b - a) for a, b in zip(f, f[1:])]
     ea = tuple(_pct(b - a, a) for a, b in zip(f, f[1:]))
     if len(f) == 2:
-        if order is None or not order > 0.0:
-            raise ValueError("two solutions need the assumed order of the method (order > 0)")
-        rp = ratios[0] ** order
-        u_fine = FS_TWO * changes[0] / (rp - 1.0)
-        u_coarse = u_fine * rp
-        ext = extrapolate(f[0], f[1], ratios[0], order)
-        return GCI(sizes=h, values=f, ratios=ratios, order=float(order), order_assumed=True, extrapolated=ext,
-                   safety_factor=FS_TWO, converging=None, oscillatory=False, approx_error_pct=ea,
-                   extrapolated_error_pct=_pct(ext - f[0], ext), gci_fine_pct=_pct(u_fine, f[0]),
-                   gci_coarse_pct=_pct(u_coarse, f[1]), u_fine=u_fine, u_coarse=u_coarse, asymptotic_ratio=None,
-                   note=f"two solutions: assumed order {order:g}, Fs = {FS_TWO:g}; convergence not checked")
+        return _gci_two(h, f, ratios, ea, order)
+    return _gci_three(h, f, ratios, ea)
+
+
+def _gci_two(h: tuple, f: tuple, ratios: tuple, ea: tuple, order: float | None) -> GCI:
+    """The GCI of two solutions: the assumed (formal) order, Fs = 3, convergence not checked."""
+    if order is None or not order > 0.0:
+        raise ValueError("two solutions need the assumed order of the method (order > 0)")
+    rp = ratios[0] ** order
+    u_fine = FS_TWO * abs(f[1] - f[0]) / (rp - 1.0)
+    u_coarse = u_fine * rp
+    ext = extrapolate(f[0], f[1], ratios[0], order)
+    return GCI(sizes=h, values=f, ratios=ratios, order=float(order), order_assumed=True, extrapolated=ext,
+               safety_factor=FS_TWO, converging=None, oscillatory=False, approx_error_pct=ea,
+               extrapolated_error_pct=_pct(ext - f[0], ext), gci_fine_pct=_pct(u_fine, f[0]),
+               gci_coarse_pct=_pct(u_coarse, f[1]), u_fine=u_fine, u_coarse=u_coarse, asymptotic_ratio=None,
+               note=f"two solutions: assumed order {order:g}, Fs = {FS_TWO:g}; convergence not checked")
+
+
+def _gci_three(h: tuple, f: tuple, ratios: tuple, ea: tuple) -> GCI:
+    """The GCI of three solutions: the observed order and extrapolation where they converge monotonically
+    (Fs = 1.25), else a conservative band of Fs = 3 times the largest change (Roache)."""
+    changes = [abs(b - a) for a, b in zip(f, f[1:])]
     if changes[0] == 0.0 and changes[1] == 0.0:
         return GCI(sizes=h, values=f, ratios=ratios, order=None, order_assumed=False, extrapolated=f[0],
                    safety_factor=FS_THREE, converging=True, oscillatory=False, approx_error_pct=ea,
@@ -352,8 +363,6 @@ def convergence_study(reed, fidelity: str, sizes=None, quantities=("omega_n", "k
     if sizes is None:
         sizes = default_sizes(default_mesh_size(reed, fidelity))
     sizes = [float(h) for h in sizes]
-    ratio = sizes[0] / sizes[1]
-    p_th = ELEMENT_ORDER.get(fidelity)
     props = []
 
     def run(h):
@@ -363,6 +372,32 @@ def convergence_study(reed, fidelity: str, sizes=None, quantities=("omega_n", "k
 
     for h in sizes:
         run(h)
+    res, notes = _refine_until_asymptotic(reed, fidelity, sizes, props, (run, quantities, max_extra))
+    default_index = 1
+    out_q = {}
+    for q, r in res.items():
+        d = r.as_dict()
+        # every mesh's error from the (finest three) meshes' extrapolation or bound
+        vals = [getattr(p, q) for p in props]
+        errs = [r.error_of(v) for v in vals]
+        d.update(sizes=list(sizes), values=[float(v) for v in vals], error_pct=[float(e) for e in errs],
+                 default_error_pct=float(errs[default_index]))
+        out_q[q] = d
+    reliable = all(r.reliable for r in res.values())
+    if not reliable:
+        notes.append("unreliable error estimate for " + ", ".join(q for q, r in res.items() if not r.reliable)
+                     + ": treat it as a rough bound")
+    return {"fidelity": fidelity, "sizes": [float(h) for h in sizes], "dofs": [int(p.dofs) for p in props],
+            "default_index": default_index, "quantities": out_q, "reliable": reliable, "notes": notes}
+
+
+def _refine_until_asymptotic(reed, fidelity: str, sizes: list, props: list, how: tuple) -> tuple[dict, list]:
+    """({quantity: Richardson of the finest three meshes}, notes): finer meshes (``run(h)`` appends to ``sizes``'
+    results ``props``) while a quantity is outside the asymptotic range, at most ``max_extra`` and while the
+    memory estimate allows; ``how`` = (run, quantities, max_extra)."""
+    run, quantities, max_extra = how
+    ratio = sizes[0] / sizes[1]
+    p_th = ELEMENT_ORDER.get(fidelity)
 
     def analyse():
         k = len(sizes)
@@ -382,29 +417,7 @@ def convergence_study(reed, fidelity: str, sizes=None, quantities=("omega_n", "k
         run(h)
         extra += 1
         res = analyse()
-    default_index = 1
-    out_q = {}
-    for q, r in res.items():
-        d = r.as_dict()
-        # every mesh's error from the (finest three) meshes' extrapolation or bound
-        vals = [getattr(p, q) for p in props]
-        errs = [r.error_of(v) for v in vals]
-        d.update(sizes=list(sizes), values=[float(v) for v in vals], error_pct=[float(e) for e in errs],
-                 default_error_pct=float(errs[default_index]))
-        out_q[q] = d
-    reliable = all(r.reliable for r in res.values())
-    if not reliable:
-        notes.append("unreliable error estimate for " + ", ".join(q for q, r in res.items() if not r.reliable)
-                     + ": treat it as a rough bound")
-    return {
-        "fidelity": fidelity,
-        "sizes": [float(h) for h in sizes],
-        "dofs": [int(p.dofs) for p in props],
-        "default_index": default_index,
-        "quantities": out_q,
-        "reliable": reliable,
-        "notes": notes,
-    }
+    return res, notes
 
 
 def plot_convergence(study: dict, path) -> None:

@@ -82,12 +82,13 @@ class ModeShapes:
 def piece_probe_z(reed: Reed) -> list[float]:
     """z [m] of the reference surface of each piece (:meth:`geometry.Reed.pieces`): its mid-surface
     h/2, or the middle of the material below the deepest groove floor on that piece when a
-    groove reaches past h/2."""
+    groove reaches past h/2 (h the piece's smallest thickness on a thickness taper)."""
     out = []
     for p in reed.pieces():
         d = max((g.depth for g in reed.grooves if g.s_range()[0] < p.s1 and g.s_range()[1] > p.s0),
                 default=0.0)
-        out.append(p.h / 2 if d < p.h / 2 else (d + p.h) / 2)
+        h = p.h_min                  # a thickness taper: below its thinner end, inside the material everywhere
+        out.append(h / 2 if d < h / 2 else (d + h) / 2)
     return out
 
 

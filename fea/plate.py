@@ -133,7 +133,7 @@ def release_step_curvature(basis: Basis, reed: Reed, ell: float) -> int:
     plate's groove model is an approximation anyway, docs/fea.md).
     """
     ps = reed.pieces()
-    steps = [p.s1 / ell for p, q in zip(ps[:-1], ps[1:]) if p.h != q.h]
+    steps = [p.s1 / ell for p, q in zip(ps[:-1], ps[1:]) if p.h_end != q.h]
     if not steps:
         return 0
     mesh, dofs = basis.mesh, basis.dofs
@@ -338,26 +338,26 @@ def modal_basis(reed: Reed, port=None, mesh_size: float | None = None, n_modes: 
     """The ``plate`` fidelity's modal basis (lumped.reed.modal_basis.ModalBasis): the first modes of the
     Kirchhoff plate (bending, torsion and plate modes, named by nodal pattern), modal masses
     phi^T M phi [kg], loads, openings and station values from the plate's w(s, y)."""
-    from lumped.reed.modal_basis import build_basis
+    from lumped.reed.modal_basis import Modes, Sampling, build_basis
 
     r = solve(reed, mesh_size, n_modes=n_modes)
     sys = r.system
     vecs = r.modes[sys.free]
     raw = np.einsum("ij,ij->j", vecs, sys.M[sys.free][:, sys.free] @ vecs) * sys.ell**2
-    return build_basis(reed, port, "plate", r.omega, r.labels, raw, lambda s, y: sys.probe(s, y) @ vecs,
-                       plane=True, raw_load=sys.footprint_load(port) @ vecs,
-                       mesh_size=sys.mesh_size, dofs=r.dofs)
+    modes = Modes(r.omega, r.labels, raw, lambda s, y: sys.probe(s, y) @ vecs,
+                  raw_load=sys.footprint_load(port) @ vecs, mesh_size=sys.mesh_size, dofs=r.dofs)
+    return build_basis(reed, port, "plate", modes, Sampling(plane=True))
 
 
 def fe_reed(reed: Reed, port=None, mesh_size: float | None = None):
     """The whole Argyris plate reed (lumped.reed.modal_basis.FEReed): dense M, K on the free DOFs (w and
     its derivatives, scaled to metres by the element size), the load of a unit pressure on the
     footprint, opening, tip and station rows. Default element size :func:`default_fe_mesh_size`."""
-    from lumped.reed.modal_basis import fe_reed_from
+    from lumped.reed.modal_basis import FESystem, Sampling, fe_reed_from
 
     sys = assemble(reed, default_fe_mesh_size(reed) if mesh_size is None else mesh_size)
     M, K = sys.dense()
-    return fe_reed_from(reed, port, "plate", M, K, sys.probe, plane=True, load=sys.footprint_load(port),
-                        mesh_size=sys.mesh_size,
-                        dof_units=f"Argyris DOFs: w [m], ell (w_x, w_y), ell^2 (w_xx, w_xy, w_yy), ell w_n "
-                                  f"[m], ell = {sys.ell:.6g} m")
+    system = FESystem(M, K, sys.probe, load=sys.footprint_load(port), mesh_size=sys.mesh_size,
+                      dof_units=f"Argyris DOFs: w [m], ell (w_x, w_y), ell^2 (w_xx, w_xy, w_yy), ell w_n "
+                                f"[m], ell = {sys.ell:.6g} m")
+    return fe_reed_from(reed, port, "plate", system, Sampling(plane=True))

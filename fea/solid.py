@@ -224,6 +224,42 @@ def _mode_fields(basis: Basis, modes: np.ndarray, reed: Reed, half: bool, anti: 
     return fields, in_plane
 
 
+def _static(basis, system: tuple, half: bool, tm: dict) -> tuple:
+    """(free DOFs, K and M on them, the LU of K, the static displacement u [m] under the unit pressure load):
+    ``system`` = (K, M, f); the factorisation's and the solve's seconds into ``tm``."""
+    K, M, f = system
+    t0 = time.perf_counter()
+    free = np.setdiff1d(np.arange(K.shape[0]), fixed_dofs(basis, half))
+    Kf = K[free][:, free].tocsc()
+    Mf = M[free][:, free].tocsr()
+    lu = spla.splu(Kf, permc_spec="MMD_AT_PLUS_A")
+    tm["factorisation"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    u = np.zeros(K.shape[0])
+    u[free] = lu.solve(f[free])
+    tm["static"] = time.perf_counter() - t0
+    return free, Kf, Mf, lu, u
+
+
+def _with_torsion(basis, matrices: tuple, symmetric: tuple, n_modes: int) -> tuple:
+    """(omega^2, modes, antisymmetric flags) of the half model's symmetric modes with the antisymmetric half's
+    ``n_modes`` added (the torsion modes: the symmetry plane held in y instead), sorted by frequency."""
+    K, M = matrices
+    vals, modes, anti = symmetric
+    free_a = np.setdiff1d(np.arange(K.shape[0]), fixed_dofs(basis, True, antisymmetric=True))
+    Ka = K[free_a][:, free_a].tocsc()
+    lu_a = spla.splu(Ka, permc_spec="MMD_AT_PLUS_A")
+    va, xa = _eigen(Ka, M[free_a][:, free_a].tocsr(), lu_a, n_modes)
+    del lu_a, Ka
+    ma = np.zeros((K.shape[0], xa.shape[1]))
+    ma[free_a] = xa
+    vals = np.concatenate([vals, va])
+    modes = np.hstack([modes, ma])
+    anti = np.concatenate([anti, np.ones(xa.shape[1], dtype=bool)])
+    order = np.argsort(vals)
+    return vals[order], modes[:, order], anti[order]
+
+
 def solve(reed: Reed, mesh_size: float | None = None, layers: int | None = None,
           n_modes: int = 4, symmetry: bool | None = None, torsion: bool = False) -> SolidResult:
     """First modes, uniform-load stiffness and centre-line shapes of the clamped 3-D reed.
@@ -252,16 +288,7 @@ def solve(reed: Reed, mesh_size: float | None = None, layers: int | None = None,
     K, M = assemble(basis, m.youngs_modulus, m.poisson_ratio, m.density)
     f = pressure_load(sm, basis)
     tm["assembly"] = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    free = np.setdiff1d(np.arange(K.shape[0]), fixed_dofs(basis, half))
-    Kf = K[free][:, free].tocsc()
-    Mf = M[free][:, free].tocsr()
-    lu = spla.splu(Kf, permc_spec="MMD_AT_PLUS_A")
-    tm["factorisation"] = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    u = np.zeros(K.shape[0])
-    u[free] = lu.solve(f[free])
-    tm["static"] = time.perf_counter() - t0
+    free, Kf, Mf, lu, u = _static(basis, (K, M, f), half, tm)
     t0 = time.perf_counter()
     # the static shape is close to the first bending mode: a good start vector
     vals, vecs = _eigen(Kf, Mf, lu, n_modes, v0=u[free] / np.abs(u[free]).max())
@@ -270,18 +297,7 @@ def solve(reed: Reed, mesh_size: float | None = None, layers: int | None = None,
     modes[free] = vecs
     anti = np.zeros(vecs.shape[1], dtype=bool)
     if half and torsion:
-        free_a = np.setdiff1d(np.arange(K.shape[0]), fixed_dofs(basis, half, antisymmetric=True))
-        Ka = K[free_a][:, free_a].tocsc()
-        lu_a = spla.splu(Ka, permc_spec="MMD_AT_PLUS_A")
-        va, xa = _eigen(Ka, M[free_a][:, free_a].tocsr(), lu_a, n_modes)
-        del lu_a, Ka
-        ma = np.zeros((K.shape[0], xa.shape[1]))
-        ma[free_a] = xa
-        vals = np.concatenate([vals, va])
-        modes = np.hstack([modes, ma])
-        anti = np.concatenate([anti, np.ones(xa.shape[1], dtype=bool)])
-        order = np.argsort(vals)
-        vals, modes, anti = vals[order], modes[:, order], anti[order]
+        vals, modes, anti = _with_torsion(basis, (K, M), (vals, modes, anti), n_modes)
     tm["eigen"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     fields, in_plane = _mode_fields(basis, modes, reed, half, anti, face_grid(reed), sm.face.mesh)
@@ -376,7 +392,7 @@ def modal_basis(reed: Reed, port=None, mesh_size: float | None = None, n_modes: 
     a groove's floor: where the pressure acts and the reed seals)."""
     from matplotlib.tri import Triangulation
 
-    from lumped.reed.modal_basis import build_basis
+    from lumped.reed.modal_basis import Modes, Sampling, build_basis
 
     from .mesh import is_symmetric
 
@@ -404,5 +420,5 @@ def modal_basis(reed: Reed, port=None, mesh_size: float | None = None, n_modes: 
             w = w * np.where((sy[1] < 0)[:, None] & anti[None, :], -1.0, 1.0)
         return np.asarray(w)
 
-    return build_basis(reed, port, "solid", r.omega[keep], [r.labels[k] for k in keep], raw, evaluate,
-                       plane=True, mesh_size=r.mesh_size, dofs=r.dofs)
+    modes = Modes(r.omega[keep], [r.labels[k] for k in keep], raw, evaluate, mesh_size=r.mesh_size, dofs=r.dofs)
+    return build_basis(reed, port, "solid", modes, Sampling(plane=True))

@@ -60,8 +60,7 @@ def reed_properties(reed, fidelity: str = "analytic", mesh_size=None, field: str
     Parameters
     ----------
     reed : geometry.Reed, str or Path
-        The reed, or a preset name (``uniform``, ``stepped1``, ``stepped2``, ``prototype``) or reed
-        file that ``geometry.load_reed`` reads.
+        The reed, or a preset name (``geometry.PRESETS``) or reed file that ``geometry.load_reed`` reads.
     fidelity : str
         ``analytic`` (exact Euler-Bernoulli) or a registered FEA fidelity (``beam``, ``plate``, ``solid``).
     mesh_size : float, optional

@@ -156,21 +156,42 @@ def _opening_mode(tip) -> int:
     return int(big[0]) if big.size else 0
 
 
-def build_basis(reed: Reed, port: ReedPort | None, fidelity: str, omega, kinds, raw_mass,
-                evaluate: Callable, *, plane: bool = False, breaks=None,
-                raw_load=None, mesh_size: float | None = None, dofs: int | None = None) -> ModalBasis:
-    """A :class:`ModalBasis` from a fidelity's modes: omega [rad/s], names, raw modal masses
-    int rho_c h phi^2 dA [kg] and ``evaluate(s, y) -> (len(s), N)``, the raw shapes at face points [m].
+@dataclass(frozen=True)
+class Sampling:
+    """How a fidelity's shapes are sampled on the face: ``plane`` (they vary across the width: plate, solid;
+    else one point across suffices), ``breaks`` (extra s [m] where they are not smooth: FE nodes)."""
+
+    plane: bool = False
+    breaks: object = None
+
+
+@dataclass(frozen=True)
+class Modes:
+    """A fidelity's modes as it computed them: ``omega`` [rad/s], ``kinds`` (names), raw modal masses
+    int rho_c h phi^2 dA [kg], ``evaluate(s, y) -> (len(s), N)`` the raw shapes at face points [m], and
+    ``raw_load`` [m^2], Gamma of the raw shapes when the fidelity integrates it itself (an FE model's
+    consistent load vector f . phi; None: the face rule), ``mesh_size`` [m] and ``dofs`` of its model."""
+
+    omega: object
+    kinds: tuple
+    raw_mass: object
+    evaluate: Callable
+    raw_load: object = None
+    mesh_size: float | None = None
+    dofs: int | None = None
+
+
+def build_basis(reed: Reed, port: ReedPort | None, fidelity: str, modes: Modes,
+                sampling: Sampling = Sampling()) -> ModalBasis:
+    """A :class:`ModalBasis` from a fidelity's :class:`Modes`.
 
     Normalises each shape to max |phi| = 1 on :func:`geometry.reed_port.face_grid` (positive
-    there), integrates Gamma over :func:`~geometry.reed_port.face_rule`, the edge mean over
-    :func:`~geometry.reed_port.edge_rule` and the station values over Gauss points across
-    the width. ``plane``: the shapes vary across the width (plate, solid); else one point
-    across suffices. ``breaks``: extra s [m] where the shapes are not smooth (FE nodes).
-    ``raw_load``: Gamma of the raw shapes [m^2] when the fidelity integrates it itself (an
-    FE model's consistent load vector f . phi), instead of the face rule. The opening is
-    scaled to the first bending mode (``_opening_mode``).
+    there), integrates Gamma over :func:`~geometry.reed_port.face_rule` (unless ``modes.raw_load``), the edge
+    mean over :func:`~geometry.reed_port.edge_rule` and the station values over Gauss points across the width
+    (``sampling``). The opening is scaled to the first bending mode (``_opening_mode``).
     """
+    omega, kinds, raw_mass, evaluate = modes.omega, modes.kinds, modes.raw_mass, modes.evaluate
+    plane, breaks, raw_load = sampling.plane, sampling.breaks, modes.raw_load
     omega = np.asarray(omega, dtype=float)
     n = len(omega)
     gs, gy = face_grid(reed)
@@ -202,7 +223,7 @@ def build_basis(reed: Reed, port: ReedPort | None, fidelity: str, omega, kinds, 
                       modal_stiffness=_frozen(mass * omega**2), load=_frozen(load), opening=_frozen(opening),
                       tip=_frozen(tip), kinds=tuple(kinds), stations=_frozen(sk), weights=_frozen(wk),
                       widths=_frozen(Wk), wbar=_frozen(wbar), theta=_frozen(theta), port=port,
-                      mesh_size=mesh_size, dofs=dofs)
+                      mesh_size=modes.mesh_size, dofs=modes.dofs)
 
 
 # ------------------------------------------------------------------------------ exact E-B
@@ -248,7 +269,7 @@ def analytic_basis(reed: Reed, port: ReedPort | None = None, mesh_size=None, n_m
 
         raw = bm.quad.weights @ (bm.m[:, None] * (bm.quad.Q @ slopes) ** 2)
     labels = [f"bending {k + 1}" for k in range(n)]
-    return build_basis(reed, port, "analytic", omega, labels, raw, lambda s, y: shapes(np.asarray(s, float)))
+    return build_basis(reed, port, "analytic", Modes(omega, labels, raw, lambda s, y: shapes(np.asarray(s, float))))
 
 
 # ------------------------------------------------------------------------------ the FE reed
@@ -322,12 +343,26 @@ def _dense_modes(mass, stiffness, n: int | None = None) -> tuple[np.ndarray, np.
     return omega, vecs * omega       # K-normalised phi^T K phi = 1 -> M-normalised
 
 
-def fe_reed_from(reed: Reed, port: ReedPort | None, fidelity: str, mass, stiffness, probe: Callable, *,
-                 plane: bool = False, breaks=None, load=None, mesh_size=None, dof_units: str = "") -> FEReed:
-    """An :class:`FEReed` from dense M, K [kg, N/m] and ``probe(s, y) -> (len(s), n)``, the
-    interpolation of the DOFs to w at face points; the load (unless the FE model assembles
-    it, ``load`` [m^2]), opening, tip and station rows are built with the same rules as
-    :func:`build_basis`."""
+@dataclass(frozen=True, eq=False)
+class FESystem:
+    """A fidelity's whole FE reed as it assembled it: dense ``mass``, ``stiffness`` [kg, N/m] on the free DOFs,
+    ``probe(s, y) -> (len(s), n)`` the interpolation of the DOFs to w at face points, ``load`` [m^2] if the FE
+    model assembles the footprint's load itself (None: the face rule), ``mesh_size`` [m], ``dof_units``."""
+
+    mass: np.ndarray
+    stiffness: np.ndarray
+    probe: Callable
+    load: np.ndarray | None = None
+    mesh_size: float | None = None
+    dof_units: str = ""
+
+
+def fe_reed_from(reed: Reed, port: ReedPort | None, fidelity: str, system: FESystem,
+                 sampling: Sampling = Sampling()) -> FEReed:
+    """An :class:`FEReed` from a fidelity's :class:`FESystem`; the load (unless the FE model assembles it),
+    opening, tip and station rows are built with the same rules as :func:`build_basis`."""
+    mass, stiffness, probe, load = system.mass, system.stiffness, system.probe, system.load
+    plane, breaks = sampling.plane, sampling.breaks
     if load is None:
         S, Y, wt = face_rule(reed, port, n_y=12 if plane else 1, breaks=breaks)
         load = wt @ probe(S, Y)
@@ -351,7 +386,7 @@ def fe_reed_from(reed: Reed, port: ReedPort | None, fidelity: str, mass, stiffne
     return FEReed(fidelity=fidelity, mass=_frozen(mass), stiffness=_frozen(stiffness), load=_frozen(load),
                   opening=_frozen(opening), tip=_frozen(tip), stations=_frozen(sk), weights=_frozen(wk),
                   widths=_frozen(Wk), wbar=_frozen(wbar), theta=_frozen(theta), port=port,
-                  mesh_size=mesh_size, dof_units=dof_units)
+                  mesh_size=system.mesh_size, dof_units=system.dof_units)
 
 
 # ------------------------------------------------------------------------------ registries

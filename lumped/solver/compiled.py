@@ -135,7 +135,7 @@ def source_digest(*extra: str) -> str:
 
 def _digest(extra: tuple) -> str:
     h = hashlib.sha256()
-    for name in (*physics_modules(), "lumped.solver.rodas", __name__, *extra):
+    for name in (*physics_modules(), "lumped.solver.rosenbrock", "lumped.solver.rodas", __name__, *extra):
         h.update(inspect.getsource(importlib.import_module(name)).encode())
     h.update(numba.__version__.encode())
     return h.hexdigest()[:12]

@@ -270,13 +270,10 @@ class _RadauRun:
 # --------------------------------------------------------------------------- fast: compiled Rodas4P/5P
 def _build_rodas(one_dof: bool):
     """The compiled solver bound to the pump's compiled physics of a flavour (lumped.solver.compiled.physics),
-    cached on disk by source digest."""
+    cached on disk by source digest; (solver, digest)."""
     import numba
 
     from lumped.solver import compiled, rodas
-
-    def fn(module, name):
-        return compiled.function(module, name, one_dof)
 
     digest = compiled.source_digest(__name__)
     flavour = f"pump{'1' if one_dof else 'n'}_{digest}"
@@ -285,10 +282,18 @@ def _build_rodas(one_dof: bool):
         # numba names a compiled function's symbol by its qualified name and a per-process counter: a
         # solver loaded from the cache and one compiled here may then share a symbol for two different
         # closures (one-DOF and several-DOF), and the loader binds the wrong one (a modal reed then ran
-        # one-DOF physics: step size underflow at t = 0, measured). The flavour and digest make it unique.
+        # one-DOF physics). The flavour and digest make it unique.
         f.__qualname__ = f"{f.__qualname__}__{flavour}"
         return numba.njit(error_model="numpy")(f)
 
+    hooks = _pump_hooks(lambda module, name: compiled.function(module, name, one_dof), jit)
+    _drop_stale_cache(digest)
+    return rodas.specialize(hooks.pop("rhs"), flavour, **hooks), digest
+
+
+def _pump_hooks(fn, jit) -> dict:
+    """The pump's functions in the form lumped.solver.rodas.specialize takes them, each reading the mode the
+    stepper keeps in the flat array (``fn(module, name)``: a compiled physics function; ``jit``: compiles)."""
     evaluate_c = fn("lumped.solver.rhs", "evaluate")
     switch_values = fn("lumped.solver.switching", "switch_values")
     apply_switch = fn("lumped.solver.switching", "apply_switch")
@@ -332,10 +337,8 @@ def _build_rodas(one_dof: bool):
     def _tag(p):
         return tag(mode_c(p))
 
-    _drop_stale_cache(digest)
-    solver = rodas.specialize(_rhs, flavour, events=_events, apply=_apply,
-                              tagger=_tag, jac=_jac, tolerances=_tolerances, retry=_retry)
-    return solver, digest
+    return {"rhs": _rhs, "events": _events, "apply": _apply, "tagger": _tag, "jac": _jac, "tolerances": _tolerances,
+            "retry": _retry}
 
 
 def _drop_stale_cache(digest: str) -> None:

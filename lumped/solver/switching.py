@@ -125,34 +125,10 @@ def switch_values(t: float, y, p, mode, g) -> None:
     rho(P_vap) (1 + e) - rho (refilled). A function with no surface is 1. x is the opening
     (lumped.solver.layout.opening).
     """
-    hy = HYSTERESIS
     need = False
     for v in range(N_VALVES):
-        o = BLOCK_OFFSET[v]
-        x, u = opening(y, p, o)
-        c = int(mode[CONTACT_SLOT[v]])
-        r = int(mode[REGIME_SLOT[v]])
-        i_seat, i_stop, i_reg = SEAT_SWITCH[v], STOP_SWITCH[v], REGIME_SWITCH[v]
-        xstop = p[o + VALVE.stop_gap]
-        if c == SEAT:
-            g[i_seat] = -x
-            g[i_stop] = 1.0
-            if force_decides(-x, u, p, o, p[o + VALVE.seat_k]):
-                need = True
-                g[i_seat] = math.nan          # the force's, below
-        elif c == FREE:
-            g[i_seat] = x + hy
-            g[i_stop] = xstop - x
-        else:
-            g[i_seat] = 1.0
-            g[i_stop] = x - (xstop - hy)
-            if force_decides(x - xstop, u, p, o, p[o + VALVE.stop_k]):
-                need = True
-                g[i_stop] = math.nan
-        g[i_reg] = 1.0
-        xt = p[o + VALVE.regime_opening]
-        if xt > 0.0:
-            g[i_reg] = xt - x if r == POISEUILLE else x - (xt - hy)
+        if _valve_switches(v, y, p, mode, g):
+            need = True
     if need:
         a = free_accelerations(t, y, p, mode, g[N_SWITCHES:])
         for v in range(N_VALVES):
@@ -171,6 +147,39 @@ def switch_values(t: float, y, p, mode, g) -> None:
             g[i_cav] = (rho - rho_v) / rho_v
         else:
             g[i_cav] = (rho_v * (1.0 + DENSITY_HYSTERESIS) - rho) / rho_v
+
+
+def _valve_switches(v: int, y, p, mode, g) -> bool:
+    """Valve v's seat, stop and regime functions into g (see :func:`switch_values`); True where the force
+    decides a contact (its function then NaN, for the caller to fill)."""
+    hy = HYSTERESIS
+    need = False
+    o = BLOCK_OFFSET[v]
+    x, u = opening(y, p, o)
+    c = int(mode[CONTACT_SLOT[v]])
+    r = int(mode[REGIME_SLOT[v]])
+    i_seat, i_stop, i_reg = SEAT_SWITCH[v], STOP_SWITCH[v], REGIME_SWITCH[v]
+    xstop = p[o + VALVE.stop_gap]
+    if c == SEAT:
+        g[i_seat] = -x
+        g[i_stop] = 1.0
+        if force_decides(-x, u, p, o, p[o + VALVE.seat_k]):
+            need = True
+            g[i_seat] = math.nan          # the force's, below
+    elif c == FREE:
+        g[i_seat] = x + hy
+        g[i_stop] = xstop - x
+    else:
+        g[i_seat] = 1.0
+        g[i_stop] = x - (xstop - hy)
+        if force_decides(x - xstop, u, p, o, p[o + VALVE.stop_k]):
+            need = True
+            g[i_stop] = math.nan
+    g[i_reg] = 1.0
+    xt = p[o + VALVE.regime_opening]
+    if xt > 0.0:
+        g[i_reg] = xt - x if r == POISEUILLE else x - (xt - hy)
+    return need
 
 
 def apply_switch(k: int, y, p, mode) -> int:

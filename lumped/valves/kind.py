@@ -368,7 +368,12 @@ def _block_reads(fn, seen: set | None = None):
         tree = ast.parse(textwrap.dedent(inspect.getsource(fn)))
     except (OSError, TypeError, SyntaxError):
         return
-    scope = fn.__globals__
+    scope = dict(fn.__globals__)
+    for name, cell in zip(fn.__code__.co_freevars, fn.__closure__ or ()):
+        try:
+            scope[name] = cell.cell_contents          # a closure's block counts as a global's does
+        except ValueError:
+            pass
     for node in ast.walk(tree):
         if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and _is_block(scope.get(node.value.id)):
             yield fn.__name__, node.value.id, node.attr, scope[node.value.id]

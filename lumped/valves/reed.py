@@ -28,6 +28,7 @@ import numpy as np
 from geometry.declare import param, read_table
 from geometry.errors import InputError
 from geometry.reed import Reed
+from geometry.reed_io import PRESETS
 from lumped.valves.kind import (
     SEAT, STOP, Common, ValveKind, ValveParams, check_discharge, contact_reaction, contact_slopes, contact_state,
     critical_damping, kind_block, register,
@@ -96,8 +97,8 @@ class ReedValve(ValveParams):
     cd_b: float = param("discharge.b", "-", "eq 3.89", bounds=(0.0, 100.0), positive=True)
     cd_c: float = param("discharge.c", "-", "eq 3.89", bounds=(0.0, 100.0), positive=True)
     # geometry and fidelity, or the structural parameters directly
-    geometry: str = param("geometry", "-", "reed geometry: preset (uniform, stepped1, stepped2, prototype), "
-                          "reed TOML file, or an inline table of the reed-file schema", optional=True)
+    geometry: str = param("geometry", "-", f"reed geometry: preset ({', '.join(PRESETS)}), reed TOML file, or an "
+                          "inline table of the reed-file schema", optional=True)
     fidelity: str = param("fidelity", "-", "reed model deriving kappa, gamma1..3, h_eff from the geometry "
                           "(analytic, beam, plate, solid)", optional=True)
     density: float = param("structure.density", "kg/m^3", "rho_c (Table 3.13); " + DERIVED, bounds=(10.0, 3e4),
