@@ -262,3 +262,198 @@ def test_the_flow_area_law_checks_growth_not_sign():
     assert poppet.area_curvature < 0
     with pytest.raises(ValueError, match="area_curvature.*grow"):
         dataclasses.replace(poppet, stop_gap=d / (2 * math.sin(a) * math.cos(a)) * 1.01)    # past dA/dx = 0
+
+
+# --------------------------------------------------------------------------- the recipes, literally
+def _copy(tmp_path, *names) -> Path:
+    """A copy of the named packages and files of the repository (without caches) under tmp_path/pkg."""
+    import shutil
+
+    dst = tmp_path / "pkg"
+    for name in names:
+        src = ROOT / name
+        if src.is_dir():
+            shutil.copytree(src, dst / name, ignore=shutil.ignore_patterns("__pycache__", "*.nbi", "*.nbc"))
+        else:
+            dst.mkdir(parents=True, exist_ok=True)
+            shutil.copy(src, dst / name)
+    return dst
+
+
+def _changed(copy: Path) -> list[str]:
+    """The files of the copy that differ from (or are not in) the repository."""
+    out = []
+    for f in sorted(copy.rglob("*")):
+        if f.is_file() and "__pycache__" not in f.parts:
+            rel = f.relative_to(copy)
+            orig = ROOT / rel
+            if not orig.is_file() or orig.read_bytes() != f.read_bytes():
+                out.append(str(rel))
+    return out
+
+
+def _run(copy: Path, script: str, timeout: int = 600) -> str:
+    env = {**os.environ, "PYTHONPATH": f"{copy}{os.pathsep}{ROOT}", "NUMBA_CACHE_DIR": str(copy / "nb"),
+           "MPLBACKEND": "Agg"}
+    r = subprocess.run([sys.executable, "-c", script], cwd=copy, capture_output=True, text=True, env=env,
+                       timeout=timeout)
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    return r.stdout
+
+
+def test_a_reed_preset_is_one_file(tmp_path):
+    """A preset: one data file; PRESETS, load_reed, a reed valve's geometry and every command's help pick it up."""
+    copy = _copy(tmp_path, "geometry")
+    text = (ROOT / "geometry" / "data" / "reed_uniform.toml").read_text()
+    text = text.replace('name = "uniform"', 'name = "narrow"').replace("[preset]", "[unused]")
+    (copy / "geometry" / "data" / "reed_narrow.toml").write_text(text.replace("width_tip = 15.875e-3",
+                                                                              "width_tip = 10.0e-3"))
+    assert _changed(copy) == ["geometry/data/reed_narrow.toml"]
+    out = _run(copy, "from geometry import PRESETS, THESIS_PRESETS, load_reed\n"
+                     "from lumped import load_model, with_values\n"
+                     "assert PRESETS[-1] == 'narrow' and 'narrow' not in THESIS_PRESETS, PRESETS\n"
+                     "r = load_reed('narrow'); assert r.width_tip == 10.0e-3\n"
+                     "m = with_values(load_model('thesis-reed'), {'valves.geometry': 'narrow', "
+                     "'valves.fidelity': 'analytic'})\n"
+                     "u = with_values(load_model('thesis-reed'), {'valves.geometry': 'uniform', "
+                     "'valves.fidelity': 'analytic'})\n"
+                     "print(m.delivery.geometry, m.delivery.stiffness / u.delivery.stiffness)\n")
+    name, ratio = out.split()
+    assert name == "narrow" and float(ratio) == pytest.approx(1.0, rel=0.02)   # kappa per area: width-free
+
+
+CIRCLE = '''
+class CircleGroove(GrooveShape):
+    """A round pocket of radius ``r_outer`` centred at (``s_center``, ``y_center``)."""
+
+    name = "circle"
+    keys = ("s_center", "y_center", "r_outer")
+
+    def s_range(self, g):
+        return g.s_center - g.r_outer, g.s_center + g.r_outer
+
+    def intervals(self, g, s):
+        ds = s - g.s_center
+        if abs(ds) > g.r_outer:
+            return []
+        half = np.sqrt(max(g.r_outer**2 - ds**2, 0.0))
+        return [(g.y_center - half, g.y_center + half)]
+
+    def contains(self, g, s, y):
+        return np.hypot(np.asarray(s, dtype=float) - g.s_center, np.asarray(y, dtype=float) - g.y_center) <= g.r_outer
+
+    def volume(self, g):
+        return g.depth * np.pi * g.r_outer**2
+
+    def kinks(self, g):
+        return [g.s_center]
+
+    def check(self, g, reed, where):
+        from .errors import InputError
+
+        th = np.linspace(0.0, 2 * np.pi, 721)
+        s, y = g.s_center + g.r_outer * np.cos(th), g.y_center + g.r_outer * np.sin(th)
+        if np.any(s < 0) or np.any(s > reed.length) or np.any(np.abs(y) > reed.width(s) / 2 * (1 + 1e-9)):
+            raise InputError(f"{where}.r_outer", "the circle leaves the reed outline")
+
+    def mirror(self, g):
+        return replace(g, y_center=-g.y_center)
+
+    def occ_surfaces(self, g, occ):
+        return [occ.addDisk(g.s_center, g.y_center, 0.0, g.r_outer, g.r_outer)]
+
+
+'''
+
+GROOVED = '''
+import tomllib, numpy as np
+from geometry import parse_reed
+from geometry.reed_io import reed_to_toml
+text = open({path!r}).read()
+plain = parse_reed(tomllib.loads(text))
+grooved = parse_reed(tomllib.loads(text + """
+[[reed.grooves]]
+kind = "circle"
+s_center = 8.0e-3
+y_center = 0.0
+r_outer = 3.0e-3
+depth = 0.6e-3
+"""))
+assert parse_reed(tomllib.loads(reed_to_toml(grooved))) == grooved
+dm = (plain.mass - grooved.mass) / (plain.material.density * 0.6e-3 * np.pi * 3.0e-3 ** 2)
+A0, _ = plain.section(8.0e-3)
+A1, _ = grooved.section(8.0e-3)
+chord = (A0 - A1) / 0.6e-3 / 6.0e-3            # the pocket's width across the section through its centre / 2 r
+from lumped.reed.fidelities import reed_properties
+from fea import beam, plate, solid
+ratios = [reed_properties(grooved, "analytic").kappa / reed_properties(plain, "analytic").kappa]
+ratios.append(beam.reed_properties(grooved).kappa / beam.reed_properties(plain).kappa)
+for mod in (plate, solid):
+    h = plain.length / 14
+    ratios.append(mod.reed_properties(grooved, mesh_size=h).kappa / mod.reed_properties(plain, mesh_size=h).kappa)
+print(dm, chord, *ratios)
+'''
+
+
+def test_a_groove_kind_is_one_file(tmp_path):
+    """A new groove kind (a round pocket): a GrooveShape subclass added to GROOVE_KINDS in geometry/reed.py, one
+    file; the reader, the writer, the quadrature (analytic model), the beam, the plate and the solid read it:
+    its volume and its chord are the circle's, and every fidelity sees the reed softened, by similar amounts."""
+    copy = _copy(tmp_path, "geometry")
+    reed_py = copy / "geometry" / "reed.py"
+    src = reed_py.read_text()
+    src = src.replace("#: the groove kinds by name", CIRCLE.lstrip() + "#: the groove kinds by name")
+    src = src.replace("(RectGroove(), HalfRingGroove())", "(RectGroove(), HalfRingGroove(), CircleGroove())")
+    reed_py.write_text(src)
+    assert _changed(copy) == ["geometry/reed.py"]
+    out = _run(copy, GROOVED.format(path=str(ROOT / "geometry" / "data" / "reed_uniform.toml")), timeout=1200)
+    dm, chord, *ratios = map(float, out.split())
+    assert dm == pytest.approx(1.0, rel=1e-9) and chord == pytest.approx(1.0, rel=1e-9)
+    assert all(0.5 < r < 0.995 for r in ratios), ratios
+    assert max(ratios) - min(ratios) < 0.06, ratios
+
+
+EFFECT = '''
+# a weaker spring than measured (the relaxation of a helical spring under cyclic load), for testing the recipe
+register(Effect(
+    name="spring_relaxation",
+    summary="a spring softer than measured: k_spr times a factor",
+    parameters=(Parameter("k_spr", "N/m", prior=150.0, bounds=(10.0, 1000.0), plausible=(50.0, 400.0),
+                          source="test: a relaxed spring", field="spring_stiffness"),),
+    valve_types=("disc", "ball"), targets=PER_VALVE,
+    apply=lambda model, values, target: set_fields(model, target, spring_stiffness=values["k_spr"]),
+))
+'''
+
+EFFECT_RUN = '''
+from lumped import load_model, simulate, with_values
+from lumped.model.effect_library import LIBRARY
+from lumped.model.effects import missing_fields
+e = LIBRARY["spring_relaxation"]
+assert missing_fields(e) == []
+assert "`spring_relaxation`" in open("CONTRACT.md").read()
+m = load_model("thesis-ball")
+on = with_values(m, {"effects.spring_relaxation.inlet": True})
+assert on.effects and on.effects[0].name == "spring_relaxation"
+a = simulate(m, 600.0, 2.76e6, method="reference", revolutions=2)
+b = simulate(on, 600.0, 2.76e6, method="reference", revolutions=2)
+print(a.inlet.opening_angle, b.inlet.opening_angle)
+'''
+
+
+def test_an_effect_is_two_files(tmp_path):
+    """An effect whose physics exists: its registration and its CONTRACT.md row, two files; the model file's
+    [effects.NAME] switches it on and the pump feels it (a softer inlet spring opens the valve earlier)."""
+    copy = _copy(tmp_path, "lumped", "geometry", "CONTRACT.md")
+    lib = copy / "lumped" / "model" / "effect_library.py"
+    src = lib.read_text()
+    anchor = "# --------------------------------------------------------------------------- resolution"
+    lib.write_text(src.replace(anchor, EFFECT.lstrip() + "\n\n" + anchor))
+    contract = copy / "CONTRACT.md"
+    row = "| `entrained_air` |"
+    text = contract.read_text()
+    i = text.index(row)
+    contract.write_text(text[:i] + "| `spring_relaxation` | a spring softer than measured (k_spr) |\n" + text[i:])
+    assert _changed(copy) == ["CONTRACT.md", "lumped/model/effect_library.py"]
+    off, on = map(float, _run(copy, EFFECT_RUN).split())
+    assert on < off - 1e-3                                   # rad: earlier

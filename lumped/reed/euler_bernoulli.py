@@ -42,7 +42,27 @@ from .quadrature import NODES_PER_PIECE, ProfileQuadrature, profile_breaks
 
 
 def uniform_frequency_parameter(mode: int = 1) -> float:
-    """n-th root alpha_n of cosh(a) cos(a) + 1 = 0 (eq 3.2), dimensionless; alpha_1 = 1.8751."""
+    """The n-th root alpha_n of the uniform cantilever's frequency equation cosh(a) cos(a) + 1 = 0 (eq 3.2).
+
+    Parameters
+    ----------
+    mode : int
+        n >= 1.
+
+    Returns
+    -------
+    float
+        alpha_n [-].
+
+    References
+    ----------
+    Knutson (2016), eq 3.2; e.g. Rao, *Vibration of Continuous Systems* (2007), section 11.5.
+
+    Examples
+    --------
+    >>> round(uniform_frequency_parameter(1), 4), round(uniform_frequency_parameter(2), 4)
+    (1.8751, 4.6941)
+    """
     if mode < 1:
         raise ValueError("mode must be >= 1")
     # roots lie within 0.2 of (2n - 1) pi / 2 for every n
@@ -53,7 +73,26 @@ def uniform_frequency_parameter(mode: int = 1) -> float:
 
 def uniform_natural_frequency(youngs_modulus: float, density: float, thickness: float,
                               length: float, alpha: float | None = None) -> float:
-    """omega_n = alpha^2 (h / L^2) sqrt(E / (12 rho)) [rad/s] of a uniform (or stepped-width) reed (eqs 3.4, 3.7).
+    """First natural frequency of a uniform (or stepped-width) reed, omega_n = alpha^2 (h / L^2) sqrt(E / (12 rho))
+    (eqs 3.4, 3.7).
+
+    Parameters
+    ----------
+    youngs_modulus, density : float
+        E [Pa], rho [kg/m^3].
+    thickness, length : float
+        h, L [m].
+    alpha : float, optional
+        The frequency parameter [-] (None: the uniform reed's 1.8751; a stepped width's of eq 3.7).
+
+    Returns
+    -------
+    float
+        omega_n [rad/s].
+
+    References
+    ----------
+    Knutson (2016), eqs 3.2-3.7.
 
     Examples
     --------
@@ -66,19 +105,96 @@ def uniform_natural_frequency(youngs_modulus: float, density: float, thickness: 
 
 def frequency_parameter_from_omega(omega: float, thickness: float, length: float,
                                    youngs_modulus: float, density: float) -> float:
-    """alpha = L (omega / h)^(1/2) (12 rho / E)^(1/4), dimensionless (eq 3.75; h may be h_eff)."""
+    """The frequency parameter of a measured or computed frequency, alpha = L (omega / h)^(1/2) (12 rho / E)^(1/4)
+    (eq 3.75; h may be h_eff).
+
+    Parameters
+    ----------
+    omega : float
+        omega [rad/s].
+    thickness, length : float
+        h, L [m].
+    youngs_modulus, density : float
+        E [Pa], rho [kg/m^3].
+
+    Returns
+    -------
+    float
+        alpha [-].
+
+    References
+    ----------
+    Knutson (2016), eq 3.75.
+
+    Examples
+    --------
+    The inverse of :func:`uniform_natural_frequency`:
+
+    >>> round(float(frequency_parameter_from_omega(3045.90, 1.35e-3, 25.4e-3, 2.9e9, 1410.0)), 4)
+    1.8751
+    """
     return length * np.sqrt(omega / thickness) * (12.0 * density / youngs_modulus) ** 0.25
 
 
 def uniform_stiffness(youngs_modulus: float, thickness: float, length: float) -> float:
-    """kappa = 2 E h^3 / (3 L^4) [Pa/m]: uniform pressure / tip deflection of a uniform reed."""
+    """Stiffness of a uniform reed under a uniform pressure, kappa = dP / x_tip = 2 E h^3 / (3 L^4) (eq 3.40 with
+    W1 = W2; the cantilever's q L^4 / (8 E I)).
+
+    Parameters
+    ----------
+    youngs_modulus : float
+        E [Pa].
+    thickness, length : float
+        h, L [m].
+
+    Returns
+    -------
+    float
+        kappa [Pa/m].
+
+    Examples
+    --------
+    The thesis's uniform reed (Delrin, 1.35 mm, 1 in):
+
+    >>> round(uniform_stiffness(2.9e9, 1.35e-3, 25.4e-3) / 1e6, 3)
+    11.428
+    """
     return 2.0 * youngs_modulus * thickness**3 / (3.0 * length**4)
 
 
 def stiffness_eq_3_40(youngs_modulus: float, thickness: float, width_root: float,
                       width_tip: float, length_root: float, length_tip: float) -> float:
-    """kappa [Pa/m] of a square-tipped stepped-width reed under uniform pressure (eq 3.40).
+    """Stiffness of a square-tipped stepped-width reed under a uniform pressure (eq 3.40).
 
+    Parameters
+    ----------
+    youngs_modulus : float
+        E [Pa].
+    thickness : float
+        h [m].
+    width_root, width_tip : float
+        W1, W2 [m].
+    length_root, length_tip : float
+        L1, L2 [m].
+
+    Returns
+    -------
+    float
+        kappa [Pa/m].
+
+    References
+    ----------
+    Knutson (2016), eq 3.40 (its last term corrected, docs/errata.md).
+
+    Examples
+    --------
+    Stepped reed #1 (Table 3.1's inch dimensions):
+
+    >>> round(stiffness_eq_3_40(2.9e9, 1.35e-3, 7.9375e-3, 15.875e-3, 4.7625e-3, 20.6375e-3) / 1e6, 3)
+    7.345
+
+    Notes
+    -----
     kappa = 24 E I1 / (3 W1 L1^4 + (4 W1 + 8 W2) L1^3 L2 + 18 W2 L1^2 L2^2 + 12 W2 L1 L2^3 + 3 W1 L2^4),
     I1 = W1 h^3 / 12.
 
@@ -106,10 +222,25 @@ class Segment:
 
 
 def segment_transfer_matrix(seg: Segment, omega: float) -> np.ndarray:
-    """Exact 4x4 transfer matrix of a uniform Euler-Bernoulli segment at circular frequency omega [rad/s].
+    """Exact transfer matrix of a uniform Euler-Bernoulli segment: maps the state (w, dw/ds, M = EI d2w/ds2,
+    V = EI d3w/ds3) at its start to its end for EI d4w/ds4 = m omega^2 w (Krylov-Duncan functions; omega = 0
+    gives the static matrix).
 
-    Maps the state (w, w', M = EI w'', V = EI w''') at the segment start to its end, for
-    EI w'''' = m omega^2 w (Krylov-Duncan functions); omega = 0 gives the static matrix.
+    Parameters
+    ----------
+    seg : Segment
+        Length [m], EI [N m^2], m [kg/m].
+    omega : float
+        Circular frequency [rad/s].
+
+    Returns
+    -------
+    numpy.ndarray
+        4 x 4 matrix (SI units of the state).
+
+    References
+    ----------
+    Naguleswaran (2002); Rao, *Vibration of Continuous Systems* (2007), section 11.
     """
     L, EI = seg.length, seg.EI
     beta = (seg.m * omega**2 / EI) ** 0.25
@@ -139,6 +270,20 @@ def segment_transfer_matrix(seg: Segment, omega: float) -> np.ndarray:
 def cantilever_characteristic(omega: float, segments: list[Segment]) -> float:
     """Frequency determinant of a clamped-free chain of uniform segments (zero at natural frequencies).
 
+    Parameters
+    ----------
+    omega : float
+        [rad/s].
+    segments : list of Segment
+        From the clamp to the tip.
+
+    Returns
+    -------
+    float
+        det P[2:, 2:] [-] (1 at omega = 0).
+
+    Notes
+    -----
     Clamp: w = w' = 0 at s = 0; free tip: M = V = 0. With P the product of segment
     transfer matrices, nontrivial (M0, V0) need det P[2:, 2:] = 0: the exact
     characteristic equation of Naguleswaran (2002) for a stepped beam and
@@ -151,7 +296,25 @@ def cantilever_characteristic(omega: float, segments: list[Segment]) -> float:
 
 
 def cantilever_frequencies(segments: list[Segment], n_modes: int = 1) -> np.ndarray:
-    """First n natural frequencies [rad/s] of a clamped-free chain of uniform segments (exact E-B)."""
+    """First natural frequencies of a clamped-free chain of uniform segments (exact Euler-Bernoulli): the roots
+    of :func:`cantilever_characteristic`.
+
+    Parameters
+    ----------
+    segments : list of Segment
+        From the clamp to the tip.
+    n_modes : int
+        How many.
+
+    Returns
+    -------
+    numpy.ndarray
+        omega [rad/s], ascending.
+
+    References
+    ----------
+    Naguleswaran (2002); Knutson (2016), eq 3.7.
+    """
     if not segments:
         raise ValueError("need at least one segment")
     Ltot = sum(sg.length for sg in segments)
@@ -173,7 +336,22 @@ def cantilever_frequencies(segments: list[Segment], n_modes: int = 1) -> np.ndar
 
 
 def cantilever_mode_shape(segments: list[Segment], omega: float, s) -> np.ndarray:
-    """Exact mode shape w(s) at natural frequency omega of a chain of uniform segments, w(L) = 1."""
+    """Exact mode shape of a chain of uniform segments at one of its natural frequencies, w(L) = 1.
+
+    Parameters
+    ----------
+    segments : list of Segment
+        From the clamp to the tip.
+    omega : float
+        A natural frequency [rad/s] (:func:`cantilever_frequencies`).
+    s : array_like
+        Positions from the clamp [m].
+
+    Returns
+    -------
+    numpy.ndarray
+        w(s) [-].
+    """
     P = np.eye(4)
     starts, mats = [], []
     pos = 0.0
@@ -199,7 +377,18 @@ def cantilever_mode_shape(segments: list[Segment], omega: float, s) -> np.ndarra
 
 
 def stepped_segments(reed: Reed) -> list[Segment]:
-    """The reed as uniform segments (width and thickness steps), valid for a square tip, no grooves and no taper."""
+    """The reed as uniform Euler-Bernoulli segments (width and thickness steps).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        A piecewise-uniform reed (square tip, no grooves, no taper; InputError otherwise).
+
+    Returns
+    -------
+    list of Segment
+        Length [m], EI [N m^2], m [kg/m] of each piece between breakpoints.
+    """
     if not reed.is_piecewise_uniform:
         raise InputError("reed", "the exact stepped-beam determinant needs a square tip, no grooves and no taper")
     out = []
@@ -211,11 +400,29 @@ def stepped_segments(reed: Reed) -> list[Segment]:
 
 
 def stepped_frequency_parameter(step_fraction: float, width_ratio: float) -> float:
-    """Natural frequency parameter alpha of a stepped-width cantilever of uniform thickness (eq 3.7).
+    """Frequency parameter alpha of a stepped-width cantilever of uniform thickness (eq 3.7): the root of the exact
+    Naguleswaran (2002) determinant. I/m is equal in both sections (eq 3.6), so alpha depends on R_l and W21 only.
 
-    ``step_fraction`` R_l = L1 / L, ``width_ratio`` W21 = W2 / W1; root of the exact
-    Naguleswaran (2002) determinant. I/m is equal in both sections (eq 3.6), so alpha
-    depends on R_l and W21 only; R_l = 0 or W21 = 1 give the uniform 1.8751.
+    Parameters
+    ----------
+    step_fraction : float
+        R_l = L1 / L [-].
+    width_ratio : float
+        W21 = W2 / W1 [-].
+
+    Returns
+    -------
+    float
+        alpha [-] (R_l = 0 or W21 = 1: the uniform 1.8751).
+
+    References
+    ----------
+    Knutson (2016), eqs 3.5-3.7, Table 3.11; Naguleswaran (2002).
+
+    Examples
+    --------
+    >>> round(stepped_frequency_parameter(0.1875, 2.0), 3)     # stepped reed #1; Table 3.11: 1.674
+    1.674
     """
     if not 0.0 <= step_fraction < 1.0 or not width_ratio > 0.0:
         raise ValueError("need 0 <= step_fraction < 1 and width_ratio > 0")
@@ -311,16 +518,49 @@ class ThreeSection:
 
 
 def three_section_stiffness(reed: Reed) -> float:
-    """kappa = 1 / x per unit pressure [Pa/m] by the three-section method (Table 3.6, eqs 3.37-3.39).
+    """Stiffness of a reed by the thesis's three-section method, kappa = 1 / x_tip per unit pressure (Table 3.6,
+    eqs 3.37-3.39). It takes the rounded tip section as rigid, so it overestimates kappa of rounded reeds; for
+    a square tip it equals eq 3.40 (exact).
 
-    Takes the rounded tip section as rigid, so it overestimates kappa of rounded reeds;
-    for a square tip it equals eq 3.40 (exact).
+    Parameters
+    ----------
+    reed : geometry.Reed
+        A one-step reed (Table 3.5's sections).
+
+    Returns
+    -------
+    float
+        kappa [Pa/m].
+
+    References
+    ----------
+    Knutson (2016), eqs 3.37-3.39, Tables 3.5-3.6, Table 3.13.
+
+    Examples
+    --------
+    >>> from geometry import load_reed
+    >>> round(three_section_stiffness(load_reed("stepped2")) / 1e6, 3)       # Table 3.13: 8.702 MPa/m
+    8.702
     """
     return 1.0 / ThreeSection.from_reed(reed).tip_deflection()
 
 
 def three_section_shape(reed: Reed, s) -> np.ndarray:
-    """psi(s) = v(s) / v(L) under uniform pressure by eqs 3.42-3.45 (rigid tip section), dimensionless."""
+    """The three-section method's static shape psi(s) = v(s) / v(L) under a uniform pressure (eqs 3.42-3.45,
+    rigid tip section).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        A one-step reed.
+    s : array_like
+        Positions from the clamp [m].
+
+    Returns
+    -------
+    numpy.ndarray
+        psi [-].
+    """
     ts = ThreeSection.from_reed(reed)
     return ts.deflection(s) / ts.tip_deflection()
 
@@ -367,9 +607,22 @@ class BeamModel:
 
 
 def static_shape(reed: Reed, s_out=None, n: int = NODES_PER_PIECE):
-    """Exact E-B deflection v(s) [m] per unit uniform pressure (load q = W(s)) and tip deflection [m].
+    """Exact Euler-Bernoulli deflection of any reed per unit uniform pressure (load q = W(s) per unit dP), by
+    integrating the moment twice on the spectral quadrature (eqs 3.34-3.36).
 
-    Returns (s, v, v_tip): at the quadrature nodes unless ``s_out`` is given.
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile.
+    s_out : array_like, optional
+        Positions [m] (None: the quadrature nodes).
+    n : int
+        Chebyshev nodes per piece.
+
+    Returns
+    -------
+    tuple
+        (s [m], v(s) [m/Pa], v_tip [m/Pa]).
     """
     bm = BeamModel.of(reed, n)
     th = bm.slope(bm.W)
@@ -380,7 +633,34 @@ def static_shape(reed: Reed, s_out=None, n: int = NODES_PER_PIECE):
 
 
 def exact_stiffness(reed: Reed, n: int = NODES_PER_PIECE) -> float:
-    """kappa = Delta P / x [Pa/m] by exact E-B integration on the real profile (eq 3.30; tip flexible)."""
+    """Stiffness of any reed, kappa = dP / x_tip, by exact Euler-Bernoulli integration on the real profile
+    (eq 3.30; the tip flexible, unlike the three-section method).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile.
+    n : int
+        Chebyshev nodes per piece.
+
+    Returns
+    -------
+    float
+        kappa [Pa/m].
+
+    References
+    ----------
+    Knutson (2016), eq 3.30.
+
+    Examples
+    --------
+    A uniform reed: the closed form 2 E h^3 / (3 L^4):
+
+    >>> from geometry import load_reed
+    >>> r = load_reed("uniform")
+    >>> round(exact_stiffness(r) / uniform_stiffness(2.9e9, r.thickness, r.length), 12)
+    1.0
+    """
     return 1.0 / static_shape(reed, [reed.length], n)[2]
 
 
@@ -411,10 +691,22 @@ def _first_mode(bm: BeamModel):
 
 
 def free_vibration(reed: Reed, n: int = NODES_PER_PIECE, s_out=None):
-    """First bending mode of the real profile (exact E-B): (omega_n [rad/s], s, psi) with psi(L) = 1.
+    """First bending mode of any reed in vacuum (exact Euler-Bernoulli): w = omega^2 G[m w] on the spectral
+    quadrature, G the static flexibility of the cantilever.
 
-    Solves w = omega^2 G[m w] on the spectral quadrature (G the static flexibility of
-    the cantilever); at the quadrature nodes unless ``s_out`` [m] is given.
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile.
+    n : int
+        Chebyshev nodes per piece.
+    s_out : array_like, optional
+        Positions [m] (None: the quadrature nodes).
+
+    Returns
+    -------
+    tuple
+        (omega_n [rad/s], s [m], psi(s) [-] with psi(L) = 1).
     """
     bm = BeamModel.of(reed, n)
     omega, th = _first_mode(bm)
@@ -426,8 +718,34 @@ def free_vibration(reed: Reed, n: int = NODES_PER_PIECE, s_out=None):
 
 
 def natural_frequency(reed: Reed, n: int = NODES_PER_PIECE, model: BeamModel | None = None) -> float:
-    """omega_n [rad/s] of the first bending mode in vacuum by exact E-B on the real profile.
+    """First bending frequency of any reed in vacuum by exact Euler-Bernoulli on the real profile.
 
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile.
+    n : int
+        Chebyshev nodes per piece.
+    model : BeamModel, optional
+        The discretised reed, if the caller has it.
+
+    Returns
+    -------
+    float
+        omega_n [rad/s].
+
+    References
+    ----------
+    Knutson (2016), eqs 3.2-3.8, Table 3.3; Naguleswaran (2002).
+
+    Examples
+    --------
+    >>> from geometry import load_reed
+    >>> round(natural_frequency(load_reed("stepped1")))         # Table 3.3: 2427 rad/s
+    2427
+
+    Notes
+    -----
     Piecewise-uniform reeds (square tip, no grooves, no taper; width and thickness
     steps allowed) use the exact Naguleswaran determinant; others the spectral solution
     of :func:`free_vibration`.
@@ -453,8 +771,26 @@ class BendingModes:
 
 
 def modes(reed: Reed, n_modes: int, mesh_size=None, nodes: int | None = None) -> BendingModes:
-    """First ``n_modes`` bending natural frequencies [rad/s] and mode shapes of any reed by exact E-B.
+    """First bending natural frequencies and mode shapes of any reed by exact Euler-Bernoulli.
 
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile.
+    n_modes : int
+        How many.
+    mesh_size : float, optional
+        Ignored (the fidelities' common signature).
+    nodes : int, optional
+        Chebyshev nodes per piece (None: max(24, 6 n)).
+
+    Returns
+    -------
+    BendingModes
+        omega [rad/s], labels, shapes on :func:`plot_grid`.
+
+    Notes
+    -----
     (EI(s) w'')'' = omega^2 m(s) w, clamped-free. Piecewise-uniform profiles (width and
     thickness steps, square tip, no grooves): roots of the Naguleswaran (2002) determinant
     of the exact segment transfer matrices and their exact shapes. Others (tapers, rounded
@@ -483,7 +819,22 @@ def modes(reed: Reed, n_modes: int, mesh_size=None, nodes: int | None = None) ->
 
 
 def properties_and_modes(reed: Reed, n: int, mesh_size=None):
-    """(ReedProperties of :func:`reed_properties`, :class:`BendingModes` of :func:`modes`)."""
+    """The analytic fidelity's properties and its first bending modes from one call.
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile.
+    n : int
+        Modes.
+    mesh_size : float, optional
+        Ignored.
+
+    Returns
+    -------
+    tuple
+        (ReedProperties of :func:`reed_properties`, :class:`BendingModes` of :func:`modes`).
+    """
     return reed_properties(reed), modes(reed, n)
 
 
@@ -492,9 +843,25 @@ SHAPES = ("load", "free", "three_section")
 
 
 def shape(reed: Reed, kind: str = "load", s_out=None, n: int = NODES_PER_PIECE):
-    """(s, psi) of a reed, psi(L) = 1: ``load`` exact static uniform-pressure shape, ``free`` exact
-    first vibration mode, ``three_section`` the thesis's eqs 3.42-3.45 (rigid tip). At the
-    quadrature nodes unless ``s_out`` [m] is given."""
+    """A reed's mode function psi(s), psi(L) = 1: the exact static uniform-pressure shape (``load``), the exact
+    first vibration mode (``free``) or the thesis's three-section shape of eqs 3.42-3.45 (``three_section``).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile (one-step for ``three_section``).
+    kind : str
+        ``load``, ``free`` or ``three_section``.
+    s_out : array_like, optional
+        Positions [m] (None: the quadrature nodes).
+    n : int
+        Chebyshev nodes per piece.
+
+    Returns
+    -------
+    tuple
+        (s [m], psi [-]).
+    """
     if kind == "load":
         s, v, tip = static_shape(reed, s_out, n)
         return s, v / tip
@@ -508,20 +875,76 @@ def shape(reed: Reed, kind: str = "load", s_out=None, n: int = NODES_PER_PIECE):
 
 
 def shape_mode_parameters(reed: Reed, kind: str = "load", n: int = NODES_PER_PIECE):
-    """gamma1, gamma2, gamma3 (Table 3.4) of the ``kind`` shape (see :func:`shape`), spectral quadrature."""
+    """The mode-function parameters gamma1, gamma2, gamma3 of a reed's ``kind`` shape (:func:`shape`), integrated
+    on the spectral quadrature (Table 3.4).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile.
+    kind : str
+        ``load``, ``free`` or ``three_section``.
+    n : int
+        Chebyshev nodes per piece.
+
+    Returns
+    -------
+    tuple of float
+        (gamma1, gamma2, gamma3) [-].
+
+    References
+    ----------
+    Knutson (2016), Table 3.4, Table 3.8.
+
+    Examples
+    --------
+    >>> from geometry import load_reed
+    >>> [round(g, 3) for g in shape_mode_parameters(load_reed("stepped1"), "load")]    # Table 3.8: 1.534, 0.743, 1.0
+    [1.534, 0.743, 1.0]
+    """
     bm = BeamModel.of(reed, n)
     _, psi = shape(reed, kind, bm.quad.s, n)
     return mode_integrals(bm.quad, psi, bm.W, reed.width_tip)
 
 
 def plot_grid(reed: Reed, n: int = 401) -> np.ndarray:
-    """Sample points [m] for shapes: uniform in s, plus every breakpoint."""
+    """Sample points for drawing a reed's shapes: uniform in s, plus every section breakpoint.
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile.
+    n : int
+        Uniform points.
+
+    Returns
+    -------
+    numpy.ndarray
+        s [m], sorted.
+    """
     return np.unique(np.concatenate([np.linspace(0.0, reed.length, n), profile_breaks(reed)]))
 
 
 def reed_properties(reed: Reed, mesh_size=None) -> ReedProperties:
-    """The ``analytic`` fidelity: omega_n, kappa, gamma1..3, h_eff of any reed by exact E-B.
+    """The ``analytic`` fidelity: omega_n, kappa, gamma1..3 and h_eff of any reed by exact Euler-Bernoulli.
 
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile.
+    mesh_size : float, optional
+        Ignored.
+
+    Returns
+    -------
+    lumped.reed.mode_function.ReedProperties
+
+    References
+    ----------
+    Knutson (2016), eqs 3.30, 3.62, Table 3.4.
+
+    Notes
+    -----
     omega_n from the free-vibration eigenproblem (Naguleswaran determinant where the
     profile is piecewise uniform), kappa = Delta P / x from the static uniform-pressure
     deflection (load q = Delta P W(s)), gammas (Table 3.4) from that static shape,
@@ -542,8 +965,22 @@ def reed_properties(reed: Reed, mesh_size=None) -> ReedProperties:
 
 
 def free_mode_shape(reed: Reed, mesh_size=None) -> tuple[np.ndarray, np.ndarray]:
-    """(s [m], psi) of the first free-vibration mode on :func:`plot_grid`, psi(L) = 1 (exact E-B).
+    """The first free-vibration mode of a reed on :func:`plot_grid`, psi(L) = 1 (exact Euler-Bernoulli).
 
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile.
+    mesh_size : float, optional
+        Ignored.
+
+    Returns
+    -------
+    tuple
+        (s [m], psi [-]).
+
+    Notes
+    -----
     The optional hook of a fidelity module that ``valvelab reed --plot`` draws beside
     the static shape; ``mesh_size`` is ignored.
     """

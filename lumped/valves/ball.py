@@ -46,12 +46,58 @@ CRITICAL = "critical damping 2 sqrt(k m) of eq 2.23 with the moving mass (derive
 
 
 def contact_diameter(ball_diameter: float, half_angle: float) -> float:
-    """d_c = d_b cos(alpha) [m]: the circle where a ball touches a cone of half-angle alpha (ball 1)."""
+    """Diameter of the circle where a ball touches a cone of half-angle alpha, d_c = d_b cos(alpha) (ball 1).
+
+    Parameters
+    ----------
+    ball_diameter : float
+        d_b [m].
+    half_angle : float
+        alpha [rad].
+
+    Returns
+    -------
+    float
+        d_c [m].
+
+    Examples
+    --------
+    A 1/2 in ball in a 90 deg countersink (thesis-ball.toml):
+
+    >>> import math
+    >>> round(contact_diameter(12.7e-3, math.pi / 4) * 1e3, 3)
+    8.98
+    """
     return ball_diameter * math.cos(half_angle)
 
 
 def curtain_area(x: float, ball_diameter: float, half_angle: float) -> float:
-    """Flow area A_o [m^2] between a ball lifted by x [m] and its conical seat (ball 1, Merritt 1967 s. 3.5)."""
+    """Flow (curtain) area between a ball lifted by x and its conical seat,
+    A_o = pi x sin(alpha) (d_c + x sin(alpha) cos(alpha)) (ball 1, after Merritt 1967, section 3.5).
+
+    Parameters
+    ----------
+    x : float
+        Lift [m].
+    ball_diameter : float
+        d_b [m].
+    half_angle : float
+        alpha [rad].
+
+    Returns
+    -------
+    float
+        A_o [m^2].
+
+    Examples
+    --------
+    Small lifts: the gap h = x sin(alpha) around the circle pi d_c:
+
+    >>> import math
+    >>> a = curtain_area(1e-6, 12.7e-3, math.pi / 4)
+    >>> round(a / (math.pi * contact_diameter(12.7e-3, math.pi / 4) * 1e-6 * math.sin(math.pi / 4)), 3)
+    1.0
+    """
     s = math.sin(half_angle)
     return math.pi * x * s * (contact_diameter(ball_diameter, half_angle) + x * s * math.cos(half_angle))
 
@@ -204,8 +250,30 @@ BALL = kind_block(BallValve)
 
 
 def ball_acceleration(x: float, u: float, f, p, o: int, contact: int, regime: int) -> float:
-    """du/dt [m/s^2] of the ball: F / (m_ball + m_s/3 + m_f), F the forces of the module docstring.
+    """Acceleration of the ball, F / (m_ball + m_s/3 + m_f), F the forces of the module docstring.
 
+    Parameters
+    ----------
+    x, u : float
+        Lift [m] and its rate [m/s].
+    f : lumped.valves.common.ValveInputs
+        What the pump gives the valve.
+    p : array of float
+        The flat parameter array; ``o`` the ball's block offset (:data:`BALL`).
+    contact, regime : int
+        The valve's mode.
+
+    Returns
+    -------
+    float
+        du/dt [m/s^2].
+
+    References
+    ----------
+    Knutson (2016), eqs 2.3, 2.19, 2.20, 2.28, 2.36; Merritt (1967), section 3.5.
+
+    Notes
+    -----
     Pressure over the seat circle, spring with preload (eq 2.19), seat/stop contact (eq 2.20),
     drag opposing the motion (eq 2.28 with a sphere's coefficients) and the steady flow force
     (eq 2.36; Merritt 1967) with the jet along the cone.

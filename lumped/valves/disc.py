@@ -30,27 +30,116 @@ EQ_2_23 = "critical damping 2 sqrt(k m) of eq 2.23 with the contact mass (derive
 
 # ----------------------------------------------------------------- coefficients (section 2.4)
 def c1_coefficient(inner_radius: float, outer_radius: float) -> float:
-    """Poiseuille flow pressure coefficient C1 (dimensionless, eq 2.14)."""
+    """Poiseuille pressure coefficient C1 of the disc: the mean pressure on the face over dP when the seat's
+    annulus carries a laminar radial flow, C1 = (1 - q^2) / (2 ln(1/q)), q = R_i / R_o (eq 2.14).
+
+    Parameters
+    ----------
+    inner_radius, outer_radius : float
+        R_i, R_o [m] of the seat annulus.
+
+    Returns
+    -------
+    float
+        C1 [-].
+
+    References
+    ----------
+    Knutson (2016), eqs 2.7-2.14.
+
+    Examples
+    --------
+    >>> round(c1_coefficient(5.24e-3, 7.50e-3), 3)          # Table 2.3: 0.714
+    0.714
+    """
     q = inner_radius / outer_radius
     return (1.0 - q * q) / (2.0 * math.log(outer_radius / inner_radius))
 
 
 def squeeze_area_moment(inner_radius: float, outer_radius: float) -> float:
-    """G [m^4] with C2 = 3 mu G / sin^4(theta): (pi/2) R_i^4 (r^4 - 1)(1 - (r^2 - 1)/((r^2 + 1) ln r)), r = R_o/R_i
-    (eq 2.15 without the film's viscosity and bevel; the annulus integral of the squeeze pressure, eqs 2.11-2.12)."""
+    """The squeeze film's area moment G with C2 = 3 mu G / sin^4(theta) (eq 2.15 without the film's viscosity and
+    bevel; the annulus integral of the squeeze pressure, eqs 2.11-2.12).
+
+    Parameters
+    ----------
+    inner_radius, outer_radius : float
+        R_i, R_o [m].
+
+    Returns
+    -------
+    float
+        G = (pi/2) R_i^4 (r^4 - 1)(1 - (r^2 - 1)/((r^2 + 1) ln r)) [m^4], r = R_o / R_i.
+
+    References
+    ----------
+    Knutson (2016), eqs 2.11-2.15.
+    """
     r = outer_radius / inner_radius
     lr = math.log(r)
     return 0.5 * math.pi * inner_radius**4 * (r**4 - 1.0) * (1.0 - (r * r - 1.0) / ((r * r + 1.0) * lr))
 
 
 def c2_coefficient(inner_radius: float, outer_radius: float, bevel_angle: float, viscosity: float) -> float:
-    """Stiction coefficient C2 [N m^2 s] (eq 2.15; Reynolds equation 2.7-2.13)."""
+    """Stiction coefficient C2 of the squeeze film under the disc: the film force is C2 u / x^3 (eq 2.15, from
+    the Reynolds equation 2.7-2.13 over the bevelled seat).
+
+    Parameters
+    ----------
+    inner_radius, outer_radius : float
+        R_i, R_o [m].
+    bevel_angle : float
+        theta [rad].
+    viscosity : float
+        mu [Pa s].
+
+    Returns
+    -------
+    float
+        C2 = 3 mu G / sin^4(theta) [N m^2 s] (:func:`squeeze_area_moment`).
+
+    References
+    ----------
+    Knutson (2016), eqs 2.7-2.15.
+
+    Examples
+    --------
+    Table 2.3's 7.630e-11 N m^2 s at 21 C (mu = 0.0705 Pa s by eq A.3; docs/errata.md):
+
+    >>> import math
+    >>> from lumped.fluid.oil import thesis_oil_viscosity
+    >>> round(c2_coefficient(5.24e-3, 7.5e-3, math.radians(54.0), thesis_oil_viscosity(294.15)[1]) / 7.630e-11, 3)
+    0.999
+    """
     return 3.0 * viscosity / math.sin(bevel_angle) ** 4 * squeeze_area_moment(inner_radius, outer_radius)
 
 
 def helical_spring_stiffness(wire_diameter: float, coil_diameter: float, shear_modulus: float,
                              active_coils: float) -> float:
-    """k_spr = d^4 G / (8 D^3 N_a) [N/m] (eq 2.43)."""
+    """Stiffness of a helical compression spring, k_spr = d^4 G / (8 D^3 N_a) (eq 2.43).
+
+    Parameters
+    ----------
+    wire_diameter, coil_diameter : float
+        d, D [m].
+    shear_modulus : float
+        G [Pa].
+    active_coils : float
+        N_a [-].
+
+    Returns
+    -------
+    float
+        k_spr [N/m].
+
+    References
+    ----------
+    Knutson (2016), eq 2.43, Table 2.2.
+
+    Examples
+    --------
+    >>> round(helical_spring_stiffness(0.61e-3, 9.9e-3, 80.0e9, 6.5))     # Table 2.3: 220 N/m
+    220
+    """
     return wire_diameter**4 * shear_modulus / (8.0 * coil_diameter**3 * active_coils)
 
 
@@ -339,12 +428,33 @@ def _film_root(c: float, top: float, side: float) -> float:
 
 
 def film_force(p_up: float, p_down: float, p_lim: float, k: float, r_i: float, r_o: float) -> float:
-    """Axial force [N] of the fluid on the disc face over r <= R_o (Poiseuille regime) with a squeeze
-    film whose pressure cannot fall below p_lim: P_up inside R_i (eq 2.6), the Reynolds film of eq 2.8
-    on R_i..R_o, minus P_down on the back face (eq 2.12).
+    """Axial force of the fluid on the disc face over r <= R_o (Poiseuille regime) with a squeeze film whose
+    pressure cannot fall below p_lim: P_up inside R_i (eq 2.6), the Reynolds film of eq 2.8 on R_i..R_o, minus
+    P_down on the back face (eq 2.12).
 
-    ``k`` = 3 mu u / (x^3 sin^4 theta) [Pa/m^2], the squeeze term of eq 2.11 in the projected radius r
-    (> 0 opening). Where the full film of eq 2.11 would fall below p_lim the film cavitates: a zone
+    Parameters
+    ----------
+    p_up, p_down : float
+        Pressures upstream and behind the disc [Pa].
+    p_lim : float
+        The film's lowest pressure [Pa] (the vapour pressure minus the oil's tensile strength).
+    k : float
+        3 mu u / (x^3 sin^4 theta) [Pa/m^2], the squeeze term of eq 2.11 in the projected radius r (> 0 opening).
+    r_i, r_o : float
+        R_i, R_o [m].
+
+    Returns
+    -------
+    float
+        The force [N], positive opening.
+
+    References
+    ----------
+    Knutson (2016), eqs 2.6-2.17; Scheidl & Gradl (2016) for separating plates.
+
+    Notes
+    -----
+    Where the full film of eq 2.11 would fall below p_lim the film cavitates: a zone
     r_1..r_2 at p_lim bounded by liquid zones in which eq 2.8 holds with the Reynolds (Swift-Stieber)
     condition P = p_lim, dP/dr = 0 at the cavity edges, which conserves mass while the cavity grows
     (the edge moves with the liquid; Jakobsson-Floberg-Olsson theory), as in the approximate
@@ -376,8 +486,34 @@ def film_force(p_up: float, p_down: float, p_lim: float, k: float, r_i: float, r
 # ----------------------------------------------------------------- forces
 def pressure_force(x: float, u: float, dp: float, p_down: float, p_vap: float, p, o: int,
                    regime: int, contact: int = -1) -> float:
-    """Pressure force F_p [N] with the Poiseuille/orifice switch of eq 2.18.
+    """Pressure force F_p on the disc with the Poiseuille/orifice switch of eq 2.18.
 
+    Parameters
+    ----------
+    x, u : float
+        Opening [m], rate [m/s].
+    dp : float
+        P_up - P_down [Pa].
+    p_down, p_vap : float
+        Pressure behind the disc and the vapour pressure [Pa].
+    p : array of float
+        The flat parameter array; ``o`` the disc's block offset.
+    regime : int
+        0 Poiseuille, 1 orifice, -1 from x.
+    contact : int
+        Contact state (-1: from x).
+
+    Returns
+    -------
+    float
+        F_p [N], positive opening.
+
+    References
+    ----------
+    Knutson (2016), eqs 2.13-2.18.
+
+    Notes
+    -----
     Poiseuille regime: C1 dP A_disc (eq 2.13); with the squeeze_film effect the Reynolds film of
     eqs 2.7-2.13 over the bevelled annulus, x + min_gap thick, its pressure bounded below at the
     vapour pressure minus the oil's tensile strength (eq 2.17 applied to the film pressure, not
@@ -403,8 +539,30 @@ def pressure_force(x: float, u: float, dp: float, p_down: float, p_vap: float, p
 
 
 def disc_acceleration(x: float, u: float, f, p, o: int, contact: int, regime: int) -> float:
-    """du/dt [m/s^2] of the disc: F / (m_disc + m_s/3 + m_f) with F of eq 2.4 (eqs 2.1-2.4).
+    """Acceleration of the disc, F / (m_disc + m_s/3 + m_f) with F of eq 2.4 (eqs 2.1-2.4).
 
+    Parameters
+    ----------
+    x, u : float
+        Opening [m] and its rate [m/s].
+    f : lumped.valves.common.ValveInputs
+        What the pump gives the valve (pressures, density, viscosity, the orifice flow and its partials).
+    p : array of float
+        The flat parameter array; ``o`` the disc's block offset (:data:`DISC`).
+    contact, regime : int
+        The valve's mode (contact state; pressure regime of eq 2.18).
+
+    Returns
+    -------
+    float
+        du/dt [m/s^2].
+
+    References
+    ----------
+    Knutson (2016), eqs 2.1-2.4, 2.18-2.20, 2.28, 2.30, 2.36, 2.37.
+
+    Notes
+    -----
     Forces: pressure (eq 2.18), spring with preload (eq 2.19), seat/stop contact
     (eq 2.20), drag opposing the motion (eq 2.28), and with the flow_force effect the
     steady (eq 2.36, the jet leaving at theta_jet, eq 2.30) and transient (eq 2.37, an oil column

@@ -143,6 +143,15 @@ def contact_reaction(x: float, u: float, p, o: int, contact: int) -> float:
 def contact_slopes(x: float, p, o: int, contact: int) -> tuple[float, float]:
     """Partials (dF_c/dx, dF_c/du) of :func:`contact_reaction` (eq 2.20) in a contact state.
 
+    Parameters
+    ----------
+    x : float
+        Opening [m] (decides the state when ``contact`` is -1).
+    p : array of float
+        The flat parameter array; ``o`` the valve's block offset.
+    contact : int
+        Contact state.
+
     Returns
     -------
     tuple of float
@@ -303,8 +312,21 @@ def mass_flow(qo: float, aq: float, u: float, dp: float, rho: float, dq_ddp: flo
 
 
 def regime_of(x: float, p, o: int) -> int:
-    """Pressure regime decided from the opening (eq 2.18): Poiseuille (0) below the regime opening x_t,
-    orifice (1) above it or where the valve has no regime switch (x_t <= 0)."""
+    """Pressure regime decided from the opening (eq 2.18).
+
+    Parameters
+    ----------
+    x : float
+        Opening [m].
+    p : array of float
+        The flat parameter array; ``o`` the valve's block offset.
+
+    Returns
+    -------
+    int
+        Poiseuille (0) below the regime opening x_t, orifice (1) above it or where the valve has no regime
+        switch (x_t <= 0).
+    """
     xt = p[o + VALVE.regime_opening]
     if xt > 0.0 and x < xt:
         return POISEUILLE
@@ -313,8 +335,25 @@ def regime_of(x: float, p, o: int) -> int:
 
 # --------------------------------------------------------------------------- force terms kinds share
 def spring_force(x: float, stiffness: float, preload: float) -> float:
-    """Spring force k_spr (x + x_pre) [N] pushing the element toward its seat (eq 2.19; subtracted by the
-    caller), x the opening [m], x_pre the compression when seated [m].
+    """Spring force pushing the element toward its seat, k_spr (x + x_pre) (eq 2.19; the caller subtracts it).
+
+    Parameters
+    ----------
+    x : float
+        Opening [m].
+    stiffness : float
+        k_spr [N/m].
+    preload : float
+        x_pre, the compression when seated [m].
+
+    Returns
+    -------
+    float
+        The force [N].
+
+    References
+    ----------
+    Knutson (2016), eq 2.19.
 
     Examples
     --------

@@ -393,12 +393,41 @@ REED = kind_block(ReedValve)
 
 def pressure_load_multiplier(x: float, plateau: float, n1: float, n0: float, d2: float, d1: float,
                              d0: float, x_zero: float) -> float:
-    """X(x) of eq 3.83 (dimensionless), x the tip opening in m.
+    """Pressure load multiplier X(x) of the reed: the fraction of dP that loads it at tip opening x (eq 3.83),
+    max(0, min(plateau, (n1 x + n0) / (x^3 + d2 x^2 + d1 x + d0))), and 0 from x_zero = -n0/n1 on.
 
-    max(0, min(plateau, (n1 x + n0) / (x^3 + d2 x^2 + d1 x + d0))), and 0 from the opening
-    x_zero = -n0/n1 (1.369 mm) on: the printed rational function has a pole near 1.651 mm
-    and turns back up to the 0.835 cap above it, which the measurements of Figure 3.24 do
-    not show (docs/errata.md).
+    The printed rational function has a pole near 1.651 mm and turns back up to the 0.835 cap above it,
+    which the measurements of Figure 3.24 do not show: X is held at 0 beyond its first zero (docs/errata.md).
+
+    Parameters
+    ----------
+    x : float
+        Tip opening [m].
+    plateau : float
+        The cap at small openings [-] (Table 3.12).
+    n1, n0, d2, d1, d0 : float
+        The fit's coefficients, x in m.
+    x_zero : float
+        -n0/n1 [m].
+
+    Returns
+    -------
+    float
+        X [-].
+
+    References
+    ----------
+    Knutson (2016), eq 3.83, Table 3.12, Figure 3.24.
+
+    Examples
+    --------
+    The prototype's fit (thesis-reed.toml): the 0.835 plateau, and 0 from 1.369 mm on:
+
+    >>> fit = (0.835, -52.28, 0.07158, 0.8145, -50.23, 0.08292, 0.07158 / 52.28)
+    >>> pressure_load_multiplier(0.0, *fit), round(pressure_load_multiplier(1e-3, *fit), 3)
+    (0.835, 0.59)
+    >>> pressure_load_multiplier(1.37e-3, *fit)
+    0.0
     """
     if x >= x_zero:
         return 0.0
@@ -412,8 +441,19 @@ def pressure_load_multiplier(x: float, plateau: float, n1: float, n0: float, d2:
 
 def pressure_load_multiplier_slope(x: float, plateau: float, n1: float, n0: float, d2: float, d1: float,
                                    d0: float, x_zero: float) -> float:
-    """dX/dx [1/m] of eq 3.83 as :func:`pressure_load_multiplier` takes it: the rational function's
-    derivative, 0 where X is held at its plateau or at 0."""
+    """Slope dX/dx of :func:`pressure_load_multiplier` (eq 3.83 differentiated), 0 where X is held at its
+    plateau or at 0.
+
+    Parameters
+    ----------
+    x, plateau, n1, n0, d2, d1, d0, x_zero : float
+        As :func:`pressure_load_multiplier`.
+
+    Returns
+    -------
+    float
+        dX/dx [1/m].
+    """
     if x >= x_zero:
         return 0.0
     den = ((x + d2) * x + d1) * x + d0
@@ -425,21 +465,70 @@ def pressure_load_multiplier_slope(x: float, plateau: float, n1: float, n0: floa
 
 
 def packed_multiplier(x: float, p, o: int) -> float:
-    """X(x) of eq 3.83 [-] (:func:`pressure_load_multiplier`) with the fit packed in the reed's block at ``o``."""
+    """X(x) of eq 3.83 (:func:`pressure_load_multiplier`) with the fit packed in the reed's block.
+
+    Parameters
+    ----------
+    x : float
+        Tip opening [m].
+    p : array of float
+        The flat parameter array; ``o`` the reed's block offset.
+
+    Returns
+    -------
+    float
+        X [-].
+    """
     return pressure_load_multiplier(x, p[o + REED.multiplier_poiseuille], p[o + REED.multiplier_n1],
                                     p[o + REED.multiplier_n0], p[o + REED.multiplier_d2], p[o + REED.multiplier_d1],
                                     p[o + REED.multiplier_d0], p[o + REED.x_zero])
 
 
 def packed_multiplier_slope(x: float, p, o: int) -> float:
-    """dX/dx [1/m] of eq 3.83 (:func:`pressure_load_multiplier_slope`) with the fit packed at ``o``."""
+    """dX/dx of eq 3.83 (:func:`pressure_load_multiplier_slope`) with the fit packed in the reed's block.
+
+    Parameters
+    ----------
+    x : float
+        Tip opening [m].
+    p : array of float
+        The flat parameter array; ``o`` the reed's block offset.
+
+    Returns
+    -------
+    float
+        dX/dx [1/m].
+    """
     return pressure_load_multiplier_slope(x, p[o + REED.multiplier_poiseuille], p[o + REED.multiplier_n1],
                                           p[o + REED.multiplier_n0], p[o + REED.multiplier_d2],
                                           p[o + REED.multiplier_d1], p[o + REED.multiplier_d0], p[o + REED.x_zero])
 
 
 def reed_acceleration(x: float, u: float, f, p, o: int, contact: int, regime: int) -> float:
-    """Tip acceleration x'' [m/s^2] of the reed from eq 3.21 (per unit area, Pa)."""
+    """Tip acceleration of the one-mode reed from eq 3.21 (per unit area):
+    M x'' = gamma1 (dP X(x) - c x' - kappa (x - x0) + F_c) - gamma2 rho |x'| x' C_D / 2.
+
+    Parameters
+    ----------
+    x, u : float
+        Tip opening [m] and its rate [m/s].
+    f : lumped.valves.common.ValveInputs
+        What the pump gives the valve (dp, rho used).
+    p : array of float
+        The flat parameter array; ``o`` the reed's block offset (:data:`REED`).
+    contact, regime : int
+        The valve's mode (contact state; the reed has no regime switch).
+
+    Returns
+    -------
+    float
+        x'' [m/s^2].
+
+    References
+    ----------
+    Knutson (2016), eq 3.21 (the drag as |x'| x': docs/errata.md), eq 3.83; valvelab's contact (eq 2.20 per
+    unit area).
+    """
     g1 = p[o + REED.gamma1]
     X = packed_multiplier(x, p, o)
     force = g1 * (f.dp * X - p[o + REED.damping_total] * u - p[o + REED.stiffness] * (x - p[o + REED.preload]))
@@ -455,10 +544,34 @@ COMPILED = False
 
 def reed_accelerations(y, s: int, n: int, x: float, u: float, f, p, o: int, contact: int, regime: int,
                        dydt) -> None:
-    """q'' [m/s^2] of the modal or FE reed into dydt[s + n:s + 2n] (lumped.reed.structure):
-    M q'' + C q' + K (q - q0) = b [dP X(x) + F_c(x, x')] - Q_drag, with A = M^-1 K, B = M^-1 C, g = M^-1 b
-    packed in the tail; X of eq 3.83 and the seat and stop of eq 2.20 (per unit area) at the port's opening
-    x = e . q, the drag of eq 3.21 on the width-mean rate of each strip."""
+    """Accelerations q'' of the modal or FE reed (lumped.reed.structure):
+    M q'' + C q' + K (q - q0) = b [dP X(x) + F_c(x, x')] - Q_drag.
+
+    A = M^-1 K, B = M^-1 C, g = M^-1 b are packed in the tail; X of eq 3.83 and the seat and stop of eq 2.20
+    (per unit area) act at the port's opening x = e . q, the drag of eq 3.21 on the width-mean rate of each
+    strip.
+
+    Parameters
+    ----------
+    y : array of float
+        The pump's state; the reed's coordinates q [m] at ``y[s:s + n]``, rates at ``y[s + n:s + 2n]``.
+    s, n : int
+        First state index, number of coordinates.
+    x, u : float
+        The opening [m] and its rate [m/s].
+    f : lumped.valves.common.ValveInputs
+        What the pump gives the valve.
+    p : array of float
+        The flat parameter array; ``o`` the reed's block offset.
+    contact, regime : int
+        The valve's mode.
+    dydt : array of float
+        Written: q'' [m/s^2] at ``dydt[s + n:s + 2n]``.
+
+    References
+    ----------
+    Knutson (2016), eqs 3.21, 3.83; docs/reed_dynamics.md.
+    """
     w = int(p[o + REED.tail])
     g, q0 = w + n, w + 2 * n
     a_m = w + 3 * n
@@ -491,8 +604,21 @@ def reed_accelerations(y, s: int, n: int, x: float, u: float, f, p, o: int, cont
 
 
 def strip_rate(p, y, r_m: int, r: int, n: int, k: int) -> float:
-    """Width-mean rate wbar'_k = W_k . q' [m/s] of the reed's strip k, from the modal rates y[r:r + n]
-    (W at p[r_m:], lumped.reed.structure.tail): the velocity eq 3.21's quadratic drag acts on."""
+    """Width-mean rate wbar'_k = W_k . q' of the reed's strip k: the velocity eq 3.21's quadratic drag acts on.
+
+    Parameters
+    ----------
+    p, y : array of float
+        The flat parameter array (W at ``p[r_m:]``, lumped.reed.structure.tail) and the state (the modal
+        rates at ``y[r:r + n]``).
+    r_m, r, n, k : int
+        Offset of W, of the rates, their number, the strip.
+
+    Returns
+    -------
+    float
+        wbar'_k [m/s].
+    """
     vk = 0.0
     for j in range(n):
         vk += p[r_m + k * n + j] * y[r + j]
@@ -502,7 +628,7 @@ def strip_rate(p, y, r_m: int, r: int, n: int, k: int) -> float:
 def reed_accelerations_jacobian(y, s: int, n: int, x: float, u: float, f, p, o: int, contact: int, regime: int,
                                 jac) -> None:
     """The partials of :func:`reed_accelerations` by the reed's positions q and rates q' into the pump's
-    Jacobian (rows s + n.., columns s.. and s + n..) [1/s^2, 1/s]:
+    Jacobian ``jac`` (rows s + n.., columns s.. and s + n..) [1/s^2, 1/s]; arguments as there::
 
         dq''/dq = g L_x e^T - A,    dq''/dq' = g L_u e^T - B - D diag(C_D rho |wbar'_k|) W,
 
