@@ -17,10 +17,9 @@ import scipy.sparse.linalg as spla
 from skfem import Basis, BilinearForm, ElementLineHermite, LinearForm, asm, condense, solve as fem_solve
 
 from geometry.reed import Reed
-from lumped.reed.mode_function import ReedProperties
 
 from .mesh import check_size, line_mesh
-from .modes import ModalResult, ModeShapes, bending_labels
+from .modes import ModalResult, ModeShapes, bending_labels, fidelity_functions
 from .resources import beam_bytes, check_memory
 
 #: default elements per reed length; Hermite cubics converge as h^4: L/200 is exact to ~1e-9
@@ -167,22 +166,8 @@ def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> BeamR
     )
 
 
-def reed_properties(reed: Reed, mesh_size: float | None = None) -> ReedProperties:
-    """omega_n [rad/s], kappa [Pa/m] and gamma1..3 (Table 3.4, static shape) of the E-B beam FE model."""
-    r = solve(reed, mesh_size)
-    return ReedProperties.from_solution("beam", reed, r)
-
-
-def modes(reed: Reed, n: int, mesh_size: float | None = None) -> BeamResult:
-    """The first n bending frequencies [rad/s] of the E-B beam FE model, labelled bending 1..n."""
-    return solve(reed, mesh_size, n_modes=max(int(n), 1))
-
-
-def properties_and_modes(reed: Reed, n: int, mesh_size: float | None = None):
-    """(ReedProperties, BeamResult with n modes) from one solution."""
-    r = modes(reed, n, mesh_size)
-    props = ReedProperties.from_solution("beam", reed, r)
-    return props, r
+#: the fidelity's functions (fea.fidelities): properties, the first n bending modes (labelled bending 1..n), both
+reed_properties, modes, properties_and_modes = fidelity_functions("beam", solve, __name__)
 
 
 def mode_shapes(result: BeamResult, reed: Reed, n: int | None = None) -> ModeShapes:

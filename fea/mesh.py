@@ -22,6 +22,7 @@ session all work.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 from dataclasses import dataclass
 
 import meshio
@@ -255,33 +256,19 @@ def _section_lines(gmsh, reed: Reed, half: bool) -> list[int]:
 
 
 def _groove_surfaces(gmsh, reed: Reed) -> list[int]:
+    """The grooves' footprints as OpenCASCADE surfaces (each kind's own, geometry.reed.GrooveShape.occ_surfaces)."""
     occ = gmsh.model.occ
-    out = []
-    for g in reed.grooves:
-        if g.kind == "rect":
-            out.append(occ.addRectangle(g.s_start, g.y_center - g.width / 2, 0.0, g.s_end - g.s_start, g.width))
-        else:
-            outer = occ.addDisk(g.s_center, 0.0, 0.0, g.r_outer, g.r_outer)
-            box = occ.addRectangle(g.s_center, -2 * g.r_outer, 0.0, 2 * g.r_outer, 4 * g.r_outer)
-            half, _ = occ.intersect([(2, outer)], [(2, box)])
-            if g.r_inner > 0.0:
-                inner = occ.addDisk(g.s_center, 0.0, 0.0, g.r_inner, g.r_inner)
-                half, _ = occ.cut(half, [(2, inner)])
-            out += [t for d, t in half if d == 2]
-    return out
+    return [t for g in reed.grooves for t in g.shape.occ_surfaces(g, occ)]
 
 
 def is_symmetric(reed: Reed, tol: float = 1e-12) -> bool:
-    """True when the reed (outline and grooves) is mirror-symmetric about its centre line y = 0."""
-    keys = set()
-    for g in reed.grooves:
-        if g.kind == "rect":
-            keys.add((round(g.s_start / tol), round(g.s_end / tol), round(g.y_center / tol),
-                      round(g.width / tol), round(g.depth / tol)))
-    for k in keys:
-        if (k[0], k[1], -k[2], k[3], k[4]) not in keys:
-            return False
-    return True
+    """True when the reed (outline and grooves) is mirror-symmetric about its centre line y = 0: every groove's
+    mirror image (geometry.reed.GrooveShape.mirror) is one of its grooves (to ``tol`` [m])."""
+    def key(g):
+        return tuple(round(v / tol) if isinstance(v, float) else v for v in dataclasses.astuple(g))
+
+    keys = {key(g) for g in reed.grooves}
+    return all(key(g.shape.mirror(g)) in keys for g in reed.grooves)
 
 
 def _grade_toward_clamp(gmsh, reed: Reed, mesh_size: float, quad: bool) -> None:

@@ -28,10 +28,9 @@ from skfem import Basis, BilinearForm, ElementTriArgyris, LinearForm, asm, conde
 from skfem.helpers import dd, ddot, eye, trace
 
 from geometry.reed import Reed
-from lumped.reed.mode_function import ReedProperties
 
 from .mesh import FaceMesh, face_mesh, scaled_mesh_size
-from .modes import ModalResult, ModeShapes, describe_modes, face_grid, first_bending, pull_inside
+from .modes import ModalResult, ModeShapes, describe_modes, face_grid, fidelity_functions, first_bending, pull_inside
 from .resources import check_memory, plate_bytes
 
 #: default element size [m] away from the clamp for the 1 in thesis reeds, scaled for others
@@ -278,22 +277,8 @@ def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> Plate
     )
 
 
-def reed_properties(reed: Reed, mesh_size: float | None = None) -> ReedProperties:
-    """omega_n [rad/s], kappa [Pa/m] and gamma1..3 (Table 3.4, static shape) of the Kirchhoff plate."""
-    r = solve(reed, mesh_size)
-    return ReedProperties.from_solution("plate", reed, r)
-
-
-def modes(reed: Reed, n: int, mesh_size: float | None = None) -> PlateResult:
-    """The first n natural frequencies [rad/s] of the Kirchhoff plate, named by nodal pattern (fea.modes)."""
-    return solve(reed, mesh_size, n_modes=max(int(n), 4))
-
-
-def properties_and_modes(reed: Reed, n: int, mesh_size: float | None = None):
-    """(ReedProperties, PlateResult with at least n modes) from one solution."""
-    r = modes(reed, n, mesh_size)
-    props = ReedProperties.from_solution("plate", reed, r)
-    return props, r
+#: the fidelity's functions (fea.fidelities): properties, at least 4 modes (the naming of plate modes needs them), both
+reed_properties, modes, properties_and_modes = fidelity_functions("plate", solve, __name__, n_min=4)
 
 
 def mode_shapes(result: PlateResult, reed: Reed, n: int | None = None, ns: int = 60, ny: int = 21) -> ModeShapes:

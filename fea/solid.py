@@ -31,7 +31,9 @@ from geometry.reed import Reed
 from lumped.reed.mode_function import ReedProperties
 
 from .mesh import SolidMesh, is_symmetric, scaled_mesh_size, solid_mesh, write_vtu
-from .modes import ModalResult, ModeShapes, describe_modes, face_grid, first_bending, probe_z, pull_inside
+from .modes import (
+    ModalResult, ModeShapes, describe_modes, face_grid, fidelity_functions, first_bending, probe_z, pull_inside,
+)
 from .resources import check_memory, solid_bytes
 
 #: default element size [m] (away from the clamp) for the 1 in thesis reeds, scaled for others
@@ -326,26 +328,10 @@ def reed_properties(reed: Reed, mesh_size: float | None = None) -> ReedPropertie
     return _reed_properties(reed, None if mesh_size is None else float(mesh_size))
 
 
-@functools.lru_cache(maxsize=16)
-def _reed_properties(reed: Reed, mesh_size: float | None) -> ReedProperties:
-    r = solve(reed, mesh_size)
-    return ReedProperties.from_solution("solid", reed, r)
-
-
-def modes(reed: Reed, n: int, mesh_size: float | None = None) -> SolidResult:
-    """The first n natural frequencies [rad/s] of the 3-D solid, bending and torsion, named by nodal pattern.
-
-    A symmetric reed is solved as its symmetric and antisymmetric halves (n modes each); the
-    result's ``first(n)`` gives the CONTRACT ``frequencies`` and ``mode_kinds``.
-    """
-    return solve(reed, mesh_size, n_modes=max(int(n), 1), torsion=True)
-
-
-def properties_and_modes(reed: Reed, n: int, mesh_size: float | None = None):
-    """(ReedProperties, SolidResult with at least n modes) from one solution of each half model."""
-    r = modes(reed, n, mesh_size)
-    props = ReedProperties.from_solution("solid", reed, r)
-    return props, r
+#: the fidelity's functions (fea.fidelities): properties (memoised below), the modes with torsion (a symmetric reed is
+#: solved as its symmetric and antisymmetric halves, n modes each), both
+_reed_properties, modes, properties_and_modes = fidelity_functions("solid", solve, __name__, torsion=True)
+_reed_properties = functools.lru_cache(maxsize=16)(_reed_properties)
 
 
 def mode_shapes(result: SolidResult, reed: Reed, n: int | None = None, ns: int = 60, ny: int = 21) -> ModeShapes:

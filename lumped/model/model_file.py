@@ -499,9 +499,25 @@ def _derived_rows(v):
 
 # --------------------------------------------------------------------------- key paths
 def with_values(model: PumpModel, values: dict, field_prefix: str = "") -> PumpModel:
-    """``model`` with keys changed by their paths (``pump.dead_volume``, ``valves.inlet.spring.stiffness``,
-    ``valves.spring.stiffness`` for both valves, ``valves.delivery.geometry.thickness``,
-    ``effects.seat_compliance.delivery.k_seat``); InputError names the path of a bad key or value.
+    """A model with some of its keys changed, each named by its path in a model file.
+
+    Paths: ``pump.dead_volume``, ``valves.inlet.spring.stiffness``, ``valves.spring.stiffness`` for both
+    valves, ``valves.delivery.geometry.thickness``, ``effects.seat_compliance.delivery.k_seat``; an
+    InputError names the path of a bad key or value.
+
+    Parameters
+    ----------
+    model : PumpModel
+        The model to start from.
+    values : dict
+        {key path: value} (SI units; an effect's switch true/false).
+    field_prefix : str
+        Put before a path in an error (e.g. the sweep's ``factors.``).
+
+    Returns
+    -------
+    PumpModel
+        A new model (``model`` is not changed).
 
     Examples
     --------

@@ -24,30 +24,142 @@ from geometry.errors import InputError
 
 
 def decay_rate(c_c: float, gamma1: float, rho_c: float, h_eff: float) -> float:
-    """sigma = gamma1 c_c / (2 rho_c h_eff) [1/s], the envelope decay rate of eq 3.67."""
+    """Envelope decay rate of a plucked reed's ring-down, sigma = gamma1 c_c / (2 rho_c h_eff) (eq 3.67).
+
+    Parameters
+    ----------
+    c_c : float
+        Internal damping [Pa s/m].
+    gamma1 : float
+        [-].
+    rho_c : float
+        [kg/m^3].
+    h_eff : float
+        [m].
+
+    Returns
+    -------
+    float
+        sigma [1/s].
+
+    References
+    ----------
+    Knutson (2016), eq 3.67.
+    """
     return gamma1 * c_c / (2.0 * rho_c * h_eff)
 
 
 def internal_damping(sigma: float, gamma1: float, rho_c: float, h_eff: float) -> float:
-    """c_c = 2 rho_c h_eff sigma / gamma1 [Pa s/m], from a fitted decay rate sigma [1/s] (eq 3.67)."""
+    """Internal damping from a fitted decay rate, c_c = 2 rho_c h_eff sigma / gamma1 (eq 3.67 inverted).
+
+    Parameters
+    ----------
+    sigma : float
+        Decay rate [1/s].
+    gamma1 : float
+        [-].
+    rho_c : float
+        [kg/m^3].
+    h_eff : float
+        [m].
+
+    Returns
+    -------
+    float
+        c_c [Pa s/m].
+
+    References
+    ----------
+    Knutson (2016), eq 3.67, Table 3.10.
+
+    Examples
+    --------
+    >>> round(internal_damping(decay_rate(77.50, 1.6, 1410.0, 1.161e-3), 1.6, 1410.0, 1.161e-3), 2)   # Table 3.10's mean
+    77.5
+    """
     return 2.0 * rho_c * h_eff * sigma / gamma1
 
 
 def undamped_frequency(omega_d: float, c_c: float, gamma1: float, rho_c: float, h_eff: float) -> float:
-    """omega_n = sqrt(omega_d^2 + (gamma1 c_c / (2 rho_c h_eff))^2) [rad/s] (eq 3.70)."""
+    """Undamped frequency of a plucked reed from its damped one, omega_n = sqrt(omega_d^2 + sigma^2) (eq 3.70).
+
+    Parameters
+    ----------
+    omega_d : float
+        Damped frequency [rad/s].
+    c_c : float
+        Internal damping [Pa s/m].
+    gamma1 : float
+        [-].
+    rho_c : float
+        [kg/m^3].
+    h_eff : float
+        [m].
+
+    Returns
+    -------
+    float
+        omega_n [rad/s].
+
+    References
+    ----------
+    Knutson (2016), eq 3.70.
+    """
     return float(np.hypot(omega_d, decay_rate(c_c, gamma1, rho_c, h_eff)))
 
 
 def stiffness_from_frequency(omega_n: float, gamma1: float, rho_c: float, h_eff: float) -> float:
-    """kappa = rho_c h_eff omega_n^2 / gamma1 [Pa/m] (eq 3.73)."""
+    """Stiffness of a reed from its undamped frequency, kappa = rho_c h_eff omega_n^2 / gamma1 (eq 3.73).
+
+    Parameters
+    ----------
+    omega_n : float
+        [rad/s].
+    gamma1 : float
+        [-].
+    rho_c : float
+        [kg/m^3].
+    h_eff : float
+        [m].
+
+    Returns
+    -------
+    float
+        kappa [Pa/m].
+
+    References
+    ----------
+    Knutson (2016), eq 3.73, Table 3.10.
+    """
     return rho_c * h_eff * omega_n**2 / gamma1
 
 
 def implied_effective_thickness(kappa: float, omega_d: float, c_c: float, gamma1: float,
                                 rho_c: float) -> float:
-    """h_eff [m] for which eqs 3.70 and 3.73 turn (c_c, omega_d) into kappa (inverse of the two).
+    """The effective thickness for which eqs 3.70 and 3.73 turn (c_c, omega_d) into kappa: the larger root h of
+    kappa = rho_c h omega_d^2 / gamma1 + gamma1 c_c^2 / (4 rho_c h).
 
-    kappa = rho_c h omega_d^2 / gamma1 + gamma1 c_c^2 / (4 rho_c h): the larger root in h.
+    Parameters
+    ----------
+    kappa : float
+        [Pa/m].
+    omega_d : float
+        [rad/s].
+    c_c : float
+        [Pa s/m].
+    gamma1 : float
+        [-].
+    rho_c : float
+        [kg/m^3].
+
+    Returns
+    -------
+    float
+        h_eff [m].
+
+    References
+    ----------
+    Knutson (2016), eqs 3.70, 3.73.
     """
     a = rho_c * omega_d**2 / gamma1
     c = gamma1 * c_c**2 / (4.0 * rho_c)
@@ -55,7 +167,32 @@ def implied_effective_thickness(kappa: float, omega_d: float, c_c: float, gamma1
 
 
 def ringdown(t, amplitude: float, sigma: float, omega_d: float, phase: float, offset: float = 0.0):
-    """Eq 3.67: amplitude exp(-sigma t) sin(omega_d t + phase) + offset (units of amplitude)."""
+    """A plucked reed's ring-down, amplitude exp(-sigma t) sin(omega_d t + phase) + offset (eq 3.67).
+
+    Parameters
+    ----------
+    t : array_like
+        Time [s].
+    amplitude : float
+        In the trace's units.
+    sigma : float
+        [1/s].
+    omega_d : float
+        [rad/s].
+    phase : float
+        [rad].
+    offset : float
+        In the trace's units.
+
+    Returns
+    -------
+    numpy.ndarray
+        The signal (the amplitude's units).
+
+    References
+    ----------
+    Knutson (2016), eq 3.67.
+    """
     t = np.asarray(t, dtype=float)
     return amplitude * np.exp(-sigma * t) * np.sin(omega_d * t + phase) + offset
 

@@ -51,7 +51,9 @@ SINGLE_FRACTION = 0.2
 
 @dataclass(frozen=True)
 class StopRule:
-    """Run at least ``revolutions``; with ``max_revolutions`` (> revolutions) continue until the cyclic
+    """When a run of the pump stops: after a number of revolutions, or at the cyclic steady state.
+
+    Run at least ``revolutions``; with ``max_revolutions`` (> revolutions) continue until the cyclic
     steady state (relative change of the delivery and of the state at TDC between the last two
     revolutions below ``tol``, or the integrator's rtol if larger: :func:`cycle_change`) or that many.
 
