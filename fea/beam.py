@@ -101,11 +101,30 @@ class BeamSystem:
 
 
 def assemble(reed: Reed, mesh_size: float | None = None) -> BeamSystem:
-    """Stiffness, mass and uniform-pressure load of the E-B beam reed (eq 3.8 without damping and fluid).
+    """Stiffness, mass and uniform-pressure load of the Euler-Bernoulli beam (Hermite cubics, eq 3.8 without damping
+    and fluid).
 
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    mesh_size : float, optional
+        Element size [m]; None: the fidelity's default for this reed.
+
+    Returns
+    -------
+    system
+        K [N/m], M [kg] and the load of a unit pressure (SI), with its probes and free DOFs.
+
+    Notes
+    -----
     Elements of at most ``mesh_size`` [m] (default L/200) with nodes on every breakpoint;
     EI(s), rho A(s) and W(s) of the exact profile at Gauss points of order INTORDER. DOFs
     and memory are checked first.
+
+    References
+    ----------
+    Knutson (2016), eq 3.8, section 3.2; scikit-fem.
     """
     h = default_mesh_size(reed) if mesh_size is None else float(mesh_size)
     check_size(reed, h)
@@ -140,10 +159,30 @@ def _eigen(sys: BeamSystem, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> BeamResult:
-    """Bending modes [rad/s], uniform-load stiffness kappa = p / v(L) [Pa/m] and shapes of the E-B beam.
+    """The modes, the uniform-load stiffness kappa = p / w(L) and the centre-line shapes of the Euler-Bernoulli beam
+    (Hermite cubics, eq 3.8 without damping and fluid).
 
-    EI(s), rho A(s) of any profile (steps, tapers, thickness steps, grooves); the mode
-    shapes (``modes``, w at ``s``) are kept for plots. DOFs and memory are checked first.
+    EI(s), rho A(s) of any profile (steps, tapers, thickness steps, grooves) from geometry.Reed.section. The DOFs and memory are estimated first: an InputError naming --mesh-size where they exceed
+    what the machine has (fea.resources).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    mesh_size : float, optional
+        Element size [m]; None: the fidelity's default for this reed.
+    n_modes : int
+        Modes wanted.
+
+    Returns
+    -------
+    result
+        omega [rad/s] of the modes (named), kappa [Pa/m], the static and first-mode shapes psi(s) (psi(L) = 1), DOFs
+        and mesh size.
+
+    References
+    ----------
+    Knutson (2016), eqs 3.8, 3.30, section 3.5.
     """
     sys = assemble(reed, mesh_size)
     basis, ell, K, I = sys.basis, sys.ell, sys.K, sys.free
@@ -201,9 +240,29 @@ def default_fe_mesh_size(reed: Reed) -> float:
 
 
 def modal_basis(reed: Reed, port=None, mesh_size: float | None = None, n_modes: int = 6):
-    """The ``beam`` fidelity's modal basis (lumped.reed.modal_basis.ModalBasis): the first bending modes
-    of the Hermite E-B beam, modal masses phi^T M phi [kg], loads and openings integrated
-    exactly element by element. The same assembly as :func:`fe_reed` at the same mesh size."""
+    """The ``beam`` fidelity's modal basis for the modal reed valve: the first modes of the Euler-Bernoulli beam
+    (Hermite cubics, eq 3.8 without damping and fluid) with their modal masses, loads, openings and station values.
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    port : geometry.reed_port.ReedPort, optional
+        The port's footprint on the face (None: the whole face, eq 3.21's load).
+    mesh_size : float, optional
+        Element size [m]; None: the fidelity's default for this reed.
+    n_modes : int
+        Modes wanted.
+
+    Returns
+    -------
+    lumped.reed.modal_basis.ModalBasis
+        (SI units; lumped.reed.modal_basis).
+
+    References
+    ----------
+    docs/reed_dynamics.md; Knutson (2016), eq 3.21.
+    """
     from lumped.reed.modal_basis import Modes, Sampling, build_basis
 
     sys = assemble(reed, mesh_size)
@@ -215,10 +274,27 @@ def modal_basis(reed: Reed, port=None, mesh_size: float | None = None, n_modes: 
 
 
 def fe_reed(reed: Reed, port=None, mesh_size: float | None = None):
-    """The whole Hermite-beam reed (lumped.reed.modal_basis.FEReed): dense M, K on the free DOFs
-    (w and ell w' at each node but the clamped one, both in metres), the exact consistent
-    load of a unit pressure on the footprint, opening, tip and station rows. Default
-    element length :func:`default_fe_mesh_size` (about 50-60 DOFs)."""
+    """The whole beam FE reed for the reference stepper: dense M, K on the free DOFs, the load of a unit pressure on
+    the footprint, the opening, tip and station rows.
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    port : geometry.reed_port.ReedPort, optional
+        The port's footprint on the face (None: the whole face, eq 3.21's load).
+    mesh_size : float, optional
+        Element size [m]; None: default_fe_mesh_size.
+
+    Returns
+    -------
+    lumped.reed.modal_basis.FEReed
+        (SI units).
+
+    References
+    ----------
+    docs/reed_dynamics.md.
+    """
     from lumped.reed.modal_basis import FESystem, Sampling, fe_reed_from
 
     sys = assemble(reed, default_fe_mesh_size(reed) if mesh_size is None else mesh_size)

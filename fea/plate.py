@@ -210,10 +210,28 @@ class PlateSystem:
 
 
 def assemble(reed: Reed, mesh_size: float | None = None) -> PlateSystem:
-    """Stiffness, mass and uniform-pressure load of the clamped Kirchhoff plate reed (Argyris triangles).
+    """Stiffness, mass and uniform-pressure load of the clamped Kirchhoff plate (Argyris triangles).
 
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    mesh_size : float, optional
+        Element size [m]; None: the fidelity's default for this reed.
+
+    Returns
+    -------
+    system
+        K [N/m], M [kg] and the load of a unit pressure (SI), with its probes and free DOFs.
+
+    Notes
+    -----
     Before assembling, the DOFs and memory are estimated and an InputError naming
     --mesh-size raised if they exceed what the machine has (fea.resources).
+
+    References
+    ----------
+    Knutson (2016), eq 3.8, section 3.2; scikit-fem.
     """
     size = default_mesh_size(reed) if mesh_size is None else float(mesh_size)
     fm = face_mesh(reed, size, quad=False)
@@ -249,10 +267,30 @@ def _eigen(sys: PlateSystem, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> PlateResult:
-    """Modes (named by nodal pattern), uniform-load stiffness [Pa/m] and centre-line shapes of the clamped plate.
+    """The modes, the uniform-load stiffness kappa = p / w(L) and the centre-line shapes of the clamped Kirchhoff
+    plate (Argyris triangles).
 
-    Before assembling, the DOFs and memory are estimated and an InputError naming
-    --mesh-size raised if they exceed what the machine has (fea.resources).
+    D = E h^3 / (12 (1 - nu^2)) and rho h per element from the face mesh (its thickness and groove depth). The DOFs and memory are estimated first: an InputError naming --mesh-size where they exceed
+    what the machine has (fea.resources).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    mesh_size : float, optional
+        Element size [m]; None: the fidelity's default for this reed.
+    n_modes : int
+        Modes wanted.
+
+    Returns
+    -------
+    result
+        omega [rad/s] of the modes (named), kappa [Pa/m], the static and first-mode shapes psi(s) (psi(L) = 1), DOFs
+        and mesh size.
+
+    References
+    ----------
+    Knutson (2016), eqs 3.8, 3.30, section 3.5.
     """
     sys = assemble(reed, mesh_size)
     basis, fm, ell, K, I = sys.basis, sys.face, sys.ell, sys.K, sys.free
@@ -320,9 +358,29 @@ def default_fe_mesh_size(reed: Reed) -> float:
 
 
 def modal_basis(reed: Reed, port=None, mesh_size: float | None = None, n_modes: int = 6):
-    """The ``plate`` fidelity's modal basis (lumped.reed.modal_basis.ModalBasis): the first modes of the
-    Kirchhoff plate (bending, torsion and plate modes, named by nodal pattern), modal masses
-    phi^T M phi [kg], loads, openings and station values from the plate's w(s, y)."""
+    """The ``plate`` fidelity's modal basis for the modal reed valve: the first modes of the clamped Kirchhoff plate
+    (Argyris triangles) with their modal masses, loads, openings and station values.
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    port : geometry.reed_port.ReedPort, optional
+        The port's footprint on the face (None: the whole face, eq 3.21's load).
+    mesh_size : float, optional
+        Element size [m]; None: the fidelity's default for this reed.
+    n_modes : int
+        Modes wanted.
+
+    Returns
+    -------
+    lumped.reed.modal_basis.ModalBasis
+        (SI units; lumped.reed.modal_basis).
+
+    References
+    ----------
+    docs/reed_dynamics.md; Knutson (2016), eq 3.21.
+    """
     from lumped.reed.modal_basis import Modes, Sampling, build_basis
 
     r = solve(reed, mesh_size, n_modes=n_modes)
@@ -335,9 +393,27 @@ def modal_basis(reed: Reed, port=None, mesh_size: float | None = None, n_modes: 
 
 
 def fe_reed(reed: Reed, port=None, mesh_size: float | None = None):
-    """The whole Argyris plate reed (lumped.reed.modal_basis.FEReed): dense M, K on the free DOFs (w and
-    its derivatives, scaled to metres by the element size), the load of a unit pressure on the
-    footprint, opening, tip and station rows. Default element size :func:`default_fe_mesh_size`."""
+    """The whole plate FE reed for the reference stepper: dense M, K on the free DOFs, the load of a unit pressure
+    on the footprint, the opening, tip and station rows.
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    port : geometry.reed_port.ReedPort, optional
+        The port's footprint on the face (None: the whole face, eq 3.21's load).
+    mesh_size : float, optional
+        Element size [m]; None: default_fe_mesh_size.
+
+    Returns
+    -------
+    lumped.reed.modal_basis.FEReed
+        (SI units).
+
+    References
+    ----------
+    docs/reed_dynamics.md.
+    """
     from lumped.reed.modal_basis import FESystem, Sampling, fe_reed_from
 
     sys = assemble(reed, default_fe_mesh_size(reed) if mesh_size is None else mesh_size)

@@ -94,14 +94,34 @@ def _scalar_basis(mesh, intorder=INTORDER) -> Basis:
 
 def assemble(basis: Basis, youngs_modulus: float, poisson_ratio: float, density: float,
              chunk: int = CHUNK) -> tuple[sp.csr_matrix, sp.csr_matrix]:
-    """Stiffness K [N/m] and mass M [kg] of 3-D linear elasticity on a scalar Q2 (or P2) basis.
+    """Stiffness and mass matrices of 3-D linear elasticity on a scalar Q2 (or P2) basis.
 
+    Parameters
+    ----------
+    basis : skfem.Basis
+        The scalar basis of the mesh (vector DOF 3 k + i is component i of scalar DOF k).
+    youngs_modulus, poisson_ratio, density : float
+        E [Pa], nu [-], rho [kg/m^3].
+    chunk : int
+        Elements per batch (bounds the memory).
+
+    Returns
+    -------
+    tuple of scipy.sparse.csr_matrix
+        (K [N/m], M [kg]).
+
+    Notes
+    -----
     Element matrices by batched matrix products over chunks of elements (scikit-fem's
     generic form assembly evaluates the 81 x 81 vector form entry pair by pair, ~20x
     slower here); each chunk builds its own quadrature basis and is summed into K as a
     sparse matrix, so memory stays bounded. The mass is assembled as a scalar matrix and
     expanded to the three components. Vector DOF 3 k + i is component i of scalar DOF k,
     as in ``ElementVector``.
+
+    References
+    ----------
+    Any text on linear elasticity FEM, e.g. Zienkiewicz & Taylor, *The Finite Element Method* (2000); scikit-fem.
     """
     E, nu = youngs_modulus, poisson_ratio
     lam = E * nu / ((1 + nu) * (1 - 2 * nu))
@@ -155,7 +175,21 @@ def assemble(basis: Basis, youngs_modulus: float, poisson_ratio: float, density:
 
 
 def pressure_load(sm: SolidMesh, basis: Basis, pressure: float = 1.0) -> np.ndarray:
-    """Nodal forces [N] of a uniform pressure [Pa] on the wetted upstream surface (traction -p n)."""
+    """Nodal forces of a unit uniform pressure on the wetted upstream surface of a solid mesh (traction -p n, p = 1
+    Pa).
+
+    Parameters
+    ----------
+    sm : fea.mesh.SolidMesh
+        The mesh (its pressure facets).
+    basis : skfem.Basis
+        Its scalar basis.
+
+    Returns
+    -------
+    numpy.ndarray
+        f [N] per vector DOF.
+    """
     fb = FacetBasis(sm.mesh, basis.elem, facets=sm.pressure_facets, intorder=INTORDER)
     n = fb.normals  # outward normals (3, nf, nq)
     f = np.zeros(3 * basis.N)
@@ -264,8 +298,31 @@ def _with_torsion(basis, matrices: tuple, symmetric: tuple, n_modes: int) -> tup
 
 def solve(reed: Reed, mesh_size: float | None = None, layers: int | None = None,
           n_modes: int = 4, symmetry: bool | None = None, torsion: bool = False) -> SolidResult:
-    """First modes, uniform-load stiffness and centre-line shapes of the clamped 3-D reed.
+    """The first modes, the uniform-load stiffness kappa = p / w(L) and the centre-line shapes of the clamped 3-D
+    reed.
 
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    mesh_size : float, optional
+        Element size [m]; None: the fidelity's default for this reed.
+    layers : int, optional
+        Elements per half thickness (None: default_layers).
+    n_modes : int
+        Modes wanted.
+    symmetry : bool, optional
+        Solve the half y >= 0 (None: when the reed is symmetric).
+    torsion : bool
+        Also solve the antisymmetric half for the torsion modes.
+
+    Returns
+    -------
+    SolidResult
+        omega [rad/s] (named by nodal pattern), kappa [Pa/m] (eq 3.30), shapes, DOFs, timings.
+
+    Notes
+    -----
     omega [rad/s] from K phi = omega^2 M phi (shift-invert about 0, ARPACK), kappa [Pa/m]
     per eq 3.30 from the static solve K u = f(p = 1 Pa); both use one LU of K.
     ``symmetry`` (default: when the reed is symmetric) solves the half y >= 0 with the
@@ -274,6 +331,10 @@ def solve(reed: Reed, mesh_size: float | None = None, layers: int | None = None,
     gives ``n_modes``). Modes are named by their nodal pattern (fea.modes). Before assembling,
     the DOFs and memory are estimated and an InputError naming --mesh-size raised if they
     exceed what the machine has (fea.resources).
+
+    References
+    ----------
+    Knutson (2016), eq 3.30, section 3.5, Table 3.3.
     """
     h = default_mesh_size(reed) if mesh_size is None else float(mesh_size)
     layers = default_layers(reed) if layers is None else int(layers)
@@ -371,11 +432,29 @@ def write_modes_vtu(result: SolidResult, path) -> None:
 
 # -- the modal reed (lumped.reed.modal_basis) ---------------------------------------------------------
 def modal_basis(reed: Reed, port=None, mesh_size: float | None = None, n_modes: int = 6):
-    """The ``solid`` fidelity's modal basis (lumped.reed.modal_basis.ModalBasis): the first out-of-plane
-    modes of the 3-D reed (bending, torsion, plate modes; in-plane modes, which the
-    transverse reed model has no coordinate for, are left out), modal masses phi^T M phi [kg]
-    of the whole reed (twice the half model's), and w = u_z on the upstream face (z = 0, or
-    a groove's floor: where the pressure acts and the reed seals)."""
+    """The ``solid`` fidelity's modal basis for the modal reed valve: the first out-of-plane modes of the 3-D reed
+    with their modal masses, loads, openings and station values.
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    port : geometry.reed_port.ReedPort, optional
+        The port's footprint on the face (None: the whole face, eq 3.21's load).
+    mesh_size : float, optional
+        Element size [m]; None: the fidelity's default for this reed.
+    n_modes : int
+        Modes wanted.
+
+    Returns
+    -------
+    lumped.reed.modal_basis.ModalBasis
+        (SI units).
+
+    References
+    ----------
+    docs/reed_dynamics.md.
+    """
     from matplotlib.tri import Triangulation
 
     from lumped.reed.modal_basis import Modes, Sampling, build_basis

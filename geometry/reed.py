@@ -644,12 +644,7 @@ class Reed:
         hs = np.atleast_1d(self.thickness_profile(s_arr))
         Ws = np.atleast_1d(self.width(s_arr))       # vectorised: the same values as one s at a time
         for k, sk in enumerate(s_arr):
-            h = float(hs[k])
-            W = float(Ws[k])
-            parts = [(W * h, h / 2, W * h**3 / 12)]  # (area, centroid z, own I)
-            for y0, y1, d in (self._pockets(sk, W) if self.grooves else ()):
-                w = y1 - y0
-                parts.append((-w * d, d / 2, -w * d**3 / 12))
+            parts = self._section_parts(sk, float(hs[k]), float(Ws[k]))
             a = sum(p[0] for p in parts)
             if a <= 0.0:
                 A[k], I[k] = 0.0, 0.0
@@ -660,6 +655,32 @@ class Reed:
         if np.ndim(s) == 0:
             return A[0], I[0]
         return A, I
+
+    def _section_parts(self, s: float, h: float, W: float) -> list[tuple[float, float, float]]:
+        """(area [m^2], centroid z [m], own second moment [m^4]) of the rectangle W h and of each pocket (negative)
+        of the section at s: what :meth:`section` and :meth:`neutral_axis` add up."""
+        parts = [(W * h, h / 2, W * h**3 / 12)]
+        for y0, y1, d in (self._pockets(s, W) if self.grooves else ()):
+            w = y1 - y0
+            parts.append((-w * d, d / 2, -w * d**3 / 12))
+        return parts
+
+    def neutral_axis(self, s: float) -> float:
+        """Height of the section's centroid above the upstream face z = 0 [m]: h/2 without grooves, shifted toward
+        the downstream face by the pockets cut from the upstream one.
+
+        Parameters
+        ----------
+        s : float
+            Position from the clamp [m].
+
+        Returns
+        -------
+        float
+            z_c [m].
+        """
+        parts = self._section_parts(s, float(self.thickness_profile(s)), float(self.width(s)))
+        return sum(p[0] * p[1] for p in parts) / sum(p[0] for p in parts)
 
     def thickness_at(self, s):
         """Section-mean thickness A(s) / W(s) [m]; equals ``thickness`` where there is no groove."""

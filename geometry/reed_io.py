@@ -42,7 +42,18 @@ _MATERIAL_KEYS = {"youngs_modulus", "density", "poisson_ratio"}
 
 
 def load_reed(spec: str | Path) -> Reed:
-    """Reed from a preset name (:data:`PRESETS`) or a TOML path; InputError naming ``spec`` otherwise."""
+    """A reed from a preset name (:data:`PRESETS`) or a reed TOML file.
+
+    Parameters
+    ----------
+    spec : str or Path
+        The preset or the file.
+
+    Returns
+    -------
+    geometry.Reed
+        Validated; InputError naming ``spec`` or the bad key otherwise.
+    """
     spec_str = str(spec)
     if spec_str in PRESETS:
         return parse_reed(package_toml("geometry", f"reed_{spec_str}.toml"), source=spec_str)
@@ -100,7 +111,20 @@ def _proportions(reed: Reed) -> None:
 
 
 def check_reed(reed: Reed, where: str = "reed") -> Reed:
-    """A Reed built in Python checked as a reed file would be (declared ranges, proportions); InputError."""
+    """A Reed built in Python checked as a reed file would be (declared ranges, proportions).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    where : str
+        Key prefix of the errors.
+
+    Returns
+    -------
+    geometry.Reed
+        The same reed; InputError naming the field otherwise.
+    """
     from .declare import specs
 
     for obj, at in [(reed, where), (reed.material, f"{where}.material")] + \
@@ -120,8 +144,22 @@ def _mm_hint(v: float) -> str:
 
 
 def parse_reed(data: dict, source: str = "custom") -> Reed:
-    """Validated :class:`~geometry.reed.Reed` from the parsed TOML mapping (top-level table ``[reed]``).
+    """A validated reed from the parsed TOML mapping of a reed file (top-level table ``[reed]``, CONTRACT.md).
 
+    Parameters
+    ----------
+    data : dict
+        The parsed file.
+    source : str
+        Its name (the reed's name when the file gives none).
+
+    Returns
+    -------
+    geometry.Reed
+        InputError naming the key of a bad value.
+
+    Notes
+    -----
     The outline is either the one-step form (``width_root``, ``width_tip``,
     ``step_fraction``) or a list of ``[[reed.sections]]`` (CONTRACT.md, "Multi-section
     reeds"); giving both is an error.
@@ -270,10 +308,17 @@ def _parse_groove(g: dict, where: str, reed: Reed) -> Groove:
 
 
 def reed_to_toml(reed: Reed) -> str:
-    """The reed as a TOML document in the user format (round-trips through :func:`parse_reed`).
+    """A reed as a TOML document in the reed-file format (round-trips through :func:`parse_reed`).
 
-    One-step reeds are written with width_root, width_tip, step_fraction; multi-section
-    reeds with their ``[[reed.sections]]`` (the one-step fields are derived, not written).
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+
+    Returns
+    -------
+    str
+        One-step reeds with width_root, width_tip, step_fraction; multi-section reeds with their sections.
     """
     m = reed.material
     lines = ["[reed]", f'name = "{reed.name}"', f"length = {reed.length!r}", f"thickness = {reed.thickness!r}"]
