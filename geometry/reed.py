@@ -49,9 +49,11 @@ class Material:
 
 
 class GrooveShape:
-    """A groove kind: the footprint of a pocket cut into the upstream face, and everything the readers, the
-    meshes and the quadrature need of it. One subclass per kind, registered in :data:`GROOVE_KINDS`; a new kind
-    is a subclass here with its fields declared on :class:`Groove` (docs/extending.md)."""
+    """A groove kind: the footprint of a pocket and what the readers, meshes and quadrature need of it.
+
+    The pocket is cut into the upstream face. One subclass per kind, registered in :data:`GROOVE_KINDS`; a new
+    kind is a subclass here with its fields declared on :class:`Groove` (docs/extending.md).
+    """
 
     #: the kind's name (``[[reed.grooves]] kind``) and its file keys besides ``kind`` and ``depth``
     name = ""
@@ -197,9 +199,11 @@ GROOVE_KINDS: dict[str, GrooveShape] = {k.name: k for k in (RectGroove(), HalfRi
 
 @dataclass(frozen=True)
 class Groove:
-    """A pocket of constant ``depth`` cut into the upstream face (z = 0), of a kind of :data:`GROOVE_KINDS`
-    (``rect``: :class:`RectGroove`, ``half_ring``: :class:`HalfRingGroove`); the fields a kind does not use
-    keep their defaults."""
+    """A pocket of constant ``depth`` cut into the upstream face (z = 0).
+
+    Its kind is one of :data:`GROOVE_KINDS` (``rect``: :class:`RectGroove`, ``half_ring``: :class:`HalfRingGroove`);
+    the fields a kind does not use keep their defaults.
+    """
 
     depth: float = param("depth", "m", "drawing", bounds=_THICK, positive=True)
     kind: str = param("kind", "-", "drawing", default="rect", choices=tuple(GROOVE_KINDS))
@@ -254,8 +258,10 @@ class Section:
 
 @dataclass(frozen=True)
 class Piece:
-    """A resolved piece of the outline: s0 <= s < s1 [m], width w0 -> w1 [m] and thickness h -> h1 [m], each
-    linear in s (``h1`` None: constant thickness h)."""
+    """A resolved piece of the outline, its width and thickness linear in s.
+
+    s0 <= s < s1 [m], width w0 -> w1 [m] and thickness h -> h1 [m] (``h1`` None: constant thickness h).
+    """
 
     s0: float
     s1: float

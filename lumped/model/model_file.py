@@ -404,8 +404,9 @@ def _comment(spec, extra: str = "", origin: str | None = None) -> str:
 
 
 def to_toml(model: PumpModel, comments: bool = True, origins: dict | None = None) -> str:
-    """The complete resolved model as a model file, each key with its unit and source (model show); with
-    ``origins`` (:func:`file_keys`), a key a model file sets is labelled as that file's.
+    """The complete resolved model as a model file, each key with its unit and source (model show).
+
+    With ``origins`` (:func:`file_keys`), a key a model file sets is labelled as that file's.
 
     Examples
     --------

@@ -54,8 +54,7 @@ def reed_model(fidelity: str, field: str = "--fidelity") -> Callable:
 
 
 def reed_properties(reed, fidelity: str = "analytic", mesh_size=None, field: str = "fidelity"):
-    """The one-mode reed parameters of a reed by a fidelity: its stiffness, mode-function parameters,
-    effective thickness and first frequency.
+    """The one-mode reed parameters of a reed (stiffness, gammas, h_eff, frequency) by a fidelity.
 
     kappa, gamma1..3, h_eff and omega_n of ``reed`` by ``fidelity`` (a ReedProperties); the reed is checked
     first as a reed file would be (geometry.reed_io.check_reed).

@@ -32,20 +32,15 @@ from lumped.valves.kind import VALVE
 
 
 #: the studies' steady-state tolerance. The test measures the change the *previous* revolution still
-#: made; the revolution map contracts so hard (a revolution's delivery error is at most a tenth of the
-#: one before, or the integrator's noise, and thousands of times smaller in the median, on the
-#: validation cases and random designs of every kind: benchmarks/periodic_solver.py, docs/performance.md)
-#: that when the change is below 1e-3 the last revolution's delivery is within 1e-4 of the cycle's
+#: made; the revolution map contracts so hard (a valve that reseats forgets its past) that a change below
+#: 1e-3 leaves the last revolution's delivery within 1e-4 of the cycle's (measured: docs/models.md,
+#: "Numerical choices")
 STEADY_TOL = 1e-3
 #: the one-revolution test's tolerance as a fraction of the steady-state tolerance. It compares states only
-#: (a first revolution's delivery has no predecessor): a valve's opening at TDC changed by 1e-3 of its gap
-#: moved the delivery by up to ~1e-4 on random designs, hence the margin. On 300 random designs of an
-#: 8,000-design sweep (benchmarks/bench_sweep.py's space) 92 % stopped after one revolution; against a sharp
-#: reference (rtol 1e-5) their deliveries were as close (183 of 300 within 1e-4, 95 % within 2.0e-4) as with
-#: two revolutions (178; 2.2e-4) and as 40 revolutions at the same rtol 1e-3 (182; 2.3e-4): what separates
-#: them from a 40-revolution run is the integrator's error at rtol 1e-3, not the stop (against that run: 12 of
-#: 300 beyond 1e-4, 5 with two revolutions; a fraction of 0.05 stopped 54 % after one and left 8). The
-#: sweeps use it (studies/sweeps/pump.py)
+#: (a first revolution's delivery has no predecessor), and a valve's opening at TDC changed by a fraction of
+#: its gap moves the delivery by about a tenth of that, hence the margin; it stops a warm-started design after
+#: one revolution as accurately as two would (docs/models.md, "Numerical choices"). The sweeps use it
+#: (studies/sweeps/pump.py)
 SINGLE_FRACTION = 0.2
 
 

@@ -39,8 +39,8 @@ def _jit_physics(one_dof: bool) -> dict[str, types.ModuleType]:
     called is ever compiled) with its globals copied and every reference to a physics
     function or module replaced by its compiled counterpart. ``one_dof``: the flavour for pumps
     whose valves have one DOF each, with ``lumped.solver.layout.ONE_DOF_ONLY`` True in every module that
-    reads it, so that numba folds the several-DOF paths away (their loops and calls cost about 15 %
-    of the fast path's time when merely present, measured).
+    reads it, so that numba folds the several-DOF paths away: merely present, their loops and calls cost
+    the hot path time (docs/models.md, "Numerical choices").
     """
     mods = {name: importlib.import_module(name) for name in physics_modules()}
     # the symbol numba gives a function is its qualified name and a per-process counter: the flavour and

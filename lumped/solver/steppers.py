@@ -157,8 +157,8 @@ class RadauStepper(Stepper):
         # list indexing is the fast path for CPython floats (arrays where a valve has many DOFs)
         self.plist = self.problem.p.tolist() if self.scalar else self.problem.p.copy()
         run = _RadauRun(self, t0, t1, np.array(y, dtype=float), np.array(mode, dtype=float))
-        # one BLAS thread: Radau factorises small matrices at every step size change, and threaded
-        # BLAS on a loaded machine made a 120 x 120 complex LU take 95 ms instead of 0.2 ms (measured)
+        # one BLAS thread: Radau factorises small matrices at every step size change, where threads only add
+        # their start-up and, on a shared machine, wait for each other (docs/models.md, "Numerical choices")
         with threadpool_limits(limits=1, user_api="blas"):
             while run.t < t1:
                 run.segment()
@@ -392,12 +392,9 @@ def rodas_order(rtol: float, flow_in_acceleration: bool = False) -> int:
     rtol <= RODAS5P_FLOW_RTOL, else 4 (Rodas4P).
 
     The transient flow force's d(dP)/dt term slaves the valve's velocity to the pressure (eigenvalues to
-    -1e6 1/s), and Rodas4P's embedded estimate over-reads its error there (docs/discrepancy.md, "Cost").
-    Measured per simulation (3 revolutions from rest, best of 3): the thesis disc with the flow force at
-    593 rpm, 2.76 MPa, 45 % less time at rtol 1e-5 and 25 % less at 1e-4; the thesis ball 4-37 % less at
-    1e-5 and -12 to +7 % at 1e-4 (593-900 rpm). At rtol 1e-3 Rodas5P costs as much and its delivery can be
-    further from the converged one (2.1e-4 against 1.5e-5 on the ball at 649.7 rpm); without a flow force
-    it costs the same at 1e-5 and 10-20 % more at 1e-4.
+    -1e6 1/s), and Rodas4P's embedded estimate over-reads its error there: Rodas5P takes fewer steps where the
+    tolerance is tight enough for that to matter; at looser tolerances, or without a flow force, it only costs
+    more (the measurements: docs/models.md, "Numerical choices").
     """
     return 5 if flow_in_acceleration and rtol <= RODAS5P_FLOW_RTOL * (1.0 + 1e-9) else 4
 

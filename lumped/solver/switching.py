@@ -46,8 +46,8 @@ DENSITY_HYSTERESIS = 1e-12
 SETTLED_FRACTION = 1e-3
 #: a settled valve pressed deeper than this fraction of the load-pressure deflection P_load A / k
 #: is held by a force ~10x its tolerance (contact_position_atol x atol <= 1 % of that deflection):
-#: its deflection decides (the same quantity; saves a pump evaluation per event check, ~5 % of the
-#: fast path's time)
+#: its deflection decides (the same quantity, and it spares the pump evaluation the force would cost at
+#: every event check)
 DEEP_FRACTION = 0.1
 #: what a switching function switches (lumped.solver.layout.SWITCH_WHAT, as numbers numba compares)
 _WHAT_SEAT, _WHAT_STOP, _WHAT_REGIME, _WHAT_CAVITATION = 0, 1, 2, 3
