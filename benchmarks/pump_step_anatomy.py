@@ -73,7 +73,8 @@ def rodas4p() -> tuple:
 
 
 def rodas5p() -> tuple:
-    """(gamma, a, C, d, c, order) of Rodas5P (Steinebach 2023) in the same form (8 stages), from lumped.solver.rosenbrock."""
+    """(gamma, a, C, d, c, order) of Rodas5P (Steinebach 2023) in the same form (8 stages), from
+    lumped.solver.rosenbrock."""
     r = rosenbrock
     a, cm, d, c = np.zeros((8, 8)), np.zeros((8, 8)), np.zeros(8), np.zeros(8)
     a[1, 0] = r.P_A21

@@ -32,12 +32,35 @@ N_SHAPE = 801
 
 
 def default_mesh_size(reed: Reed) -> float:
-    """The default element length [m]: L / 200 (0.127 mm on the 1 in thesis reeds)."""
+    """The beam's default element length: L / 200 (0.127 mm on the 1 in thesis reeds).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed.
+
+    Returns
+    -------
+    float
+        [m].
+    """
     return float(f"{reed.length / ELEMENTS_PER_LENGTH:.6g}")
 
 
 def estimate(reed: Reed, mesh_size: float) -> tuple[int, float]:
-    """(DOFs, peak bytes) of the beam with elements of at most ``mesh_size`` [m] (2 DOFs per node)."""
+    """The beam's DOFs and peak memory with elements of at most ``mesh_size`` (2 DOFs per node).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed.
+    mesh_size : float
+        Element size [m].
+
+    Returns
+    -------
+    (dofs, bytes) : tuple of (int, float)
+    """
     n = sum(max(1, int(np.ceil((b - a) / mesh_size - 1e-9)))
             for a, b in zip(reed.breakpoints()[:-1], reed.breakpoints()[1:]) if b - a >= 1e-12)
     return 2 * n, beam_bytes(2 * n)
@@ -162,8 +185,9 @@ def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> BeamR
     """The modes, the uniform-load stiffness kappa = p / w(L) and the centre-line shapes of the Euler-Bernoulli beam
     (Hermite cubics, eq 3.8 without damping and fluid).
 
-    EI(s), rho A(s) of any profile (steps, tapers, thickness steps, grooves) from geometry.Reed.section. The DOFs and memory are estimated first: an InputError naming --mesh-size where they exceed
-    what the machine has (fea.resources).
+    EI(s), rho A(s) of any profile (steps, tapers, thickness steps, grooves) from geometry.Reed.section. The DOFs
+    and memory are estimated first: an InputError naming --mesh-size where they exceed what the machine has
+    (fea.resources).
 
     Parameters
     ----------
@@ -210,7 +234,20 @@ reed_properties, modes, properties_and_modes = fidelity_functions("beam", solve,
 
 
 def mode_shapes(result: BeamResult, reed: Reed, n: int | None = None) -> ModeShapes:
-    """w(s) of the first n modes (each max |w| = 1) for plots; y = 0."""
+    """w(s) of the first n modes (each max |w| = 1) for plots; y = 0.
+
+    Parameters
+    ----------
+    result : BeamResult
+    reed : geometry.Reed
+        The reed.
+    n : int, optional
+        Modes; None: all solved.
+
+    Returns
+    -------
+    fea.modes.ModeShapes
+    """
     n = result.shapes.shape[1] if n is None else min(n, result.shapes.shape[1])
     w = result.shapes[:, :n].T / np.max(np.abs(result.shapes[:, :n]), axis=0)[:, None]
     return ModeShapes(s=result.s, y=np.zeros((len(result.s), 1)), w=w[:, :, None],
@@ -218,7 +255,19 @@ def mode_shapes(result: BeamResult, reed: Reed, n: int | None = None) -> ModeSha
 
 
 def write_modes_vtu(result: BeamResult, reed: Reed, path) -> None:
-    """Write the line s in [0, L] with each mode's w (max |w| = 1) as point data (VTU)."""
+    """Write the line s in [0, L] with each mode's w (max |w| = 1) as point data (VTU).
+
+    Parameters
+    ----------
+    result : BeamResult
+    reed : geometry.Reed
+        The reed.
+    path : str or Path
+
+    Returns
+    -------
+    None
+    """
     import meshio
 
     pts = np.column_stack([result.s, 0 * result.s, 0 * result.s])
@@ -235,7 +284,18 @@ FE_ELEMENTS_PER_LENGTH = 24
 
 
 def default_fe_mesh_size(reed: Reed) -> float:
-    """The whole FE reed's default element length [m]: L / 24 (plus nodes at every breakpoint)."""
+    """The whole FE reed's default element length: L / 24 (plus nodes at every breakpoint).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed.
+
+    Returns
+    -------
+    float
+        [m].
+    """
     return float(f"{reed.length / FE_ELEMENTS_PER_LENGTH:.6g}")
 
 

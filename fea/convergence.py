@@ -353,10 +353,8 @@ def richardson(sizes, values, theoretical_order: float | None = None) -> Richard
 
     Parameters
     ----------
-    sizes : sequence of float
-        Mesh sizes [m], coarse to fine.
-    values : sequence of float
-        The quantity on each.
+    sizes, values : sequence of float
+        Mesh sizes [m], coarse to fine, and the quantity on each.
     theoretical_order : float, optional
         The elements' order (bounds the plausible observed order).
 
@@ -367,9 +365,8 @@ def richardson(sizes, values, theoretical_order: float | None = None) -> Richard
 
     Notes
     -----
-    Checks the asymptotic range (module docstring); outside it, f_inf is the finest value
-    and every error estimate is at least the largest change between meshes (``reliable``
-    False).
+    Outside the asymptotic range (module docstring) f_inf is the finest value and every error is at least the
+    largest change between meshes (``reliable`` False).
 
     References
     ----------
@@ -391,13 +388,7 @@ def richardson(sizes, values, theoretical_order: float | None = None) -> Richard
         f_inf = extrapolate(f[2], f[1], h[1] / h[2], p)
         err = tuple(float(abs(v - f_inf) / abs(f_inf) * 100) for v in f)
         plausible = p >= MIN_ORDER and (p_max is None or p <= p_max)
-        if plausible:
-            note = f"asymptotic: observed order {p:.2f}"
-            if theoretical_order is not None and p < 0.75 * theoretical_order:
-                note += f" (element order {theoretical_order:g}, lowered by singularities: corners, the clamp edge, a rounded tip)"
-        else:
-            note = (f"observed order {p:.2f} outside [{MIN_ORDER:g}, {p_max:g}]: not in the asymptotic range"
-                    if p_max is not None else f"observed order {p:.2f} below {MIN_ORDER:g}: not in the asymptotic range")
+        note = _order_note(p, plausible, theoretical_order, p_max)
         return Richardson(sizes=tuple(map(float, h)), values=tuple(map(float, f)), ratio=r, order=p,
                           extrapolated=float(f_inf), error_pct=err, monotonic=True, converging=True,
                           asymptotic=plausible, reliable=plausible, theoretical_order=theoretical_order,
@@ -416,6 +407,18 @@ def richardson(sizes, values, theoretical_order: float | None = None) -> Richard
     # conservative: first-order convergence from the finest change (r = 2: the remaining error
     # equals the last change), never below the largest change seen
     return replace(out, error_pct=tuple(out.error_of(v) for v in f))
+
+
+def _order_note(p: float, plausible: bool, theoretical_order: float | None, p_max: float | None) -> str:
+    """What :func:`richardson` says of an observed order p of converging values."""
+    if plausible:
+        note = f"asymptotic: observed order {p:.2f}"
+        if theoretical_order is not None and p < 0.75 * theoretical_order:
+            note += (f" (element order {theoretical_order:g}, lowered by singularities: corners, the clamp edge, "
+                     "a rounded tip)")
+        return note
+    return (f"observed order {p:.2f} outside [{MIN_ORDER:g}, {p_max:g}]: not in the asymptotic range"
+            if p_max is not None else f"observed order {p:.2f} below {MIN_ORDER:g}: not in the asymptotic range")
 
 
 def default_sizes(mesh_size: float, ratio: float = RATIO) -> tuple[float, float, float]:

@@ -40,7 +40,18 @@ N_SHAPE = 401
 
 
 def default_mesh_size(reed: Reed) -> float:
-    """The default element size [m]: DEFAULT_MESH_SIZE scaled with the reed (fea.mesh.scaled_mesh_size)."""
+    """The plate's default element size: DEFAULT_MESH_SIZE scaled with the reed (fea.mesh.scaled_mesh_size).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed.
+
+    Returns
+    -------
+    float
+        [m].
+    """
     return scaled_mesh_size(reed, DEFAULT_MESH_SIZE)
 
 
@@ -93,11 +104,24 @@ def _clip_to_rectangle(poly: np.ndarray, lo, hi) -> np.ndarray:
 
 
 def rectangle_rule(mesh, lo, hi, intorder: int = 8) -> tuple[np.ndarray, np.ndarray]:
-    """Points (2, n) and weights (n,) integrating over the box lo..hi intersected with a triangle mesh.
+    """Points and weights integrating over the box lo..hi intersected with a triangle mesh.
 
-    Each triangle is clipped to the box and its part fanned into triangles, each with a
-    Gauss rule of order ``intorder`` (exact for the Argyris quintics times a constant), so
-    int_box N_j dA is exact on a mesh the box's edges cut anywhere.
+    Each triangle is clipped to the box and its part fanned into triangles, each with a Gauss rule of order
+    ``intorder`` (exact for the Argyris quintics times a constant), so int_box N_j dA is exact on a mesh the box's
+    edges cut anywhere.
+
+    Parameters
+    ----------
+    mesh : skfem.MeshTri
+    lo, hi : array_like of float
+        The box's corners (mesh units).
+    intorder : int
+        Gauss order per triangle.
+
+    Returns
+    -------
+    (points, weights) : tuple of array of float
+        (2, n) and (n,), in mesh units.
     """
     from skfem.quadrature import get_quadrature
     from skfem.refdom import RefTri
@@ -123,13 +147,25 @@ def rectangle_rule(mesh, lo, hi, intorder: int = 8) -> tuple[np.ndarray, np.ndar
 def release_step_curvature(basis: Basis, reed: Reed, ell: float) -> int:
     """Give the elements beyond each thickness step their own w_xx DOF at the vertices on the step line.
 
-    Argyris elements share w and all its first and second derivatives at vertices (C2 there),
-    but across a line s = s_k where the rigidity D jumps only w, w_x, w_y, w_xy and w_yy are
-    continuous: the bending moment D w_xx is, so w_xx jumps. Shared, it would stiffen the
-    plate (+0.3 % in kappa at 2 mm on a reed with two steps, converging slowly); released,
-    the plate with nu = 0 equals the beam. Lengths of the basis mesh are in units of
-    ``ell`` [m]. Returns the number of DOFs added (groove edges are left as they are: the
-    plate's groove model is an approximation anyway, docs/fea.md).
+    Argyris elements share w and all its first and second derivatives at vertices (C2 there), but across a line s =
+    s_k where the rigidity D jumps only w, w_x, w_y, w_xy and w_yy are continuous: the bending moment D w_xx is, so
+    w_xx jumps. Shared, it would stiffen the plate (+0.3 % in kappa at 2 mm on a reed with two steps, converging
+    slowly); released, the plate with nu = 0 equals the beam. Groove edges are left as they are: the plate's groove
+    model is an approximation anyway (docs/fea.md).
+
+    Parameters
+    ----------
+    basis : skfem.Basis
+        The Argyris basis; its element DOFs are modified in place.
+    reed : geometry.Reed
+        The reed.
+    ell : float
+        The length unit of the basis mesh [m].
+
+    Returns
+    -------
+    int
+        The number of DOFs added.
     """
     ps = reed.pieces()
     steps = [p.s1 / ell for p, q in zip(ps[:-1], ps[1:]) if p.h_end != q.h]
@@ -161,7 +197,16 @@ def release_step_curvature(basis: Basis, reed: Reed, ell: float) -> int:
 
 
 def estimate(fm: FaceMesh) -> tuple[int, float]:
-    """(DOFs, peak bytes) of the plate on the face mesh ``fm``: 6 per vertex + 1 per edge (Argyris)."""
+    """The plate's DOFs and peak memory on the face mesh: 6 per vertex + 1 per edge (Argyris).
+
+    Parameters
+    ----------
+    fm : fea.mesh.FaceMesh
+
+    Returns
+    -------
+    (dofs, bytes) : tuple of (int, float)
+    """
     m = fm.mesh
     dofs = 6 * m.p.shape[1] + m.facets.shape[1]
     return dofs, plate_bytes(dofs)
@@ -270,8 +315,9 @@ def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> Plate
     """The modes, the uniform-load stiffness kappa = p / w(L) and the centre-line shapes of the clamped Kirchhoff
     plate (Argyris triangles).
 
-    D = E h^3 / (12 (1 - nu^2)) and rho h per element from the face mesh (its thickness and groove depth). The DOFs and memory are estimated first: an InputError naming --mesh-size where they exceed
-    what the machine has (fea.resources).
+    D = E h^3 / (12 (1 - nu^2)) and rho h per element from the face mesh (its thickness and groove depth). The
+    DOFs and memory are estimated first: an InputError naming --mesh-size where they exceed what the machine has
+    (fea.resources).
 
     Parameters
     ----------
@@ -320,7 +366,22 @@ reed_properties, modes, properties_and_modes = fidelity_functions("plate", solve
 
 
 def mode_shapes(result: PlateResult, reed: Reed, n: int | None = None, ns: int = 60, ny: int = 21) -> ModeShapes:
-    """w of the first n modes on a (s, y) grid of the face, each max |w| = 1 (for plots)."""
+    """w of the first n modes on an (s, y) grid of the face, each max |w| = 1 (for plots).
+
+    Parameters
+    ----------
+    result : PlateResult
+    reed : geometry.Reed
+        The reed.
+    n : int, optional
+        Modes; None: all solved.
+    ns, ny : int
+        Grid points along and across.
+
+    Returns
+    -------
+    fea.modes.ModeShapes
+    """
     n = result.modes.shape[1] if n is None else min(n, result.modes.shape[1])
     s = np.linspace(1e-4, 1 - 1e-4, ns) * reed.length
     eta = np.linspace(-1.0, 1.0, ny) * 0.999
@@ -335,7 +396,17 @@ def mode_shapes(result: PlateResult, reed: Reed, n: int | None = None, ns: int =
 
 
 def write_modes_vtu(result: PlateResult, path) -> None:
-    """Write the face mesh with each mode's deflection w (max |w| = 1) as point data (VTU)."""
+    """Write the face mesh with each mode's deflection w (max |w| = 1) as point data (VTU).
+
+    Parameters
+    ----------
+    result : PlateResult
+    path : str or Path
+
+    Returns
+    -------
+    None
+    """
     from .mesh import write_vtu
 
     nodal = result.basis.nodal_dofs[0]  # the value DOF 'u' of each vertex
@@ -353,7 +424,18 @@ FE_MESH_SIZE = 5.0e-3
 
 
 def default_fe_mesh_size(reed: Reed) -> float:
-    """The whole FE plate reed's default element size [m]: FE_MESH_SIZE scaled with the reed."""
+    """The whole FE plate reed's default element size: FE_MESH_SIZE scaled with the reed.
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed.
+
+    Returns
+    -------
+    float
+        [m].
+    """
     return scaled_mesh_size(reed, FE_MESH_SIZE)
 
 

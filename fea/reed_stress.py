@@ -36,7 +36,17 @@ YIELD_STRESS_DELRIN = 63.0e6
 
 
 def reed_stop_opening() -> float:
-    """x_stop [m] of the prototype reed valve (thesis-reed's valves, stop.gap)."""
+    """The stop opening x_stop of the prototype reed valve (thesis-reed's valves, stop.gap).
+
+    Returns
+    -------
+    float
+        x_stop [m].
+
+    References
+    ----------
+    Knutson (2016), Table 3.13.
+    """
     from lumped.model.model_file import load_model
 
     return float(load_model("thesis-reed").delivery.stop_gap)

@@ -92,8 +92,10 @@ def param(key: str | None, unit: str, source: str, *, default: Any = MISSING, **
     if unknown:
         raise TypeError(f"param() got an unexpected keyword argument {sorted(unknown)[0]!r}")
     bounds, choices = spec.pop("bounds", None), spec.pop("choices", None)
-    made = Spec(key=key, unit=unit, source=source, bounds=None if bounds is None else (float(bounds[0]), float(bounds[1])),
-                choices=None if choices is None else tuple(choices), **spec)
+    if bounds is not None:
+        bounds = (float(bounds[0]), float(bounds[1]))
+    made = Spec(key=key, unit=unit, source=source, bounds=bounds, choices=None if choices is None else tuple(choices),
+                **spec)
     if made.optional and default is MISSING:
         default = None
     return dataclasses.field(default=default, metadata={META: made})

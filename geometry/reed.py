@@ -730,7 +730,8 @@ class Reed:
                             thickness_to=p.h1 if p.thickness_tapered else None) for p in pieces[:-1]]
         if start > last.s0:
             sections.append(Section(s_end=start, width=last.w0, thickness=last.h,
-                                    taper_to=w_split if last.tapered else None, thickness_to=h_split if taper else None))
+                                    taper_to=w_split if last.tapered else None,
+                                    thickness_to=h_split if taper else None))
         sections.append(Section(s_end=self.length, width=w_split, thickness=h_split * float(factor),
                                 taper_to=last.w1 if last.tapered else None,
                                 thickness_to=last.h_end * float(factor) if taper else None))

@@ -138,7 +138,8 @@ def test_missing_file_is_named(tmp_path):
 # -- multi-section reeds ([[reed.sections]], CONTRACT "Multi-section reeds") ----------------
 
 # the shipped example reed: thickness step, width step, taper, rounded tip
-SECTIONED = (Path(__file__).resolve().parents[1] / "geometry" / "data" / "examples" / "reed_three_section.toml").read_text()
+SECTIONED = (Path(__file__).resolve().parents[1] / "geometry" / "data" / "examples"
+    / "reed_three_section.toml").read_text()
 
 ONE_STEP_AS_SECTIONS = """
 [reed]

@@ -10,6 +10,30 @@ Density with entrained air (eq 4.11, Cho et al. 2002), R the volume fraction of 
 This is exact (not the R << 1 approximation the thesis calls it) when the air volume of
 eq 4.9 is written per unit *mixture* volume; the exponent sign follows eqs 4.9 and 4.12
 (eqs 4.10-4.11 print exp(-(P0 - P)/beta); see docs/errata.md).
+
+Inverting eq 4.11 (:func:`pressure_iterations`): f(P) = A P^B + C e^(DP) - E with A = R P0^(1/gamma),
+B = -1/gamma, C = (1 - R) e^(P0/beta), D = -1/beta, E = rho0/rho (eqs 4.12-4.14). Both terms are
+convex and decreasing in P, so a Newton step from any P > 0 lands left of the root
+(f >= 0) and from there Newton's method increases monotonically to it without
+overshoot: convergence is guaranteed whatever the start, and a close start only saves
+iterations. The start solves a two-term model, the liquid term linear in P:
+R (P0/P)^(1/gamma) = k (P - P_lin), k = (1 - R)/beta, whose liquid-only root P_lin is a
+lower bound of the true root. Where P_lin > 0 it is P_lin u with (u - 1) u^(1/gamma) = c
+= R P0^(1/gamma) / (k P_lin^(1 + 1/gamma)) (the air volume at P_lin against the liquid's
+compression), solved as u = 1 + c (1 + c)^(-1/(1 + gamma)), exact for c -> 0 and
+c -> infinity and within 9 % between; otherwise (expansion) the air takes up the whole
+density change with the liquid frozen at its P0 volume.
+With R = 0 the liquid root is exact (and may be negative: no vapour model).
+
+``p_start`` > 0 replaces that start (the root of a nearby call: an integrator evaluates the
+cylinder at neighbouring states, so one or two Newton steps remain; the result does not
+depend on the start beyond the tolerance, since Newton converges from any P > 0, though
+from far left of the root it gains only a factor 1 + gamma per step: 10 Pa to 100 MPa in
+about 20 of the 60 allowed).
+
+It stops when the last step, or the error it leaves (quadratic convergence from the
+left: below f''(P) step^2 / (2 |f'|), f'' decreasing), is below rtol P + 4e-16 beta:
+the liquid term fixes P only to ~ beta * eps in absolute terms (conditioning).
 """
 
 from __future__ import annotations
@@ -217,33 +241,7 @@ def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: 
     Returns
     -------
     tuple
-        (P [Pa], Newton iterations taken).
-
-    Notes
-    -----
-    f(P) = A P^B + C e^(DP) - E with A = R P0^(1/gamma), B = -1/gamma,
-    C = (1 - R) e^(P0/beta), D = -1/beta, E = rho0/rho (eqs 4.12-4.14). Both terms are
-    convex and decreasing in P, so a Newton step from any P > 0 lands left of the root
-    (f >= 0) and from there Newton's method increases monotonically to it without
-    overshoot: convergence is guaranteed whatever the start, and a close start only saves
-    iterations. The start solves a two-term model, the liquid term linear in P:
-    R (P0/P)^(1/gamma) = k (P - P_lin), k = (1 - R)/beta, whose liquid-only root P_lin is a
-    lower bound of the true root. Where P_lin > 0 it is P_lin u with (u - 1) u^(1/gamma) = c
-    = R P0^(1/gamma) / (k P_lin^(1 + 1/gamma)) (the air volume at P_lin against the liquid's
-    compression), solved as u = 1 + c (1 + c)^(-1/(1 + gamma)), exact for c -> 0 and
-    c -> infinity and within 9 % between; otherwise (expansion) the air takes up the whole
-    density change with the liquid frozen at its P0 volume.
-    With R = 0 the liquid root is exact (and may be negative: no vapour model).
-
-    ``p_start`` > 0 replaces that start (the root of a nearby call: an integrator evaluates the
-    cylinder at neighbouring states, so one or two Newton steps remain; the result does not
-    depend on the start beyond the tolerance, since Newton converges from any P > 0, though
-    from far left of the root it gains only a factor 1 + gamma per step: 10 Pa to 100 MPa in
-    about 20 of the 60 allowed).
-
-    It stops when the last step, or the error it leaves (quadratic convergence from the
-    left: below f''(P) step^2 / (2 |f'|), f'' decreasing), is below rtol P + 4e-16 beta:
-    the liquid term fixes P only to ~ beta * eps in absolute terms (conditioning).
+        (P [Pa], Newton iterations taken); the start and the stopping rule: the module docstring.
 
     References
     ----------

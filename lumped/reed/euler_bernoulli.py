@@ -28,7 +28,8 @@ from geometry.reed import Reed
 
 # the closed forms and the stepped beam, re-exported: this module is the reed's Euler-Bernoulli models' one name
 from .closed_forms import (  # noqa: F401
-    uniform_frequency_parameter, uniform_natural_frequency, frequency_parameter_from_omega, uniform_stiffness, stiffness_eq_3_40, Segment,
+    uniform_frequency_parameter, uniform_natural_frequency, frequency_parameter_from_omega, uniform_stiffness,
+    stiffness_eq_3_40, Segment,
     segment_transfer_matrix, cantilever_characteristic, cantilever_frequencies, cantilever_mode_shape, stepped_segments,
     stepped_frequency_parameter, ThreeSection, three_section_stiffness, three_section_shape,
 )

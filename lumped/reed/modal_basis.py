@@ -183,12 +183,29 @@ class Modes:
 
 def build_basis(reed: Reed, port: ReedPort | None, fidelity: str, modes: Modes,
                 sampling: Sampling = Sampling()) -> ModalBasis:
-    """A :class:`ModalBasis` from a fidelity's :class:`Modes`.
+    """A :class:`ModalBasis` from a fidelity's :class:`Modes`: the modal mass, stiffness, load, opening and strips
+    of eqs 3.8-3.21 generalised to several modes.
 
-    Normalises each shape to max |phi| = 1 on :func:`geometry.reed_port.face_grid` (positive
-    there), integrates Gamma over :func:`~geometry.reed_port.face_rule` (unless ``modes.raw_load``), the edge
-    mean over :func:`~geometry.reed_port.edge_rule` and the station values over Gauss points across the width
-    (``sampling``). The opening is scaled to the first bending mode (``_opening_mode``).
+    Each shape normalised to max |phi| = 1 on the face grid (positive there); Gamma_i = int_F phi_i dA (unless
+    ``modes.raw_load``), the edge mean and the strips by geometry.reed_port's rules; the opening scaled to the
+    first bending mode.
+
+    Parameters
+    ----------
+    reed, port : geometry.Reed, geometry.reed_port.ReedPort or None
+        The reed and its loaded footprint (None: the whole face, eq 3.21).
+    fidelity : str
+        Names the basis.
+    modes : Modes
+        The fidelity's frequencies [rad/s], raw modal masses [kg] and shape evaluator.
+    sampling : Sampling
+        Plane (Gauss points across the width) or not; the breakpoints.
+
+    Returns
+    -------
+    ModalBasis
+        Modal mass [kg], stiffness [N/m], load Gamma [m^2], opening and tip weights [-], strips (eqs 3.8-3.21,
+        docs/reed_dynamics.md).
     """
     omega, kinds, raw_mass, evaluate = modes.omega, modes.kinds, modes.raw_mass, modes.evaluate
     plane, breaks, raw_load = sampling.plane, sampling.breaks, modes.raw_load
@@ -228,14 +245,31 @@ def build_basis(reed: Reed, port: ReedPort | None, fidelity: str, modes: Modes,
 
 # ------------------------------------------------------------------------------ exact E-B
 def analytic_basis(reed: Reed, port: ReedPort | None = None, mesh_size=None, n_modes: int = MAX_MODES) -> ModalBasis:
-    """The ``analytic`` modal basis: the first bending modes of exact Euler-Bernoulli theory.
+    """The ``analytic`` modal basis: the first bending modes of exact Euler-Bernoulli theory, (EI(s) w'')'' =
+    omega^2 m(s) w, clamped-free (eq 3.8 in vacuum, no damping).
 
-    (EI(s) w'')'' = omega^2 m(s) w, clamped-free (thesis eq 3.8 in vacuum, no damping).
-    Piecewise-uniform reeds: roots of the exact transfer-matrix determinant (Naguleswaran
-    2002) and the exact segment shapes (:func:`lumped.reed.euler_bernoulli.cantilever_mode_shape`);
-    others (rounded tips, grooves, tapers): w = omega^2 G[m w] on the spectral quadrature
-    (:class:`lumped.reed.euler_bernoulli.BeamModel`). Modal masses int m phi^2 ds by that quadrature.
-    Bending only: w does not vary across the width. ``mesh_size`` is ignored.
+    Piecewise-uniform reeds: roots of the exact transfer-matrix determinant (Naguleswaran 2002) and the exact
+    segment shapes (lumped.reed.euler_bernoulli.cantilever_mode_shape); others (rounded tips, grooves, tapers): w =
+    omega^2 G[m w] on the spectral quadrature (lumped.reed.euler_bernoulli.BeamModel). Modal masses int m phi^2 ds
+    by that quadrature. Bending only: w does not vary across the width.
+
+    Parameters
+    ----------
+    reed, port
+        As :func:`build_basis`.
+    mesh_size : float or None
+        Ignored (no mesh).
+    n_modes : int
+        Modes to find.
+
+    Returns
+    -------
+    ModalBasis
+        As :func:`build_basis`.
+
+    References
+    ----------
+    Knutson (2016), eq 3.8, Table 3.3 (:func:`modal_basis`'s example); Naguleswaran (2002).
     """
     from .quadrature import NODES_PER_PIECE, ProfileQuadrature, profile_breaks
     from .euler_bernoulli import BeamModel, cantilever_frequencies, cantilever_mode_shape, stepped_segments
@@ -359,8 +393,31 @@ class FESystem:
 
 def fe_reed_from(reed: Reed, port: ReedPort | None, fidelity: str, system: FESystem,
                  sampling: Sampling = Sampling()) -> FEReed:
-    """An :class:`FEReed` from a fidelity's :class:`FESystem`; the load (unless the FE model assembles it),
-    opening, tip and station rows are built with the same rules as :func:`build_basis`."""
+    """An :class:`FEReed` from a fidelity's :class:`FESystem`, the load (unless the FE model assembles it), opening,
+    tip and station rows built with the rules of :func:`build_basis`.
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed.
+    port : geometry.reed_port.ReedPort or None
+        The loaded footprint; None: the whole face (eq 3.21).
+    fidelity : str
+        Names the FE reed.
+    system : FESystem
+        Mass [kg] and stiffness [N/m] matrices, a probe of the nodal deflection, the load (or None).
+    sampling : Sampling
+        As :func:`build_basis`.
+
+    Returns
+    -------
+    FEReed
+        M, K, f [m^2], opening and tip rows [-], strips.
+
+    References
+    ----------
+    docs/reed_dynamics.md.
+    """
     mass, stiffness, probe, load = system.mass, system.stiffness, system.probe, system.load
     plane, breaks = sampling.plane, sampling.breaks
     if load is None:
@@ -398,13 +455,37 @@ _loaded = {"entry_points": False}
 
 
 def register(name: str, func: Callable) -> None:
-    """Add (or replace) a modal-basis fidelity."""
+    """Add (or replace) a modal-basis fidelity.
+
+    Parameters
+    ----------
+    name : str
+        The fidelity's name.
+    func : callable
+        ``f(reed, port=None, mesh_size=None, n_modes=MAX_MODES) -> ModalBasis``.
+
+    Returns
+    -------
+    None
+    """
     FIDELITIES[name] = func
     _cached_basis.cache_clear()
 
 
 def register_fe(name: str, func: Callable) -> None:
-    """Add (or replace) an FE-reed fidelity."""
+    """Add (or replace) an FE-reed fidelity.
+
+    Parameters
+    ----------
+    name : str
+        The fidelity's name.
+    func : callable
+        ``f(reed, port=None, mesh_size=None) -> FEReed``.
+
+    Returns
+    -------
+    None
+    """
     FE_FIDELITIES[name] = func
     _cached_fe.cache_clear()
 
@@ -423,19 +504,41 @@ def _ordered(names) -> list[str]:
 
 
 def names() -> list[str]:
-    """Every fidelity that gives a modal basis, cheapest first."""
+    """Every fidelity that gives a modal basis, cheapest first.
+
+    Returns
+    -------
+    list of str
+    """
     _load_plugins()
     return _ordered(FIDELITIES)
 
 
 def fe_names() -> list[str]:
-    """Every fidelity that gives a whole FE reed."""
+    """Every fidelity that gives a whole FE reed.
+
+    Returns
+    -------
+    list of str
+    """
     _load_plugins()
     return _ordered(FE_FIDELITIES)
 
 
 def check_modes(n_modes, field: str = "modes") -> int:
-    """``n_modes`` as an int 1..MAX_MODES, else InputError naming ``field``."""
+    """``n_modes`` as an int 1..MAX_MODES, else an InputError naming ``field``.
+
+    Parameters
+    ----------
+    n_modes : int or str
+        What the user wrote.
+    field : str
+        The key it came from.
+
+    Returns
+    -------
+    int
+    """
     return int(validate.number(n_modes, field, bounds=(1, MAX_MODES), integer=True))
 
 
@@ -511,8 +614,23 @@ def fe_reed(reed: Reed, port: ReedPort | None = None, fidelity: str = "beam", me
             *, fidelity_field: str = "fidelity", port_field: str = "port") -> FEReed:
     """The whole FE reed of ``fidelity`` (``beam``; ``plate`` where registered) with the load of ``port``.
 
-    Cached per (reed, fidelity, port, mesh_size). An unknown fidelity is an InputError
-    naming ``fidelity_field``; a port off the reed names ``port_field.<key>``.
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed.
+    port : geometry.reed_port.ReedPort or None
+        The loaded footprint; None: the whole face (eq 3.21).
+    fidelity : str
+        An FE fidelity; unknown: InputError naming ``fidelity_field``.
+    mesh_size : float or None
+        Element size [m]; None: the fidelity's default.
+    fidelity_field, port_field : str
+        The keys errors name (a port off the reed names ``port_field.<key>``).
+
+    Returns
+    -------
+    FEReed
+        Cached per (reed, fidelity, port, mesh_size).
     """
     _load_plugins()
     if fidelity not in FE_FIDELITIES:
@@ -526,8 +644,18 @@ def fe_reed(reed: Reed, port: ReedPort | None = None, fidelity: str = "beam", me
 def static_convergence(basis: ModalBasis, fe: FEReed, dp: float = 1.0) -> dict:
     """The modal static deflection with N = 1..basis.n_modes modes against the FE reed's K^-1 f dP.
 
-    Returns {"fe": {"tip", "opening"} [m], "rows": [{"modes", "tip", "opening" [m],
-    "tip_error", "opening_error" (relative to the FE values)}]} under dP [Pa] on the footprint.
+    Parameters
+    ----------
+    basis : ModalBasis
+    fe : FEReed
+    dp : float
+        Pressure on the footprint [Pa].
+
+    Returns
+    -------
+    dict
+        {"fe": {"tip", "opening"} [m], "rows": [{"modes", "tip", "opening" [m], "tip_error", "opening_error"
+        (relative to the FE values)}]}.
     """
     tip_fe, x_fe = fe.static_deflection(dp)
     rows = []
@@ -540,16 +668,29 @@ def static_convergence(basis: ModalBasis, fe: FEReed, dp: float = 1.0) -> dict:
 
 def release_errors(basis: ModalBasis, fe: FEReed, periods: float = 20.0, samples_per_period: int = 2000,
                    dp: float = 1.0) -> dict:
-    """The free reed released from rest at its static deflection under dP on the footprint: tip and
-    opening histories of the N-mode model (N = 1..basis.n_modes) against the whole FE reed.
+    """The free reed released from rest at its static deflection under dP on the footprint: tip and opening
+    histories of the N-mode model (N = 1..basis.n_modes) against the whole FE reed.
 
-    The FE reed starts from u0 = K^-1 f dP and moves by exact superposition of all its modes;
-    the N-mode model from its own static deflection q_i = Gamma_i dP / k_i (no damping, no
-    flow, no contact). Over ``periods`` periods of mode 1 (``samples_per_period`` samples
-    each) it reports per N the largest difference of the tip and the opening relative to the
-    FE amplitude (max |.| of the FE history), and ``bound``, sum over the FE modes the N-mode
-    model lacks of |a_j tip . phi_j| / amplitude when the basis is the FE reed's own modes
-    (same fidelity and mesh; None otherwise): the largest the tip error can ever get.
+    The FE reed starts from u0 = K^-1 f dP and moves by exact superposition of all its modes; the N-mode model from
+    its own static deflection q_i = Gamma_i dP / k_i (no damping, no flow, no contact).
+
+    Parameters
+    ----------
+    basis : ModalBasis
+    fe : FEReed
+    periods : float
+        Span, in periods of mode 1.
+    samples_per_period : int
+    dp : float
+        Pressure on the footprint [Pa].
+
+    Returns
+    -------
+    dict
+        Per N the largest difference of the tip and the opening relative to the FE amplitude (max |.| of the FE
+        history), and ``bound``: the sum over the FE modes the N-mode model lacks of |a_j tip . phi_j| / amplitude
+        when the basis is the FE reed's own modes (same fidelity and mesh; None otherwise), the largest the tip
+        error can get.
     """
     t = np.linspace(0.0, periods * 2 * np.pi / basis.omega[0], int(periods * samples_per_period) + 1)
     omega, P = fe.modes()

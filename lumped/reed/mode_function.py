@@ -109,7 +109,9 @@ def effective_thickness(gamma1: float, kappa: float, density: float, omega_n: fl
 
     Examples
     --------
-    >>> round(effective_thickness(1.640, 7.709e6, 1410.0, 2786.0) * 1e3, 2)   # prototype; Table 3.13: 1.161 mm with the FEA's
+    The prototype reed (Table 3.10's kappa and omega_n; Table 3.13 lists 1.161 mm with the FEA's):
+
+    >>> round(effective_thickness(1.640, 7.709e6, 1410.0, 2786.0) * 1e3, 2)
     1.16
     """
     return gamma1 * kappa / (density * omega_n**2)

@@ -101,5 +101,16 @@ class ProfileQuadrature:
 
 
 def profile_breaks(reed: Reed) -> np.ndarray:
-    """Breakpoints of the section properties [m] (:meth:`geometry.reed.Reed.section_breaks`)."""
+    """Breakpoints of the section properties (geometry.reed.Reed.section_breaks).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed.
+
+    Returns
+    -------
+    array of float
+        Arc lengths [m] where EI(s) or m(s) jumps or changes law.
+    """
     return reed.section_breaks()

@@ -74,7 +74,9 @@ def internal_damping(sigma: float, gamma1: float, rho_c: float, h_eff: float) ->
 
     Examples
     --------
-    >>> round(internal_damping(decay_rate(77.50, 1.6, 1410.0, 1.161e-3), 1.6, 1410.0, 1.161e-3), 2)   # Table 3.10's mean
+    Table 3.10's mean c_c, through its decay rate and back:
+
+    >>> round(internal_damping(decay_rate(77.50, 1.6, 1410.0, 1.161e-3), 1.6, 1410.0, 1.161e-3), 2)
     77.5
     """
     return 2.0 * rho_c * h_eff * sigma / gamma1
@@ -236,11 +238,27 @@ def _check_trace(t, v, where: str):
 
 
 def initial_guess(t, v) -> tuple[float, float, float, float, float]:
-    """(amplitude, sigma, omega_d, phase, offset) from the FFT peak and the logarithmic decrement.
+    """Starting values of eq 3.67's fit from the FFT peak and the logarithmic decrement.
 
-    omega_d: Hann-windowed, zero-padded FFT peak refined by parabolic interpolation;
-    sigma: slope of log(peak height) over successive peaks (log decrement / period);
-    amplitude and phase: linear least squares with sigma and omega_d fixed.
+    omega_d: Hann-windowed, zero-padded FFT peak refined by parabolic interpolation; sigma: slope of log(peak
+    height) over successive peaks (log decrement / period); amplitude and phase: linear least squares with sigma and
+    omega_d fixed; the offset: the median of the last fifth.
+
+    Parameters
+    ----------
+    t : array of float
+        Sample times [s], increasing.
+    v : array of float
+        The trace (any unit: volts or metres).
+
+    Returns
+    -------
+    (amplitude, sigma, omega_d, phase, offset) : tuple of float
+        In v's unit, 1/s, rad/s, rad, v's unit.
+
+    References
+    ----------
+    Knutson (2016), eq 3.67.
     """
     t = np.asarray(t, float)
     v = np.asarray(v, float)
@@ -273,10 +291,30 @@ def initial_guess(t, v) -> tuple[float, float, float, float, float]:
 
 
 def fit_ringdown(t, v, *, with_offset: bool = True, where: str = "trace") -> tuple[np.ndarray, float]:
-    """Fit eq 3.67 to one trace by nonlinear least squares (scipy.optimize.least_squares).
+    """Fit eq 3.67, v = A exp(-sigma t) sin(omega_d t + phase) + offset, to one trace by nonlinear least squares
+    (scipy.optimize.least_squares from :func:`initial_guess`).
 
-    Returns ([amplitude, sigma, omega_d, phase, offset], rms residual); time is measured
-    from the first sample. ``with_offset=False`` fixes the offset at 0 (eq 3.67 as printed).
+    Parameters
+    ----------
+    t : array of float
+        Sample times [s], increasing; time is measured from the first sample.
+    v : array of float
+        The trace (any unit).
+    with_offset : bool
+        False fixes the offset at 0 (eq 3.67 as printed).
+    where : str
+        Names the trace in an InputError (NaN, times not increasing, constant).
+
+    Returns
+    -------
+    x : array of float
+        [amplitude, sigma [1/s], omega_d [rad/s], phase [rad], offset].
+    rms : float
+        The residual's root mean square (v's unit).
+
+    References
+    ----------
+    Knutson (2016), eq 3.67.
     """
     t, v = _check_trace(t, v, where)
     t0 = t - t[0]
@@ -305,7 +343,30 @@ def fit_ringdown(t, v, *, with_offset: bool = True, where: str = "trace") -> tup
 
 def identify_run(t, v, gamma1: float, rho_c: float, h_eff: float, *, with_offset: bool = True,
                  where: str = "trace") -> RingdownFit:
-    """One plucked-reed run: eq 3.67 fit, then c_c (eq 3.67), omega_n (eq 3.70), kappa (eq 3.73)."""
+    """One plucked-reed run: eq 3.67's fit, then c_c (eq 3.69), omega_n (eq 3.70) and kappa (eq 3.73).
+
+    Parameters
+    ----------
+    t, v : array of float
+        The trace: times [s] and values (any unit).
+    gamma1 : float
+        The reed's gamma1 [-] (the thesis took stepped reed #2's 1.640).
+    rho_c : float
+        Density [kg/m^3].
+    h_eff : float
+        Effective thickness [m].
+    with_offset, where
+        As :func:`fit_ringdown`.
+
+    Returns
+    -------
+    RingdownFit
+        The fit and c_c [Pa s/m], omega_n [rad/s], kappa [Pa/m].
+
+    References
+    ----------
+    Knutson (2016), section 3.8.2.1, eqs 3.67-3.73.
+    """
     for name, val in (("gamma1", gamma1), ("rho_c", rho_c), ("h_eff", h_eff)):
         if not (np.isfinite(val) and val > 0):
             raise InputError(name, f"must be a positive number, got {val}")
@@ -318,11 +379,33 @@ def identify_run(t, v, gamma1: float, rho_c: float, h_eff: float, *, with_offset
 
 
 def summarise(values) -> dict:
-    """mean, sample standard deviation and uncertainty [+- %] of repeated runs, as in Table 3.10.
+    """Mean, sample standard deviation and uncertainty [+- %] of repeated runs, as in Table 3.10.
 
-    Table 3.10's uncertainty is 100 std / (2 sqrt(n) |mean|) (it reproduces the printed
-    0.3953 % for c_c and 0.04083 % for omega; its kappa entry 0.8174 is 10x the same
-    formula's 0.08174, docs/errata.md).
+    Table 3.10's uncertainty is 100 std / (2 sqrt(n) |mean|): it gives 0.3954 % for c_c (printed 0.3953,
+    truncated) and 0.04083 % for omega; its kappa entry 0.8174 is 10x the same formula's 0.08174
+    (docs/errata.md).
+
+    Parameters
+    ----------
+    values : array_like of float
+        One value per run.
+
+    Returns
+    -------
+    dict
+        {"mean", "std", "uncertainty_pct", "n"}.
+
+    References
+    ----------
+    Knutson (2016), Table 3.10.
+
+    Examples
+    --------
+    Table 3.10's six runs of c_c [Pa s/m] (printed: mean 77.50, standard deviation 1.501, +- 0.3953 %):
+
+    >>> s = summarise([79.18, 77.52, 75.88, 76.00, 77.07, 79.34])
+    >>> print(f"{s['mean']:.2f} {s['std']:.3f} {s['uncertainty_pct']:.3f}")
+    77.50 1.501 0.395
     """
     a = np.asarray(values, dtype=float)
     n = a.size
@@ -335,9 +418,21 @@ def summarise(values) -> dict:
 def identify(traces, gamma1: float, rho_c: float, h_eff: float, *, with_offset: bool = True) -> dict:
     """Identify c_c, omega_d, omega_n and kappa from plucked-reed traces, summarised like Table 3.10.
 
-    ``traces``: an iterable of (t [s], v) pairs (v in any unit: volts or metres).
-    Returns {"runs": [RingdownFit, ...], "c_c": summary, "omega_d": ..., "omega_n": ...,
-    "kappa": ...} with each summary from :func:`summarise`.
+    Parameters
+    ----------
+    traces : iterable of (array, array)
+        (t [s], v) pairs (v in any unit: volts or metres).
+    gamma1, rho_c, h_eff, with_offset
+        As :func:`identify_run`.
+
+    Returns
+    -------
+    dict
+        {"runs": [RingdownFit, ...], "c_c", "omega_d", "omega_n", "kappa"}, each summary from :func:`summarise`.
+
+    References
+    ----------
+    Knutson (2016), section 3.8.2.1, Table 3.10.
     """
     runs = [identify_run(t, v, gamma1, rho_c, h_eff, with_offset=with_offset, where=f"trace[{i}]")
             for i, (t, v) in enumerate(traces)]

@@ -75,8 +75,10 @@ class SolverOptions:
 
 @dataclass(frozen=True)
 class TraceOptions:
-    """What a run keeps for :attr:`lumped.run.simulate.PumpResult.trace`: the last ``revolutions`` sampled
-    at ``points`` per revolution."""
+    """What a run keeps for its trace (PumpResult.trace).
+
+    The last ``revolutions`` revolutions, sampled at ``points`` per revolution.
+    """
 
     revolutions: int = 1
     points: int = 2000

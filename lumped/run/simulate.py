@@ -26,7 +26,9 @@ from lumped.solver.layout import CAVITATION_SLOT, N_MODE, POSITIONS, G
 from lumped.model.pump_model import Operating, PumpModel
 from lumped.model.model_file import load_model
 from lumped.solver.problem import PumpProblem
-from lumped.run.options import MAX_REVOLUTIONS, METHODS, Overrides, RunOptions, SolverOptions, TraceOptions  # noqa: F401
+from lumped.run.options import (  # noqa: F401 - SolverOptions, TraceOptions: simulate's options objects
+    MAX_REVOLUTIONS, METHODS, Overrides, RunOptions, SolverOptions, TraceOptions,
+)
 from lumped.run.revolutions import StopRule, TdcState, run, tdc_state  # noqa: F401 - TdcState: simulate's type
 from lumped.solver.steppers import DEFAULT_TOLERANCES, METHODS as STEPPERS  # noqa: F401 - the tolerances: API
 from lumped.run.trace import Trace

@@ -1,8 +1,8 @@
 """The reference physics, compiled: numba copies of the very functions the reference path runs.
 
-``_jit_physics`` compiles every function of :data:`physics_modules` (oil, orifice,
-the valves' shared data and force terms, valve kinds, pump kinematics, layout, right-hand side, switching, Jacobian) with ``numba.njit``: each function's own code
-object, its module globals re-pointed at the compiled siblings. Nothing is written
+``_jit_physics`` compiles every function of :data:`physics_modules` (oil, orifice, the valves' shared data and
+force terms, valve kinds, pump kinematics, layout, right-hand side, switching, Jacobian) with ``numba.njit``: each
+function's own code object, its module globals re-pointed at the compiled siblings. Nothing is written
 twice; the fast stepper (``lumped.solver.steppers.RodasStepper``) integrates these.
 
 The copies use numba's ``error_model="numpy"`` (no zero test before each float

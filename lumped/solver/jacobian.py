@@ -368,11 +368,26 @@ def _load(y, p) -> Load:
 
 def pump_jacobian(t: float, y, p, mode, pc_hint: float, jac, ft, fscratch, yscratch, atol, rtol: float,
                   n_dyn: int) -> int:
-    """Fill ``jac`` (df/dy, columns n_dyn.. zero) and ``ft`` (df/dt); returns the rhs calls made (0 or 2).
+    """The pump's Jacobian df/dy (columns n_dyn.. zero) and df/dt, analytic where the physics is and differenced
+    (increments sqrt(eps) max(|y_j|, atol_j / rtol)) where it is not; the integrator's hook (rodas.specialize).
 
-    ``pc_hint``: P_cyl at (t, y) if the caller has it (NaN: computed here). Increments of
-    the differenced accelerations: sqrt(eps) max(|y_j|, atol_j / rtol). (A compiled kernel: its arguments
-    are the integrator's, lumped.solver.rodas.specialize.)
+    Parameters
+    ----------
+    t, y, p, mode
+        Time [s], the pump's state, the flat parameter array and the mode (lumped.solver.layout).
+    pc_hint : float
+        P_cyl at (t, y) [Pa] if the caller has it (NaN: computed here).
+    jac, ft, fscratch, yscratch : array of float
+        Written: (n, n) df/dy and df/dt (per state's unit); scratch of the state's length.
+    atol, rtol : array of float, float
+        The integrator's tolerances (the increments' floor).
+    n_dyn : int
+        States that feed back.
+
+    Returns
+    -------
+    int
+        The right-hand side calls made (0 or 2).
     """
     n = y.shape[0]
     for j in range(n):

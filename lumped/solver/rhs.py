@@ -375,14 +375,8 @@ def evaluate(t: float, y, p, mode, dydt, accelerations: bool = True) -> Rates:
 
     Parameters
     ----------
-    t : float
-        Time from TDC [s].
-    y : array of float
-        The state (lumped.solver.layout).
-    p : array of float
-        The packed parameters.
-    mode : array of float
-        The mode (contact states, regimes, cavitation).
+    t, y, p, mode
+        Time from TDC [s], the state, the packed parameters and the mode (lumped.solver.layout).
     dydt : array of float
         Written: dy/dt.
     accelerations : bool
@@ -409,13 +403,19 @@ def evaluate(t: float, y, p, mode, dydt, accelerations: bool = True) -> Rates:
     if complete:
         pl, pl_m = load_pressure(y[i_load], p)
     mu = p[G.viscosity]
+    # the valves' openings, orifice densities (section 4.3.5), flows and mass flows (eqs 4.3, 4.4) written out
+    # here, not in a helper: a compiled call binding y and p costs a reference count each (docs/extending.md)
+    x_in, u_in = opening(y, p, OFF_IN)
+    x_del, u_del = opening(y, p, OFF_DEL)
+    rho_in = orifice_density(rho_cyl, p[G.rho_tank], p, OFF_IN)[0]
+    rho_del = orifice_density(rho_cyl, load_side_density(pl, p), p, OFF_DEL)[0]
     dp_in = pt - pc
     dp_del = pc - pl
     c_in, c_del = int(mode[MODE.inlet_contact]), int(mode[MODE.delivery_contact])
-    x_in, u_in, rho_in, mdot_in, qo_in, cd_in, aq_in, dqp_in, dqx_in = _valve_side(
-        y, p, OFF_IN, c_in, dp_in, rho_cyl, p[G.rho_tank], mu)
-    x_del, u_del, rho_del, mdot_del, qo_del, cd_del, aq_del, dqp_del, dqx_del = _valve_side(
-        y, p, OFF_DEL, c_del, dp_del, rho_cyl, load_side_density(pl, p), mu)
+    qo_in, cd_in, aq_in, dqp_in, dqx_in = valve_flow(x_in, u_in, dp_in, rho_in, mu, p, OFF_IN, c_in)
+    qo_del, cd_del, aq_del, dqp_del, dqx_del = valve_flow(x_del, u_del, dp_del, rho_del, mu, p, OFF_DEL, c_del)
+    mdot_in = mass_flow(qo_in, aq_in, u_in, dp_in, rho_in, dqp_in, dqx_in)[0]
+    mdot_del = mass_flow(qo_del, aq_del, u_del, dp_del, rho_del, dqp_del, dqx_del)[0]
     mdot_leak = leakage_mass_flow(pc, rho_cyl, p)[0]
     dm = mdot_in - mdot_del - mdot_leak                # eq 4.5
     # pressure rates, needed by the transient flow force (eq 2.37)
@@ -439,32 +439,17 @@ def evaluate(t: float, y, p, mode, dydt, accelerations: bool = True) -> Rates:
         vap = vol - m / p[G.rho_vapour]
         if vap < 0.0:
             vap = 0.0
+    i_in, i_out, i_leak, i_nv = quadrature_indices(p)
     write_rates(dydt, p, OFF_IN, u_in, a_in)
     write_rates(dydt, p, OFF_DEL, u_del, a_del)
-    _write_masses(dydt, p, dm, dml, (mdot_in, mdot_del, mdot_leak, mdot_nv))
+    dydt[S_MCYL] = dm
+    dydt[i_load] = dml
+    dydt[i_in] = mdot_in
+    dydt[i_out] = mdot_del
+    dydt[i_leak] = mdot_leak
+    dydt[i_nv] = mdot_nv
     return Rates(dm, x_in, u_in, a_in, x_del, u_del, a_del, dml, mdot_in, mdot_del, mdot_leak, mdot_nv, pc, pl,
                  qo_in, qo_del, rho_cyl, rho_in, rho_del, vol, vap)
-
-
-def _valve_side(y, p, o: int, contact: int, dp: float, rho_cyl: float, rho_other: float, mu: float):
-    """One valve's opening x [m], rate u [m/s], orifice density [kg/m^3] (section 4.3.5), mass flow [kg/s]
-    (eqs 4.3, 4.4) and its flow (lumped.valves.forces.valve_flow) at pressure difference dp [Pa]."""
-    x, u = opening(y, p, o)
-    rho = orifice_density(rho_cyl, rho_other, p, o)[0]
-    qo, cd, aq, dqp, dqx = valve_flow(x, u, dp, rho, mu, p, o, contact)
-    mdot = mass_flow(qo, aq, u, dp, rho, dqp, dqx)[0]
-    return x, u, rho, mdot, qo, cd, aq, dqp, dqx
-
-
-def _write_masses(dydt, p, dm: float, dml: float, flows) -> None:
-    """d/dt of the cylinder and load-line masses and of the running totals (inlet, delivery, leakage, needle)."""
-    i_in, i_out, i_leak, i_nv = quadrature_indices(p)
-    dydt[S_MCYL] = dm
-    dydt[load_index(p)] = dml
-    dydt[i_in] = flows[0]
-    dydt[i_out] = flows[1]
-    dydt[i_leak] = flows[2]
-    dydt[i_nv] = flows[3]
 
 
 def rhs(t: float, y, p, mode) -> np.ndarray:

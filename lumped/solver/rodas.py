@@ -9,11 +9,12 @@ exact equilibrium rather than a ringing one. Rodas5P (Steinebach 2023; ``Options
 stiff component is slaved to a fast forcing (a valve's velocity under a transient flow force): Rodas4P's
 embedded estimate over-reads its own error there (docs/discrepancy.md, "Cost").
 
-:func:`solve` is the loop; each of its parts is a helper numba compiles with it: :func:`_prepare` (f, the
-events and the Jacobian where stale), :func:`_attempt` (one step and its error test), :func:`_event_in_step`
-(the first crossing on the step's interpolant, the step redone to end there), :func:`_next_step` (Gustafsson's
-predictive controller, as in RODAS), :func:`_record_step` (the dense output kept), :func:`_switch` and
-:func:`_restart` (a mode change and the step after it), :func:`_pass_stops`.
+:func:`solve` is the loop, one compiled kernel: numba increfs and decrefs every array it binds to a function's
+argument, so the loop's arrays cross no function boundary per step (docs/extending.md, "Long kernels"). Its
+scalar decisions are helpers: :func:`_clip` (the step landing on a stop), :func:`_error_test` and
+:func:`_predicted` (Gustafsson's predictive controller, as in RODAS), :func:`_redo` (a step redone to end at an
+event), :func:`_restart` (the step after an event); :func:`_locate_event` finds the first crossing on the
+step's interpolant, :func:`_illinois` refines it.
 
 The model's functions are module-level names: ``rhs(t, y, p, dydt)`` (fills ``dydt`` in place; ``p`` a flat
 float64 parameter array), and the hooks ``event_values``, ``apply_event``, ``step_tag``, ``event_retry``,
@@ -125,18 +126,29 @@ N_SCAN = 1
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _locate_event(t, h, y, p, wk, n_events):
-    """(k, s): the event that fires first in the step from (t, y) of size h (its result and interpolant in
-    :class:`~lumped.solver.rosenbrock.Work` ``wk``) and the step fraction where it does; k = -1 if none fires.
+def _locate_event(t, h, y0, y1, q2, q3, q4, p, g0, g, ybuf, n_events):
+    """(k, s): the event that fires first in the step from (t, y0) of size h and the step fraction where it
+    does; k = -1 if none fires.
 
-    An event k fires where g_k drops from >= 0 (``wk.g0``, at the step's start) to < 0. The interpolant is
-    checked at N_SCAN points to bracket the first crossing (:func:`_scan`), which :func:`_illinois` refines on
-    the interpolant; an event can only come first before the best so far.
+    An event k fires where g_k drops from >= 0 (``g0``, at the step's start) to < 0. The interpolant (y1 the
+    step's result, q2..q4 its coefficients) is checked at N_SCAN points to bracket the first crossing (the
+    values at the bracket's end are left in ``g``), which :func:`_illinois` refines on the interpolant; an event
+    can only come first before the best so far. ``ybuf``: scratch of the state's length.
     """
-    lo, hi = _scan(t, h, y, p, wk, n_events)
+    lo = 0.0
+    hi = -1.0
+    for j in range(1, N_SCAN + 1):
+        sj = j / N_SCAN
+        _dense_into(sj, y0, y1, q2, q3, q4, ybuf)
+        event_values(t + sj * h, ybuf, p, g)
+        for kk in range(n_events):
+            if g[kk] < 0.0:
+                hi = sj
+        if hi > 0.0:
+            break
+        lo = sj
     if hi < 0.0:
         return -1, 2.0
-    g0, g = wk.g0, wk.g1
     for kk in range(n_events):      # any already negative at the start fire at once
         if g0[kk] < 0.0 and g[kk] < 0.0:
             return kk, 0.0
@@ -144,8 +156,8 @@ def _locate_event(t, h, y, p, wk, n_events):
     g_lo = g0                     # the event values at the bracket's start (the step's, unless scanned past)
     if lo > 0.0:
         g_lo = np.empty(g.shape[0])
-        _dense_into(lo, y, wk.ynew, wk.q2, wk.q3, wk.q4, wk.yp)
-        event_values(t + lo * h, wk.yp, p, g_lo)
+        _dense_into(lo, y0, y1, q2, q3, q4, ybuf)
+        event_values(t + lo * h, ybuf, p, g_lo)
     best_k = -1
     best_s = 2.0
     for kk in range(n_events):
@@ -154,12 +166,12 @@ def _locate_event(t, h, y, p, wk, n_events):
         b = min(hi, best_s)
         fb = g[kk]
         if b < hi:
-            _dense_into(b, y, wk.ynew, wk.q2, wk.q3, wk.q4, wk.yp)
-            event_values(t + b * h, wk.yp, p, gs)
+            _dense_into(b, y0, y1, q2, q3, q4, ybuf)
+            event_values(t + b * h, ybuf, p, gs)
             if gs[kk] >= 0.0:
                 continue
             fb = gs[kk]
-        b = _illinois(kk, (lo, b, g_lo[kk], fb), t, h, y, p, wk, gs)
+        b = _illinois(kk, (lo, b, g_lo[kk], fb), (t, h), (y0, y1, q2, q3, q4), p, ybuf, gs)
         if b < best_s:
             best_s = b
             best_k = kk
@@ -167,31 +179,15 @@ def _locate_event(t, h, y, p, wk, n_events):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _scan(t, h, y, p, wk, n_events):
-    """(lo, hi): the step fractions bracketing the first crossing among N_SCAN points of the interpolant (hi < 0:
-    none); the event values at hi are left in ``wk.g1``."""
-    lo = 0.0
-    hi = -1.0
-    for j in range(1, N_SCAN + 1):
-        sj = j / N_SCAN
-        _dense_into(sj, y, wk.ynew, wk.q2, wk.q3, wk.q4, wk.yp)
-        event_values(t + sj * h, wk.yp, p, wk.g1)
-        for kk in range(n_events):
-            if wk.g1[kk] < 0.0:
-                hi = sj
-        if hi > 0.0:
-            break
-        lo = sj
-    return lo, hi
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _illinois(kk, bracket, t, h, y, p, wk, gs):
+def _illinois(kk, bracket, step, interpolant, p, ybuf, gs):
     """The step fraction where event kk crosses, refined inside ``bracket`` = (a, b, g_kk(a), g_kk(b)) on the
-    interpolant to 1e-13 of the step by the Illinois method (regula falsi that halves the stale end's value;
-    Dowell & Jarratt 1971), with a bisection whenever the bracket fails to halve twice running: about 6-10
-    evaluations instead of bisection's 43. Returns the bracket's end past the crossing."""
+    ``interpolant`` = (y0, y1, q2, q3, q4) of the ``step`` = (t, h) to 1e-13 of the step by the Illinois method
+    (regula falsi that halves the stale end's value; Dowell & Jarratt 1971), with a bisection whenever the
+    bracket fails to halve twice running: about 6-10 evaluations instead of bisection's 43. Returns the
+    bracket's end past the crossing."""
     a, b, fa, fb = bracket
+    t, h = step
+    y0, y1, q2, q3, q4 = interpolant
     side = 0
     slow = 0
     while b - a > 1e-13:
@@ -199,8 +195,8 @@ def _illinois(kk, bracket, t, h, y, p, wk, gs):
         m = (a * fb - b * fa) / (fb - fa) if slow < 2 else 0.5 * (a + b)
         if not (a < m < b):
             m = 0.5 * (a + b)
-        _dense_into(m, y, wk.ynew, wk.q2, wk.q3, wk.q4, wk.yp)
-        event_values(t + m * h, wk.yp, p, gs)
+        _dense_into(m, y0, y1, q2, q3, q4, ybuf)
+        event_values(t + m * h, ybuf, p, gs)
         fm = gs[kk]
         if fm < 0.0:
             b = m
@@ -274,95 +270,125 @@ class Result(NamedTuple):
     h_next: float
 
 
-#: the step controller's integer state, slots of an int64 array: the counts, the Jacobian's age in accepted steps,
-#: the redone steps of the pending event, the event code whose first step is being taken (-1: none), and flags:
-#: the first step since the start or an event, the last step rejected, f(t, y) and the events at (t, y) known
-N_STEPS, N_REJECTED, N_RHS, JAC_AGE, RETRIES, AFTER_EVENT, FIRST, REJECT, F_FRESH, G_FRESH = range(10)
-#: its float state: the step to try next, the last accepted step and its error (Gustafsson's controller)
-H, H_ACC, ERR_ACC = range(3)
-
-
-class Record(NamedTuple):
-    """The recorded steps (:class:`Result`'s ``rec_*``), grown as they fill (:func:`_keep`)."""
-
-    t: np.ndarray
-    y: np.ndarray
-    q2: np.ndarray
-    q3: np.ndarray
-    q4: np.ndarray
-    tag: np.ndarray
-
-
-class EventLog(NamedTuple):
-    """The events made (:class:`Result`'s ``ev_*``), grown as they fill (:func:`_switch`)."""
-
-    t: np.ndarray
-    k: np.ndarray
-    code: np.ndarray
-    y: np.ndarray
-
-
 @numba.njit(cache=True, error_model="numpy")
 def solve(t0, y0, tstops, p, opts):
     """Integrate y' = rhs(t, y, p) from t0 through every time in ``tstops`` (ascending), steps landing exactly
-    on each; a :class:`Result`. Error control: RMS over components of err_i / (atol_i + rtol max(|y_i|,
-    |y_new_i|)), atol as the model's ``update_tolerances`` sets it at the start and after every event. Events
-    (``opts.n_events`` > 0): event k fires where ``event_values``'s g_k drops from >= 0 to < 0, located on the
-    dense output, the step redone to end there (:func:`_event_in_step`); there ``apply_event`` switches the
-    model and integration restarts, so the right-hand side is smooth inside every step.
+    on each; a :class:`Result`.
+
+    Error control: RMS over components of err_i / (atol_i + rtol max(|y_i|, |y_new_i|)), atol as the model's
+    ``update_tolerances`` sets it at the start and after every event; Gustafsson's predictive controller, as in
+    RODAS (:func:`_error_test`, :func:`_predicted`). Events (``opts.n_events`` > 0): event k fires where
+    ``event_values``'s g_k drops from >= 0 to < 0, located on the dense output (:func:`_locate_event`), the step
+    redone to end there (:func:`_redo`); there ``apply_event`` switches the model and integration restarts
+    (:func:`_restart`), so the right-hand side is smooth inside every step. A long kernel (docs/extending.md,
+    "Long kernels"): its arrays cross no function boundary inside the loop.
     """
-    n, y, t = y0.shape[0], y0.copy(), t0
-    update_tolerances(p, opts.atol)
-    wk = work(n, opts.n_dyn, opts.n_events)
-    expo = _exponent(opts.order)
-    ci, cf = _controller(opts, t0, tstops[-1])
-    rec, m = _record_start(n, t, y, step_tag(p), opts.t_record <= t0)
-    ev, n_ev = _event_log(n), 0
+    n, n_dyn, n_events, rtol, atol, order = y0.shape[0], opts.n_dyn, opts.n_events, opts.rtol, opts.atol, opts.order
+    y, t, h_event, expo = y0.copy(), t0, opts.h_event, _exponent(opts.order)
+    update_tolerances(p, atol)
+    f0, ft, fp, yp, jac, w, piv, k, u, ynew, q2, q3, q4, g0, g1 = work(n, n_dyn, n_events)
+    rec_t, rec_y, rec_q2, rec_q3, rec_q4, rec_tag = _record_arrays(1024, n)
+    ev_t, ev_k, ev_code, ev_y = _event_arrays(64, n)
+    m = _keep_start(rec_t, rec_y, rec_q2, rec_q3, rec_q4, rec_tag, t, y, step_tag(p)) if opts.t_record <= t0 else 0
     y_stops = np.full((tstops.shape[0], n), np.nan)
     i_stop = _pass_stops(tstops, 0, t, y, y_stops)
-    status = OK
+    h, h_acc, err_acc = min(opts.h0, opts.hmax, tstops[-1] - t0), 0.0, 1.0
+    n_steps, n_rej, n_rhs, n_ev, status = 0, 0, 0, 0, OK
+    first, reject, f_fresh, g_fresh = True, False, False, False
+    jac_age, retries, after_event = opts.jac_reuse, 0, -1      # a Jacobian due; no event pending
     while i_stop < tstops.shape[0]:
-        if ci[N_STEPS] >= opts.max_steps:
+        if n_steps >= opts.max_steps:
             status = MAX_STEPS
             break
-        h_try, hit = _clip(t, cf[H], opts.hmax, tstops[i_stop])
+        h_try, hit = _clip(t, h, opts.hmax, tstops[i_stop])
         if h_try <= 1e-14 * max(abs(t), 1e-300) or h_try <= 0.0:
             status = STEP_TOO_SMALL
             break
-        _prepare(t, y, p, wk, opts, ci, h_try)
-        ok, err, fac_h, h_new = _attempt(t, h_try, y, p, wk, opts, ci, cf)
-        if not ok:
+        if not f_fresh:                # f(t, y) and the events there, unless the last step's scan gave them
+            rhs(t, y, p, f0)
+            n_rhs += 1
+            if n_events > 0 and not g_fresh:
+                event_values(t, y, p, g0)
+            f_fresh = True
+        if jac_age >= opts.jac_reuse or (reject and jac_age > 0):   # kept jac_reuse steps; fresh after a reject
+            nj = jacobian(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h_try)
+            if nj < 0:
+                nj = fd_jacobian(t, y, p, f0, jac, ft, yp, fp, atol, rtol, n_dyn, h_try)
+            n_rhs += nj
+            jac_age = 0
+        if order == 5:
+            ok, err = rosenbrock5_step(t, h_try, y, p, f0, ft, jac, w, piv, k, u, ynew, n_dyn, rtol, atol)
+        else:
+            ok, err = rosenbrock_step(t, h_try, y, p, f0, ft, jac, w, piv, k, u, ynew, n_dyn, rtol, atol)
+        n_rhs += 7 if order == 5 else 5
+        n_steps += 1 if ok else 0
+        accepted, fac_h, h_new = _error_test(ok, err, h_try, expo, first)
+        if not accepted:
+            h, reject, n_rej = h_new, True, n_rej + 1
             continue
-        dense_coefficients(wk.k, wk.q2, wk.q3, wk.q4, opts.order)
-        k_ev, s_ev, redo = _event_in_step(t, h_try, y, p, wk, opts, ci, cf)
-        if redo:
-            continue
-        h_new = _next_step(h_try, err, fac_h, h_new, expo, ci, cf, opts.h_event)
+        dense_coefficients(k, q2, q3, q4, order)
+        k_ev, s_ev = -1, 2.0
+        if n_events > 0:
+            k_ev, s_ev = _locate_event(t, h_try, y, ynew, q2, q3, q4, p, g0, g1, yp, n_events)
+            if k_ev >= 0 and _redo(s_ev, retries) and event_retry(k_ev, p):
+                retries += 1
+                h = s_ev * h_try
+                event_values(t, y, p, g0)      # g0 served as scratch; y, f0 and J still hold
+                continue
+        if after_event >= 0:               # the first step after an event of this code: remembered
+            h_event[after_event] = h_new
+            after_event = -1
+        h_new = _predicted(h_try, err, fac_h, h_new, (h_acc, err_acc, expo), first, reject)
+        h_acc, err_acc, first, reject = h_try, max(1e-2, err), False, False
         t_old = t
         t = tstops[i_stop] if hit else t + h_try
         tag = step_tag(p)
         if k_ev >= 0:
-            _cut_interpolant(s_ev, y, wk.ynew, wk.q2, wk.q3, wk.q4, opts.order)
+            _cut_interpolant(s_ev, y, ynew, q2, q3, q4, order)
             t = t_old + s_ev * h_try
             hit = False
-        rec, m = _record_step(rec, m, (t_old, t), y, wk, tag, opts.t_record)
-        y[:] = wk.ynew
-        _after_step(ci, wk, k_ev, opts)
+        if t >= opts.t_record and (t > t_old or m == 0):
+            if m == 0 and t > opts.t_record:     # the step that crosses t_record: keep its start too
+                m = _keep_start(rec_t, rec_y, rec_q2, rec_q3, rec_q4, rec_tag, t_old, y, tag)
+            if m >= rec_t.shape[0]:
+                rec_t, rec_y, rec_q2, rec_q3, rec_q4, rec_tag = _grown(rec_t, rec_y, rec_q2, rec_q3, rec_q4, rec_tag, m)
+            rec_t[m] = t
+            rec_y[m] = ynew
+            rec_q2[m] = q2
+            rec_q3[m] = q3
+            rec_q4[m] = q4
+            rec_tag[m] = tag
+            m += 1
+        y[:] = ynew
+        f_fresh = False
+        g_fresh = k_ev < 0 and n_events > 0      # the scan evaluated the events at the step's end (s = 1 is y_new)
+        if g_fresh:
+            g0[:n_events] = g1[:n_events]
+        jac_age += 1
         if k_ev >= 0:
-            ev, n_ev, code = _switch(ev, n_ev, k_ev, t, y, p, opts.atol)
+            jac_age, retries = opts.jac_reuse, 0
+            if n_ev >= ev_t.shape[0]:
+                ev_t, ev_k, ev_code, ev_y = _grown_events(ev_t, ev_k, ev_code, ev_y, n_ev)
+            ev_y[n_ev] = y
+            code = apply_event(k_ev, t, y, p)
+            update_tolerances(p, atol)
+            ev_t[n_ev] = t
+            ev_k[n_ev] = k_ev
+            ev_code[n_ev] = code
+            n_ev += 1
             if n_ev >= opts.max_events:
                 status = TOO_MANY_EVENTS
                 break
-            _restart(h_new, h_try, code, ci, cf, opts.h_event)
+            first = True
+            h, after_event = _restart(h_new, h_try, code, h_event)
             continue
         if hit:
             i_stop = _pass_stops(tstops, i_stop, t, y, y_stops)
-            cf[H] = max(h_new, cf[H])          # a step clipped to land on a stop does not shrink the next one
+            h = max(h_new, h)          # a step clipped to land on a stop does not shrink the next one
         else:
-            cf[H] = h_new
-    return Result(status, y_stops, rec.t[:m], rec.y[:m], rec.q2[:m], rec.q3[:m], rec.q4[:m], rec.tag[:m],
-                  ev.t[:n_ev], ev.k[:n_ev], ev.code[:n_ev], ev.y[:n_ev], ci[N_STEPS], ci[N_REJECTED], ci[N_RHS],
-                  cf[H])
+            h = h_new
+    return Result(status, y_stops, rec_t[:m], rec_y[:m], rec_q2[:m], rec_q3[:m], rec_q4[:m], rec_tag[:m],
+                  ev_t[:n_ev], ev_k[:n_ev], ev_code[:n_ev], ev_y[:n_ev], n_steps, n_rej, n_rhs, h)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -370,27 +396,6 @@ def _exponent(order):
     """The exponent 1/q of the step-ratio law err^(-1/q): q the method's order (the embedded estimate's + 1),
     4 for Rodas4P, 5 for Rodas5P."""
     return 0.2 if order == 5 else 0.25
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _event_log(n):
-    """An empty :class:`EventLog` for states of length n."""
-    return EventLog(np.empty(64), np.empty(64, dtype=np.int64), np.empty(64, dtype=np.int64), np.empty((64, n)))
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _controller(opts, t0, t_end):
-    """The controller's state at the start (:data:`N_STEPS`..., :data:`H`...): a Jacobian due, no event pending,
-    the first step ``opts.h0`` (at most ``opts.hmax`` and the span)."""
-    ci = np.zeros(10, dtype=np.int64)
-    ci[JAC_AGE] = opts.jac_reuse      # forces a Jacobian at the first step
-    ci[AFTER_EVENT] = -1
-    ci[FIRST] = 1
-    cf = np.empty(3)
-    cf[H] = min(opts.h0, opts.hmax, t_end - t0)
-    cf[H_ACC] = 0.0
-    cf[ERR_ACC] = 1.0
-    return ci, cf
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -404,177 +409,92 @@ def _clip(t, h, hmax, t_stop):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _prepare(t, y, p, wk, opts, ci, h_try):
-    """f(t, y) at the step's start and the events there (unless known), and the Jacobian and f_t when due:
-    kept for up to ``opts.jac_reuse`` accepted steps, fresh after an event or a rejection."""
-    if not ci[F_FRESH]:
-        rhs(t, y, p, wk.f0)
-        ci[N_RHS] += 1
-        if opts.n_events > 0 and not ci[G_FRESH]:
-            event_values(t, y, p, wk.g0)
-        ci[F_FRESH] = 1
-    if ci[JAC_AGE] >= opts.jac_reuse or (ci[REJECT] and ci[JAC_AGE] > 0):
-        nj = jacobian(t, y, p, wk.f0, wk.jac, wk.ft, wk.yp, wk.fp, opts.atol, opts.rtol, opts.n_dyn, h_try)
-        if nj < 0:
-            nj = fd_jacobian(t, y, p, wk.f0, wk.jac, wk.ft, wk.yp, wk.fp, opts.atol, opts.rtol, opts.n_dyn, h_try)
-        ci[N_RHS] += nj
-        ci[JAC_AGE] = 0
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _attempt(t, h_try, y, p, wk, opts, ci, cf):
-    """One Rosenbrock step of h_try and its error test: (accepted, err, fac, h_new), fac and h_new the step
-    ratio and next step the error asks for (RODAS's limits). A failed step (singular W, a non-finite stage)
-    is retried at a quarter, a step failing the test at h_new (a tenth as the first step)."""
-    if opts.order == 5:
-        ok, err = rosenbrock5_step(t, h_try, y, p, wk, opts.n_dyn, opts.rtol, opts.atol)
-        ci[N_RHS] += 7
-    else:
-        ok, err = rosenbrock_step(t, h_try, y, p, wk, opts.n_dyn, opts.rtol, opts.atol)
-        ci[N_RHS] += 5
+def _error_test(ok, err, h_try, expo, first):
+    """(accepted, fac, h_new) of a step of h_try that gave (ok, err): fac the step ratio the error asks for
+    (RODAS's limits), h_new the step to take next. A failed step (singular W, a non-finite stage) is retried at
+    a quarter, a step failing the test at h_try / fac (a tenth as the first step)."""
     if not ok:
-        cf[H] = 0.25 * h_try
-        ci[REJECT] = 1
-        ci[N_REJECTED] += 1
-        return False, err, 0.0, 0.0
-    ci[N_STEPS] += 1
-    fac_h = max(1.0 / FAC_MAX, min(1.0 / FAC_MIN, err ** _exponent(opts.order) / SAFE))
-    h_new = h_try / fac_h
+        return False, 0.0, 0.25 * h_try
+    fac_h = max(1.0 / FAC_MAX, min(1.0 / FAC_MIN, err ** expo / SAFE))
     if err > 1.0:
-        ci[N_REJECTED] += 1
-        cf[H] = h_new if not ci[FIRST] else 0.1 * h_try
-        ci[REJECT] = 1
-        return False, err, fac_h, h_new
-    return True, err, fac_h, h_new
+        return False, fac_h, (0.1 * h_try if first else h_try / fac_h)
+    return True, fac_h, h_try / fac_h
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _event_in_step(t, h_try, y, p, wk, opts, ci, cf):
-    """(k, s, redo): the first event crossing in the accepted step and its step fraction (-1, 2.0: none), and
-    whether the step is to be redone to end at the crossing (the interpolant locates a crossing only as well as
-    it follows the solution; near either end it is pinned to the states): then the next step is set there."""
-    if opts.n_events <= 0:
-        return -1, 2.0, False
-    k_ev, s_ev = _locate_event(t, h_try, y, p, wk, opts.n_events)
-    if (k_ev >= 0 and ci[RETRIES] < MAX_EVENT_RETRIES and EVENT_RETRY_WINDOW < s_ev < 1.0 - EVENT_RETRY_WINDOW
-            and event_retry(k_ev, p)):
-        ci[RETRIES] += 1
-        cf[H] = s_ev * h_try
-        event_values(t, y, p, wk.g0)      # g0 served as scratch; y, f0 and J still hold
-        return k_ev, s_ev, True
-    return k_ev, s_ev, False
+def _redo(s_ev, retries):
+    """Whether a step with an event crossing at step fraction s_ev is redone to end there: the interpolant
+    locates a crossing only as well as it follows the solution, so the crossing is located again on the shorter
+    step (at most MAX_EVENT_RETRIES times; near either end the interpolant is pinned to the states)."""
+    return retries < MAX_EVENT_RETRIES and EVENT_RETRY_WINDOW < s_ev < 1.0 - EVENT_RETRY_WINDOW
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _next_step(h_try, err, fac_h, h_new, expo, ci, cf, h_event):
-    """The step after an accepted one: Gustafsson's predictive controller (as in RODAS) from the last two
-    accepted steps and errors, no larger than a step just rejected; the first step after an event of code c
-    is remembered in ``h_event[c]`` (the same kind of event recurs every revolution)."""
-    if ci[AFTER_EVENT] >= 0:
-        h_event[ci[AFTER_EVENT]] = h_new
-        ci[AFTER_EVENT] = -1
-    if not ci[FIRST]:
-        fg = (cf[H_ACC] / h_try) * (err * err / cf[ERR_ACC]) ** expo / SAFE
+def _predicted(h_try, err, fac_h, h_new, history, first, reject):
+    """The step after an accepted one: Gustafsson's predictive controller (as in RODAS) from ``history`` =
+    (the last accepted step, its error, the exponent 1/q), no larger than a step just rejected."""
+    h_acc, err_acc, expo = history
+    if not first:
+        fg = (h_acc / h_try) * (err * err / err_acc) ** expo / SAFE
         fg = max(1.0 / FAC_MAX, min(1.0 / FAC_MIN, fg))
         fac_h = max(fac_h, fg)
         h_new = h_try / fac_h
-    cf[H_ACC] = h_try
-    cf[ERR_ACC] = max(1e-2, err)
-    ci[FIRST] = 0
-    if ci[REJECT]:
+    if reject:
         h_new = min(h_new, h_try)
-    ci[REJECT] = 0
     return h_new
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _after_step(ci, wk, k_ev, opts):
-    """Bookkeeping of an accepted step: f at the new start unknown; the events there known from the scan of
-    the step's end (s = 1 is y_new exactly) unless an event was cut; the Jacobian a step older (due after an
-    event, whose step is no longer redone)."""
-    ci[F_FRESH] = 0
-    g_fresh = k_ev < 0 and opts.n_events > 0
-    ci[G_FRESH] = 1 if g_fresh else 0
-    if g_fresh:
-        wk.g0[:opts.n_events] = wk.g1[:opts.n_events]
-    ci[JAC_AGE] += 1
-    if k_ev >= 0:
-        ci[JAC_AGE] = opts.jac_reuse
-        ci[RETRIES] = 0
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _record_start(n, t, y, tag, keep):
-    """(record, count): an empty :class:`Record` of n states, with (t, y) as its start when ``keep``."""
-    cap = 1024
-    rec = Record(np.empty(cap), np.empty((cap, n)), np.empty((cap, n)), np.empty((cap, n)), np.empty((cap, n)),
-                 np.empty(cap, dtype=np.int64))
-    if not keep:
-        return rec, 0
-    _keep_start(rec, t, y, tag)
-    return rec, 1
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _keep_start(rec, t, y, tag):
-    """The record's first entry: the state a recorded span starts from (no step ends there: q = 0)."""
-    rec.t[0] = t
-    rec.y[0] = y
-    rec.q2[0] = 0.0
-    rec.q3[0] = 0.0
-    rec.q4[0] = 0.0
-    rec.tag[0] = tag
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _record_step(rec, m, span, y, wk, tag, t_record):
-    """(record, count) with the accepted step over ``span`` = (t_old, t) kept when it ends at or after
-    t_record (a step crossing t_record keeps its start too)."""
-    t_old, t = span
-    if t >= t_record and (t > t_old or m == 0):
-        if m == 0 and t > t_record:
-            _keep_start(rec, t_old, y, tag)
-            m = 1
-        if m >= rec.t.shape[0]:
-            rec = Record(_grow(rec.t, m), _grow(rec.y, m), _grow(rec.q2, m), _grow(rec.q3, m), _grow(rec.q4, m),
-                         _grow(rec.tag, m))
-        rec.t[m] = t
-        rec.y[m] = wk.ynew
-        rec.q2[m] = wk.q2
-        rec.q3[m] = wk.q3
-        rec.q4[m] = wk.q4
-        rec.tag[m] = tag
-        m += 1
-    return rec, m
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _switch(ev, n_ev, k_ev, t, y, p, atol):
-    """Event k_ev at (t, y): the state before it logged, the model switched (``apply_event``, which may change
-    y and p), the tolerances refreshed; (log, count, the model's code)."""
-    if n_ev >= ev.t.shape[0]:
-        ev = EventLog(_grow(ev.t, n_ev), _grow(ev.k, n_ev), _grow(ev.code, n_ev), _grow(ev.y, n_ev))
-    ev.y[n_ev] = y
-    code = apply_event(k_ev, t, y, p)
-    update_tolerances(p, atol)
-    ev.t[n_ev] = t
-    ev.k[n_ev] = k_ev
-    ev.code[n_ev] = code
-    return ev, n_ev + 1, code
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _restart(h_new, h_try, code, ci, cf, h_event):
-    """After an event the dynamics change: the step-size history restarts, from the step the error asked for,
-    at most the one just taken, and at most the first step after the last event of the same code: an impact
-    starts a stiff contact transient that a step sized on the flight before cannot follow."""
-    ci[FIRST] = 1
+def _restart(h_new, h_try, code, h_event):
+    """(step, pending code) after an event of ``code``: the dynamics change, so the step-size history restarts,
+    from the step the error asked for, at most the one just taken, and at most the first step after the last
+    event of the same code (``h_event``): an impact starts a stiff contact transient that a step sized on the
+    flight before cannot follow. The pending code is -1 where the caller keeps no memory of it."""
     h = max(min(h_new, h_try), 1e-6 * h_try)
     if 0 <= code < h_event.shape[0]:
         if h_event[code] > 0.0:
             h = min(h, h_event[code])
-        ci[AFTER_EVENT] = code
-    cf[H] = h
+        return h, code
+    return h, -1
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _record_arrays(cap, n):
+    """Room for ``cap`` recorded steps of n states: (t, y, q2, q3, q4, tag) (:class:`Result`'s ``rec_*``)."""
+    return (np.empty(cap), np.empty((cap, n)), np.empty((cap, n)), np.empty((cap, n)), np.empty((cap, n)),
+            np.empty(cap, dtype=np.int64))
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _grown(rec_t, rec_y, rec_q2, rec_q3, rec_q4, rec_tag, m):
+    """The record's arrays with their first m entries, twice as long."""
+    return (_grow(rec_t, m), _grow(rec_y, m), _grow(rec_q2, m), _grow(rec_q3, m), _grow(rec_q4, m),
+            _grow(rec_tag, m))
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _keep_start(rec_t, rec_y, rec_q2, rec_q3, rec_q4, rec_tag, t, y, tag):
+    """The record's first entry: the state a recorded span starts from (no step ends there: q = 0); returns the
+    entries kept (1)."""
+    rec_t[0] = t
+    rec_y[0] = y
+    rec_q2[0] = 0.0
+    rec_q3[0] = 0.0
+    rec_q4[0] = 0.0
+    rec_tag[0] = tag
+    return 1
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _event_arrays(cap, n):
+    """Room for ``cap`` events of n states: (t, k, code, y) (:class:`Result`'s ``ev_*``)."""
+    return np.empty(cap), np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64), np.empty((cap, n))
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _grown_events(ev_t, ev_k, ev_code, ev_y, n_ev):
+    """The event log's arrays with their first n_ev entries, twice as long."""
+    return _grow(ev_t, n_ev), _grow(ev_k, n_ev), _grow(ev_code, n_ev), _grow(ev_y, n_ev)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -588,8 +508,7 @@ def _pass_stops(tstops, i_stop, t, y, y_stops):
 
 #: the integrator's functions that call the model's (directly or through another), innermost first:
 #: :func:`specialize` rebinds each to the model's functions
-HOOKED = ("fd_jacobian", "rosenbrock_step", "rosenbrock5_step", "_scan", "_illinois", "_locate_event", "_prepare",
-          "_attempt", "_event_in_step", "_switch")
+HOOKED = ("fd_jacobian", "rosenbrock_step", "rosenbrock5_step", "_illinois", "_locate_event")
 #: the model's functions the integrator calls, by their names here
 HOOKS = ("rhs", "event_values", "apply_event", "step_tag", "jacobian", "update_tolerances", "event_retry")
 

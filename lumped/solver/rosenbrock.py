@@ -212,15 +212,14 @@ def _last_stage(y, u, k_last, ynew, rtol, atol):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def rosenbrock_step(t, h, y, p, wk, n_dyn, rtol, atol):
-    """One Rodas4P step of size h from (t, y), with f(t, y), df/dt and J of :class:`Work` ``wk``: stages in
-    ``wk.k`` (6 x n), the result in ``wk.ynew``.
+def rosenbrock_step(t, h, y, p, f0, ft, jac, w, piv, k, u, ynew, n_dyn, rtol, atol):
+    """One Rodas4P step of size h from (t, y), with f(t, y) ``f0``, df/dt ``ft`` and J ``jac`` (the arrays of
+    :class:`Work`): stages in ``k`` (6 x n), the result in ``ynew``.
 
-    Factorises W = I/(h gamma) - J (first n_dyn block) in ``wk.w``; returns (ok, err), err the
+    Factorises W = I/(h gamma) - J (first n_dyn block) in ``w``; returns (ok, err), err the
     RMS of the embedded error estimate over err_i / (atol_i + rtol max(|y_i|, |ynew_i|));
     ok False for a singular W or a non-finite stage (e.g. a state left the model's domain).
     """
-    f0, ft, jac, w, piv, k, u, ynew = wk.f0, wk.ft, wk.jac, wk.w, wk.piv, wk.k, wk.u, wk.ynew
     n = y.shape[0]
     fac = 1.0 / (h * GAMMA)
     hg = h * GAMMA
@@ -268,10 +267,9 @@ def rosenbrock_step(t, h, y, p, wk, n_dyn, rtol, atol):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def rosenbrock5_step(t, h, y, p, wk, n_dyn, rtol, atol):
-    """One Rodas5P step of size h from (t, y): stages in ``wk.k`` (8 x n), the result in ``wk.ynew``;
+def rosenbrock5_step(t, h, y, p, f0, ft, jac, w, piv, k, u, ynew, n_dyn, rtol, atol):
+    """One Rodas5P step of size h from (t, y): stages in ``k`` (8 x n), the result in ``ynew``; arguments and
     (ok, err) as :func:`rosenbrock_step`, err from the embedded order-4 estimate (the last stage)."""
-    f0, ft, jac, w, piv, k, u, ynew = wk.f0, wk.ft, wk.jac, wk.w, wk.piv, wk.k, wk.u, wk.ynew
     n = y.shape[0]
     hg = h * P_GAMMA
     if not _factor_w(w, piv, jac, 1.0 / hg, n_dyn):

@@ -139,7 +139,8 @@ class Common:
         if self.area_1 > self.area_2:
             raise ValueError(f"Common.area_1 ({self.area_1:g}) exceeds area_2 ({self.area_2:g})")
         # A_o = k x + k2 x^2 must grow with the opening up to the stop (its sign does not matter: Merritt's
-        # conical poppet, A_o = pi x sin(a) (d - x sin(a) cos(a)) (Merritt 1967, section 3.5), has k2 < 0 and grows over its lift)
+        # conical poppet, A_o = pi x sin(a) (d - x sin(a) cos(a)) (Merritt 1967, section 3.5), has k2 < 0 and
+        # grows over its lift)
         slope = self.area_per_opening + 2.0 * self.area_curvature * self.stop_gap
         if not slope > 0:
             raise ValueError(f"Common.area_curvature: the orifice area A_o = area_per_opening x + area_curvature x^2 "

@@ -218,9 +218,22 @@ BLOCK_SIZE = 96
 
 
 def kind_block(params: type, derived: tuple | None = None) -> tuple:
-    """Offsets of a kind's packed quantities: :data:`COMMON`, then every field declared
-    ``packed=True`` (by field name), then the kind's derived quantities (``params.DERIVED``); a
-    namedtuple that numba folds into constants (``p[o + DISC.spring_stiffness]``)."""
+    """Offsets of a kind's packed quantities: COMMON, then every field declared ``packed=True`` (by field name),
+    then the kind's derived quantities (``params.DERIVED``).
+
+    Parameters
+    ----------
+    params : type
+        The kind's parameter class.
+    derived : tuple of str, optional
+        Derived names; None: ``params.DERIVED``.
+
+    Returns
+    -------
+    namedtuple
+        Name -> offset in the valve's block, which numba folds into constants (``p[o + DISC.spring_stiffness]``);
+        ValueError when a name repeats or the block overflows BLOCK_SIZE.
+    """
     from geometry.declare import specs
 
     derived = tuple(params.DERIVED if derived is None else derived)
@@ -273,7 +286,17 @@ def register(kind: ValveKind) -> ValveKind:
 
 
 def check_kind(kind: ValveKind) -> None:
-    """The static kind contract (what :func:`register` refuses, see there), without registering; KindError."""
+    """The static kind contract (what :func:`register` refuses, see there), without registering.
+
+    Parameters
+    ----------
+    kind : ValveKind
+
+    Returns
+    -------
+    None
+        Or KindError naming the field.
+    """
     import dataclasses
 
     name = kind.name
@@ -413,7 +436,17 @@ def _check_numbers(kind: ValveKind) -> None:
 
 
 def kind_of(valve) -> ValveKind:
-    """The registered kind of a valve parameter object."""
+    """The registered kind of a valve parameter object.
+
+    Parameters
+    ----------
+    valve : ValveParams
+
+    Returns
+    -------
+    ValveKind
+        KeyError if its class is not registered.
+    """
     for k in KINDS.values():
         if type(valve) is k.params:
             return k
@@ -424,12 +457,27 @@ def kind_of(valve) -> ValveKind:
 
 
 def kind_named(name: str) -> ValveKind:
-    """The kind called ``name`` (KeyError if unknown)."""
+    """The kind called ``name``.
+
+    Parameters
+    ----------
+    name : str
+
+    Returns
+    -------
+    ValveKind
+        KeyError if unknown.
+    """
     return KINDS[name]
 
 
 def kind_names() -> tuple[str, ...]:
-    """Every registered kind's name, in registration order (command-line choices, tests)."""
+    """Every registered kind's name, in registration order (command-line choices, tests).
+
+    Returns
+    -------
+    tuple of str
+    """
     return tuple(KINDS)
 
 
@@ -491,24 +539,99 @@ def _build_dispatch() -> None:
 
 
 def valve_acceleration(x, u, f, p, o, contact, regime):  # replaced by _build_dispatch() as kinds register
-    """du/dt of the valve at block offset o (no kind registered yet: nan)."""
+    """du/dt of the valve at block offset o: the registered kinds' accelerations, dispatched on the kind code
+    (replaced as kinds register).
+
+    Parameters
+    ----------
+    x, u : float
+        Opening [m] and its rate [m/s].
+    f : lumped.valves.common.ValveInputs
+        What the pump gives the valve.
+    p : array of float
+        The flat parameter array; ``o`` the valve's block offset.
+    contact, regime : int
+        The valve's mode.
+    o : int
+        Block offset.
+
+    Returns
+    -------
+    float
+        du/dt [m/s^2]; nan while no kind is registered.
+    """
     return math.nan
 
 
 def valve_accelerations(y, s, n, x, u, f, p, o, contact, regime, dydt):  # replaced by _build_dispatch()
-    """The accelerations of a several-DOF valve (no kind registered yet: nan)."""
+    """The accelerations of a several-DOF valve, dispatched on the kind code (replaced as kinds register).
+
+    Parameters
+    ----------
+    y : array of float
+        The pump's state.
+    s, n : int
+        First state, number of coordinates.
+    x, u : float
+        Opening [m] and its rate [m/s].
+    f : lumped.valves.common.ValveInputs
+        What the pump gives the valve.
+    p : array of float
+        The flat parameter array; ``o`` the valve's block offset.
+    contact, regime : int
+        The valve's mode.
+    o : int
+        Block offset.
+    dydt : array of float
+        Written: q'' [m/s^2] at dydt[s + n:s + 2n].
+
+    Returns
+    -------
+    None
+    """
     for j in range(n):
         dydt[s + n + j] = math.nan
 
 
 def valve_accelerations_jacobian(y, s, n, x, u, f, p, o, contact, regime, jac):  # replaced by _build_dispatch()
-    """The partials of a several-DOF valve's accelerations (no kind registered yet: none)."""
+    """The partials of a several-DOF valve's accelerations into the pump's Jacobian, dispatched on the kind code
+    (replaced as kinds register).
+
+    Parameters
+    ----------
+    y, s, n, x, u, f, p, o, contact, regime
+        As :func:`valve_accelerations`.
+    jac : array of float
+        Written: the valve's rows.
+
+    Returns
+    -------
+    bool
+        Whether the kind wrote them (False: none registered).
+    """
     return False
 
 
 def check_discharge(cd_inf: float, a: float, b: float, c: float, where: str) -> None:
-    """The Cd(Re) correlation (eqs 2.47, 3.89) must rise from 0 with a positive slope and keep s^2/Cd(s)
-    increasing in s = sqrt(Re) (the orifice solve relies on it); InputError naming ``where``."""
+    """Check the Cd(Re) correlation (eqs 2.47, 3.89): it rises from 0 with a positive slope and keeps s^2/Cd(s)
+    increasing in s = sqrt(Re), which the orifice solve relies on.
+
+    Parameters
+    ----------
+    cd_inf, a, b, c : float
+        The correlation's coefficients (lumped.fluid.orifice).
+    where : str
+        The valve's key; errors name ``where.discharge.a``.
+
+    Returns
+    -------
+    None
+        Or InputError.
+
+    References
+    ----------
+    Knutson (2016), eqs 2.47, 3.89.
+    """
     import numpy as np
 
     from geometry.errors import InputError

@@ -627,14 +627,28 @@ def strip_rate(p, y, r_m: int, r: int, n: int, k: int) -> float:
 
 def reed_accelerations_jacobian(y, s: int, n: int, x: float, u: float, f, p, o: int, contact: int, regime: int,
                                 jac) -> None:
-    """The partials of :func:`reed_accelerations` by the reed's positions q and rates q' into the pump's
-    Jacobian ``jac`` (rows s + n.., columns s.. and s + n..) [1/s^2, 1/s]; arguments as there::
+    """The partials of :func:`reed_accelerations` by the reed's positions q and rates q' into the pump's Jacobian:
+    dq''/dq = g L_x e^T - A, dq''/dq' = g L_u e^T - B - D diag(C_D rho |wbar'_k|) W.
 
-        dq''/dq = g L_x e^T - A,    dq''/dq' = g L_u e^T - B - D diag(C_D rho |wbar'_k|) W,
+    L(x, u) = dP X(x) + F_c(x, u), the load on the opening x = e . q; wbar'_k = W_k . q' the strips' width-mean
+    rates (lumped.reed.structure.tail's D, W). Exact: the accelerations are linear in q and q' but for L and the
+    drag.
 
-    L(x, u) = dP X(x) + F_c(x, u) the load on the opening x = e . q (X of eq 3.83, F_c of eq 2.20 in the
-    contact state), wbar'_k = W_k . q' the strips' width-mean rates (lumped.reed.structure.tail's D, W).
-    Exact: the accelerations are linear in q and q' but for L and the drag."""
+    Parameters
+    ----------
+    y, s, n, x, u, f, p, o, contact, regime
+        As :func:`reed_accelerations`.
+    jac : array of float
+        Written: rows s + n.., columns s.. [1/s^2] and s + n.. [1/s].
+
+    Returns
+    -------
+    None
+
+    References
+    ----------
+    Knutson (2016), eqs 2.20, 3.21, 3.83.
+    """
     w = int(p[o + REED.tail])
     g, a_m = w + n, w + 3 * n
     b_m = a_m + n * n
