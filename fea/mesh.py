@@ -404,7 +404,7 @@ def _cuts(reed: Reed) -> list[float]:
 
 
 def _z_levels(reed: Reed, layers: int) -> np.ndarray:
-    """Node planes through the thickness: the :func:`_cuts`, split into ``layers`` elements per half of the
+    """Node planes through the thickness: the ``_cuts``, split into ``layers`` elements per half of the
     largest thickness; InputError naming the section of a thickness taper another plane passes through."""
     h = reed.max_thickness
     cuts = _cuts(reed)
@@ -462,7 +462,7 @@ def solid_mesh(reed: Reed, mesh_size: float, layers: int = 1, half: bool = False
     the thickness unevenly); a quad whose centroid lies in a groove of depth d gets no
     elements below z = d (the pocket is cut out of the solid) and none above its section's
     thickness h(s) (thickness steps are steps of the downstream face z = h; the upstream
-    face z = 0 stays flat; a thickness taper's planes follow it, :func:`_node_heights`).
+    face z = 0 stays flat; a thickness taper's planes follow it, ``_node_heights``).
     ``half=True``: only y >= 0.
     """
     face = face_mesh(reed, mesh_size, quad=True, half=half)

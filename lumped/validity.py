@@ -89,7 +89,7 @@ class Envelope:
     rest_key: str | None = None
     cracking_pressure: float | None = None
     limits: tuple = ()
-    stop_gap: float | None = None          # the lift x_stop [m] (lumped.valves.kind.Common)
+    stop_gap: float | None = None          # the lift x_stop [m] (lumped.valves.common.Common)
 
 
 @dataclass(frozen=True)
@@ -165,7 +165,7 @@ def plateau_reynolds(cd_inf: float, a: float, b: float, c: float, fraction: floa
 
 
 def common_limits(common) -> tuple[Limit, ...]:
-    """The limits every kind shares, from its :class:`lumped.valves.kind.Common` quantities.
+    """The limits every kind shares, from its :class:`lumped.valves.common.Common` quantities.
 
     - the seat and stop contacts (eq 2.20: linear, a compliant seat such as the thesis's O-ring) give way
       by at most the valve's lift x_stop: a seat that lets the element sink deeper than it ever opens is

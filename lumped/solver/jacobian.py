@@ -3,7 +3,7 @@
 df/dy by the chain rule through the pump equations (``lumped.solver.rhs.evaluate``):
 rho_cyl = m_cyl / V(t) (eq 4.6), P_cyl from eq 4.11 with dP/dm = 1 / (V drho/dP) (0 while
 cavitating), the valve mass flows of eqs 4.3-4.4 and their partials from
-:func:`lumped.valves.kind.mass_flow` (the same function ``evaluate`` takes the flows from:
+:func:`lumped.valves.forces.mass_flow` (the same function ``evaluate`` takes the flows from:
 the mass-balance partials are written once) through each valve's opening x and rate u
 (linear in its states: lumped.solver.layout.opening_weight), the piston leakage and needle valve
 from ``lumped.solver.rhs``'s own (value, derivative) functions, and the load line's dP/dm. A

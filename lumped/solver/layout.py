@@ -6,7 +6,7 @@ quantity of the pump lives, generated from declarations.
 (:func:`pack`): the global block (:data:`G`: the operating point, derived pump quantities,
 the bookkeeping of the state layout, the stepper's mode, tolerance table and stash, and every
 Pump/Oil/Circuit field declared ``packed=True``), one block per valve (its kind's block:
-:data:`lumped.valves.kind.COMMON`, the kind's packed fields, its derived quantities), then the
+:data:`lumped.valves.common.COMMON`, the kind's packed fields, its derived quantities), then the
 valves' variable-length data (a modal reed's modes).
 
 The state vector (:class:`StateLayout`) is declared, not numbered: the pump's states

@@ -11,10 +11,10 @@ embedded estimate over-reads its own error there (docs/discrepancy.md, "Cost").
 
 :func:`solve` is the loop, one compiled kernel: numba increfs and decrefs every array it binds to a function's
 argument, so the loop's arrays cross no function boundary per step (docs/extending.md, "Long kernels"). Its
-scalar decisions are helpers: :func:`_clip` (the step landing on a stop), :func:`_error_test` and
-:func:`_predicted` (Gustafsson's predictive controller, as in RODAS), :func:`_redo` (a step redone to end at an
-event), :func:`_restart` (the step after an event); :func:`_locate_event` finds the first crossing on the
-step's interpolant, :func:`_illinois` refines it.
+scalar decisions are helpers: ``_clip`` (the step landing on a stop), ``_error_test`` and
+``_predicted`` (Gustafsson's predictive controller, as in RODAS), ``_redo`` (a step redone to end at an
+event), ``_restart`` (the step after an event); ``_locate_event`` finds the first crossing on the
+step's interpolant, ``_illinois`` refines it.
 
 The model's functions are module-level names: ``rhs(t, y, p, dydt)`` (fills ``dydt`` in place; ``p`` a flat
 float64 parameter array), and the hooks ``event_values``, ``apply_event``, ``step_tag``, ``event_retry``,
@@ -132,7 +132,7 @@ def _locate_event(t, h, y0, y1, q2, q3, q4, p, g0, g, ybuf, n_events):
 
     An event k fires where g_k drops from >= 0 (``g0``, at the step's start) to < 0. The interpolant (y1 the
     step's result, q2..q4 its coefficients) is checked at N_SCAN points to bracket the first crossing (the
-    values at the bracket's end are left in ``g``), which :func:`_illinois` refines on the interpolant; an event
+    values at the bracket's end are left in ``g``), which ``_illinois`` refines on the interpolant; an event
     can only come first before the best so far. ``ybuf``: scratch of the state's length.
     """
     lo = 0.0
@@ -277,10 +277,10 @@ def solve(t0, y0, tstops, p, opts):
 
     Error control: RMS over components of err_i / (atol_i + rtol max(|y_i|, |y_new_i|)), atol as the model's
     ``update_tolerances`` sets it at the start and after every event; Gustafsson's predictive controller, as in
-    RODAS (:func:`_error_test`, :func:`_predicted`). Events (``opts.n_events`` > 0): event k fires where
-    ``event_values``'s g_k drops from >= 0 to < 0, located on the dense output (:func:`_locate_event`), the step
-    redone to end there (:func:`_redo`); there ``apply_event`` switches the model and integration restarts
-    (:func:`_restart`), so the right-hand side is smooth inside every step. A long kernel (docs/extending.md,
+    RODAS (``_error_test``, ``_predicted``). Events (``opts.n_events`` > 0): event k fires where
+    ``event_values``'s g_k drops from >= 0 to < 0, located on the dense output (``_locate_event``), the step
+    redone to end there (``_redo``); there ``apply_event`` switches the model and integration restarts
+    (``_restart``), so the right-hand side is smooth inside every step. A long kernel (docs/extending.md,
     "Long kernels"): its arrays cross no function boundary inside the loop.
     """
     n, n_dyn, n_events, rtol, atol, order = y0.shape[0], opts.n_dyn, opts.n_events, opts.rtol, opts.atol, opts.order

@@ -26,7 +26,7 @@ Forces on the ball, as for the thesis's disc (eq 2.4) with the ball's areas:
   (theta_jet = alpha unless given).
 
 The flow (orifice equation with Cd(Re) of eq 2.47, displacement area of eq 2.42) is shared with
-every kind (:func:`lumped.valves.kind.valve_flow`). Values of the shipped ball valve:
+every kind (:func:`lumped.valves.forces.valve_flow`). Values of the shipped ball valve:
 ``lumped/data/models/thesis-ball.toml``.
 """
 

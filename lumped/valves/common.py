@@ -62,7 +62,7 @@ class ValveInputs(NamedTuple):
 
     ``dp`` = P_up - P_down [Pa]; ``p_down`` [Pa]; ``p_vap`` the vapour pressure [Pa]; ``rho`` the
     density of the orifice equation [kg/m^3]; ``mu`` [Pa s]; ``q_o`` the orifice flow [m^3/s] and
-    ``cd``, ``aq`` [m^2], ``dq_ddp`` [m^3/s/Pa], ``dq_dx`` [m^2/s] from :func:`valve_flow`;
+    ``cd``, ``aq`` [m^2], ``dq_ddp`` [m^3/s/Pa], ``dq_dx`` [m^2/s] from :func:`lumped.valves.forces.valve_flow`;
     ``ddp_dt`` d(dp)/dt [Pa/s] (the transient flow force of eq 2.37). A kind reads what it needs.
     """
 

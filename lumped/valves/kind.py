@@ -6,9 +6,10 @@ module that implements it (``lumped/valves/disc.py``, ``lumped/valves/reed.py``,
 
 - its parameter class: a frozen dataclass subclassing :class:`ValveParams` whose fields
   are declared with :func:`geometry.declare.param`, and whose :meth:`ValveParams.common`
-  returns the quantities every kind shares as one frozen, checked :class:`Common`;
+  returns the quantities every kind shares as one frozen, checked
+  :class:`~lumped.valves.common.Common`;
 - its acceleration: ``acceleration(x, u, f, p, o, contact, regime) -> du/dt`` of the opening
-  x [m] and its rate u [m/s], with ``f`` the :class:`ValveInputs` the pump gives every kind
+  x [m] and its rate u [m/s], with ``f`` the :class:`~lumped.valves.common.ValveInputs` the pump gives every kind
   (pressures, density, the orifice flow and its partials) and the flat parameter array
   ``p`` read at the kind's block offset ``o`` (floats and arrays only: numba compiles it);
   a kind with several mechanical degrees of freedom (the modal reed) adds

@@ -15,7 +15,7 @@ eq 3.21; it must oppose the motion, so |x'| x' is used (docs/errata.md).
 (preset, file, or an inline table of the reed-file schema) and a fidelity (analytic,
 beam, plate, solid: :mod:`lumped.reed.fidelities`) from which kappa, gamma1..3, h_eff,
 rho_c and W2 are derived. The flow (eqs 3.22-3.26, C_d of eq 3.89) is shared with every
-kind (:func:`lumped.valves.kind.valve_flow`).
+kind (:func:`lumped.valves.forces.valve_flow`).
 """
 
 from __future__ import annotations
