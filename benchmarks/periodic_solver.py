@@ -2,7 +2,7 @@
 
 Run from the repository root: ``python benchmarks/periodic_solver.py [--random N] [--save]``;
 prints one JSON object (``--save``: also benchmarks/results_periodic.json). On the 12 validation
-cases and N random designs (studies/sweeps/random_designs.py, every valve kind; fast path at
+cases and N random designs (lumped/model/random_designs.py, every valve kind; fast path at
 rtol 1e-3 and 1e-4):
 
 - contraction: the error of each revolution's delivery against the cycle (the mean of revolutions
@@ -42,7 +42,7 @@ LONG = 40
 
 
 def _designs(n_random: int, seed: int = 3):
-    from studies.sweeps.random_designs import VALVES, random_design
+    from lumped.model.random_designs import VALVES, random_design
     from studies.validation.chain import case_name, cases, thesis_model_of
 
     out = [(case_name(c), thesis_model_of(c), c["speed_rpm"], c["load_pressure"], c["air_content"]) for c in cases()]

@@ -16,7 +16,7 @@ from the first state the compiled run recorded in it to its end, by a plain nump
 the model's own compiled right-hand side, Jacobian and tolerances and the compiled solver's
 step-size controller (Gustafsson's, safety 0.9, step ratio 0.2-6), once with Rodas4P and once
 with Rodas5P (Steinebach 2023, 8 stages, order 5 with an embedded order-4 estimate; controller
-exponent 1/5), both the compiled solver's tableaus (:mod:`lumped.solver.rodas`; the fast path takes
+exponent 1/5), both the compiled solver's tableaus (:mod:`lumped.solver.rosenbrock`; the fast path takes
 Rodas5P at tight tolerances and with a flow force, ``lumped.solver.steppers.rodas_order``). Events are not located inside a
 segment, so the counts leave out the event steps and their retries: they compare the methods
 on the smooth stretches, where the step size is the integrator's choice.
@@ -45,7 +45,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from lumped.solver import rodas  # noqa: E402
+from lumped.solver import rodas, rosenbrock  # noqa: E402
 from lumped.solver import steppers  # noqa: E402
 from lumped.run.simulate import ensure_compiled, simulate  # noqa: E402
 from studies.tables.thesis import experiments  # noqa: E402
@@ -54,8 +54,8 @@ RHS_US, STEP_US = 0.43, 2.3   # README: per right-hand side with its stage solve
 
 
 def rodas4p() -> tuple:
-    """(gamma, a, C, d, c, order) of Rodas4P in the transformed form of lumped.solver.rodas (6 stages)."""
-    r = rodas
+    """(gamma, a, C, d, c, order) of Rodas4P in the transformed form of lumped.solver.rosenbrock (6 stages)."""
+    r = rosenbrock
     a, cm, d, c = np.zeros((6, 6)), np.zeros((6, 6)), np.zeros(6), np.zeros(6)
     a[1, 0] = r.A21
     a[2, :2] = r.A31, r.A32
@@ -73,8 +73,9 @@ def rodas4p() -> tuple:
 
 
 def rodas5p() -> tuple:
-    """(gamma, a, C, d, c, order) of Rodas5P (Steinebach 2023) in the same form (8 stages), from lumped.solver.rodas."""
-    r = rodas
+    """(gamma, a, C, d, c, order) of Rodas5P (Steinebach 2023) in the same form (8 stages), from
+    lumped.solver.rosenbrock."""
+    r = rosenbrock
     a, cm, d, c = np.zeros((8, 8)), np.zeros((8, 8)), np.zeros(8), np.zeros(8)
     a[1, 0] = r.P_A21
     a[2, :2] = r.P_A31, r.P_A32

@@ -5,7 +5,7 @@ Run on demand from the repository root: ``python benchmarks/pump_tolerance_study
 (the scipy Radau stepper at its defaults, rtol = atol = 1e-6) is run once per case:
 the 12 validation cases of Tables 5.4 and 5.6 (five revolutions) and N random designs
 (three revolutions; operating point, air, seat stiffness, spring, reed kappa and f1/f2
-drawn by studies.sweeps.random_designs, as in tests/test_pump_fast.py); with ``--effects``
+drawn by lumped.model.random_designs, as in tests/test_pump_fast.py); with ``--effects``
 also the discrepancy workflow's models (its baseline with each hidden effect of its
 confusion cases at the thesis's three operating conditions, three revolutions). Then the fast path runs every case under each
 setting below, and the study reports per setting and valve type: Rosenbrock step
@@ -36,7 +36,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from lumped.solver import steppers as fast  # noqa: E402
 from lumped.run.simulate import simulate  # noqa: E402
 from lumped.valves.kind import KINDS  # noqa: E402
-from studies.sweeps.random_designs import random_design  # noqa: E402
+from lumped.model.random_designs import random_design  # noqa: E402
 from studies.tables.thesis import experiments  # noqa: E402
 
 # (name, attributes of lumped.solver.steppers (or "kind.attribute" of a valve kind) to set, simulate keyword arguments)

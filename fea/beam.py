@@ -17,10 +17,9 @@ import scipy.sparse.linalg as spla
 from skfem import Basis, BilinearForm, ElementLineHermite, LinearForm, asm, condense, solve as fem_solve
 
 from geometry.reed import Reed
-from lumped.reed.mode_function import ReedProperties
 
 from .mesh import check_size, line_mesh
-from .modes import ModalResult, ModeShapes, bending_labels
+from .modes import ModalResult, ModeShapes, bending_labels, fidelity_functions
 from .resources import beam_bytes, check_memory
 
 #: default elements per reed length; Hermite cubics converge as h^4: L/200 is exact to ~1e-9
@@ -33,12 +32,35 @@ N_SHAPE = 801
 
 
 def default_mesh_size(reed: Reed) -> float:
-    """The default element length [m]: L / 200 (0.127 mm on the 1 in thesis reeds)."""
+    """The beam's default element length: L / 200 (0.127 mm on the 1 in thesis reeds).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed.
+
+    Returns
+    -------
+    float
+        [m].
+    """
     return float(f"{reed.length / ELEMENTS_PER_LENGTH:.6g}")
 
 
 def estimate(reed: Reed, mesh_size: float) -> tuple[int, float]:
-    """(DOFs, peak bytes) of the beam with elements of at most ``mesh_size`` [m] (2 DOFs per node)."""
+    """The beam's DOFs and peak memory with elements of at most ``mesh_size`` (2 DOFs per node).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed.
+    mesh_size : float
+        Element size [m].
+
+    Returns
+    -------
+    (dofs, bytes) : tuple of (int, float)
+    """
     n = sum(max(1, int(np.ceil((b - a) / mesh_size - 1e-9)))
             for a, b in zip(reed.breakpoints()[:-1], reed.breakpoints()[1:]) if b - a >= 1e-12)
     return 2 * n, beam_bytes(2 * n)
@@ -102,11 +124,30 @@ class BeamSystem:
 
 
 def assemble(reed: Reed, mesh_size: float | None = None) -> BeamSystem:
-    """Stiffness, mass and uniform-pressure load of the E-B beam reed (eq 3.8 without damping and fluid).
+    """Stiffness, mass and uniform-pressure load of the Euler-Bernoulli beam (Hermite cubics, eq 3.8 without damping
+    and fluid).
 
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    mesh_size : float, optional
+        Element size [m]; None: the fidelity's default for this reed.
+
+    Returns
+    -------
+    system
+        K [N/m], M [kg] and the load of a unit pressure (SI), with its probes and free DOFs.
+
+    Notes
+    -----
     Elements of at most ``mesh_size`` [m] (default L/200) with nodes on every breakpoint;
     EI(s), rho A(s) and W(s) of the exact profile at Gauss points of order INTORDER. DOFs
     and memory are checked first.
+
+    References
+    ----------
+    Knutson (2016), eq 3.8, section 3.2; scikit-fem.
     """
     h = default_mesh_size(reed) if mesh_size is None else float(mesh_size)
     check_size(reed, h)
@@ -141,10 +182,31 @@ def _eigen(sys: BeamSystem, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> BeamResult:
-    """Bending modes [rad/s], uniform-load stiffness kappa = p / v(L) [Pa/m] and shapes of the E-B beam.
+    """The modes, the uniform-load stiffness kappa = p / w(L) and the centre-line shapes of the Euler-Bernoulli beam
+    (Hermite cubics, eq 3.8 without damping and fluid).
 
-    EI(s), rho A(s) of any profile (steps, tapers, thickness steps, grooves); the mode
-    shapes (``modes``, w at ``s``) are kept for plots. DOFs and memory are checked first.
+    EI(s), rho A(s) of any profile (steps, tapers, thickness steps, grooves) from geometry.Reed.section. The DOFs
+    and memory are estimated first: an InputError naming --mesh-size where they exceed what the machine has
+    (fea.resources).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    mesh_size : float, optional
+        Element size [m]; None: the fidelity's default for this reed.
+    n_modes : int
+        Modes wanted.
+
+    Returns
+    -------
+    result
+        omega [rad/s] of the modes (named), kappa [Pa/m], the static and first-mode shapes psi(s) (psi(L) = 1), DOFs
+        and mesh size.
+
+    References
+    ----------
+    Knutson (2016), eqs 3.8, 3.30, section 3.5.
     """
     sys = assemble(reed, mesh_size)
     basis, ell, K, I = sys.basis, sys.ell, sys.K, sys.free
@@ -167,26 +229,25 @@ def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> BeamR
     )
 
 
-def reed_properties(reed: Reed, mesh_size: float | None = None) -> ReedProperties:
-    """omega_n [rad/s], kappa [Pa/m] and gamma1..3 (Table 3.4, static shape) of the E-B beam FE model."""
-    r = solve(reed, mesh_size)
-    return ReedProperties.from_solution("beam", reed, r)
-
-
-def modes(reed: Reed, n: int, mesh_size: float | None = None) -> BeamResult:
-    """The first n bending frequencies [rad/s] of the E-B beam FE model, labelled bending 1..n."""
-    return solve(reed, mesh_size, n_modes=max(int(n), 1))
-
-
-def properties_and_modes(reed: Reed, n: int, mesh_size: float | None = None):
-    """(ReedProperties, BeamResult with n modes) from one solution."""
-    r = modes(reed, n, mesh_size)
-    props = ReedProperties.from_solution("beam", reed, r)
-    return props, r
+#: the fidelity's functions (fea.fidelities): properties, the first n bending modes (labelled bending 1..n), both
+reed_properties, modes, properties_and_modes = fidelity_functions("beam", solve, __name__)
 
 
 def mode_shapes(result: BeamResult, reed: Reed, n: int | None = None) -> ModeShapes:
-    """w(s) of the first n modes (each max |w| = 1) for plots; y = 0."""
+    """w(s) of the first n modes (each max |w| = 1) for plots; y = 0.
+
+    Parameters
+    ----------
+    result : BeamResult
+    reed : geometry.Reed
+        The reed.
+    n : int, optional
+        Modes; None: all solved.
+
+    Returns
+    -------
+    fea.modes.ModeShapes
+    """
     n = result.shapes.shape[1] if n is None else min(n, result.shapes.shape[1])
     w = result.shapes[:, :n].T / np.max(np.abs(result.shapes[:, :n]), axis=0)[:, None]
     return ModeShapes(s=result.s, y=np.zeros((len(result.s), 1)), w=w[:, :, None],
@@ -194,7 +255,19 @@ def mode_shapes(result: BeamResult, reed: Reed, n: int | None = None) -> ModeSha
 
 
 def write_modes_vtu(result: BeamResult, reed: Reed, path) -> None:
-    """Write the line s in [0, L] with each mode's w (max |w| = 1) as point data (VTU)."""
+    """Write the line s in [0, L] with each mode's w (max |w| = 1) as point data (VTU).
+
+    Parameters
+    ----------
+    result : BeamResult
+    reed : geometry.Reed
+        The reed.
+    path : str or Path
+
+    Returns
+    -------
+    None
+    """
     import meshio
 
     pts = np.column_stack([result.s, 0 * result.s, 0 * result.s])
@@ -211,33 +284,81 @@ FE_ELEMENTS_PER_LENGTH = 24
 
 
 def default_fe_mesh_size(reed: Reed) -> float:
-    """The whole FE reed's default element length [m]: L / 24 (plus nodes at every breakpoint)."""
+    """The whole FE reed's default element length: L / 24 (plus nodes at every breakpoint).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed.
+
+    Returns
+    -------
+    float
+        [m].
+    """
     return float(f"{reed.length / FE_ELEMENTS_PER_LENGTH:.6g}")
 
 
 def modal_basis(reed: Reed, port=None, mesh_size: float | None = None, n_modes: int = 6):
-    """The ``beam`` fidelity's modal basis (lumped.reed.modal_basis.ModalBasis): the first bending modes
-    of the Hermite E-B beam, modal masses phi^T M phi [kg], loads and openings integrated
-    exactly element by element. The same assembly as :func:`fe_reed` at the same mesh size."""
-    from lumped.reed.modal_basis import build_basis
+    """The ``beam`` fidelity's modal basis for the modal reed valve: the first modes of the Euler-Bernoulli beam
+    (Hermite cubics, eq 3.8 without damping and fluid) with their modal masses, loads, openings and station values.
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    port : geometry.reed_port.ReedPort, optional
+        The port's footprint on the face (None: the whole face, eq 3.21's load).
+    mesh_size : float, optional
+        Element size [m]; None: the fidelity's default for this reed.
+    n_modes : int
+        Modes wanted.
+
+    Returns
+    -------
+    lumped.reed.modal_basis.ModalBasis
+        (SI units; lumped.reed.modal_basis).
+
+    References
+    ----------
+    docs/reed_dynamics.md; Knutson (2016), eq 3.21.
+    """
+    from lumped.reed.modal_basis import Modes, Sampling, build_basis
 
     sys = assemble(reed, mesh_size)
     vals, vecs = _eigen(sys, n_modes)
     raw = np.einsum("ij,ij->j", vecs, sys.M[sys.free][:, sys.free] @ vecs) * sys.ell
-    return build_basis(reed, port, "beam", np.sqrt(vals), bending_labels(len(vals)), raw,
-                       lambda s, y: sys.probe(s) @ vecs, breaks=sys.nodes(), mesh_size=sys.mesh_size,
-                       dofs=len(sys.free))
+    modes = Modes(np.sqrt(vals), bending_labels(len(vals)), raw, lambda s, y: sys.probe(s) @ vecs,
+                  mesh_size=sys.mesh_size, dofs=len(sys.free))
+    return build_basis(reed, port, "beam", modes, Sampling(breaks=sys.nodes()))
 
 
 def fe_reed(reed: Reed, port=None, mesh_size: float | None = None):
-    """The whole Hermite-beam reed (lumped.reed.modal_basis.FEReed): dense M, K on the free DOFs
-    (w and ell w' at each node but the clamped one, both in metres), the exact consistent
-    load of a unit pressure on the footprint, opening, tip and station rows. Default
-    element length :func:`default_fe_mesh_size` (about 50-60 DOFs)."""
-    from lumped.reed.modal_basis import fe_reed_from
+    """The whole beam FE reed for the reference stepper: dense M, K on the free DOFs, the load of a unit pressure on
+    the footprint, the opening, tip and station rows.
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    port : geometry.reed_port.ReedPort, optional
+        The port's footprint on the face (None: the whole face, eq 3.21's load).
+    mesh_size : float, optional
+        Element size [m]; None: default_fe_mesh_size.
+
+    Returns
+    -------
+    lumped.reed.modal_basis.FEReed
+        (SI units).
+
+    References
+    ----------
+    docs/reed_dynamics.md.
+    """
+    from lumped.reed.modal_basis import FESystem, Sampling, fe_reed_from
 
     sys = assemble(reed, default_fe_mesh_size(reed) if mesh_size is None else mesh_size)
     M, K = sys.dense()
-    return fe_reed_from(reed, port, "beam", M, K, lambda s, y: sys.probe(s), breaks=sys.nodes(),
-                        mesh_size=sys.mesh_size,
-                        dof_units=f"w [m] and ell w' [m] at each node, ell = {sys.ell:.6g} m")
+    system = FESystem(M, K, lambda s, y: sys.probe(s), mesh_size=sys.mesh_size,
+                      dof_units=f"w [m] and ell w' [m] at each node, ell = {sys.ell:.6g} m")
+    return fe_reed_from(reed, port, "beam", system, Sampling(breaks=sys.nodes()))

@@ -84,8 +84,28 @@ class Richardson:
 
 
 def observed_order(sizes, values, max_iter: int = 200, tol: float = 1e-12) -> tuple[float | None, int, bool]:
-    """Observed order of three solutions on sizes h1 < h2 < h3 (fine to coarse), any refinement ratios.
+    """Observed order of convergence of three solutions on sizes h1 < h2 < h3 (fine to coarse), any refinement
+    ratios (Celik et al. 2008, eqs 3-5).
 
+    Parameters
+    ----------
+    sizes : sequence of float
+        h1, h2, h3 [m] (or any length unit).
+    values : sequence of float
+        f1, f2, f3.
+    max_iter : int
+        Fixed-point iterations.
+    tol : float
+        Relative tolerance of p.
+
+    Returns
+    -------
+    tuple
+        (p or None, s, shrinking): s = sign(eps32 / eps21) (-1: oscillatory); shrinking: the fine pair's change is
+        the smaller one in the sense of the order.
+
+    Notes
+    -----
     Celik et al. (2008, J. Fluids Eng. 130, 078001), eqs 3-5: with eps21 = f2 - f1,
     eps32 = f3 - f2, s = sign(eps32 / eps21) (-1: oscillatory convergence) and
     r21 = h2 / h1, r32 = h3 / h2, p solves p = |ln|eps32 / eps21| + q(p)| / ln r21 with
@@ -94,6 +114,10 @@ def observed_order(sizes, values, max_iter: int = 200, tol: float = 1e-12) -> tu
     Returns ``(p, s, shrinking)``: p None when a change is zero or the iteration fails;
     ``shrinking`` is whether the fine pair's change is the smaller one in the sense of the
     order (the expression inside the absolute value is positive).
+
+    References
+    ----------
+    Celik, Ghia, Roache & Freitas (2008), J. Fluids Eng. 130, 078001.
     """
     h1, h2, h3 = (float(x) for x in sizes)
     f1, f2, f3 = (float(x) for x in values)
@@ -121,7 +145,31 @@ def observed_order(sizes, values, max_iter: int = 200, tol: float = 1e-12) -> tu
 
 
 def extrapolate(f_fine: float, f_coarse: float, ratio: float, order: float) -> float:
-    """Richardson's extrapolated value (r^p f_fine - f_coarse) / (r^p - 1) of a pair with size ratio r > 1."""
+    """Richardson's extrapolated value of a pair of solutions, (r^p f_fine - f_coarse) / (r^p - 1).
+
+    Parameters
+    ----------
+    f_fine, f_coarse : float
+        The two solutions.
+    ratio : float
+        r = h_coarse / h_fine > 1.
+    order : float
+        p.
+
+    Returns
+    -------
+    float
+        f_ext.
+
+    References
+    ----------
+    Celik et al. (2008), eq 6; Roache (1998).
+
+    Examples
+    --------
+    >>> round(extrapolate(6.063, 5.972, 1.5, 1.5339690206281054), 4)      # Celik et al. (2008), Table 1: 6.1685
+    6.1685
+    """
     rp = ratio**order
     return (rp * f_fine - f_coarse) / (rp - 1.0)
 
@@ -170,7 +218,20 @@ class GCI:
 
 
 def representative_sizes(cells, dim: int) -> tuple[float, ...]:
-    """h = (1 / N)^(1 / dim) of each cell count (Celik et al. 2008, eq 1 for equal cells)."""
+    """Representative cell sizes of meshes of equal cells, h = (1 / N)^(1 / dim) (Celik et al. 2008, eq 1).
+
+    Parameters
+    ----------
+    cells : sequence of int
+        Cell counts N.
+    dim : int
+        2 or 3.
+
+    Returns
+    -------
+    tuple of float
+        h (in the unit of the domain's size to the 1/dim).
+    """
     return tuple((1.0 / float(n)) ** (1.0 / dim) for n in cells)
 
 
@@ -179,14 +240,46 @@ def _pct(u: float, f: float) -> float | None:
 
 
 def gci(values, sizes=None, cells=None, dim: int | None = None, order: float | None = None) -> GCI:
-    """GCI of two or three solutions, fine to coarse (Celik, Ghia and Roache 2008, steps 1-5).
+    """Grid Convergence Index of two or three solutions, fine to coarse (Celik, Ghia, Roache & Freitas 2008, steps
+    1-5).
 
+    Parameters
+    ----------
+    values : sequence of float
+        The solutions, finest first.
+    sizes : sequence of float, optional
+        Representative sizes, increasing.
+    cells : sequence of int, optional
+        Cell counts, decreasing (with ``dim``).
+    dim : int, optional
+        2 or 3.
+    order : float, optional
+        Two solutions: the assumed (formal) order.
+
+    Returns
+    -------
+    GCI
+        The observed order, extrapolated value (eq 6), errors (eqs 7-8), GCI21 and GCI32 [%] (eq 9; Fs = 1.25 for
+        three solutions, 3 for two), the asymptotic-range ratio.
+
+    Notes
+    -----
     ``sizes`` increasing (fine to coarse) representative sizes, or ``cells`` decreasing cell
     counts with ``dim``. Three solutions: the observed order (:func:`observed_order`, iterated
     for unequal ratios, with the sign term), extrapolated value (eq 6), approximate and
     extrapolated relative errors (eqs 7-8), GCI21 and GCI32 with Fs = 1.25 (eq 9) and the
     asymptotic-range ratio GCI32 / (r21^p GCI21) (Roache 1998; ~1 in the asymptotic range).
     Two solutions: ``order`` is the assumed (formal) order and Fs = 3.
+
+    References
+    ----------
+    Celik et al. (2008), J. Fluids Eng. 130, 078001; Roache (1998).
+
+    Examples
+    --------
+    >>> g = gci((6.063, 5.972, 5.863), cells=(18000, 8000, 4500), dim=2)     # Celik et al. (2008), Table 1
+    >>> round(g.order, 2), round(g.gci_fine_pct, 2)                             # p 1.53, GCI21 2.17 %
+    (1.53, 2.17)
     """
     f = tuple(float(v) for v in values)
     if len(f) not in (2, 3):
@@ -199,20 +292,31 @@ def gci(values, sizes=None, cells=None, dim: int | None = None, order: float | N
     if len(h) != len(f) or not all(0.0 < a < b for a, b in zip(h, h[1:])) or h[0] <= 0.0:
         raise ValueError("sizes must be positive and increase from the finest to the coarsest solution")
     ratios = tuple(b / a for a, b in zip(h, h[1:]))
-    changes = [abs(b - a) for a, b in zip(f, f[1:])]
     ea = tuple(_pct(b - a, a) for a, b in zip(f, f[1:]))
     if len(f) == 2:
-        if order is None or not order > 0.0:
-            raise ValueError("two solutions need the assumed order of the method (order > 0)")
-        rp = ratios[0] ** order
-        u_fine = FS_TWO * changes[0] / (rp - 1.0)
-        u_coarse = u_fine * rp
-        ext = extrapolate(f[0], f[1], ratios[0], order)
-        return GCI(sizes=h, values=f, ratios=ratios, order=float(order), order_assumed=True, extrapolated=ext,
-                   safety_factor=FS_TWO, converging=None, oscillatory=False, approx_error_pct=ea,
-                   extrapolated_error_pct=_pct(ext - f[0], ext), gci_fine_pct=_pct(u_fine, f[0]),
-                   gci_coarse_pct=_pct(u_coarse, f[1]), u_fine=u_fine, u_coarse=u_coarse, asymptotic_ratio=None,
-                   note=f"two solutions: assumed order {order:g}, Fs = {FS_TWO:g}; convergence not checked")
+        return _gci_two(h, f, ratios, ea, order)
+    return _gci_three(h, f, ratios, ea)
+
+
+def _gci_two(h: tuple, f: tuple, ratios: tuple, ea: tuple, order: float | None) -> GCI:
+    """The GCI of two solutions: the assumed (formal) order, Fs = 3, convergence not checked."""
+    if order is None or not order > 0.0:
+        raise ValueError("two solutions need the assumed order of the method (order > 0)")
+    rp = ratios[0] ** order
+    u_fine = FS_TWO * abs(f[1] - f[0]) / (rp - 1.0)
+    u_coarse = u_fine * rp
+    ext = extrapolate(f[0], f[1], ratios[0], order)
+    return GCI(sizes=h, values=f, ratios=ratios, order=float(order), order_assumed=True, extrapolated=ext,
+               safety_factor=FS_TWO, converging=None, oscillatory=False, approx_error_pct=ea,
+               extrapolated_error_pct=_pct(ext - f[0], ext), gci_fine_pct=_pct(u_fine, f[0]),
+               gci_coarse_pct=_pct(u_coarse, f[1]), u_fine=u_fine, u_coarse=u_coarse, asymptotic_ratio=None,
+               note=f"two solutions: assumed order {order:g}, Fs = {FS_TWO:g}; convergence not checked")
+
+
+def _gci_three(h: tuple, f: tuple, ratios: tuple, ea: tuple) -> GCI:
+    """The GCI of three solutions: the observed order and extrapolation where they converge monotonically
+    (Fs = 1.25), else a conservative band of Fs = 3 times the largest change (Roache)."""
+    changes = [abs(b - a) for a, b in zip(f, f[1:])]
     if changes[0] == 0.0 and changes[1] == 0.0:
         return GCI(sizes=h, values=f, ratios=ratios, order=None, order_assumed=False, extrapolated=f[0],
                    safety_factor=FS_THREE, converging=True, oscillatory=False, approx_error_pct=ea,
@@ -244,11 +348,29 @@ def gci(values, sizes=None, cells=None, dim: int | None = None, order: float | N
 
 
 def richardson(sizes, values, theoretical_order: float | None = None) -> Richardson:
-    """Richardson extrapolation of ``values`` on three meshes of ``sizes`` [m] (coarse to fine, constant ratio).
+    """Richardson extrapolation of a quantity on three meshes in a constant ratio, with the check that they are in
+    the asymptotic range.
 
-    Checks the asymptotic range (module docstring); outside it, f_inf is the finest value
-    and every error estimate is at least the largest change between meshes (``reliable``
-    False).
+    Parameters
+    ----------
+    sizes, values : sequence of float
+        Mesh sizes [m], coarse to fine, and the quantity on each.
+    theoretical_order : float, optional
+        The elements' order (bounds the plausible observed order).
+
+    Returns
+    -------
+    Richardson
+        The order, extrapolated value, each mesh's error [%], and whether the estimate is reliable.
+
+    Notes
+    -----
+    Outside the asymptotic range (module docstring) f_inf is the finest value and every error is at least the
+    largest change between meshes (``reliable`` False).
+
+    References
+    ----------
+    Roache (1998); Celik et al. (2008).
     """
     h = np.asarray(sizes, dtype=float)
     f = np.asarray(values, dtype=float)
@@ -266,13 +388,7 @@ def richardson(sizes, values, theoretical_order: float | None = None) -> Richard
         f_inf = extrapolate(f[2], f[1], h[1] / h[2], p)
         err = tuple(float(abs(v - f_inf) / abs(f_inf) * 100) for v in f)
         plausible = p >= MIN_ORDER and (p_max is None or p <= p_max)
-        if plausible:
-            note = f"asymptotic: observed order {p:.2f}"
-            if theoretical_order is not None and p < 0.75 * theoretical_order:
-                note += f" (element order {theoretical_order:g}, lowered by singularities: corners, the clamp edge, a rounded tip)"
-        else:
-            note = (f"observed order {p:.2f} outside [{MIN_ORDER:g}, {p_max:g}]: not in the asymptotic range"
-                    if p_max is not None else f"observed order {p:.2f} below {MIN_ORDER:g}: not in the asymptotic range")
+        note = _order_note(p, plausible, theoretical_order, p_max)
         return Richardson(sizes=tuple(map(float, h)), values=tuple(map(float, f)), ratio=r, order=p,
                           extrapolated=float(f_inf), error_pct=err, monotonic=True, converging=True,
                           asymptotic=plausible, reliable=plausible, theoretical_order=theoretical_order,
@@ -291,6 +407,18 @@ def richardson(sizes, values, theoretical_order: float | None = None) -> Richard
     # conservative: first-order convergence from the finest change (r = 2: the remaining error
     # equals the last change), never below the largest change seen
     return replace(out, error_pct=tuple(out.error_of(v) for v in f))
+
+
+def _order_note(p: float, plausible: bool, theoretical_order: float | None, p_max: float | None) -> str:
+    """What :func:`richardson` says of an observed order p of converging values."""
+    if plausible:
+        note = f"asymptotic: observed order {p:.2f}"
+        if theoretical_order is not None and p < 0.75 * theoretical_order:
+            note += (f" (element order {theoretical_order:g}, lowered by singularities: corners, the clamp edge, "
+                     "a rounded tip)")
+        return note
+    return (f"observed order {p:.2f} outside [{MIN_ORDER:g}, {p_max:g}]: not in the asymptotic range"
+            if p_max is not None else f"observed order {p:.2f} below {MIN_ORDER:g}: not in the asymptotic range")
 
 
 def default_sizes(mesh_size: float, ratio: float = RATIO) -> tuple[float, float, float]:
@@ -352,8 +480,6 @@ def convergence_study(reed, fidelity: str, sizes=None, quantities=("omega_n", "k
     if sizes is None:
         sizes = default_sizes(default_mesh_size(reed, fidelity))
     sizes = [float(h) for h in sizes]
-    ratio = sizes[0] / sizes[1]
-    p_th = ELEMENT_ORDER.get(fidelity)
     props = []
 
     def run(h):
@@ -363,6 +489,32 @@ def convergence_study(reed, fidelity: str, sizes=None, quantities=("omega_n", "k
 
     for h in sizes:
         run(h)
+    res, notes = _refine_until_asymptotic(reed, fidelity, sizes, props, (run, quantities, max_extra))
+    default_index = 1
+    out_q = {}
+    for q, r in res.items():
+        d = r.as_dict()
+        # every mesh's error from the (finest three) meshes' extrapolation or bound
+        vals = [getattr(p, q) for p in props]
+        errs = [r.error_of(v) for v in vals]
+        d.update(sizes=list(sizes), values=[float(v) for v in vals], error_pct=[float(e) for e in errs],
+                 default_error_pct=float(errs[default_index]))
+        out_q[q] = d
+    reliable = all(r.reliable for r in res.values())
+    if not reliable:
+        notes.append("unreliable error estimate for " + ", ".join(q for q, r in res.items() if not r.reliable)
+                     + ": treat it as a rough bound")
+    return {"fidelity": fidelity, "sizes": [float(h) for h in sizes], "dofs": [int(p.dofs) for p in props],
+            "default_index": default_index, "quantities": out_q, "reliable": reliable, "notes": notes}
+
+
+def _refine_until_asymptotic(reed, fidelity: str, sizes: list, props: list, how: tuple) -> tuple[dict, list]:
+    """({quantity: Richardson of the finest three meshes}, notes): finer meshes (``run(h)`` appends to ``sizes``'
+    results ``props``) while a quantity is outside the asymptotic range, at most ``max_extra`` and while the
+    memory estimate allows; ``how`` = (run, quantities, max_extra)."""
+    run, quantities, max_extra = how
+    ratio = sizes[0] / sizes[1]
+    p_th = ELEMENT_ORDER.get(fidelity)
 
     def analyse():
         k = len(sizes)
@@ -382,29 +534,7 @@ def convergence_study(reed, fidelity: str, sizes=None, quantities=("omega_n", "k
         run(h)
         extra += 1
         res = analyse()
-    default_index = 1
-    out_q = {}
-    for q, r in res.items():
-        d = r.as_dict()
-        # every mesh's error from the (finest three) meshes' extrapolation or bound
-        vals = [getattr(p, q) for p in props]
-        errs = [r.error_of(v) for v in vals]
-        d.update(sizes=list(sizes), values=[float(v) for v in vals], error_pct=[float(e) for e in errs],
-                 default_error_pct=float(errs[default_index]))
-        out_q[q] = d
-    reliable = all(r.reliable for r in res.values())
-    if not reliable:
-        notes.append("unreliable error estimate for " + ", ".join(q for q, r in res.items() if not r.reliable)
-                     + ": treat it as a rough bound")
-    return {
-        "fidelity": fidelity,
-        "sizes": [float(h) for h in sizes],
-        "dofs": [int(p.dofs) for p in props],
-        "default_index": default_index,
-        "quantities": out_q,
-        "reliable": reliable,
-        "notes": notes,
-    }
+    return res, notes
 
 
 def plot_convergence(study: dict, path) -> None:

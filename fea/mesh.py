@@ -22,6 +22,7 @@ session all work.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 from dataclasses import dataclass
 
 import meshio
@@ -157,14 +158,16 @@ class FaceMesh:
     """Triangles or quadrilaterals of the reed face (s, y) [m].
 
     ``depth``: groove depth [m] of each element (0 outside grooves); ``thickness``: the
-    element's section thickness h(s) [m] (grooves not subtracted); ``tip_node``: index of
-    the tip point (L, 0).
+    element's section thickness h(s) [m] at its centroid (grooves not subtracted); ``top``: the
+    largest thickness of the piece it lies on [m] (its column's top before a thickness taper is
+    mapped, :func:`solid_mesh`); ``tip_node``: index of the tip point (L, 0).
     """
 
     mesh: skfem.Mesh
     depth: np.ndarray
     mesh_size: float
     thickness: np.ndarray | None = None
+    top: np.ndarray | None = None
 
     @property
     def material_thickness(self) -> np.ndarray:
@@ -180,56 +183,12 @@ class FaceMesh:
 def _outline_curves(gmsh, reed: Reed) -> int:
     """Add the outline (lines, tip arcs or splines, split at y = 0 on the clamp and tip) as one surface.
 
-    Built from :meth:`geometry.Reed.pieces`: straight (or tapered) edges, a vertical
-    segment at every width step, circular tip corners (splines through the exact corner
-    curve on a tapered last piece).
+    Built from :meth:`geometry.Reed.lower_edge` (straight or tapered edges, a vertical segment at every width
+    step) and, at the tip, circular corners (splines through the exact corner curve on a tapered last piece).
     """
+    low = reed.lower_edge(0)              # the straight edge from the clamp corner to the start of the tip zone
+    pts, kinds = _outline_points(reed, low)
     occ = gmsh.model.occ
-    L, R = reed.length, reed.tip_radius
-    ps = reed.pieces()
-    last = ps[-1]
-    # lower straight edge: clamp corner to the start of the tip zone (the same points as
-    # Reed.lower_edge without its tip corner)
-    low: list[tuple[float, float]] = [(0.0, -ps[0].w0 / 2)]
-    for k, p in enumerate(ps):
-        is_last = k == len(ps) - 1
-        s_end = reed.tip_start if (is_last and R > 0.0) else p.s1
-        if s_end > low[-1][0] + 1e-12 and (p.tapered or is_last or ps[k + 1].w0 != p.w1):
-            low.append((s_end, -float(p.width(s_end)) / 2))
-        if not is_last and ps[k + 1].w0 != p.w1:
-            low.append((p.s1, -ps[k + 1].w0 / 2))
-    pts: list[tuple[float, float]] = [(0.0, 0.0)] + low
-    kinds: list[object] = ["line"] * (len(pts) - 1)  # segment pts[i] -> pts[i + 1]
-    w_end = last.w1 / 2  # half width at the tip end before rounding
-    if R > 0.0:
-        if last.tapered:  # spline from the straight edge through the exact corner curve
-            corner = [xy for xy in reed.lower_edge(16) if xy[0] > reed.tip_start + 1e-12 * L]
-            pts.append(corner[-1])
-            kinds.append(("spline", corner[:-1]))
-        else:
-            pts.append((L, -(w_end - R)))
-            kinds.append((L - R, -(w_end - R)))
-        if w_end - R > 1e-12:
-            pts.append((L, 0.0))
-            kinds.append("line")
-            pts.append((L, w_end - R))
-            kinds.append("line")
-        if last.tapered:
-            mirrored = [(x, -y) for x, y in reversed(corner[:-1])]
-            pts.append((reed.tip_start, -low[-1][1]))
-            kinds.append(("spline", mirrored))
-        else:
-            pts.append((L - R, w_end))
-            kinds.append((L - R, w_end - R))
-    else:
-        pts += [(L, 0.0), (L, -low[-1][1])]
-        kinds += ["line", "line"]
-    upper = [(x, -y) for x, y in reversed(low[:-1])]
-    for xy in upper:
-        if np.hypot(xy[0] - pts[-1][0], xy[1] - pts[-1][1]) > 1e-12 * L:
-            pts.append(xy)
-            kinds.append("line")
-    kinds.append("line")  # back to (0, 0)
     tags = [occ.addPoint(x, y, 0.0) for x, y in pts]
     curves = []
     n = len(pts)
@@ -246,13 +205,50 @@ def _outline_curves(gmsh, reed: Reed) -> int:
     return occ.addPlaneSurface([loop])
 
 
+def _outline_points(reed: Reed, low: list) -> tuple[list, list]:
+    """(points, segments) of the closed outline from (0, 0) along the lower edge ``low``, round the tip and back
+    along the mirrored upper edge; segment i runs from point i to i + 1: "line", ("spline", inner points) or
+    the centre of a circular arc."""
+    L, R = reed.length, reed.tip_radius
+    last = reed.pieces()[-1]
+    pts: list[tuple[float, float]] = [(0.0, 0.0)] + low
+    kinds: list[object] = ["line"] * (len(pts) - 1)
+    w_end = last.w1 / 2  # half width at the tip end before rounding
+    if R > 0.0:
+        if last.tapered:  # spline from the straight edge through the exact corner curve
+            corner = [xy for xy in reed.lower_edge(16) if xy[0] > reed.tip_start + 1e-12 * L]
+            pts.append(corner[-1])
+            kinds.append(("spline", corner[:-1]))
+        else:
+            pts.append((L, -(w_end - R)))
+            kinds.append((L - R, -(w_end - R)))
+        if w_end - R > 1e-12:
+            pts += [(L, 0.0), (L, w_end - R)]
+            kinds += ["line", "line"]
+        if last.tapered:
+            pts.append((reed.tip_start, -low[-1][1]))
+            kinds.append(("spline", [(x, -y) for x, y in reversed(corner[:-1])]))
+        else:
+            pts.append((L - R, w_end))
+            kinds.append((L - R, w_end - R))
+    else:
+        pts += [(L, 0.0), (L, -low[-1][1])]
+        kinds += ["line", "line"]
+    for xy in [(x, -y) for x, y in reversed(low[:-1])]:
+        if np.hypot(xy[0] - pts[-1][0], xy[1] - pts[-1][1]) > 1e-12 * L:
+            pts.append(xy)
+            kinds.append("line")
+    kinds.append("line")  # back to (0, 0)
+    return pts, kinds
+
+
 def _section_lines(gmsh, reed: Reed, half: bool) -> list[int]:
     """Lines s = const across the face where the thickness changes (each element then has one h)."""
     occ = gmsh.model.occ
     ps = reed.pieces()
     out = []
     for p, q in zip(ps[:-1], ps[1:]):
-        if p.h != q.h:
+        if p.h_end != q.h:
             w = min(p.w1, q.w0) / 2
             y0 = 0.0 if half else -w
             out.append(occ.addLine(occ.addPoint(p.s1, y0, 0.0), occ.addPoint(p.s1, w, 0.0)))
@@ -260,33 +256,70 @@ def _section_lines(gmsh, reed: Reed, half: bool) -> list[int]:
 
 
 def _groove_surfaces(gmsh, reed: Reed) -> list[int]:
+    """The grooves' footprints as OpenCASCADE surfaces (each kind's own, geometry.reed.GrooveShape.occ_surfaces)."""
     occ = gmsh.model.occ
-    out = []
-    for g in reed.grooves:
-        if g.kind == "rect":
-            out.append(occ.addRectangle(g.s_start, g.y_center - g.width / 2, 0.0, g.s_end - g.s_start, g.width))
-        else:
-            outer = occ.addDisk(g.s_center, 0.0, 0.0, g.r_outer, g.r_outer)
-            box = occ.addRectangle(g.s_center, -2 * g.r_outer, 0.0, 2 * g.r_outer, 4 * g.r_outer)
-            half, _ = occ.intersect([(2, outer)], [(2, box)])
-            if g.r_inner > 0.0:
-                inner = occ.addDisk(g.s_center, 0.0, 0.0, g.r_inner, g.r_inner)
-                half, _ = occ.cut(half, [(2, inner)])
-            out += [t for d, t in half if d == 2]
-    return out
+    return [t for g in reed.grooves for t in g.shape.occ_surfaces(g, occ)]
 
 
 def is_symmetric(reed: Reed, tol: float = 1e-12) -> bool:
-    """True when the reed (outline and grooves) is mirror-symmetric about its centre line y = 0."""
-    keys = set()
-    for g in reed.grooves:
-        if g.kind == "rect":
-            keys.add((round(g.s_start / tol), round(g.s_end / tol), round(g.y_center / tol),
-                      round(g.width / tol), round(g.depth / tol)))
-    for k in keys:
-        if (k[0], k[1], -k[2], k[3], k[4]) not in keys:
-            return False
-    return True
+    """True when the reed (outline and grooves) is mirror-symmetric about its centre line y = 0: every groove's
+    mirror image (geometry.reed.GrooveShape.mirror) is one of its grooves (to ``tol`` [m])."""
+    def key(g):
+        return tuple(round(v / tol) if isinstance(v, float) else v for v in dataclasses.astuple(g))
+
+    keys = {key(g) for g in reed.grooves}
+    return all(key(g.shape.mirror(g)) in keys for g in reed.grooves)
+
+
+def _grade_toward_clamp(gmsh, reed: Reed, mesh_size: float, quad: bool) -> None:
+    """gmsh's size field and options of a face mesh: ``CLAMP_GRADING * mesh_size`` at s = 0 growing to
+    ``mesh_size`` over :func:`grading_length`; Frontal-Delaunay triangles, or all-quadrilaterals (the
+    full-quad subdivision halves the size, so the field asks for twice it)."""
+    clamp = [t for d, t in gmsh.model.getEntities(1)
+             if np.allclose(gmsh.model.getBoundingBox(1, t)[0:4:3], (0.0, 0.0), atol=1e-3 * reed.length)]
+    f = gmsh.model.mesh.field
+    dist = f.add("Distance")
+    f.setNumbers(dist, "CurvesList", clamp)
+    f.setNumber(dist, "Sampling", 200)
+    thr = f.add("Threshold")
+    f.setNumber(thr, "InField", dist)
+    scale = 2.0 if quad else 1.0
+    f.setNumber(thr, "SizeMin", scale * CLAMP_GRADING * mesh_size)
+    f.setNumber(thr, "SizeMax", scale * mesh_size)
+    f.setNumber(thr, "DistMin", 0.0)
+    f.setNumber(thr, "DistMax", grading_length(reed))
+    f.setAsBackgroundMesh(thr)
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+    if quad:
+        gmsh.option.setNumber("Mesh.Algorithm", 8)
+        gmsh.option.setNumber("Mesh.RecombineAll", 1)
+        gmsh.option.setNumber("Mesh.RecombinationAlgorithm", 1)
+        gmsh.option.setNumber("Mesh.SubdivisionAlgorithm", 1)
+    else:
+        gmsh.option.setNumber("Mesh.Algorithm", 6)
+
+
+def _counter_clockwise_mesh(node_tags, coords, elements: tuple, want: int) -> skfem.Mesh:
+    """The skfem mesh of gmsh's 2-D cells of type ``want`` (2 triangles, 3 quadrilaterals, 9 six-node
+    triangles), every cell counter-clockwise in (s, y) (the solid sweep relies on it for right-handed
+    hexahedra); ``elements`` = (element types, their nodes) as gmsh gives them."""
+    etypes, enodes = elements
+    xyz, t = gmsh_cells(node_tags, coords, etypes, enodes, want, {2: 3, 3: 4, 9: 6}[want])
+    pts = xyz[:, :2]
+    x, y = pts[t, 0], pts[t, 1]
+    nv = 4 if want == 3 else 3
+    area = sum(x[:, i] * y[:, (i + 1) % nv] - x[:, (i + 1) % nv] * y[:, i] for i in range(nv))
+    flip = area < 0
+    if want == 3:
+        t[flip] = t[flip][:, [0, 3, 2, 1]]
+    elif want == 2:
+        t[flip] = t[flip][:, [0, 2, 1]]
+    elif want == 9:
+        t[flip] = t[flip][:, [0, 2, 1, 5, 4, 3]]
+    meshio_type = {2: "triangle", 3: "quad", 9: "triangle6"}[want]
+    return from_meshio(meshio.Mesh(pts, [(meshio_type, t)]))
 
 
 def face_mesh(reed: Reed, mesh_size: float, quad: bool = False, order: int = 1,
@@ -325,57 +358,21 @@ def face_mesh(reed: Reed, mesh_size: float, quad: bool = False, order: int = 1,
         if drop:
             gmsh.model.removeEntities(drop, recursive=True)
 
-        # grading toward the clamp line s = 0
-        clamp = [t for d, t in gmsh.model.getEntities(1)
-                 if np.allclose(gmsh.model.getBoundingBox(1, t)[0:4:3], (0.0, 0.0), atol=1e-3 * reed.length)]
-        f = gmsh.model.mesh.field
-        dist = f.add("Distance")
-        f.setNumbers(dist, "CurvesList", clamp)
-        f.setNumber(dist, "Sampling", 200)
-        thr = f.add("Threshold")
-        f.setNumber(thr, "InField", dist)
-        scale = 2.0 if quad else 1.0  # the full-quad subdivision halves the size
-        f.setNumber(thr, "SizeMin", scale * CLAMP_GRADING * mesh_size)
-        f.setNumber(thr, "SizeMax", scale * mesh_size)
-        f.setNumber(thr, "DistMin", 0.0)
-        f.setNumber(thr, "DistMax", grading_length(reed))
-        f.setAsBackgroundMesh(thr)
-        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
-        gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
-        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
-        if quad:
-            gmsh.option.setNumber("Mesh.Algorithm", 8)
-            gmsh.option.setNumber("Mesh.RecombineAll", 1)
-            gmsh.option.setNumber("Mesh.RecombinationAlgorithm", 1)
-            gmsh.option.setNumber("Mesh.SubdivisionAlgorithm", 1)
-        else:
-            gmsh.option.setNumber("Mesh.Algorithm", 6)
+        _grade_toward_clamp(gmsh, reed, mesh_size, quad)
         gmsh.model.mesh.generate(2)
         if order == 2:
             gmsh.model.mesh.setOrder(2)
         node_tags, coords, _ = gmsh.model.mesh.getNodes()
         etypes, _, enodes = gmsh.model.mesh.getElements(2)
-    want = {(False, 1): 2, (True, 1): 3, (False, 2): 9}[(quad, order)]
-    xyz, t = gmsh_cells(node_tags, coords, etypes, enodes, want, {2: 3, 3: 4, 9: 6}[want])
-    pts = xyz[:, :2]
-    # counter-clockwise in (s, y) (the solid sweep relies on it for right-handed hexahedra)
-    x, y = pts[t, 0], pts[t, 1]
-    nv = 4 if want == 3 else 3
-    area = sum(x[:, i] * y[:, (i + 1) % nv] - x[:, (i + 1) % nv] * y[:, i] for i in range(nv))
-    flip = area < 0
-    if want == 3:
-        t[flip] = t[flip][:, [0, 3, 2, 1]]
-    elif want == 2:
-        t[flip] = t[flip][:, [0, 2, 1]]
-    elif want == 9:
-        t[flip] = t[flip][:, [0, 2, 1, 5, 4, 3]]
-    meshio_type = {2: "triangle", 3: "quad", 9: "triangle6"}[want]
-    mesh = from_meshio(meshio.Mesh(pts, [(meshio_type, t)]))
+    mesh = _counter_clockwise_mesh(node_tags, coords, (etypes, enodes), {(False, 1): 2, (True, 1): 3,
+                                                                          (False, 2): 9}[(quad, order)])
     # the element's groove depth from its centroid (elements never straddle a groove edge)
     cen = mesh.p[:, mesh.t].mean(axis=1)
     depth = reed.groove_depth(cen[0], cen[1])
     thick = np.asarray(reed.thickness_profile(cen[0]), dtype=float)
-    return FaceMesh(mesh=mesh, depth=np.asarray(depth, dtype=float), mesh_size=mesh_size, thickness=thick)
+    ps = reed.pieces()
+    top = np.array([p.h_max for p in ps])[np.clip(reed._piece_index(cen[0]), 0, len(ps) - 1)]
+    return FaceMesh(mesh=mesh, depth=np.asarray(depth, dtype=float), mesh_size=mesh_size, thickness=thick, top=top)
 
 
 # -- 3-D solid --------------------------------------------------------------------------------
@@ -395,16 +392,31 @@ class SolidMesh:
     half: bool = False
 
 
-def _z_levels(reed: Reed, layers: int) -> np.ndarray:
-    """Node planes through the thickness: 0, every groove depth, every piece's thickness and
-    reference surface (h/2), split into ``layers`` elements per half of the largest thickness."""
+def _cuts(reed: Reed) -> list[float]:
+    """The z [m] every column's node planes pass through: 0, every groove depth, every piece's thickness (its
+    largest, on a thickness taper) and reference surface (fea.modes.piece_probe_z), sorted."""
     from .modes import piece_probe_z
 
-    h = reed.max_thickness
     cuts = {0.0, *(g.depth for g in reed.grooves)}
     for p, z in zip(reed.pieces(), piece_probe_z(reed)):
-        cuts.update((p.h, z))
-    cuts = sorted(cuts)
+        cuts.update((p.h_max, z))
+    return sorted(cuts)
+
+
+def _z_levels(reed: Reed, layers: int) -> np.ndarray:
+    """Node planes through the thickness: the ``_cuts``, split into ``layers`` elements per half of the
+    largest thickness; InputError naming the section of a thickness taper another plane passes through."""
+    h = reed.max_thickness
+    cuts = _cuts(reed)
+    for i, p in enumerate(reed.pieces()):
+        inner = [z for z in cuts if p.h_min + 1e-9 * h < z < p.h_max - 1e-9 * h]
+        if p.thickness_tapered and inner:
+            from geometry.errors import InputError
+
+            raise InputError(f"reed.sections[{i}].thickness_to", f"the solid mesh maps this taper's {p.h_min:g}.."
+                             f"{p.h_max:g} m onto its column of node planes, but another piece's thickness, a groove "
+                             f"floor or reference surface lies in between ({inner[0]:g} m): give that section "
+                             "constant thickness steps, or use the beam or plate fidelity")
     levels = [0.0]
     for a, b in zip(cuts[:-1], cuts[1:]):
         if b - a < 1e-9 * h:
@@ -414,6 +426,35 @@ def _z_levels(reed: Reed, layers: int) -> np.ndarray:
     return np.array(levels)
 
 
+def _node_heights(reed: Reed, zl: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """z [m] of every node, (levels, face nodes at ``s``): the node planes ``zl``, and on a piece with a thickness
+    taper its planes between the highest cut below its thinner end and its top stretched linearly so that the
+    top follows h(s). A column the piece shares with a neighbour whose top lies in that range keeps the planes
+    (the neighbour's top is one of them): there the taper is a step over one element."""
+    Z = np.repeat(zl[:, None], len(s), axis=1)
+    if not reed.has_thickness_taper:
+        return Z
+    ps = reed.pieces()
+    tol = 1e-9 * reed.max_thickness
+    cuts = _cuts(reed)
+    for i, p in enumerate(ps):
+        if not p.thickness_tapered:
+            continue
+        z_lo = max(z for z in cuts if z <= p.h_min + tol)
+        ends = []
+        for at, nb in ((p.s0, ps[i - 1] if i > 0 else None), (p.s1, ps[i + 1] if i + 1 < len(ps) else None)):
+            free = nb is None or nb.h_max <= z_lo + tol or nb.h_max > p.h_max + tol
+            ends.append(free or abs(float(p.thickness(at)) - p.h_max) <= tol)
+        span = 1e-12 * reed.length
+        cols = (s > p.s0 + span) & (s < p.s1 - span)
+        cols |= ends[0] & (np.abs(s - p.s0) <= span)
+        cols |= ends[1] & (np.abs(s - p.s1) <= span)
+        rows = (zl > z_lo + tol) & (zl <= p.h_max + tol)
+        h = np.asarray(p.thickness(s[cols]), dtype=float)
+        Z[np.ix_(rows, cols)] = z_lo + (zl[rows, None] - z_lo) * (h[None, :] - z_lo) / (p.h_max - z_lo)
+    return Z
+
+
 def solid_mesh(reed: Reed, mesh_size: float, layers: int = 1, half: bool = False) -> SolidMesh:
     """Hexahedral mesh of the reed [m]: the quad face mesh swept through the thickness.
 
@@ -421,18 +462,19 @@ def solid_mesh(reed: Reed, mesh_size: float, layers: int = 1, half: bool = False
     the thickness unevenly); a quad whose centroid lies in a groove of depth d gets no
     elements below z = d (the pocket is cut out of the solid) and none above its section's
     thickness h(s) (thickness steps are steps of the downstream face z = h; the upstream
-    face z = 0 stays flat). ``half=True``: only y >= 0.
+    face z = 0 stays flat; a thickness taper's planes follow it, ``_node_heights``).
+    ``half=True``: only y >= 0.
     """
     face = face_mesh(reed, mesh_size, quad=True, half=half)
     p2, q = face.mesh.p, face.mesh.t  # q: (4, nq), counter-clockwise in (s, y)
     zl = _z_levels(reed, layers)
     npl = p2.shape[1]
-    nodes = np.vstack([np.tile(p2, len(zl)), np.repeat(zl, npl)[None, :]])
+    nodes = np.vstack([np.tile(p2, len(zl)), _node_heights(reed, zl, p2[0]).ravel()[None, :]])
     hexes, wet = [], []
     tol = 1e-12 * reed.max_thickness
     for k in range(len(zl) - 1):
         z0, z1 = zl[k], zl[k + 1]
-        keep = (face.depth <= z0 + tol) & (face.thickness >= z1 - tol)
+        keep = (face.depth <= z0 + tol) & (face.top >= z1 - tol)
         qq = q[:, keep]
         hexes.append(np.vstack([qq + k * npl, qq + (k + 1) * npl]))  # VTK hexahedron order
         # wetted horizontal faces: the first solid layer above each quad

@@ -82,12 +82,13 @@ class ModeShapes:
 def piece_probe_z(reed: Reed) -> list[float]:
     """z [m] of the reference surface of each piece (:meth:`geometry.Reed.pieces`): its mid-surface
     h/2, or the middle of the material below the deepest groove floor on that piece when a
-    groove reaches past h/2."""
+    groove reaches past h/2 (h the piece's smallest thickness on a thickness taper)."""
     out = []
     for p in reed.pieces():
         d = max((g.depth for g in reed.grooves if g.s_range()[0] < p.s1 and g.s_range()[1] > p.s0),
                 default=0.0)
-        out.append(p.h / 2 if d < p.h / 2 else (d + p.h) / 2)
+        h = p.h_min                  # a thickness taper: below its thinner end, inside the material everywhere
+        out.append(h / 2 if d < h / 2 else (d + h) / 2)
     return out
 
 
@@ -246,3 +247,50 @@ def classify_solid_modes(basis, modes: np.ndarray, reed: Reed, half: bool = Fals
         else:
             kinds.append("bending" if half else classify_by_symmetry(uz, Pd @ u[:, 2]))
     return kinds
+
+
+def fidelity_functions(fidelity: str, solve, module: str, *, n_min: int = 1, **solve_options) -> tuple:
+    """The three functions every FE fidelity module offers (:mod:`fea.fidelities`), built from its ``solve``.
+
+    Parameters
+    ----------
+    fidelity : str
+        Its name (``beam``, ``plate``, ``solid``), carried by the ReedProperties.
+    solve : callable
+        ``solve(reed, mesh_size, n_modes=N, **solve_options)`` -> a result with ``omega_n`` [rad/s], ``kappa``
+        [Pa/m], ``s`` [m], ``psi_static``, ``dofs`` and ``mesh_size`` [m].
+    module : str
+        The module they are offered by (their ``__module__``, for the API pages).
+    n_min : int
+        The fewest modes ``solve`` is asked for (the plate's naming of modes needs 4).
+    **solve_options
+        Passed to ``solve`` for the modes (the solid's ``torsion=True``).
+
+    Returns
+    -------
+    tuple of callable
+        ``reed_properties(reed, mesh_size=None) -> ReedProperties`` (omega_n, kappa, gamma1..3 of the static
+        shape, h_eff: Table 3.4, eq 3.62), ``modes(reed, n, mesh_size=None)`` (at least n natural frequencies
+        [rad/s], named) and ``properties_and_modes(reed, n, mesh_size=None)`` (both from one solution).
+    """
+    from lumped.reed.mode_function import ReedProperties
+
+    def reed_properties(reed: Reed, mesh_size: float | None = None):
+        r = solve(reed, mesh_size)
+        return ReedProperties.from_solution(fidelity, reed, r)
+
+    def modes(reed: Reed, n: int, mesh_size: float | None = None):
+        return solve(reed, mesh_size, n_modes=max(int(n), n_min), **solve_options)
+
+    def properties_and_modes(reed: Reed, n: int, mesh_size: float | None = None):
+        r = modes(reed, n, mesh_size)
+        return ReedProperties.from_solution(fidelity, reed, r), r
+
+    reed_properties.__doc__ = (f"omega_n [rad/s], kappa [Pa/m], gamma1..3 (Table 3.4, static shape) and h_eff [m] "
+                               f"(eq 3.62) of a reed by the {fidelity} FE model (a ReedProperties).")
+    modes.__doc__ = (f"At least n (and {n_min} or more) natural frequencies [rad/s] of a reed by the {fidelity} FE "
+                     "model, named by their nodal pattern (a result whose ``first(n)`` gives them).")
+    properties_and_modes.__doc__ = f"(ReedProperties, modes) of a reed by the {fidelity} FE model, from one solution."
+    for f in (reed_properties, modes, properties_and_modes):
+        f.__module__, f.__qualname__ = module, f.__name__
+    return reed_properties, modes, properties_and_modes

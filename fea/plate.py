@@ -28,10 +28,9 @@ from skfem import Basis, BilinearForm, ElementTriArgyris, LinearForm, asm, conde
 from skfem.helpers import dd, ddot, eye, trace
 
 from geometry.reed import Reed
-from lumped.reed.mode_function import ReedProperties
 
 from .mesh import FaceMesh, face_mesh, scaled_mesh_size
-from .modes import ModalResult, ModeShapes, describe_modes, face_grid, first_bending, pull_inside
+from .modes import ModalResult, ModeShapes, describe_modes, face_grid, fidelity_functions, first_bending, pull_inside
 from .resources import check_memory, plate_bytes
 
 #: default element size [m] away from the clamp for the 1 in thesis reeds, scaled for others
@@ -41,7 +40,18 @@ N_SHAPE = 401
 
 
 def default_mesh_size(reed: Reed) -> float:
-    """The default element size [m]: DEFAULT_MESH_SIZE scaled with the reed (fea.mesh.scaled_mesh_size)."""
+    """The plate's default element size: DEFAULT_MESH_SIZE scaled with the reed (fea.mesh.scaled_mesh_size).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed.
+
+    Returns
+    -------
+    float
+        [m].
+    """
     return scaled_mesh_size(reed, DEFAULT_MESH_SIZE)
 
 
@@ -94,11 +104,24 @@ def _clip_to_rectangle(poly: np.ndarray, lo, hi) -> np.ndarray:
 
 
 def rectangle_rule(mesh, lo, hi, intorder: int = 8) -> tuple[np.ndarray, np.ndarray]:
-    """Points (2, n) and weights (n,) integrating over the box lo..hi intersected with a triangle mesh.
+    """Points and weights integrating over the box lo..hi intersected with a triangle mesh.
 
-    Each triangle is clipped to the box and its part fanned into triangles, each with a
-    Gauss rule of order ``intorder`` (exact for the Argyris quintics times a constant), so
-    int_box N_j dA is exact on a mesh the box's edges cut anywhere.
+    Each triangle is clipped to the box and its part fanned into triangles, each with a Gauss rule of order
+    ``intorder`` (exact for the Argyris quintics times a constant), so int_box N_j dA is exact on a mesh the box's
+    edges cut anywhere.
+
+    Parameters
+    ----------
+    mesh : skfem.MeshTri
+    lo, hi : array_like of float
+        The box's corners (mesh units).
+    intorder : int
+        Gauss order per triangle.
+
+    Returns
+    -------
+    (points, weights) : tuple of array of float
+        (2, n) and (n,), in mesh units.
     """
     from skfem.quadrature import get_quadrature
     from skfem.refdom import RefTri
@@ -124,16 +147,28 @@ def rectangle_rule(mesh, lo, hi, intorder: int = 8) -> tuple[np.ndarray, np.ndar
 def release_step_curvature(basis: Basis, reed: Reed, ell: float) -> int:
     """Give the elements beyond each thickness step their own w_xx DOF at the vertices on the step line.
 
-    Argyris elements share w and all its first and second derivatives at vertices (C2 there),
-    but across a line s = s_k where the rigidity D jumps only w, w_x, w_y, w_xy and w_yy are
-    continuous: the bending moment D w_xx is, so w_xx jumps. Shared, it would stiffen the
-    plate (+0.3 % in kappa at 2 mm on a reed with two steps, converging slowly); released,
-    the plate with nu = 0 equals the beam. Lengths of the basis mesh are in units of
-    ``ell`` [m]. Returns the number of DOFs added (groove edges are left as they are: the
-    plate's groove model is an approximation anyway, docs/fea.md).
+    Argyris elements share w and all its first and second derivatives at vertices (C2 there), but across a line s =
+    s_k where the rigidity D jumps only w, w_x, w_y, w_xy and w_yy are continuous: the bending moment D w_xx is, so
+    w_xx jumps. Shared, it would stiffen the plate (+0.3 % in kappa at 2 mm on a reed with two steps, converging
+    slowly); released, the plate with nu = 0 equals the beam. Groove edges are left as they are: the plate's groove
+    model is an approximation anyway (docs/fea.md).
+
+    Parameters
+    ----------
+    basis : skfem.Basis
+        The Argyris basis; its element DOFs are modified in place.
+    reed : geometry.Reed
+        The reed.
+    ell : float
+        The length unit of the basis mesh [m].
+
+    Returns
+    -------
+    int
+        The number of DOFs added.
     """
     ps = reed.pieces()
-    steps = [p.s1 / ell for p, q in zip(ps[:-1], ps[1:]) if p.h != q.h]
+    steps = [p.s1 / ell for p, q in zip(ps[:-1], ps[1:]) if p.h_end != q.h]
     if not steps:
         return 0
     mesh, dofs = basis.mesh, basis.dofs
@@ -162,7 +197,16 @@ def release_step_curvature(basis: Basis, reed: Reed, ell: float) -> int:
 
 
 def estimate(fm: FaceMesh) -> tuple[int, float]:
-    """(DOFs, peak bytes) of the plate on the face mesh ``fm``: 6 per vertex + 1 per edge (Argyris)."""
+    """The plate's DOFs and peak memory on the face mesh: 6 per vertex + 1 per edge (Argyris).
+
+    Parameters
+    ----------
+    fm : fea.mesh.FaceMesh
+
+    Returns
+    -------
+    (dofs, bytes) : tuple of (int, float)
+    """
     m = fm.mesh
     dofs = 6 * m.p.shape[1] + m.facets.shape[1]
     return dofs, plate_bytes(dofs)
@@ -211,10 +255,28 @@ class PlateSystem:
 
 
 def assemble(reed: Reed, mesh_size: float | None = None) -> PlateSystem:
-    """Stiffness, mass and uniform-pressure load of the clamped Kirchhoff plate reed (Argyris triangles).
+    """Stiffness, mass and uniform-pressure load of the clamped Kirchhoff plate (Argyris triangles).
 
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    mesh_size : float, optional
+        Element size [m]; None: the fidelity's default for this reed.
+
+    Returns
+    -------
+    system
+        K [N/m], M [kg] and the load of a unit pressure (SI), with its probes and free DOFs.
+
+    Notes
+    -----
     Before assembling, the DOFs and memory are estimated and an InputError naming
     --mesh-size raised if they exceed what the machine has (fea.resources).
+
+    References
+    ----------
+    Knutson (2016), eq 3.8, section 3.2; scikit-fem.
     """
     size = default_mesh_size(reed) if mesh_size is None else float(mesh_size)
     fm = face_mesh(reed, size, quad=False)
@@ -250,10 +312,31 @@ def _eigen(sys: PlateSystem, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> PlateResult:
-    """Modes (named by nodal pattern), uniform-load stiffness [Pa/m] and centre-line shapes of the clamped plate.
+    """The modes, the uniform-load stiffness kappa = p / w(L) and the centre-line shapes of the clamped Kirchhoff
+    plate (Argyris triangles).
 
-    Before assembling, the DOFs and memory are estimated and an InputError naming
-    --mesh-size raised if they exceed what the machine has (fea.resources).
+    D = E h^3 / (12 (1 - nu^2)) and rho h per element from the face mesh (its thickness and groove depth). The
+    DOFs and memory are estimated first: an InputError naming --mesh-size where they exceed what the machine has
+    (fea.resources).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    mesh_size : float, optional
+        Element size [m]; None: the fidelity's default for this reed.
+    n_modes : int
+        Modes wanted.
+
+    Returns
+    -------
+    result
+        omega [rad/s] of the modes (named), kappa [Pa/m], the static and first-mode shapes psi(s) (psi(L) = 1), DOFs
+        and mesh size.
+
+    References
+    ----------
+    Knutson (2016), eqs 3.8, 3.30, section 3.5.
     """
     sys = assemble(reed, mesh_size)
     basis, fm, ell, K, I = sys.basis, sys.face, sys.ell, sys.K, sys.free
@@ -278,26 +361,27 @@ def solve(reed: Reed, mesh_size: float | None = None, n_modes: int = 4) -> Plate
     )
 
 
-def reed_properties(reed: Reed, mesh_size: float | None = None) -> ReedProperties:
-    """omega_n [rad/s], kappa [Pa/m] and gamma1..3 (Table 3.4, static shape) of the Kirchhoff plate."""
-    r = solve(reed, mesh_size)
-    return ReedProperties.from_solution("plate", reed, r)
-
-
-def modes(reed: Reed, n: int, mesh_size: float | None = None) -> PlateResult:
-    """The first n natural frequencies [rad/s] of the Kirchhoff plate, named by nodal pattern (fea.modes)."""
-    return solve(reed, mesh_size, n_modes=max(int(n), 4))
-
-
-def properties_and_modes(reed: Reed, n: int, mesh_size: float | None = None):
-    """(ReedProperties, PlateResult with at least n modes) from one solution."""
-    r = modes(reed, n, mesh_size)
-    props = ReedProperties.from_solution("plate", reed, r)
-    return props, r
+#: the fidelity's functions (fea.fidelities): properties, at least 4 modes (the naming of plate modes needs them), both
+reed_properties, modes, properties_and_modes = fidelity_functions("plate", solve, __name__, n_min=4)
 
 
 def mode_shapes(result: PlateResult, reed: Reed, n: int | None = None, ns: int = 60, ny: int = 21) -> ModeShapes:
-    """w of the first n modes on a (s, y) grid of the face, each max |w| = 1 (for plots)."""
+    """w of the first n modes on an (s, y) grid of the face, each max |w| = 1 (for plots).
+
+    Parameters
+    ----------
+    result : PlateResult
+    reed : geometry.Reed
+        The reed.
+    n : int, optional
+        Modes; None: all solved.
+    ns, ny : int
+        Grid points along and across.
+
+    Returns
+    -------
+    fea.modes.ModeShapes
+    """
     n = result.modes.shape[1] if n is None else min(n, result.modes.shape[1])
     s = np.linspace(1e-4, 1 - 1e-4, ns) * reed.length
     eta = np.linspace(-1.0, 1.0, ny) * 0.999
@@ -312,7 +396,17 @@ def mode_shapes(result: PlateResult, reed: Reed, n: int | None = None, ns: int =
 
 
 def write_modes_vtu(result: PlateResult, path) -> None:
-    """Write the face mesh with each mode's deflection w (max |w| = 1) as point data (VTU)."""
+    """Write the face mesh with each mode's deflection w (max |w| = 1) as point data (VTU).
+
+    Parameters
+    ----------
+    result : PlateResult
+    path : str or Path
+
+    Returns
+    -------
+    None
+    """
     from .mesh import write_vtu
 
     nodal = result.basis.nodal_dofs[0]  # the value DOF 'u' of each vertex
@@ -330,34 +424,83 @@ FE_MESH_SIZE = 5.0e-3
 
 
 def default_fe_mesh_size(reed: Reed) -> float:
-    """The whole FE plate reed's default element size [m]: FE_MESH_SIZE scaled with the reed."""
+    """The whole FE plate reed's default element size: FE_MESH_SIZE scaled with the reed.
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed.
+
+    Returns
+    -------
+    float
+        [m].
+    """
     return scaled_mesh_size(reed, FE_MESH_SIZE)
 
 
 def modal_basis(reed: Reed, port=None, mesh_size: float | None = None, n_modes: int = 6):
-    """The ``plate`` fidelity's modal basis (lumped.reed.modal_basis.ModalBasis): the first modes of the
-    Kirchhoff plate (bending, torsion and plate modes, named by nodal pattern), modal masses
-    phi^T M phi [kg], loads, openings and station values from the plate's w(s, y)."""
-    from lumped.reed.modal_basis import build_basis
+    """The ``plate`` fidelity's modal basis for the modal reed valve: the first modes of the clamped Kirchhoff plate
+    (Argyris triangles) with their modal masses, loads, openings and station values.
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    port : geometry.reed_port.ReedPort, optional
+        The port's footprint on the face (None: the whole face, eq 3.21's load).
+    mesh_size : float, optional
+        Element size [m]; None: the fidelity's default for this reed.
+    n_modes : int
+        Modes wanted.
+
+    Returns
+    -------
+    lumped.reed.modal_basis.ModalBasis
+        (SI units; lumped.reed.modal_basis).
+
+    References
+    ----------
+    docs/reed_dynamics.md; Knutson (2016), eq 3.21.
+    """
+    from lumped.reed.modal_basis import Modes, Sampling, build_basis
 
     r = solve(reed, mesh_size, n_modes=n_modes)
     sys = r.system
     vecs = r.modes[sys.free]
     raw = np.einsum("ij,ij->j", vecs, sys.M[sys.free][:, sys.free] @ vecs) * sys.ell**2
-    return build_basis(reed, port, "plate", r.omega, r.labels, raw, lambda s, y: sys.probe(s, y) @ vecs,
-                       plane=True, raw_load=sys.footprint_load(port) @ vecs,
-                       mesh_size=sys.mesh_size, dofs=r.dofs)
+    modes = Modes(r.omega, r.labels, raw, lambda s, y: sys.probe(s, y) @ vecs,
+                  raw_load=sys.footprint_load(port) @ vecs, mesh_size=sys.mesh_size, dofs=r.dofs)
+    return build_basis(reed, port, "plate", modes, Sampling(plane=True))
 
 
 def fe_reed(reed: Reed, port=None, mesh_size: float | None = None):
-    """The whole Argyris plate reed (lumped.reed.modal_basis.FEReed): dense M, K on the free DOFs (w and
-    its derivatives, scaled to metres by the element size), the load of a unit pressure on the
-    footprint, opening, tip and station rows. Default element size :func:`default_fe_mesh_size`."""
-    from lumped.reed.modal_basis import fe_reed_from
+    """The whole plate FE reed for the reference stepper: dense M, K on the free DOFs, the load of a unit pressure
+    on the footprint, the opening, tip and station rows.
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    port : geometry.reed_port.ReedPort, optional
+        The port's footprint on the face (None: the whole face, eq 3.21's load).
+    mesh_size : float, optional
+        Element size [m]; None: default_fe_mesh_size.
+
+    Returns
+    -------
+    lumped.reed.modal_basis.FEReed
+        (SI units).
+
+    References
+    ----------
+    docs/reed_dynamics.md.
+    """
+    from lumped.reed.modal_basis import FESystem, Sampling, fe_reed_from
 
     sys = assemble(reed, default_fe_mesh_size(reed) if mesh_size is None else mesh_size)
     M, K = sys.dense()
-    return fe_reed_from(reed, port, "plate", M, K, sys.probe, plane=True, load=sys.footprint_load(port),
-                        mesh_size=sys.mesh_size,
-                        dof_units=f"Argyris DOFs: w [m], ell (w_x, w_y), ell^2 (w_xx, w_xy, w_yy), ell w_n "
-                                  f"[m], ell = {sys.ell:.6g} m")
+    system = FESystem(M, K, sys.probe, load=sys.footprint_load(port), mesh_size=sys.mesh_size,
+                      dof_units=f"Argyris DOFs: w [m], ell (w_x, w_y), ell^2 (w_xx, w_xy, w_yy), ell w_n "
+                                f"[m], ell = {sys.ell:.6g} m")
+    return fe_reed_from(reed, port, "plate", system, Sampling(plane=True))

@@ -36,7 +36,17 @@ YIELD_STRESS_DELRIN = 63.0e6
 
 
 def reed_stop_opening() -> float:
-    """x_stop [m] of the prototype reed valve (thesis-reed's valves, stop.gap)."""
+    """The stop opening x_stop of the prototype reed valve (thesis-reed's valves, stop.gap).
+
+    Returns
+    -------
+    float
+        x_stop [m].
+
+    References
+    ----------
+    Knutson (2016), Table 3.13.
+    """
     from lumped.model.model_file import load_model
 
     return float(load_model("thesis-reed").delivery.stop_gap)
@@ -69,7 +79,29 @@ class StressCheck:
 
 
 def von_mises(grad_u: np.ndarray, lam: float, mu: float) -> np.ndarray:
-    """von Mises stress [Pa] from displacement gradients (3, 3, ...) of linear elasticity."""
+    """von Mises stress of linear elasticity from displacement gradients: sigma = lambda tr(eps) I + 2 mu eps,
+    sigma_vm = sqrt(3/2 s:s) with s the deviator.
+
+    Parameters
+    ----------
+    grad_u : numpy.ndarray
+        Displacement gradients (3, 3, ...) [-].
+    lam, mu : float
+        Lame constants [Pa].
+
+    Returns
+    -------
+    numpy.ndarray
+        sigma_vm [Pa].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> g = np.zeros((3, 3)); g[0, 0] = 1e-3                    # uniaxial strain; E = 1 GPa, nu = 0.3
+    >>> lam, mu = 1e9 * 0.3 / (1.3 * 0.4), 1e9 / 2.6
+    >>> round(float(von_mises(g, lam, mu)) / 1e6, 3)              # 2 mu eps: the deviatoric part of sigma_x - sigma_y
+    0.769
+    """
     eps = 0.5 * (grad_u + np.swapaxes(grad_u, 0, 1))
     tr = eps[0, 0] + eps[1, 1] + eps[2, 2]
     s = 2 * mu * eps
@@ -121,20 +153,60 @@ def _stress_summary(reed, basis, u, clamp_exclusion):
 
 
 def beam_bending_stress(reed: Reed, pressure: float, s0: float = 0.0) -> float:
-    """sigma = M(s0) c / I [Pa] of the E-B beam under q = p W(s), at the extreme fibre of section s0."""
+    """Bending stress of the Euler-Bernoulli beam at the extreme fibre of a section under the uniform pressure load
+    q = p W(s), sigma = M(s0) c / I.
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    pressure : float
+        p [Pa].
+    s0 : float
+        Section [m] from the clamp.
+
+    Returns
+    -------
+    float
+        sigma [Pa] (c from the section's neutral axis, geometry.Reed.neutral_axis).
+    """
     s = np.linspace(s0, reed.length, 4001)
     M = pressure * np.trapezoid(reed.width(s) * (s - s0), s)
     A, I = reed.section(s0)
     # extreme fibre: the neutral axis shifts away from the grooved face
-    W, h = float(reed.width(s0)), float(reed.thickness_profile(s0))
-    zc = (W * h * h / 2 - sum((y1 - y0) * d * d / 2 for y0, y1, d in reed._pockets(s0))) / A
+    h = float(reed.thickness_profile(s0))
+    zc = reed.neutral_axis(s0)
     return float(M * max(zc, h - zc) / I)
 
 
 def max_opening_stress(reed: Reed, x_stop: float | None = None, mesh_size=None,
                        clamp_exclusion: float | None = None,
                        yield_stress: float = YIELD_STRESS_DELRIN) -> StressCheck:
-    """Maximum von Mises stress [Pa] with the tip at the stop, under the uniform pressure kappa x_stop."""
+    """Largest von Mises stress in the 3-D reed with its tip at the stop, under the uniform pressure that holds it
+    there (kappa x_stop).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    x_stop : float, optional
+        Tip deflection [m] (None: the thesis reed's stop).
+    mesh_size : float, optional
+        Element size [m]; None: the fidelity's default for this reed.
+    clamp_exclusion : float, optional
+        Distance [m] from the clamp excluded from the 'away' maximum (the clamp edge is singular; None: 2 h).
+    yield_stress : float
+        [Pa] (Delrin).
+
+    Returns
+    -------
+    StressCheck
+        The pressure [Pa], the maxima [Pa] and where, the beam's bending stress, the safety factor.
+
+    References
+    ----------
+    Knutson (2016), section 3.1.1 (26.2 MPa, yield 63 MPa).
+    """
     from .solid import last_static
 
     x_stop = reed_stop_opening() if x_stop is None else float(x_stop)
@@ -158,7 +230,28 @@ def max_opening_stress(reed: Reed, x_stop: float | None = None, mesh_size=None,
 def seat_reverse_stress(reed: Reed, seat: ReedSeat | None = None, pressure: float | None = None,
                         mesh_size=None, clamp_exclusion: float | None = None,
                         yield_stress: float = YIELD_STRESS_DELRIN) -> StressCheck:
-    """Maximum von Mises stress [Pa] of the closed reed pushed onto its slotted seat by a reverse pressure."""
+    """Largest von Mises stress in the closed reed pushed onto its slotted seat by a reverse pressure.
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    seat : geometry.seat_stop.ReedSeat, optional
+        The seat (None: the thesis's).
+    pressure : float, optional
+        [Pa] (None: the seat's).
+    mesh_size : float, optional
+        Element size [m]; None: the fidelity's default for this reed.
+    clamp_exclusion : float, optional
+        As :func:`max_opening_stress`.
+    yield_stress : float
+        [Pa].
+
+    Returns
+    -------
+    StressCheck
+        As :func:`max_opening_stress`.
+    """
     seat = seat or load_reed_seat()
     p = seat.reverse_pressure if pressure is None else float(pressure)
     half_ok = all(abs(c + c2) < 1e-12 for c, c2 in zip(seat.slot_centres(), seat.slot_centres()[::-1]))

@@ -21,6 +21,7 @@ import scipy.sparse.linalg as spla
 from skfem import Basis, ElementTetP2, FacetBasis
 from skfem.io.meshio import from_meshio
 
+from lumped.valves.forces import critical_damping  # eq 2.23, written once
 from geometry.seat_stop import HousingStop, SeatRing, load_housing_stop, load_seat_ring
 
 from .mesh import _gmsh_session, gmsh_cells
@@ -99,7 +100,7 @@ def _static_stiffness(mesh, material, load_facets, fixed_facets, load: float, me
                       for a in range(len(fb.basis)))) / area
     k = load / mean
     return ContactStiffness(part=part, load=load, mean_displacement=mean, stiffness=k,
-                            damping=2.0 * math.sqrt(k * mass), mass=mass, dofs=len(free), mesh_size=mesh_size)
+                            damping=critical_damping(k, mass), mass=mass, dofs=len(free), mesh_size=mesh_size)
 
 
 def _contact_mass() -> float:
@@ -110,7 +111,25 @@ def _contact_mass() -> float:
 
 
 def seat_stiffness(seat: SeatRing | None = None, mesh_size: float | None = None) -> ContactStiffness:
-    """k_seat [N/m]: the thesis's 600 N spread over the seating cone, bottom face bonded (section 2.4.3.2)."""
+    """Stiffness of the disc valve's seat ring by axisymmetric-like 3-D FEA: the thesis's 600 N spread over the
+    seating cone, bottom face bonded (section 2.4.3.2).
+
+    Parameters
+    ----------
+    seat : geometry.seat_stop.SeatRing, optional
+        The ring (None: the thesis's).
+    mesh_size : float, optional
+        Element size [m].
+
+    Returns
+    -------
+    ContactStiffness
+        k_seat [N/m], its critical damping (eq 2.23) [N s/m], the mean displacement [m].
+
+    References
+    ----------
+    Knutson (2016), section 2.4.3.2, Table 2.3 (3.02e9 N/m).
+    """
     seat = seat or load_seat_ring()
     h = DEFAULT_MESH_SIZE if mesh_size is None else mesh_size
     prof = [(seat.bore_radius, 0.0), (seat.outer_radius, 0.0), (seat.outer_radius, seat.height),
@@ -126,7 +145,25 @@ def seat_stiffness(seat: SeatRing | None = None, mesh_size: float | None = None)
 
 
 def stop_stiffness(stop: HousingStop | None = None, mesh_size: float | None = None) -> ContactStiffness:
-    """k_stop [N/m]: the thesis's 125 N on the disc-rim annulus of the end wall, base bonded (section 2.4.3.2)."""
+    """Stiffness of the disc valve's housing stop by 3-D FEA: the thesis's 125 N on the disc-rim annulus of the end
+    wall, base bonded (section 2.4.3.2).
+
+    Parameters
+    ----------
+    stop : geometry.seat_stop.HousingStop, optional
+        The housing (None: the thesis's).
+    mesh_size : float, optional
+        Element size [m].
+
+    Returns
+    -------
+    ContactStiffness
+        k_stop [N/m], its critical damping [N s/m], the mean displacement [m].
+
+    References
+    ----------
+    Knutson (2016), section 2.4.3.2, Table 2.3 (1.91e6 N/m).
+    """
     stop = stop or load_housing_stop()
     h = DEFAULT_MESH_SIZE if mesh_size is None else mesh_size
     Hw, t = stop.wall_height, stop.end_thickness
@@ -157,7 +194,20 @@ def stop_stiffness(stop: HousingStop | None = None, mesh_size: float | None = No
 
 
 def seat_and_stop(mesh_size: float | None = None, progress: bool = True) -> dict:
-    """k_seat, k_stop [N/m] and their critical dampings [N s/m] as plain dicts."""
+    """The seat's and the stop's stiffness and critical damping as plain dicts.
+
+    Parameters
+    ----------
+    mesh_size : float, optional
+        Element size [m].
+    progress : bool
+        Progress on stderr.
+
+    Returns
+    -------
+    dict
+        {"seat": ..., "stop": ...} (ContactStiffness.as_dict: N/m, N s/m, m).
+    """
     out = {}
     for name, fn in (("seat", seat_stiffness), ("stop", stop_stiffness)):
         if progress:

@@ -2,11 +2,12 @@
 
 from .disc import DiscValveGeometry, load_disc_geometry
 from .errors import InputError
-from .reed import Groove, Material, Piece, Reed, Section
-from .reed_io import PRESETS, load_reed, parse_reed, reed_to_toml
+from .reed import GROOVE_KINDS, Groove, GrooveShape, Material, Piece, Reed, Section
+from .reed_io import PRESETS, THESIS_PRESETS, load_reed, parse_reed, reed_to_toml
 from .reed_port import ReedPort, read_port
 
 __all__ = [
-    "DiscValveGeometry", "Groove", "InputError", "Material", "PRESETS", "Piece", "Reed", "ReedPort", "Section",
-    "load_disc_geometry", "load_reed", "parse_reed", "read_port", "reed_to_toml",
+    "DiscValveGeometry", "GROOVE_KINDS", "Groove", "GrooveShape", "InputError", "Material", "PRESETS", "Piece", "Reed",
+    "ReedPort", "Section", "THESIS_PRESETS", "load_disc_geometry", "load_reed", "parse_reed", "read_port",
+    "reed_to_toml",
 ]

@@ -65,20 +65,40 @@ class Spec:
     optional: bool = False
 
 
-def param(key: str | None, unit: str, source: str, *, default: Any = MISSING, bounds=None,
-          positive: bool = False, packed: bool = False, choices=None, effect: str | None = None,
-          doc: str = "", optional: bool = False):
-    """A dataclass field declaring one model parameter (see :class:`Spec`).
+def param(key: str | None, unit: str, source: str, *, default: Any = MISSING, **spec):
+    """A dataclass field declaring one model parameter.
 
-    ``optional``: the key may be left out of a file; the component then derives the
-    value (e.g. a critical damping from a stiffness) and the field holds None.
+    Parameters
+    ----------
+    key : str or None
+        Its dotted key in its component's table of an input file (None: not read from files).
+    unit : str
+        SI unit ("-" for none).
+    source : str
+        Where its value comes from.
+    default
+        The field's default (left out: required; None for an ``optional`` one).
+    **spec
+        The rest of its :class:`Spec`: ``bounds`` (inclusive plausible range), ``positive``, ``packed`` (the
+        numerical model reads it from the flat array), ``choices``, ``effect``, ``doc``, ``optional`` (the key
+        may be left out of a file; the component then derives the value and the field holds None).
+
+    Returns
+    -------
+    dataclasses.Field
+        The field, its Spec in ``metadata["valvelab"]``.
     """
-    spec = Spec(key=key, unit=unit, source=source, bounds=None if bounds is None else (float(bounds[0]), float(bounds[1])),
-                positive=positive, packed=packed, choices=None if choices is None else tuple(choices),
-                effect=effect, doc=doc, optional=optional)
-    if optional and default is MISSING:
+    unknown = set(spec) - {f.name for f in dataclasses.fields(Spec)} or {"key", "unit", "source"} & set(spec)
+    if unknown:
+        raise TypeError(f"param() got an unexpected keyword argument {sorted(unknown)[0]!r}")
+    bounds, choices = spec.pop("bounds", None), spec.pop("choices", None)
+    if bounds is not None:
+        bounds = (float(bounds[0]), float(bounds[1]))
+    made = Spec(key=key, unit=unit, source=source, bounds=bounds, choices=None if choices is None else tuple(choices),
+                **spec)
+    if made.optional and default is MISSING:
         default = None
-    return dataclasses.field(default=default, metadata={META: spec})
+    return dataclasses.field(default=default, metadata={META: made})
 
 
 def specs(cls_or_obj) -> list[tuple[str, Spec]]:

@@ -64,27 +64,104 @@ class DiscValveGeometry:
 
     @property
     def disc_area(self) -> float:
-        """A_disc = pi R_o^2 [m^2] (Table 2.3: 177 mm^2)."""
+        """Face area of the disc, A_disc = pi R_o^2 (Table 2.3).
+
+        Parameters
+        ----------
+        outer_radius : float
+            R_o [m].
+
+        Returns
+        -------
+        float
+            [m^2].
+
+        Examples
+        --------
+        >>> round(disc_area(7.50e-3) * 1e6)          # Table 2.3: A_2 = 177 mm^2
+        177
+        """
         return disc_area(self.outer_radius)
 
     @property
     def port_area(self) -> float:
-        """A_port = pi d_port^2 / 4 [m^2] (Table 2.3: A_1 = 86.3 mm^2)."""
+        """Area of the seat's port, A_port = A_1 = pi d_port^2 / 4 (eq 2.42, Table 2.3).
+
+        Parameters
+        ----------
+        port_diameter : float
+            d_port [m].
+
+        Returns
+        -------
+        float
+            [m^2].
+
+        Examples
+        --------
+        >>> round(port_area(10.48e-3) * 1e6, 1)      # Table 2.3: A_1 = 86.3 mm^2
+        86.3
+        """
         return port_area(self.port_diameter)
 
 
 def disc_area(outer_radius: float) -> float:
-    """Face area of the disc A_disc = pi R_o^2 [m^2] (Table 2.3)."""
+    """Face area of the disc, A_disc = pi R_o^2 (Table 2.3).
+
+    Parameters
+    ----------
+    outer_radius : float
+        R_o [m].
+
+    Returns
+    -------
+    float
+        [m^2].
+
+    Examples
+    --------
+    >>> round(disc_area(7.50e-3) * 1e6)          # Table 2.3: A_2 = 177 mm^2
+    177
+    """
     return math.pi * outer_radius**2
 
 
 def port_area(port_diameter: float) -> float:
-    """Area of the seat's port A_port = A_1 = pi d_port^2 / 4 [m^2] (eq 2.42, Table 2.3)."""
+    """Area of the seat's port, A_port = A_1 = pi d_port^2 / 4 (eq 2.42, Table 2.3).
+
+    Parameters
+    ----------
+    port_diameter : float
+        d_port [m].
+
+    Returns
+    -------
+    float
+        [m^2].
+
+    Examples
+    --------
+    >>> round(port_area(10.48e-3) * 1e6, 1)      # Table 2.3: A_1 = 86.3 mm^2
+    86.3
+    """
     return math.pi * port_diameter**2 / 4
 
 
 def load_disc_geometry(spec: str | Path = "thesis", field: str = "geometry") -> DiscValveGeometry:
-    """A disc valve geometry from a preset name (``thesis``) or a TOML file; InputError names ``field``."""
+    """A disc valve geometry from a preset name or a TOML file.
+
+    Parameters
+    ----------
+    spec : str or Path
+        A preset (``thesis``) or a TOML file of the schema of geometry/data/disc_valve.toml.
+    field : str
+        The name a bad ``spec`` is reported under (InputError).
+
+    Returns
+    -------
+    DiscValveGeometry
+        (SI units).
+    """
     name = str(spec)
     if name in PRESETS:
         data, where = package_toml("geometry", PRESETS[name]), name

@@ -13,8 +13,8 @@ Two ways to describe the outline along s, both resolved into the same list of
   ``thickness``;
 - sections (:class:`Section`, ``[[reed.sections]]`` in the geometry file): any number of
   pieces from the clamp to the tip, each with its own width, optional thickness (default
-  ``thickness``) and optional linear width taper. The upstream face z = 0 is flat (it
-  seals on the seat); a thickness step is a step of the downstream face.
+  ``thickness``), optional linear width taper and optional linear thickness taper. The upstream
+  face z = 0 is flat (it seals on the seat); a thickness step or taper is one of the downstream face.
 
 Either form ends in a tip rounded with ``tip_radius`` (Table 3.5: a full semicircle when
 ``tip_radius == width / 2`` of the last piece, square when 0). On a tapered last piece
@@ -48,17 +48,165 @@ class Material:
                                  bounds=(0.0, 0.4999))
 
 
+class GrooveShape:
+    """A groove kind: the footprint of a pocket and what the readers, meshes and quadrature need of it.
+
+    The pocket is cut into the upstream face. One subclass per kind, registered in :data:`GROOVE_KINDS`; a new
+    kind is a subclass here with its fields declared on :class:`Groove` (docs/extending.md).
+    """
+
+    #: the kind's name (``[[reed.grooves]] kind``) and its file keys besides ``kind`` and ``depth``
+    name = ""
+    keys: tuple = ()
+
+    def s_range(self, g: "Groove") -> tuple[float, float]:
+        """Extent of the pocket along the reed [m]."""
+        raise NotImplementedError
+
+    def intervals(self, g: "Groove", s: float) -> list[tuple[float, float]]:
+        """The y-intervals [m] the pocket occupies across the section at ``s``."""
+        raise NotImplementedError
+
+    def contains(self, g: "Groove", s, y):
+        """True where the point (s, y) lies in the pocket (vectorised)."""
+        raise NotImplementedError
+
+    def volume(self, g: "Groove") -> float:
+        """Pocket volume [m^3]: depth times the footprint area (the pocket lies inside the outline, as the
+        reader's :meth:`check` ensures)."""
+        raise NotImplementedError
+
+    def kinks(self, g: "Groove") -> list[float]:
+        """s [m] inside its extent where the section properties have a kink (quadrature breakpoints)."""
+        return []
+
+    def check(self, g: "Groove", reed: "Reed", where: str) -> None:
+        """InputError naming the key of ``where`` when the pocket does not fit the reed."""
+
+    def mirror(self, g: "Groove") -> "Groove":
+        """The pocket mirrored about the centre line y = 0 (the symmetric half models compare it)."""
+        return g
+
+    def occ_surfaces(self, g: "Groove", occ) -> list[int]:
+        """The pocket's footprint as surfaces of gmsh's OpenCASCADE kernel ``occ`` (their tags)."""
+        raise NotImplementedError
+
+
+class RectGroove(GrooveShape):
+    """The box ``s_start <= s <= s_end``, ``|y - y_center| <= width / 2``."""
+
+    name = "rect"
+    keys = ("s_start", "s_end", "y_center", "width")
+
+    def s_range(self, g):
+        return g.s_start, g.s_end
+
+    def intervals(self, g, s):
+        if g.s_start <= s <= g.s_end:
+            return [(g.y_center - g.width / 2, g.y_center + g.width / 2)]
+        return []
+
+    def contains(self, g, s, y):
+        s = np.asarray(s, dtype=float)
+        y = np.asarray(y, dtype=float)
+        return (s >= g.s_start) & (s <= g.s_end) & (np.abs(y - g.y_center) <= g.width / 2)
+
+    def volume(self, g):
+        return g.depth * g.width * (g.s_end - g.s_start)
+
+    def check(self, g, reed, where):
+        from .errors import InputError
+
+        if g.s_start < 0.0:
+            raise InputError(f"{where}.s_start", f"must be >= 0 (the clamp line), got {g.s_start:g}")
+        if g.s_end <= g.s_start:
+            raise InputError(f"{where}.s_end", f"must exceed s_start = {g.s_start:g} m")
+        if g.s_end > reed.length:
+            raise InputError(f"{where}.s_end", f"{g.s_end:g} m is beyond the reed tip at {reed.length:g} m")
+        s = np.linspace(g.s_start, g.s_end, 401)
+        half = reed.width(s) / 2
+        for yv in (g.y_center - g.width / 2, g.y_center + g.width / 2):
+            if np.any(np.abs(yv) > half * (1 + 1e-9)):
+                k = int(np.argmax(np.abs(yv) > half * (1 + 1e-9)))
+                raise InputError(f"{where}.y_center", f"groove edge at y = {yv:g} m leaves the reed (half width "
+                                                      f"{half[k]:g} m at s = {s[k]:g} m)")
+
+    def mirror(self, g):
+        return replace(g, y_center=-g.y_center)
+
+    def occ_surfaces(self, g, occ):
+        return [occ.addRectangle(g.s_start, g.y_center - g.width / 2, 0.0, g.s_end - g.s_start, g.width)]
+
+
+class HalfRingGroove(GrooveShape):
+    """The half annulus ``r_inner <= |(s - s_center, y)| <= r_outer`` with ``s >= s_center`` (it closes
+    U-shaped grooves toward the tip)."""
+
+    name = "half_ring"
+    keys = ("s_center", "r_inner", "r_outer")
+
+    def s_range(self, g):
+        return g.s_center, g.s_center + g.r_outer
+
+    def intervals(self, g, s):
+        ds = s - g.s_center
+        if ds < 0.0 or ds > g.r_outer:
+            return []
+        y_out = np.sqrt(max(g.r_outer**2 - ds**2, 0.0))
+        y_in = np.sqrt(max(g.r_inner**2 - ds**2, 0.0))
+        if y_out <= y_in:
+            return []
+        return [(-y_out, -y_in), (y_in, y_out)]
+
+    def contains(self, g, s, y):
+        s = np.asarray(s, dtype=float)
+        y = np.asarray(y, dtype=float)
+        r = np.hypot(s - g.s_center, y)
+        return (s >= g.s_center) & (r >= g.r_inner) & (r <= g.r_outer)
+
+    def volume(self, g):
+        return g.depth * np.pi / 2 * (g.r_outer**2 - g.r_inner**2)
+
+    def kinks(self, g):
+        return [g.s_center + g.r_inner]        # the section's width in the pocket has a square-root end there
+
+    def check(self, g, reed, where):
+        from .errors import InputError
+
+        if not 0.0 <= g.r_inner < g.r_outer:
+            raise InputError(f"{where}.r_inner", f"must be in [0, r_outer), got {g.r_inner:g}")
+        if g.s_center < 0.0:
+            raise InputError(f"{where}.s_center", f"must be >= 0, got {g.s_center:g}")
+        th = np.linspace(-np.pi / 2, np.pi / 2, 721)
+        s = g.s_center + g.r_outer * np.cos(th)
+        y = g.r_outer * np.sin(th)
+        if np.any(s > reed.length) or np.any(np.abs(y) > reed.width(s) / 2 * (1 + 1e-9)):
+            raise InputError(f"{where}.r_outer", "the half ring leaves the reed outline")
+
+    def occ_surfaces(self, g, occ):
+        outer = occ.addDisk(g.s_center, 0.0, 0.0, g.r_outer, g.r_outer)
+        box = occ.addRectangle(g.s_center, -2 * g.r_outer, 0.0, 2 * g.r_outer, 4 * g.r_outer)
+        half, _ = occ.intersect([(2, outer)], [(2, box)])
+        if g.r_inner > 0.0:
+            inner = occ.addDisk(g.s_center, 0.0, 0.0, g.r_inner, g.r_inner)
+            half, _ = occ.cut(half, [(2, inner)])
+        return [t for d, t in half if d == 2]
+
+
+#: the groove kinds by name (``[[reed.grooves]] kind``)
+GROOVE_KINDS: dict[str, GrooveShape] = {k.name: k for k in (RectGroove(), HalfRingGroove())}
+
+
 @dataclass(frozen=True)
 class Groove:
     """A pocket of constant ``depth`` cut into the upstream face (z = 0).
 
-    ``kind = "rect"``: the box ``s_start <= s <= s_end``, ``|y - y_center| <= width / 2``.
-    ``kind = "half_ring"``: the half annulus ``r_inner <= |(s - s_center, y)| <= r_outer``
-    with ``s >= s_center`` (it closes U-shaped grooves toward the tip).
+    Its kind is one of :data:`GROOVE_KINDS` (``rect``: :class:`RectGroove`, ``half_ring``: :class:`HalfRingGroove`);
+    the fields a kind does not use keep their defaults.
     """
 
     depth: float = param("depth", "m", "drawing", bounds=_THICK, positive=True)
-    kind: str = param("kind", "-", "drawing", default="rect", choices=("rect", "half_ring"))
+    kind: str = param("kind", "-", "drawing", default="rect", choices=tuple(GROOVE_KINDS))
     s_start: float = param("s_start", "m", "drawing", default=0.0, bounds=(0.0, _LEN[1]))
     s_end: float = param("s_end", "m", "drawing", default=0.0, bounds=(0.0, _LEN[1]))
     y_center: float = param("y_center", "m", "drawing", default=0.0, bounds=(-_WIDTH[1], _WIDTH[1]))
@@ -67,39 +215,27 @@ class Groove:
     r_inner: float = param("r_inner", "m", "drawing", default=0.0, bounds=(0.0, _WIDTH[1]))
     r_outer: float = param("r_outer", "m", "drawing", default=0.0, bounds=(0.0, _WIDTH[1]), positive=True)
 
+    @property
+    def shape(self) -> GrooveShape:
+        """Its kind (:data:`GROOVE_KINDS`)."""
+        return GROOVE_KINDS[self.kind]
+
     def s_range(self) -> tuple[float, float]:
         """Extent of the pocket along the reed [m]."""
-        if self.kind == "half_ring":
-            return self.s_center, self.s_center + self.r_outer
-        return self.s_start, self.s_end
+        return self.shape.s_range(self)
 
     def intervals(self, s: float) -> list[tuple[float, float]]:
         """The y-intervals [m] the pocket occupies across the section at ``s``."""
-        if self.kind == "half_ring":
-            ds = s - self.s_center
-            if ds < 0.0 or ds > self.r_outer:
-                return []
-            y_out = np.sqrt(max(self.r_outer**2 - ds**2, 0.0))
-            y_in = np.sqrt(max(self.r_inner**2 - ds**2, 0.0))
-            if y_out <= y_in:
-                return []
-            return [(-y_out, -y_in), (y_in, y_out)]
-        if self.s_start <= s <= self.s_end:
-            return [(self.y_center - self.width / 2, self.y_center + self.width / 2)]
-        return []
+        return self.shape.intervals(self, s)
 
     def contains(self, s, y):
         """True where the point (s, y) lies in the pocket (vectorised)."""
-        s = np.asarray(s, dtype=float)
-        y = np.asarray(y, dtype=float)
-        if self.kind == "half_ring":
-            r = np.hypot(s - self.s_center, y)
-            return (s >= self.s_center) & (r >= self.r_inner) & (r <= self.r_outer)
-        return (
-            (s >= self.s_start)
-            & (s <= self.s_end)
-            & (np.abs(y - self.y_center) <= self.width / 2)
-        )
+        return self.shape.contains(self, s, y)
+
+    @property
+    def volume(self) -> float:
+        """Pocket volume [m^3] (the pocket lies inside the outline, as validation ensures)."""
+        return self.shape.volume(self)
 
 
 @dataclass(frozen=True)
@@ -108,28 +244,56 @@ class Section:
 
     It runs from the previous section's ``s_end`` (0 for the first) to its own ``s_end``,
     with width ``width`` at its start varying linearly to ``taper_to`` at ``s_end`` (None:
-    constant width) and thickness ``thickness`` (None: the reed's ``thickness``).
+    constant width) and thickness ``thickness`` (None: the reed's ``thickness``) at its start
+    varying linearly to ``thickness_to`` at ``s_end`` (None: constant thickness).
     """
 
     s_end: float = param("s_end", "m", "drawing", bounds=_LEN, positive=True)
     width: float = param("width", "m", "drawing", bounds=_WIDTH, positive=True)
     thickness: float | None = param("thickness", "m", "drawing", bounds=_THICK, positive=True, optional=True)
     taper_to: float | None = param("taper_to", "m", "drawing", bounds=_WIDTH, positive=True, optional=True)
+    thickness_to: float | None = param("thickness_to", "m", "drawing", bounds=_THICK, positive=True,
+                                       optional=True)
 
 
 @dataclass(frozen=True)
 class Piece:
-    """A resolved piece of the outline: s0 <= s < s1 [m], width w0 -> w1 (linear) [m], thickness h [m]."""
+    """A resolved piece of the outline, its width and thickness linear in s.
+
+    s0 <= s < s1 [m], width w0 -> w1 [m] and thickness h -> h1 [m] (``h1`` None: constant thickness h).
+    """
 
     s0: float
     s1: float
     w0: float
     w1: float
     h: float
+    h1: float | None = None
 
     @property
     def tapered(self) -> bool:
+        """The width varies along the piece."""
         return self.w0 != self.w1
+
+    @property
+    def thickness_tapered(self) -> bool:
+        """The thickness varies along the piece."""
+        return self.h1 is not None and self.h1 != self.h
+
+    @property
+    def h_end(self) -> float:
+        """Thickness at s1 [m]."""
+        return self.h if self.h1 is None else self.h1
+
+    @property
+    def h_min(self) -> float:
+        """Smallest thickness on the piece [m]."""
+        return min(self.h, self.h_end)
+
+    @property
+    def h_max(self) -> float:
+        """Largest thickness on the piece [m]."""
+        return max(self.h, self.h_end)
 
     def width(self, s):
         """Straight-edged width [m] at s (linear between w0 and w1; no tip rounding)."""
@@ -137,10 +301,25 @@ class Piece:
             return np.full(np.shape(s), self.w0, dtype=float)
         return self.w0 + (self.w1 - self.w0) * (np.asarray(s, dtype=float) - self.s0) / (self.s1 - self.s0)
 
+    def thickness(self, s):
+        """Thickness [m] at s (linear between h and h1; grooves ignored)."""
+        if not self.thickness_tapered:
+            return np.full(np.shape(s), self.h, dtype=float)
+        return self.h + (self.h1 - self.h) * (np.asarray(s, dtype=float) - self.s0) / (self.s1 - self.s0)
+
     @property
     def area(self) -> float:
         """Face area [m^2] of the straight-edged piece (trapezoid)."""
         return 0.5 * (self.w0 + self.w1) * (self.s1 - self.s0)
+
+    @property
+    def volume(self) -> float:
+        """Volume [m^3] of the straight-edged piece without grooves: the integral of the product of its linear
+        width and thickness, (s1 - s0) (h w0 / 3 + h w1 / 6 + h1 w0 / 6 + h1 w1 / 3)."""
+        if not self.thickness_tapered:
+            return self.h * self.area
+        h0, h1 = self.h, self.h1
+        return (self.s1 - self.s0) * (h0 * self.w0 / 3 + (h0 * self.w1 + h1 * self.w0) / 6 + h1 * self.w1 / 3)
 
 
 @dataclass(frozen=True)
@@ -197,7 +376,7 @@ class Reed:
                 s1 = self.length if k == len(self.sections) - 1 else sec.s_end
                 h = self.thickness if sec.thickness is None else sec.thickness
                 w1 = sec.width if sec.taper_to is None else sec.taper_to
-                out.append(Piece(s0, s1, sec.width, w1, h))
+                out.append(Piece(s0, s1, sec.width, w1, h, sec.thickness_to))
                 s0 = s1
         else:
             h, L, L1 = self.thickness, self.length, self.step_location
@@ -221,18 +400,24 @@ class Reed:
         return any(p.tapered for p in self.pieces())
 
     @property
+    def has_thickness_taper(self) -> bool:
+        """True when some piece's thickness varies linearly."""
+        return any(p.thickness_tapered for p in self.pieces())
+
+    @property
     def has_thickness_steps(self) -> bool:
-        return len({p.h for p in self.pieces()}) > 1
+        """True when the thickness changes along the reed (a step between pieces, or a taper)."""
+        return len({p.h for p in self.pieces()}) > 1 or self.has_thickness_taper
 
     @property
     def max_thickness(self) -> float:
         """Largest thickness of any piece [m]."""
-        return max(p.h for p in self.pieces())
+        return max(p.h_max for p in self.pieces())
 
     @property
     def min_thickness(self) -> float:
         """Smallest thickness of any piece [m]."""
-        return min(p.h for p in self.pieces())
+        return min(p.h_min for p in self.pieces())
 
     @property
     def max_width(self) -> float:
@@ -241,16 +426,27 @@ class Reed:
 
     @property
     def is_piecewise_uniform(self) -> bool:
-        """True when the profile is a chain of uniform beams: no taper, square tip, no grooves."""
-        return not self.is_tapered and self.tip_radius == 0.0 and not self.grooves
+        """True when the profile is a chain of uniform beams: no taper (width or thickness), square tip, no
+        grooves."""
+        return not self.is_tapered and not self.has_thickness_taper and self.tip_radius == 0.0 and not self.grooves
 
     def thickness_profile(self, s):
-        """Thickness h(s) [m] of the piece at s, grooves ignored (vectorised; ``thickness`` for one-step reeds)."""
+        """Thickness h(s) [m] of the piece at s, grooves ignored (vectorised; ``thickness`` for one-step reeds;
+        linear inside a piece with a thickness taper)."""
         if not self.sections:
             return np.full(np.shape(s), self.thickness, dtype=float) if np.ndim(s) else self.thickness
-        hs = np.array([p.h for p in self.pieces()])
-        out = hs[np.clip(self._piece_index(s), 0, len(hs) - 1)]
-        return out if np.ndim(s) else float(out)
+        ps = self.pieces()
+        k = np.clip(self._piece_index(s), 0, len(ps) - 1)
+        if not self.has_thickness_taper:
+            out = np.array([p.h for p in ps])[k]
+            return out if np.ndim(s) else float(out)
+        s_arr = np.atleast_1d(np.asarray(s, dtype=float))
+        k = np.atleast_1d(k)
+        out = np.empty(s_arr.shape)
+        for i, p in enumerate(ps):
+            sel = k == i
+            out[sel] = p.thickness(s_arr[sel])
+        return out if np.ndim(s) else float(out[0])
 
     # -- derived lengths (Table 3.5) ------------------------------------------------
     @property
@@ -333,6 +529,14 @@ class Reed:
             a, b = g.s_range()
             pts.update((min(max(a, 0.0), self.length), min(max(b, 0.0), self.length)))
         return np.array(sorted(pts))
+
+    def section_breaks(self) -> np.ndarray:
+        """The :meth:`breakpoints` and the kinks inside grooves (:meth:`GrooveShape.kinks`): where the section
+        properties A(s), I(s) are not smooth (the quadrature's pieces), clipped to [0, L]."""
+        pts = list(self.breakpoints())
+        for g in self.grooves:
+            pts += g.shape.kinks(g)
+        return np.clip(np.array(pts), 0.0, self.length)
 
     def outline(self, n_arc: int = 32) -> np.ndarray:
         """Closed outline polygon, counter-clockwise, as an (n, 2) array of (s, y) [m]."""
@@ -446,12 +650,7 @@ class Reed:
         hs = np.atleast_1d(self.thickness_profile(s_arr))
         Ws = np.atleast_1d(self.width(s_arr))       # vectorised: the same values as one s at a time
         for k, sk in enumerate(s_arr):
-            h = float(hs[k])
-            W = float(Ws[k])
-            parts = [(W * h, h / 2, W * h**3 / 12)]  # (area, centroid z, own I)
-            for y0, y1, d in (self._pockets(sk, W) if self.grooves else ()):
-                w = y1 - y0
-                parts.append((-w * d, d / 2, -w * d**3 / 12))
+            parts = self._section_parts(sk, float(hs[k]), float(Ws[k]))
             a = sum(p[0] for p in parts)
             if a <= 0.0:
                 A[k], I[k] = 0.0, 0.0
@@ -462,6 +661,32 @@ class Reed:
         if np.ndim(s) == 0:
             return A[0], I[0]
         return A, I
+
+    def _section_parts(self, s: float, h: float, W: float) -> list[tuple[float, float, float]]:
+        """(area [m^2], centroid z [m], own second moment [m^4]) of the rectangle W h and of each pocket (negative)
+        of the section at s: what :meth:`section` and :meth:`neutral_axis` add up."""
+        parts = [(W * h, h / 2, W * h**3 / 12)]
+        for y0, y1, d in (self._pockets(s, W) if self.grooves else ()):
+            w = y1 - y0
+            parts.append((-w * d, d / 2, -w * d**3 / 12))
+        return parts
+
+    def neutral_axis(self, s: float) -> float:
+        """Height of the section's centroid above the upstream face z = 0 [m]: h/2 without grooves, shifted toward
+        the downstream face by the pockets cut from the upstream one.
+
+        Parameters
+        ----------
+        s : float
+            Position from the clamp [m].
+
+        Returns
+        -------
+        float
+            z_c [m].
+        """
+        parts = self._section_parts(s, float(self.thickness_profile(s)), float(self.width(s)))
+        return sum(p[0] * p[1] for p in parts) / sum(p[0] for p in parts)
 
     def thickness_at(self, s):
         """Section-mean thickness A(s) / W(s) [m]; equals ``thickness`` where there is no groove."""
@@ -479,7 +704,8 @@ class Reed:
         """
         a, b = float(length), float(thickness)
         sections = tuple(replace(sec, s_end=sec.s_end * a,
-                                 thickness=None if sec.thickness is None else sec.thickness * b)
+                                 thickness=None if sec.thickness is None else sec.thickness * b,
+                                 thickness_to=None if sec.thickness_to is None else sec.thickness_to * b)
                          for sec in self.sections)
         grooves = tuple(replace(g, depth=g.depth * b, s_start=g.s_start * a, s_end=g.s_end * a,
                                 s_center=g.s_center * a) for g in self.grooves)
@@ -498,15 +724,28 @@ class Reed:
         start = self.length - (self.tip_radius if self.tip_radius > 0.0 else 0.25 * self.length)
         start = max(start, last.s0)
         w_split = float(last.width(start)) if last.tapered else last.w0
-        sections = [Section(s_end=p.s1, width=p.w0, thickness=p.h, taper_to=p.w1 if p.tapered else None)
-                    for p in pieces[:-1]]
+        h_split = float(last.thickness(start)) if last.thickness_tapered else last.h
+        taper = last.thickness_tapered
+        sections = [Section(s_end=p.s1, width=p.w0, thickness=p.h, taper_to=p.w1 if p.tapered else None,
+                            thickness_to=p.h1 if p.thickness_tapered else None) for p in pieces[:-1]]
         if start > last.s0:
             sections.append(Section(s_end=start, width=last.w0, thickness=last.h,
-                                    taper_to=w_split if last.tapered else None))
-        sections.append(Section(s_end=self.length, width=w_split, thickness=last.h * float(factor),
-                                taper_to=last.w1 if last.tapered else None))
+                                    taper_to=w_split if last.tapered else None,
+                                    thickness_to=h_split if taper else None))
+        sections.append(Section(s_end=self.length, width=w_split, thickness=h_split * float(factor),
+                                taper_to=last.w1 if last.tapered else None,
+                                thickness_to=last.h_end * float(factor) if taper else None))
         return Reed.from_sections(self.length, sections, self.thickness, self.tip_radius, self.material,
                                   self.grooves, self.name if name is None else name)
+
+    def _corner_volume(self) -> float:
+        """Volume [m^3] the rounded tip cuts from the square one: (2 - pi/2) R^2 h at the tip's start, plus,
+        on a thickness taper of slope h', h' R^3 / 3 (the corners' first moment about the tip's start)."""
+        last, r = self.pieces()[-1], self.tip_radius
+        if not last.thickness_tapered:
+            return last.h * (2.0 - np.pi / 2.0) * r**2
+        slope = (last.h1 - last.h) / (last.s1 - last.s0)
+        return float(last.thickness(self.tip_start)) * (2.0 - np.pi / 2.0) * r**2 + slope * r**3 / 3.0
 
     def mass_per_length(self, s):
         """m(s) = rho_c A(s) [kg/m], the mass per unit length of eq 3.8."""
@@ -523,15 +762,7 @@ class Reed:
         """Reed mass [kg] from s = 0 to the tip: rho_c (sum of h A_face per piece - groove volume)."""
         if self.sections:
             ps = self.pieces()
-            vol = (sum(p.h * p.area for p in ps) - ps[-1].h * (2.0 - np.pi / 2.0) * self.tip_radius**2
-                   - sum(_groove_volume(g) for g in self.grooves))
+            vol = sum(p.volume for p in ps) - self._corner_volume() - sum(g.volume for g in self.grooves)
             return self.material.density * vol
-        vol = self.thickness * self.face_area - sum(_groove_volume(g) for g in self.grooves)
+        vol = self.thickness * self.face_area - sum(g.volume for g in self.grooves)
         return self.material.density * vol
-
-
-def _groove_volume(g: Groove) -> float:
-    """Pocket volume [m^3] (assumes the pocket lies inside the outline, as validation ensures)."""
-    if g.kind == "half_ring":
-        return g.depth * np.pi / 2 * (g.r_outer**2 - g.r_inner**2)
-    return g.depth * g.width * (g.s_end - g.s_start)

@@ -13,29 +13,47 @@ import numpy as np
 from dataclasses import replace
 
 from . import validate
-from .data_files import package_toml
+from .data_files import package_names, package_toml
 from .declare import check_field, describe_range, spec_of
 from .errors import InputError
-from .reed import Groove, Material, Reed, Section
+from .reed import GROOVE_KINDS, Groove, Material, Reed, Section
 
-#: Presets of Table 3.1 of the thesis; each is a packaged file in the user format.
-PRESETS = ("uniform", "stepped1", "stepped2", "prototype")
+def _presets() -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(every preset, the thesis's): the packaged files ``geometry/data/reed_<name>.toml``, in the order their
+    ``[preset]`` tables give (``order``; then by name), those marked ``thesis = true`` the thesis's reeds."""
+    names = [n[len("reed_"):] for n in package_names("geometry") if n.startswith("reed_")]
+    meta = {n: package_toml("geometry", f"reed_{n}.toml").get("preset", {}) for n in names}
+    names.sort(key=lambda n: (meta[n].get("order", float("inf")), n))
+    return tuple(names), tuple(n for n in names if meta[n].get("thesis", False))
+
+
+#: The reed presets: every packaged file ``geometry/data/reed_<name>.toml`` (a new preset is one such file), and
+#: the four of the thesis (Table 3.1: uniform, stepped #1, stepped #2, prototype), which its tables are made of.
+PRESETS, THESIS_PRESETS = _presets()
 
 _REED_KEYS = {
     "length", "thickness", "width_root", "width_tip", "step_fraction", "tip_radius",
     "material", "grooves", "name", "sections",
 }
-_SECTION_KEYS = {"s_end", "width", "thickness", "taper_to"}
+_SECTION_KEYS = {"s_end", "width", "thickness", "taper_to", "thickness_to"}
 #: the one-step fields that ``[[reed.sections]]`` replaces
 _ONE_STEP_KEYS = ("width_root", "width_tip", "step_fraction")
 _MATERIAL_KEYS = {"youngs_modulus", "density", "poisson_ratio"}
-_RECT_KEYS = {"kind", "s_start", "s_end", "y_center", "width", "depth"}
-_RING_KEYS = {"kind", "s_center", "r_inner", "r_outer", "depth"}
-_UNUSED_GROOVE_FIELDS = {"rect": _RING_KEYS - _RECT_KEYS, "half_ring": _RECT_KEYS - _RING_KEYS}
 
 
 def load_reed(spec: str | Path) -> Reed:
-    """Reed from a preset name (``uniform``, ``stepped1``, ``stepped2``, ``prototype``) or a TOML path."""
+    """A reed from a preset name (:data:`PRESETS`) or a reed TOML file.
+
+    Parameters
+    ----------
+    spec : str or Path
+        The preset or the file.
+
+    Returns
+    -------
+    geometry.Reed
+        Validated; InputError naming ``spec`` or the bad key otherwise.
+    """
     spec_str = str(spec)
     if spec_str in PRESETS:
         return parse_reed(package_toml("geometry", f"reed_{spec_str}.toml"), source=spec_str)
@@ -74,8 +92,8 @@ def _proportions(reed: Reed) -> None:
     """InputError naming the field when the reed's proportions are not a reed's (mm typed as m)."""
     L = reed.length
     thick = [("reed.thickness", reed.thickness)] + [
-        (f"reed.sections[{i}].thickness", sec.thickness) for i, sec in enumerate(reed.sections)
-        if sec.thickness is not None]
+        (f"reed.sections[{i}].{k}", getattr(sec, k)) for i, sec in enumerate(reed.sections)
+        for k in ("thickness", "thickness_to") if getattr(sec, k) is not None]
     for where, h in thick:
         if h > MAX_THICKNESS_TO_LENGTH * L:
             raise InputError(where, f"{h:g} m is {h / L:.3g} times the length {L:g} m; a reed is at most "
@@ -93,7 +111,20 @@ def _proportions(reed: Reed) -> None:
 
 
 def check_reed(reed: Reed, where: str = "reed") -> Reed:
-    """A Reed built in Python checked as a reed file would be (declared ranges, proportions); InputError."""
+    """A Reed built in Python checked as a reed file would be (declared ranges, proportions).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+    where : str
+        Key prefix of the errors.
+
+    Returns
+    -------
+    geometry.Reed
+        The same reed; InputError naming the field otherwise.
+    """
     from .declare import specs
 
     for obj, at in [(reed, where), (reed.material, f"{where}.material")] + \
@@ -101,7 +132,7 @@ def check_reed(reed: Reed, where: str = "reed") -> Reed:
             [(g, f"{where}.grooves[{i}]") for i, g in enumerate(reed.grooves)]:
         for name, spec in specs(obj):
             v = getattr(obj, name)
-            unused = isinstance(obj, Groove) and name in _UNUSED_GROOVE_FIELDS[obj.kind]
+            unused = isinstance(obj, Groove) and name not in ("kind", "depth", *obj.shape.keys)
             if not (spec.optional and v is None) and not unused:
                 check_field(obj, name, v, f"{at}.{name}")
     _proportions(reed)
@@ -113,8 +144,22 @@ def _mm_hint(v: float) -> str:
 
 
 def parse_reed(data: dict, source: str = "custom") -> Reed:
-    """Validated :class:`~geometry.reed.Reed` from the parsed TOML mapping (top-level table ``[reed]``).
+    """A validated reed from the parsed TOML mapping of a reed file (top-level table ``[reed]``, CONTRACT.md).
 
+    Parameters
+    ----------
+    data : dict
+        The parsed file.
+    source : str
+        Its name (the reed's name when the file gives none).
+
+    Returns
+    -------
+    geometry.Reed
+        InputError naming the key of a bad value.
+
+    Notes
+    -----
     The outline is either the one-step form (``width_root``, ``width_tip``,
     ``step_fraction``) or a list of ``[[reed.sections]]`` (CONTRACT.md, "Multi-section
     reeds"); giving both is an error.
@@ -211,7 +256,8 @@ def _parse_sectioned(r: dict, length: float, material: Material, name: str) -> R
         width = _read(Section, sec, "width", where)
         h = _read(Section, sec, "thickness", where, required=False, default=None)
         taper = _read(Section, sec, "taper_to", where, required=False, default=None)
-        sections.append(Section(s_end=s_end, width=width, thickness=h, taper_to=taper))
+        h_to = _read(Section, sec, "thickness_to", where, required=False, default=None)
+        sections.append(Section(s_end=s_end, width=width, thickness=h, taper_to=taper, thickness_to=h_to))
         prev = s_end
     last = len(raw) - 1
     if abs(sections[-1].s_end - length) > 1e-9 * length:
@@ -235,68 +281,44 @@ def _parse_sectioned(r: dict, length: float, material: Material, name: str) -> R
 
 
 def _parse_groove(g: dict, where: str, reed: Reed) -> Groove:
+    """One ``[[reed.grooves]]`` table: its kind (:data:`geometry.reed.GROOVE_KINDS`), depth and the kind's keys,
+    each checked, then the kind's own check that the pocket fits the reed and the depth against the thinnest
+    piece it crosses."""
     if not isinstance(g, dict):
         raise InputError(where, "expected a table")
     kind = g.get("kind", "rect")
-    if kind not in ("rect", "half_ring"):
-        raise InputError(f"{where}.kind", f"expected 'rect' or 'half_ring', got {kind!r}")
+    if kind not in GROOVE_KINDS:
+        raise InputError(f"{where}.kind", f"expected one of {', '.join(map(repr, GROOVE_KINDS))}, got {kind!r}")
+    shape = GROOVE_KINDS[kind]
     depth = _read(Groove, g, "depth", where)
     if depth >= reed.max_thickness:
         raise InputError(
             f"{where}.depth", f"{depth:g} m is not shallower than the reed thickness {reed.max_thickness:g} m"
         )
-    if kind == "rect":
-        _check_keys(g, _RECT_KEYS, where)
-        groove = Groove(
-            depth=depth, kind="rect",
-            s_start=_read(Groove, g, "s_start", where), s_end=_read(Groove, g, "s_end", where),
-            y_center=_read(Groove, g, "y_center", where), width=_read(Groove, g, "width", where),
-        )
-        if groove.s_start < 0.0:
-            raise InputError(f"{where}.s_start", f"must be >= 0 (the clamp line), got {groove.s_start:g}")
-        if groove.s_end <= groove.s_start:
-            raise InputError(f"{where}.s_end", f"must exceed s_start = {groove.s_start:g} m")
-        if groove.s_end > reed.length:
-            raise InputError(f"{where}.s_end", f"{groove.s_end:g} m is beyond the reed tip at {reed.length:g} m")
-        s = np.linspace(groove.s_start, groove.s_end, 401)
-        ys = [(groove.y_center - groove.width / 2, "y_center"), (groove.y_center + groove.width / 2, "y_center")]
-        half = reed.width(s) / 2
-        for yv, _ in ys:
-            if np.any(np.abs(yv) > half * (1 + 1e-9)):
-                k = int(np.argmax(np.abs(yv) > half * (1 + 1e-9)))
-                raise InputError(
-                    f"{where}.y_center",
-                    f"groove edge at y = {yv:g} m leaves the reed (half width {half[k]:g} m at s = {s[k]:g} m)",
-                )
-    else:
-        _check_keys(g, _RING_KEYS, where)
-        groove = Groove(
-            depth=depth, kind="half_ring", s_center=_read(Groove, g, "s_center", where),
-            r_inner=_read(Groove, g, "r_inner", where), r_outer=_read(Groove, g, "r_outer", where),
-        )
-        if not 0.0 <= groove.r_inner < groove.r_outer:
-            raise InputError(f"{where}.r_inner", f"must be in [0, r_outer), got {groove.r_inner:g}")
-        if groove.s_center < 0.0:
-            raise InputError(f"{where}.s_center", f"must be >= 0, got {groove.s_center:g}")
-        th = np.linspace(-np.pi / 2, np.pi / 2, 721)
-        s = groove.s_center + groove.r_outer * np.cos(th)
-        y = groove.r_outer * np.sin(th)
-        if np.any(s > reed.length) or np.any(np.abs(y) > reed.width(s) / 2 * (1 + 1e-9)):
-            raise InputError(f"{where}.r_outer", "the half ring leaves the reed outline")
+    _check_keys(g, {"kind", "depth", *shape.keys}, where)
+    groove = Groove(depth=depth, kind=kind, **{k: _read(Groove, g, k, where) for k in shape.keys})
+    shape.check(groove, reed, where)
     a, b = groove.s_range()
-    thinnest = min(p.h for p in reed.pieces() if p.s0 < b and p.s1 > a)
+    thinnest = min(p.h_min for p in reed.pieces() if p.s0 < b and p.s1 > a)
     if depth >= thinnest:
-        k = next(i for i, p in enumerate(reed.pieces()) if p.s0 < b and p.s1 > a and p.h == thinnest)
+        k = next(i for i, p in enumerate(reed.pieces()) if p.s0 < b and p.s1 > a and p.h_min == thinnest)
         raise InputError(f"{where}.depth", f"{depth:g} m is not shallower than the local thickness "
                          f"{thinnest:g} m (reed.sections[{k}]) over s = {a:g}..{b:g} m")
     return groove
 
 
 def reed_to_toml(reed: Reed) -> str:
-    """The reed as a TOML document in the user format (round-trips through :func:`parse_reed`).
+    """A reed as a TOML document in the reed-file format (round-trips through :func:`parse_reed`).
 
-    One-step reeds are written with width_root, width_tip, step_fraction; multi-section
-    reeds with their ``[[reed.sections]]`` (the one-step fields are derived, not written).
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (any profile the geometry describes).
+
+    Returns
+    -------
+    str
+        One-step reeds with width_root, width_tip, step_fraction; multi-section reeds with their sections.
     """
     m = reed.material
     lines = ["[reed]", f'name = "{reed.name}"', f"length = {reed.length!r}", f"thickness = {reed.thickness!r}"]
@@ -317,9 +339,10 @@ def reed_to_toml(reed: Reed) -> str:
             lines.append(f"thickness = {sec.thickness!r}")
         if sec.taper_to is not None:
             lines.append(f"taper_to = {sec.taper_to!r}")
+        if sec.thickness_to is not None:
+            lines.append(f"thickness_to = {sec.thickness_to!r}")
     for g in reed.grooves:
         lines += ["", "[[reed.grooves]]", f'kind = "{g.kind}"']
-        keys = ("s_start", "s_end", "y_center", "width") if g.kind == "rect" else ("s_center", "r_inner", "r_outer")
-        lines += [f"{k} = {getattr(g, k)!r}" for k in keys]
+        lines += [f"{k} = {getattr(g, k)!r}" for k in g.shape.keys]
         lines.append(f"depth = {g.depth!r}")
     return "\n".join(lines) + "\n"

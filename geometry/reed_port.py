@@ -134,9 +134,7 @@ def footprint_area(reed: Reed, port: ReedPort | None) -> float:
 # ------------------------------------------------------------------------------ quadrature
 def section_breaks(reed: Reed) -> np.ndarray:
     """s [m] where a reed's width, thickness or grooves change (near-duplicates merged), 0 and L included."""
-    pts = list(reed.breakpoints())
-    pts += [g.s_center + g.r_inner for g in reed.grooves if g.kind == "half_ring"]
-    br = np.unique(np.clip(np.asarray(pts, dtype=float), 0.0, reed.length))
+    br = np.unique(reed.section_breaks())
     return br[np.append(np.diff(br) > 1e-9 * reed.length, True)]
 
 

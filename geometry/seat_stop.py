@@ -89,14 +89,26 @@ def _material(d: dict) -> Material:
 
 
 def load_seat_ring() -> SeatRing:
-    """The disc valve's seat ring (``seat_stop.toml`` [seat])."""
+    """The disc valve's seat ring (``seat_stop.toml`` [seat]).
+
+    Returns
+    -------
+    SeatRing
+        SI units.
+    """
     d = _data()["seat"]
     return SeatRing(d["bore_radius"], d["bore_length"], d["outer_radius"], d["cone_outer_radius"],
                     math.radians(d["bevel_angle_deg"]), d["load"], _material(d["material"]))
 
 
 def load_housing_stop() -> HousingStop:
-    """The disc valve's housing with its stop (``seat_stop.toml`` [stop])."""
+    """The disc valve's housing with its stop (``seat_stop.toml`` [stop]).
+
+    Returns
+    -------
+    HousingStop
+        SI units.
+    """
     d = _data()["stop"]
     return HousingStop(d["outer_radius"], d["inner_radius"], d["wall_height"], d["end_thickness"],
                        d["hole_radius"], int(d["windows"]), d["window_width"], d["window_height"],
@@ -105,7 +117,13 @@ def load_housing_stop() -> HousingStop:
 
 
 def load_reed_seat() -> ReedSeat:
-    """The reed valve's slotted seat (``seat_stop.toml`` [reed_seat])."""
+    """The reed valve's slotted seat (``seat_stop.toml`` [reed_seat]).
+
+    Returns
+    -------
+    ReedSeat
+        SI units.
+    """
     d = _data()["reed_seat"]
     return ReedSeat(d["slot_width"], d["slot_pitch"], int(d["slots"]), d["slot_start"], d["slot_end"],
                     d["reverse_pressure"])

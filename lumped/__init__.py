@@ -43,10 +43,14 @@ from lumped.model.pump_model import PumpModel
 from lumped.model.model_file import SHIPPED, load_model, to_toml, with_values
 from lumped.reed.fidelities import reed_properties
 from lumped.valves.reed import ReedValve
+from lumped.run.options import SolverOptions, TraceOptions
 from lumped.run.revolutions import StopRule, TdcState
 from lumped.run.trace import Trace
 from lumped.valves.kind import KINDS
 from lumped.run.warmstart import WarmStarts, chain_order
 
-__all__ = ["BallValve", "DiscValve", "InvariantError", "KINDS", "LIBRARY", "PumpModel", "PumpResult", "ReedValve", "SHIPPED",
-           "StopRule", "TdcState", "Trace", "ValveResult", "WarmStarts", "chain_order", "check_valve_kind", "load_model", "reed_properties", "simulate", "to_toml", "with_values"]
+__all__ = [
+    "BallValve", "DiscValve", "InvariantError", "KINDS", "LIBRARY", "PumpModel", "PumpResult", "ReedValve",
+    "SHIPPED", "SolverOptions", "StopRule", "TdcState", "Trace", "TraceOptions", "ValveResult", "WarmStarts",
+    "chain_order", "check_valve_kind", "load_model", "reed_properties", "simulate", "to_toml", "with_values"
+]

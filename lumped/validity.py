@@ -32,9 +32,9 @@ CONTACT_FRACTION = 1.0
 CD_PLATEAU = 0.95
 #: the discrete vapour cavity model holds while the cavity is below this fraction of the cylinder volume
 VAPOUR_LIMIT = 0.1
-#: the integrator's relative tolerance times the flow amplification above which a delivery is unresolved
-#: (the thesis pumps: amplification 1.1-1.3, so 1.3e-3 at the fast path's rtol 1e-3; the 3 mm bore pump
-#: of tests/test_validity.py: ~1000, its delivery 70 % off the converged one at rtol 1e-3, 3 % at 1e-5)
+#: the integrator's relative tolerance times the flow amplification above which a delivery is unresolved: a
+#: delivery that is a small difference of large flows carries the flows' relative error times their ratio to
+#: it (the thesis pumps amplify by ~1.1-1.3; a small-bore pump at high speed by ~1000, tests/test_validity.py)
 ACCURACY_LIMIT = 1e-2
 
 
@@ -89,7 +89,7 @@ class Envelope:
     rest_key: str | None = None
     cracking_pressure: float | None = None
     limits: tuple = ()
-    stop_gap: float | None = None          # the lift x_stop [m] (lumped.valves.kind.Common)
+    stop_gap: float | None = None          # the lift x_stop [m] (lumped.valves.common.Common)
 
 
 @dataclass(frozen=True)
@@ -165,7 +165,7 @@ def plateau_reynolds(cd_inf: float, a: float, b: float, c: float, fraction: floa
 
 
 def common_limits(common) -> tuple[Limit, ...]:
-    """The limits every kind shares, from its :class:`lumped.valves.kind.Common` quantities.
+    """The limits every kind shares, from its :class:`lumped.valves.common.Common` quantities.
 
     - the seat and stop contacts (eq 2.20: linear, a compliant seat such as the thesis's O-ring) give way
       by at most the valve's lift x_stop: a seat that lets the element sink deeper than it ever opens is

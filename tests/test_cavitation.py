@@ -20,7 +20,7 @@ from lumped.run.simulate import simulate
 from lumped.model.model_file import load_model, with_values
 from studies.validation import chain as V
 from studies.discrepancy.synth import thesis_conditions
-from studies.sweeps.random_designs import VALVES, random_design
+from lumped.model.random_designs import VALVES, random_design
 from studies.discrepancy.synth import Noise, synthesize
 
 

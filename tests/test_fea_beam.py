@@ -7,7 +7,7 @@ import pytest
 from scipy.integrate import cumulative_trapezoid
 
 from fea import beam
-from geometry import load_reed
+from geometry import THESIS_PRESETS, load_reed
 from studies.tables.thesis import thesis_values
 
 ALPHA1, ALPHA2 = 1.8751040687119611, 4.6940911329741745  # roots of cos a cosh a + 1 = 0
@@ -87,7 +87,7 @@ def test_gammas_of_table_3_8(case, name):
     assert p.gamma3 == pytest.approx(t["gamma3"], abs=0.001 if name == "stepped2" else 0.0002)
 
 
-@pytest.mark.parametrize("name", ["uniform", "stepped1", "stepped2", "prototype"])
+@pytest.mark.parametrize("name", THESIS_PRESETS)
 def test_beam_fe_equals_independent_eb_integration(name):
     """Same theory, different numerics: kappa and omega_n agree to 0.05 % (grooves, rounded tip included)."""
     reed = load_reed(name)
@@ -109,7 +109,7 @@ def test_beam_matches_analytic_model():
     """Beam FE and the exact analytic E-B model (lumped.reed.euler_bernoulli) are the same theory: 0.05 %."""
     from lumped.reed import euler_bernoulli as rb
 
-    for name in ("uniform", "stepped1", "stepped2", "prototype"):
+    for name in THESIS_PRESETS:
         reed = load_reed(name)
         a, b = rb.reed_properties(reed), beam.reed_properties(reed)
         assert b.omega_n == pytest.approx(a.omega_n, rel=5e-4)

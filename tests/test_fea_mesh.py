@@ -8,9 +8,8 @@ import pytest
 
 from fea.mesh import face_mesh, is_symmetric, line_mesh, solid_mesh, write_vtu
 from fea.solid import _scalar_basis, pressure_load
-from geometry import InputError, load_reed
+from geometry import PRESETS, InputError, load_reed
 
-PRESETS = ("uniform", "stepped1", "stepped2", "prototype")
 
 
 def _areas(mesh):

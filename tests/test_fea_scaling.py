@@ -11,7 +11,7 @@ import pytest
 from fea import beam, plate, solid
 from fea.mesh import face_mesh, grading_length, reference_length
 from fea.resources import memory_limit
-from geometry import InputError, load_reed, parse_reed
+from geometry import THESIS_PRESETS, InputError, load_reed, parse_reed
 
 STEEL = {"youngs_modulus": 200e9, "density": 7850.0, "poisson_ratio": 0.3}
 
@@ -32,7 +32,7 @@ def _plate_file(tmp_path, name, L, W, h, density=8000.0):
 
 
 def test_thesis_reeds_keep_their_sizes():
-    for name in ("uniform", "stepped1", "stepped2", "prototype"):
+    for name in THESIS_PRESETS:
         r = load_reed(name)
         assert (beam.default_mesh_size(r), plate.default_mesh_size(r), solid.default_mesh_size(r)) == (
             1.27e-4, 2e-3, 1e-3)

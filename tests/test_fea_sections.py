@@ -16,7 +16,8 @@ from lumped.reed import euler_bernoulli as rb
 
 MATERIAL = "[reed.material]\nyoungs_modulus = 2.9e9\ndensity = 1410.0\npoisson_ratio = 0.35\n"
 # the shipped example reed: thickness step, width step, taper, rounded tip
-SECTIONS = (Path(__file__).resolve().parents[1] / "geometry" / "data" / "reed_three_section.toml").read_text()
+SECTIONS = (Path(__file__).resolve().parents[1] / "geometry" / "data" / "examples"
+    / "reed_three_section.toml").read_text()
 # constant width, two thickness steps, square tip
 THICKNESS_STEPS = """
 [reed]

@@ -7,11 +7,11 @@ import pytest
 
 from fea import solid
 from fea.convergence import convergence_study, default_sizes, plot_convergence
-from geometry import load_reed
+from geometry import THESIS_PRESETS, load_reed
 from studies.tables.thesis import thesis_values
 
 pytestmark = pytest.mark.slow
-REEDS = ("uniform", "stepped1", "stepped2", "prototype")
+REEDS = THESIS_PRESETS
 
 
 @pytest.mark.parametrize("name", REEDS)

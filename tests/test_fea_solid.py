@@ -7,7 +7,7 @@ import pytest
 
 from fea import beam, solid
 from fea.convergence import richardson
-from geometry import Groove, load_reed
+from geometry import THESIS_PRESETS, Groove, load_reed
 from studies.tables.thesis import thesis_values
 
 
@@ -22,7 +22,7 @@ def _with_nu(reed, nu):
     return replace(reed, material=replace(reed.material, poisson_ratio=nu))
 
 
-@pytest.mark.parametrize("case", ["uniform", "stepped1", "stepped2", "prototype"])
+@pytest.mark.parametrize("case", THESIS_PRESETS)
 def test_table_3_3_frequency_within_2_percent(table33, case):
     row = table33[case]
     thesis = thesis_values()["table_3_3"][case]["omega_fea"]

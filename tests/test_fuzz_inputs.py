@@ -39,6 +39,7 @@ import tomli_w
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
+from geometry import PRESETS
 from studies.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -190,7 +191,7 @@ def draw_reed(data) -> tuple[Draw, bool]:
     d = Draw("reed")
     src = data.draw(st.sampled_from(["preset", "file", "bad_file", "missing", "binary"]))
     if src == "preset":
-        d.argv.append(data.draw(st.sampled_from(["uniform", "stepped1", "stepped2", "prototype"])))
+        d.argv.append(data.draw(st.sampled_from(PRESETS)))
     elif src in ("file", "bad_file"):
         d.argv.append(_reed_file(d, data, src == "bad_file"))
     elif src == "missing":

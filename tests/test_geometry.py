@@ -138,7 +138,8 @@ def test_missing_file_is_named(tmp_path):
 # -- multi-section reeds ([[reed.sections]], CONTRACT "Multi-section reeds") ----------------
 
 # the shipped example reed: thickness step, width step, taper, rounded tip
-SECTIONED = (Path(__file__).resolve().parents[1] / "geometry" / "data" / "reed_three_section.toml").read_text()
+SECTIONED = (Path(__file__).resolve().parents[1] / "geometry" / "data" / "examples"
+    / "reed_three_section.toml").read_text()
 
 ONE_STEP_AS_SECTIONS = """
 [reed]
@@ -257,7 +258,7 @@ def test_every_section_may_carry_its_thickness():
 def test_example_geometry_files_parse(name):
     from importlib import resources
 
-    path = resources.files("geometry").joinpath(f"data/reed_{name}.toml")
+    path = resources.files("geometry").joinpath(f"data/examples/reed_{name}.toml")
     r = load_reed(str(path))
     assert r.name == name and r.mass > 0
     assert parse_reed(tomllib.loads(reed_to_toml(r))) == r

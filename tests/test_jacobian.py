@@ -18,7 +18,7 @@ from lumped.model.effect_library import LIBRARY
 from lumped.model.model_file import with_values
 from lumped.solver.problem import PumpProblem
 from lumped.valves.kind import KINDS
-from studies.sweeps.random_designs import random_design
+from lumped.model.random_designs import random_design
 
 #: every effect of the library switched on at its priors, and the oil with and without air
 EFFECTS = {"none": {}, **{name: {f"effects.{name}": True} for name in LIBRARY.names() if name != "entrained_air"},

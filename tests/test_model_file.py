@@ -346,11 +346,9 @@ WOBBLY = V.kind_block(WobblyDisc)
 
 
 @pytest.fixture
-def wobbly_kind(monkeypatch):
-    from lumped.model import model_file as MF
-
-    kind = V.register(V.ValveKind(name="wobbly", params=WobblyDisc, acceleration=_wobbly_acceleration, block=WOBBLY))
-    monkeypatch.setitem(MF.KIND_DEFAULTS, "wobbly", "thesis-disc")
+def wobbly_kind():
+    kind = V.register(V.ValveKind(name="wobbly", params=WobblyDisc, acceleration=_wobbly_acceleration, block=WOBBLY,
+                                  default_model="thesis-disc"))
     yield kind
     del V.KINDS["wobbly"]
     V._build_dispatch()

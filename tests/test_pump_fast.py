@@ -19,7 +19,7 @@ from studies.discrepancy import confusion
 from studies.discrepancy.pump_sim import for_valve_type
 from studies.discrepancy.workflow import RunCondition
 from lumped.valves.kind import KINDS, VALVE
-from studies.sweeps.random_designs import mixed_model, random_design
+from lumped.model.random_designs import mixed_model, random_design
 from studies.tables.thesis import experiments
 
 DELIVERY_RTOL = 1e-3  # the acceptance: delivery within 0.1 % of the reference path
@@ -114,7 +114,7 @@ FAST_DEFAULT_MISSES = {18: "ball design: inlet opening 9.3 deg late at the fast 
 @pytest.mark.parametrize("seed", [pytest.param(s, marks=pytest.mark.xfail(strict=True, reason=FAST_DEFAULT_MISSES[s]))
                                   if s in FAST_DEFAULT_MISSES else s for s in range(10, 30)])
 def test_fast_matches_reference_on_many_random_designs(seed):
-    from studies.sweeps.random_designs import VALVES
+    from lumped.model.random_designs import VALVES
 
     valve = VALVES[seed % len(VALVES)]
     speed, load, air, model = random_design(np.random.default_rng(seed), valve)

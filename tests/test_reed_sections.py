@@ -38,7 +38,8 @@ thickness = 0.8e-3
 """
 
 # three sections with a thickness step, a linear taper and a rounded tip
-THREE_TAPER = (Path(__file__).resolve().parents[1] / "geometry" / "data" / "reed_three_section.toml").read_text()
+THREE_TAPER = (Path(__file__).resolve().parents[1] / "geometry" / "data" / "examples"
+    / "reed_three_section.toml").read_text()
 
 
 def _reed(text):

@@ -118,9 +118,9 @@ def test_3mm_bore_pump_at_3000_rpm_is_beyond_the_fast_paths_accuracy():
     ref = simulate(m, 3000, 2.76e6, method="reference")
     assert "accuracy" in codes(fast) and "accuracy" not in codes(ref)
     assert "at rtol 0.001" in message(fast, "accuracy")
-    # the warning is warranted: the fast delivery is off the reference by far more than the 0.1 % it keeps on
-    # the pumps it was validated on (README)
-    assert abs(fast.delivery_per_rev / ref.delivery_per_rev - 1) > 0.01
+    # the warning is warranted: the fast delivery is off the reference by more than the 0.1 % it keeps on the
+    # pumps it was validated on (README; 0.23 % with the disc's free-flight velocity tolerance x30, above 1 % at x100)
+    assert abs(fast.delivery_per_rev / ref.delivery_per_rev - 1) > 0.001
     for r in (fast, ref):
         assert r.inlet.energy_loss >= 0 and r.delivery.energy_loss >= 0
 

@@ -16,7 +16,7 @@ from geometry.errors import InputError
 from lumped import StopRule, TdcState, WarmStarts, chain_order, simulate
 from lumped.solver.layout import S_MCYL
 from lumped.model.model_file import load_model
-from studies.sweeps.random_designs import VALVES, random_design
+from lumped.model.random_designs import VALVES, random_design
 
 RTOL, ATOL = 1e-4, 1e-6        # the design studies' tolerances: noise ~1e-5 in delivery
 TOL = 1e-4                     # what the studies need: delivery within 1e-4 of a long run

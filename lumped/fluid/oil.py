@@ -10,6 +10,30 @@ Density with entrained air (eq 4.11, Cho et al. 2002), R the volume fraction of 
 This is exact (not the R << 1 approximation the thesis calls it) when the air volume of
 eq 4.9 is written per unit *mixture* volume; the exponent sign follows eqs 4.9 and 4.12
 (eqs 4.10-4.11 print exp(-(P0 - P)/beta); see docs/errata.md).
+
+Inverting eq 4.11 (:func:`pressure_iterations`): f(P) = A P^B + C e^(DP) - E with A = R P0^(1/gamma),
+B = -1/gamma, C = (1 - R) e^(P0/beta), D = -1/beta, E = rho0/rho (eqs 4.12-4.14). Both terms are
+convex and decreasing in P, so a Newton step from any P > 0 lands left of the root
+(f >= 0) and from there Newton's method increases monotonically to it without
+overshoot: convergence is guaranteed whatever the start, and a close start only saves
+iterations. The start solves a two-term model, the liquid term linear in P:
+R (P0/P)^(1/gamma) = k (P - P_lin), k = (1 - R)/beta, whose liquid-only root P_lin is a
+lower bound of the true root. Where P_lin > 0 it is P_lin u with (u - 1) u^(1/gamma) = c
+= R P0^(1/gamma) / (k P_lin^(1 + 1/gamma)) (the air volume at P_lin against the liquid's
+compression), solved as u = 1 + c (1 + c)^(-1/(1 + gamma)), exact for c -> 0 and
+c -> infinity and within 9 % between; otherwise (expansion) the air takes up the whole
+density change with the liquid frozen at its P0 volume.
+With R = 0 the liquid root is exact (and may be negative: no vapour model).
+
+``p_start`` > 0 replaces that start (the root of a nearby call: an integrator evaluates the
+cylinder at neighbouring states, so one or two Newton steps remain; the result does not
+depend on the start beyond the tolerance, since Newton converges from any P > 0, though
+from far left of the root it gains only a factor 1 + gamma per step: 10 Pa to 100 MPa in
+about 20 of the 60 allowed).
+
+It stops when the last step, or the error it leaves (quadratic convergence from the
+left: below f''(P) step^2 / (2 |f'|), f'' decreasing), is below rtol P + 4e-16 beta:
+the liquid term fixes P only to ~ beta * eps in absolute terms (conditioning).
 """
 
 from __future__ import annotations
@@ -21,10 +45,35 @@ from geometry.declare import param
 
 
 def viscosity_parameters(nu1: float, t1: float, nu2: float, t2: float, density: float) -> tuple[float, float]:
-    """(mu_0 [Pa s], b [1/K]) of mu = mu_0 exp(-b T) from two kinematic viscosities (eqs A.1-A.2).
+    """The two constants of the Reynolds viscosity law mu = mu_0 exp(-b T) through two measured points
+    (eqs A.1-A.2).
 
-    Returns b > 0 as used in eq A.3 (mu = 761.1 exp(-0.03157 T)); the thesis prints
-    b = -0.03157 1/K for the same number with the sign convention of eq A.1.
+    Parameters
+    ----------
+    nu1, nu2 : float
+        Kinematic viscosities [m^2/s] at the temperatures ``t1``, ``t2`` [K].
+    t1, t2 : float
+        Their temperatures [K].
+    density : float
+        Oil density [kg/m^3] turning nu into mu = rho nu.
+
+    Returns
+    -------
+    tuple of float
+        (mu_0 [Pa s], b [1/K]) with b = ln(nu1 / nu2) / (t2 - t1) > 0, as used in eq A.3 (the thesis prints
+        b = -0.03157 1/K for the same number with the sign convention of eq A.1).
+
+    References
+    ----------
+    Knutson (2016), Appendix A, eqs A.1-A.3 and Table A.1.
+
+    Examples
+    --------
+    Table A.1 (44.2 cSt at 40 C, 6.65 cSt at 100 C, 876 kg/m^3) gives eq A.3's mu = 761.1 exp(-0.03157 T):
+
+    >>> mu0, b = viscosity_parameters(44.2e-6, 313.15, 6.65e-6, 373.15, 876.0)
+    >>> round(mu0), round(b, 5)
+    (761, 0.03157)
     """
     b = math.log(nu1 / nu2) / (t2 - t1)
     mu0 = density * nu1 * math.exp(b * t1)
@@ -32,7 +81,23 @@ def viscosity_parameters(nu1: float, t1: float, nu2: float, t2: float, density: 
 
 
 def viscosity(temperature: float, mu0: float, b: float) -> float:
-    """Dynamic viscosity mu(T) = mu_0 exp(-b T) [Pa s], T in K (eq A.3).
+    """Dynamic viscosity of the oil at a temperature by the Reynolds law mu(T) = mu_0 exp(-b T) (eq A.3).
+
+    Parameters
+    ----------
+    temperature : float
+        T [K].
+    mu0, b : float
+        The law's constants [Pa s], [1/K] (:func:`viscosity_parameters`).
+
+    Returns
+    -------
+    float
+        mu [Pa s].
+
+    References
+    ----------
+    Knutson (2016), eq A.3.
 
     Examples
     --------
@@ -43,11 +108,28 @@ def viscosity(temperature: float, mu0: float, b: float) -> float:
 
 
 def thesis_oil_viscosity(temperature: float | None = None) -> tuple[float, float]:
-    """(density [kg/m^3], dynamic viscosity [Pa s]) of Mobil DTE 25 at ``temperature`` [K] (eqs A.1-A.3).
+    """Density and viscosity of the thesis's oil (Mobil DTE 25) at a temperature, from the two Table A.1 points
+    (lumped/data/oil.toml) by eqs A.1-A.3: the one place the viscosity law is evaluated for the thesis oil.
 
-    From the two Table A.1 points (lumped/data/oil.toml); default temperature: the room
-    temperature of Appendix A (22 C), where mu = 0.0683 Pa s (Table 5.1). The one place
-    the viscosity law is evaluated for the thesis oil.
+    Parameters
+    ----------
+    temperature : float, optional
+        T [K]; None: the room temperature of Appendix A (22 C).
+
+    Returns
+    -------
+    tuple of float
+        (density [kg/m^3], dynamic viscosity [Pa s]).
+
+    References
+    ----------
+    Knutson (2016), Appendix A; Table 5.1 (0.0683 Pa s).
+
+    Examples
+    --------
+    >>> rho, mu = thesis_oil_viscosity()
+    >>> rho, round(mu, 4)                   # Table 5.1: 876 kg/m^3, 0.0683 Pa s at 22 C
+    (876.0, 0.0683)
     """
     from geometry.data_files import package_toml
 
@@ -59,9 +141,33 @@ def thesis_oil_viscosity(temperature: float | None = None) -> tuple[float, float
 
 
 def density(p: float, rho0: float, p0: float, beta: float, gamma: float, air: float) -> float:
-    """Density of oil with entrained air at absolute pressure p [kg/m^3] (eq 4.11).
+    """Density of oil with entrained air at an absolute pressure (eq 4.11, Cho et al. 2002):
+    rho = rho0 / (R (P0/P)^(1/gamma) + (1 - R) exp(-(P - P0)/beta)).
 
-    For air > 0 the pressure must be positive (the air term diverges at p -> 0).
+    Parameters
+    ----------
+    p : float
+        Absolute pressure P [Pa]; positive when ``air`` > 0 (the air term diverges at P -> 0).
+    rho0 : float
+        Density of the mixture at ``p0`` [kg/m^3].
+    p0 : float
+        Reference pressure P0 where R and rho0 are given [Pa, absolute].
+    beta : float
+        Bulk modulus of the air-free oil [Pa].
+    gamma : float
+        Polytropic exponent of the air [-].
+    air : float
+        R, volume fraction of air at P0 [-].
+
+    Returns
+    -------
+    float
+        rho [kg/m^3].
+
+    References
+    ----------
+    Knutson (2016), eqs 4.9-4.11 (the exponent's sign as in eqs 4.9, 4.12: docs/errata.md); Cho, Kim & Kim
+    (2002).
 
     Examples
     --------
@@ -81,7 +187,29 @@ def density(p: float, rho0: float, p0: float, beta: float, gamma: float, air: fl
 
 
 def density_slope(p: float, rho0: float, p0: float, beta: float, gamma: float, air: float) -> float:
-    """d rho / d p [kg/m^3/Pa] of eq 4.11 (the mixture's rho / effective bulk modulus)."""
+    """The slope d rho/dP of eq 4.11: the mixture's density over its effective bulk modulus.
+
+    Parameters
+    ----------
+    p, rho0, p0, beta, gamma, air : float
+        As :func:`density` (SI).
+
+    Returns
+    -------
+    float
+        d rho/dP [kg/m^3/Pa].
+
+    References
+    ----------
+    Knutson (2016), eq 4.11 differentiated (the dP/dm of eq 4.16).
+
+    Examples
+    --------
+    Air-free oil: rho / beta at P0 (Table 5.1: 876 kg/m^3, 1.84 GPa):
+
+    >>> density_slope(101325.0, 876.0, 101325.0, 1.84e9, 1.4, 0.0) == 876.0 / 1.84e9
+    True
+    """
     liquid = (1.0 - air) * math.exp(-(p - p0) / beta)
     d = liquid
     dd = -liquid / beta
@@ -94,31 +222,39 @@ def density_slope(p: float, rho0: float, p0: float, beta: float, gamma: float, a
 
 def pressure_iterations(rho: float, rho0: float, p0: float, beta: float, gamma: float, air: float,
                         rtol: float = 1e-13, maxiter: int = 60, p_start: float = 0.0) -> tuple[float, int]:
-    """(p [Pa], Newton iterations) solving eq 4.11 for pressure (eqs 4.12-4.16).
+    """The absolute pressure at which oil with entrained air has density ``rho``: eq 4.11 inverted by Newton's
+    method (eqs 4.12-4.16).
 
-    f(P) = A P^B + C e^(DP) - E with A = R P0^(1/gamma), B = -1/gamma,
-    C = (1 - R) e^(P0/beta), D = -1/beta, E = rho0/rho (eqs 4.12-4.14). Both terms are
-    convex and decreasing in P, so a Newton step from any P > 0 lands left of the root
-    (f >= 0) and from there Newton's method increases monotonically to it without
-    overshoot: convergence is guaranteed whatever the start, and a close start only saves
-    iterations. The start solves a two-term model, the liquid term linear in P:
-    R (P0/P)^(1/gamma) = k (P - P_lin), k = (1 - R)/beta, whose liquid-only root P_lin is a
-    lower bound of the true root. Where P_lin > 0 it is P_lin u with (u - 1) u^(1/gamma) = c
-    = R P0^(1/gamma) / (k P_lin^(1 + 1/gamma)) (the air volume at P_lin against the liquid's
-    compression), solved as u = 1 + c (1 + c)^(-1/(1 + gamma)), exact for c -> 0 and
-    c -> infinity and within 9 % between; otherwise (expansion) the air takes up the whole
-    density change with the liquid frozen at its P0 volume.
-    With R = 0 the liquid root is exact (and may be negative: no vapour model).
+    Parameters
+    ----------
+    rho : float
+        Mixture density [kg/m^3].
+    rho0, p0, beta, gamma, air : float
+        As :func:`density` (SI).
+    rtol : float
+        Relative tolerance of the root [-].
+    maxiter : int
+        Newton steps allowed.
+    p_start : float
+        > 0: the start [Pa] (see below); else the two-term model's root.
 
-    ``p_start`` > 0 replaces that start (the root of a nearby call: an integrator evaluates the
-    cylinder at neighbouring states, so one or two Newton steps remain; the result does not
-    depend on the start beyond the tolerance, since Newton converges from any P > 0, though
-    from far left of the root it gains only a factor 1 + gamma per step: 10 Pa to 100 MPa in
-    about 20 of the 60 allowed).
+    Returns
+    -------
+    tuple
+        (P [Pa], Newton iterations taken); the start and the stopping rule: the module docstring.
 
-    It stops when the last step, or the error it leaves (quadratic convergence from the
-    left: below f''(P) step^2 / (2 |f'|), f'' decreasing), is below rtol P + 4e-16 beta:
-    the liquid term fixes P only to ~ beta * eps in absolute terms (conditioning).
+    References
+    ----------
+    Knutson (2016), eqs 4.12-4.16.
+
+    Examples
+    --------
+    The inverse of :func:`density` (1.3 % air, Table 5.4):
+
+    >>> rho = density(2.76e6, 876.0, 101325.0, 1.84e9, 1.4, 0.013)
+    >>> p, n = pressure_iterations(rho, 876.0, 101325.0, 1.84e9, 1.4, 0.013)
+    >>> round(p), n <= 5
+    (2760000, True)
     """
     e = rho0 / rho
     if air <= 1e-200:
@@ -183,8 +319,27 @@ def _newton(p: float, e: float, p0: float, beta: float, inv_g: float, air: float
 
 def pressure(rho: float, rho0: float, p0: float, beta: float, gamma: float, air: float,
              p_start: float = 0.0) -> float:
-    """Absolute pressure [Pa] of oil with entrained air at density rho (inverse of eq 4.11); ``p_start``
-    > 0: Newton starts there (see :func:`pressure_iterations`)."""
+    """Absolute pressure of oil with entrained air at a density: eq 4.11 inverted (eqs 4.12-4.16,
+    :func:`pressure_iterations`).
+
+    Parameters
+    ----------
+    rho : float
+        Mixture density [kg/m^3].
+    rho0, p0, beta, gamma, air : float
+        As :func:`density` (SI).
+    p_start : float
+        > 0: Newton starts there [Pa].
+
+    Returns
+    -------
+    float
+        P [Pa, absolute].
+
+    References
+    ----------
+    Knutson (2016), eqs 4.11-4.16.
+    """
     return pressure_iterations(rho, rho0, p0, beta, gamma, air, p_start=p_start)[0]
 
 

@@ -53,8 +53,14 @@ def set_fields(model: PumpModel, target: str, **changes) -> PumpModel:
     out = {}
     for pos in _targets(target):
         v = getattr(model, pos)
-        if target == "both" and not all(k in type(v).__dataclass_fields__ for k in changes):
+        missing = [k for k in changes if k not in type(v).__dataclass_fields__]
+        if target == "both" and missing:
             continue            # "both" on a mixed pump: only the valves of the kind the effect acts on
+        if missing:
+            from geometry.errors import InputError
+
+            raise InputError(f"valves.{pos}", f"an effect sets {missing[0]!r}, which the {pos} valve's kind "
+                             f"({type(v).__name__}) does not declare")
         out[pos] = replace(v, **changes)
     return replace(model, **out)
 
@@ -340,6 +346,9 @@ def check_values(effect: Effect, values: dict, context, target: str, where: str)
         p = params[k]
         if p.field:
             comp = _component_for(context, target, p.field)
+            if p.field not in type(comp).__dataclass_fields__:
+                raise InputError(f"{where}.{k}", f"effect {effect.name!r} sets {p.field!r}, which "
+                                 f"{type(comp).__name__} does not declare")
             v = check_field(comp, p.field, v, f"{where}.{k}")
         elif isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
             raise InputError(f"{where}.{k}", f"expected a finite number in {p.unit}, got {v!r}")
@@ -356,4 +365,7 @@ def _component_for(model, target: str, field: str):
     for comp in (model.pump, model.oil, model.inlet, model.delivery):
         if field in type(comp).__dataclass_fields__:
             return comp
-    raise KeyError(field)
+    from geometry.errors import InputError
+
+    raise InputError(f"effects.{target}", f"no component of the model declares the field {field!r} an effect sets "
+                     f"(valves: {type(model.inlet).__name__}, {type(model.delivery).__name__})")

@@ -229,11 +229,17 @@ class Library:
     effects: dict = field(default_factory=dict)
 
     def register(self, effect: Effect) -> Effect:
+        """Add an effect; ValueError if its name repeats, a target is unknown, or a valve kind it claims
+        (``valve_types``; None: every registered kind) does not declare a field one of its parameters sets
+        (:func:`missing_fields` names both)."""
         if effect.name in self.effects:
             raise ValueError(f"effect {effect.name!r} is registered twice")
         for t in effect.targets:
             if t not in PER_VALVE + BOTH_VALVES + PUMP:
                 raise ValueError(f"effect {effect.name!r}: unknown target {t!r}")
+        problems = missing_fields(effect)
+        if problems:
+            raise ValueError(problems[0])
         self.effects[effect.name] = effect
         return effect
 
@@ -272,3 +278,30 @@ class Library:
         for a in model:
             params = self.effects[a.name].apply(params, a.value_dict, a.target)
         return params
+
+
+def missing_fields(effect: Effect, kinds=None) -> list[str]:
+    """What an effect claims of valve kinds that they do not declare, one line each naming the effect, the
+    kind and the field (empty: none).
+
+    ``kinds``: the registered :class:`lumped.valves.kind.ValveKind` entries to check (default: those the
+    effect claims by ``valve_types``, every registered one for None). An effect on the whole pump sets
+    ``pump.``/``oil.`` fields and is not checked against kinds.
+    """
+    from lumped.valves.kind import KINDS
+
+    if effect.targets == PUMP:
+        return []
+    if kinds is None:
+        kinds = [k for k in KINDS.values() if effect.valve_types is None or k.name in effect.valve_types]
+    out = []
+    for kind in kinds:
+        declared = kind.params.__dataclass_fields__
+        for p in effect.variants.get(kind.name, effect.parameters):
+            if p.field and "." not in p.field and p.field not in declared:
+                out.append(f"effect {effect.name!r} claims valve kind {kind.name!r} ("
+                           f"{'every kind' if effect.valve_types is None else 'valve_types'}), but "
+                           f"{kind.params.__name__} declares no field {p.field!r} that its parameter {p.name!r} "
+                           f"sets: declare it on {kind.params.__name__} (param(None, ..., effect={effect.name!r}, "
+                           f"packed=True)), give the kind a variant, or leave the kind out of valve_types")
+    return out

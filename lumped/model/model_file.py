@@ -287,7 +287,6 @@ def _parse_effects(table: dict, model: PumpModel, inherited: list, data: dict, b
         where = f"effects.{name}"
         if name not in LIBRARY:
             raise InputError(where, f"unknown effect; expected one of {', '.join(LIBRARY.names())}")
-        eff = LIBRARY[name]
         if body is False:
             out = {k: a for k, a in out.items() if a.name != name}
             continue
@@ -299,43 +298,17 @@ def _parse_effects(table: dict, model: PumpModel, inherited: list, data: dict, b
         body = {k: v for k, v in body.items() if k not in off}
         if off and not body:
             continue
-        per_target = {k: v for k, v in body.items() if k in POSITIONS}
-        direct = {k: v for k, v in body.items() if k not in POSITIONS}
-        if per_target and direct:
-            raise InputError(f"{where}.{next(iter(direct))}", "give the parameters per valve "
-                             f"([{where}.inlet], [{where}.delivery]) or for the effect, not both")
-        if per_target:
-            if eff.targets == ("pump",):
-                raise InputError(f"{where}.{next(iter(per_target))}", "acts on the whole pump: give its "
-                                 f"parameters in [{where}] itself")
-            jobs = [(t, v, f"{where}.{t}") for t, v in per_target.items()]
-        else:
-            if eff.targets == ("inlet", "delivery"):
-                raise InputError(where, f"acts on one valve: give [{where}.inlet] or [{where}.delivery]")
-            jobs = [(eff.targets[0], direct, where)]
-        for target, values, w in jobs:
+        for target, values, w in _effect_jobs(LIBRARY[name], body, where):
             if not isinstance(values, dict):
                 raise InputError(w, "expected a table of the effect's parameters")
-            if not eff.applies_to(model, target):
+            if not LIBRARY[name].applies_to(model, target):
                 raise InputError(w, f"{name} does not apply to the {model.kind_at(target)} valve")
-            vals = effect_library.check_values(eff, values, model, target, w)
+            vals = effect_library.check_values(LIBRARY[name], values, model, target, w)
             out[(name, target)] = Applied.of(name, target, vals)
             named.add((name, target))
     for key, a in list(out.items()):
-        if key in named:
-            continue
-        # inherited from the base: checked for this model's valves like a named one
-        eff = LIBRARY[a.name]
-        w = f"effects.{a.name}" + ("" if a.target in ("both", "pump") else f".{a.target}")
-        off = f"[effects.{a.name}] {a.target} = false" if a.target in POSITIONS else f"[effects] {a.name} = false"
-        why = f" (inherited from base {base_name!r}; switch it off with {off})"
-        if not eff.applies_to(model, a.target):
-            raise InputError(w, f"{a.name} does not apply to the {model.kind_at(a.target)} valve{why}")
-        try:
-            vals = effect_library.check_values(eff, a.value_dict, model, a.target, w)
-        except InputError as exc:
-            raise InputError(exc.field, exc.message + why) from None
-        out[key] = Applied.of(a.name, a.target, vals)
+        if key not in named:
+            out[key] = _inherited_effect(a, model, base_name)
     applied = list(out.values())
     air = [a for a in applied if a.name == "entrained_air"]
     if air and "air_content" in data.get("oil", {}) and \
@@ -343,6 +316,40 @@ def _parse_effects(table: dict, model: PumpModel, inherited: list, data: dict, b
         raise InputError("effects.entrained_air.R", f"contradicts oil.air_content = {model.oil.air_content:g}; "
                                                     "give one of them")
     return applied
+
+
+def _effect_jobs(eff, body: dict, where: str) -> list:
+    """(target, values, key path) of an effect's table: per valve (``[effects.NAME.inlet]``) or for the effect
+    itself (its first target); InputError for a mix, or for the form the effect's targets do not take."""
+    per_target = {k: v for k, v in body.items() if k in POSITIONS}
+    direct = {k: v for k, v in body.items() if k not in POSITIONS}
+    if per_target and direct:
+        raise InputError(f"{where}.{next(iter(direct))}", "give the parameters per valve "
+                         f"([{where}.inlet], [{where}.delivery]) or for the effect, not both")
+    if per_target:
+        if eff.targets == ("pump",):
+            raise InputError(f"{where}.{next(iter(per_target))}", "acts on the whole pump: give its "
+                             f"parameters in [{where}] itself")
+        return [(t, v, f"{where}.{t}") for t, v in per_target.items()]
+    if eff.targets == ("inlet", "delivery"):
+        raise InputError(where, f"acts on one valve: give [{where}.inlet] or [{where}.delivery]")
+    return [(eff.targets[0], direct, where)]
+
+
+def _inherited_effect(a: Applied, model: PumpModel, base_name: str | None) -> Applied:
+    """An effect inherited from the base, checked for this model's valves like a named one (the error says how
+    to switch it off)."""
+    eff = LIBRARY[a.name]
+    w = f"effects.{a.name}" + ("" if a.target in ("both", "pump") else f".{a.target}")
+    off = f"[effects.{a.name}] {a.target} = false" if a.target in POSITIONS else f"[effects] {a.name} = false"
+    why = f" (inherited from base {base_name!r}; switch it off with {off})"
+    if not eff.applies_to(model, a.target):
+        raise InputError(w, f"{a.name} does not apply to the {model.kind_at(a.target)} valve{why}")
+    try:
+        vals = effect_library.check_values(eff, a.value_dict, model, a.target, w)
+    except InputError as exc:
+        raise InputError(exc.field, exc.message + why) from None
+    return Applied.of(a.name, a.target, vals)
 
 
 # --------------------------------------------------------------------------- writing
@@ -399,8 +406,9 @@ def _comment(spec, extra: str = "", origin: str | None = None) -> str:
 
 
 def to_toml(model: PumpModel, comments: bool = True, origins: dict | None = None) -> str:
-    """The complete resolved model as a model file, each key with its unit and source (model show); with
-    ``origins`` (:func:`file_keys`), a key a model file sets is labelled as that file's.
+    """The complete resolved model as a model file, each key with its unit and source (model show).
+
+    With ``origins`` (:func:`file_keys`), a key a model file sets is labelled as that file's.
 
     Examples
     --------
@@ -422,49 +430,57 @@ def to_toml(model: PumpModel, comments: bool = True, origins: dict | None = None
         for s, v in rows:
             lines.append(_fmt(s.key, v) + (_comment(s, origin=origins.get(f"{sec}.{s.key}")) if comments else ""))
     for pos in POSITIONS:
-        v = model.valve(pos)
-        kind = kind_of(v)
-        lines += ["", f"[valves.{pos}]", _fmt("kind", kind.name) + (f"  # {kind.summary}" if comments else "")]
-        geo_keys = v.geometry_supplied()
-        for n, s in specs(v):
-            if s.key is None:
-                continue
-            val = getattr(v, n)
-            if n == "geometry" and getattr(v, "reed", None) is not None and val == "inline":
-                from geometry.reed_io import reed_to_toml
-                val = tomllib.loads(reed_to_toml(v.reed))["reed"]
-            if s.key in kind.params.FROM_GEOMETRY and getattr(v, "reed", None) is not None:
-                if comments:
-                    lines.append(f"# {_fmt(s.key, val)}  ({s.unit}, derived from the geometry by {v.fidelity})")
-                continue
-            if val is None:
-                continue
-            if s.key in geo_keys:
-                if comments:
-                    lines.append(f"# {_fmt(s.key, val)}  ({s.unit}, from geometry {v.geometry!r})")
-                continue
-            c = _comment(s, origin=origins.get(f"valves.{pos}.{s.key}")) if comments else ""
-            if isinstance(val, dict):
-                lines.append(f"{s.key} = {_inline(val)}" + c)
-            else:
-                lines.append(_fmt(s.key, val) + c)
-        if comments:
-            for k, (n, s) in _derived_rows(v):
-                lines.append(f"# {k} = {n:.6g}  ({s})")
+        lines += _valve_lines(model.valve(pos), pos, comments, origins)
     for a in model.effects:
-        e = LIBRARY[a.name]
-        params = {p.name: p for p in e.parameters_for(model, a.target)}
-        head = f"effects.{a.name}" if a.target in ("both", "pump") else f"effects.{a.name}.{a.target}"
-        lines += ["", f"[{head}]" + (f"  # {e.summary}" if comments else "")]
-        for k, val in a.values:
-            p = params.get(k)
-            f = origins.get(f"{head}.{k}")
-            c = "" if not (comments and p) else (f"  # {p.unit}, model file {f}" if f else
-                                                 f"  # {p.unit}, prior {p.prior:.4g}: {p.source}")
-            lines.append(_fmt(k, val) + c)
+        lines += _effect_lines(model, a, comments, origins)
     if model.uncertainties:                     # declared input uncertainties (lumped/model/uncertainty.py)
         lines += ["", tomli_w.dumps({"uncertainty": _uncertainty.uncertainty_table(model.uncertainties)}).strip()]
     return "\n".join(lines) + "\n"
+
+
+def _valve_lines(v, pos: str, comments: bool, origins: dict) -> list[str]:
+    """The ``[valves.<pos>]`` table of :func:`to_toml`: what the geometry supplies or derives as comments."""
+    kind = kind_of(v)
+    lines = ["", f"[valves.{pos}]", _fmt("kind", kind.name) + (f"  # {kind.summary}" if comments else "")]
+    geo_keys = v.geometry_supplied()
+    for n, s in specs(v):
+        if s.key is None:
+            continue
+        val = getattr(v, n)
+        if n == "geometry" and getattr(v, "reed", None) is not None and val == "inline":
+            from geometry.reed_io import reed_to_toml
+            val = tomllib.loads(reed_to_toml(v.reed))["reed"]
+        if s.key in kind.params.FROM_GEOMETRY and getattr(v, "reed", None) is not None:
+            if comments:
+                lines.append(f"# {_fmt(s.key, val)}  ({s.unit}, derived from the geometry by {v.fidelity})")
+            continue
+        if val is None:
+            continue
+        if s.key in geo_keys:
+            if comments:
+                lines.append(f"# {_fmt(s.key, val)}  ({s.unit}, from geometry {v.geometry!r})")
+            continue
+        c = _comment(s, origin=origins.get(f"valves.{pos}.{s.key}")) if comments else ""
+        lines.append((f"{s.key} = {_inline(val)}" if isinstance(val, dict) else _fmt(s.key, val)) + c)
+    if comments:
+        for k, (n, s) in _derived_rows(v):
+            lines.append(f"# {k} = {n:.6g}  ({s})")
+    return lines
+
+
+def _effect_lines(model: PumpModel, a: Applied, comments: bool, origins: dict) -> list[str]:
+    """The ``[effects.NAME(.TARGET)]`` table of :func:`to_toml`: each value with its unit and prior (or its file)."""
+    e = LIBRARY[a.name]
+    params = {p.name: p for p in e.parameters_for(model, a.target)}
+    head = f"effects.{a.name}" if a.target in ("both", "pump") else f"effects.{a.name}.{a.target}"
+    lines = ["", f"[{head}]" + (f"  # {e.summary}" if comments else "")]
+    for k, val in a.values:
+        p = params.get(k)
+        f = origins.get(f"{head}.{k}")
+        c = "" if not (comments and p) else (f"  # {p.unit}, model file {f}" if f else
+                                             f"  # {p.unit}, prior {p.prior:.4g}: {p.source}")
+        lines.append(_fmt(k, val) + c)
+    return lines
 
 
 def _inline(d) -> str:
@@ -486,9 +502,25 @@ def _derived_rows(v):
 
 # --------------------------------------------------------------------------- key paths
 def with_values(model: PumpModel, values: dict, field_prefix: str = "") -> PumpModel:
-    """``model`` with keys changed by their paths (``pump.dead_volume``, ``valves.inlet.spring.stiffness``,
-    ``valves.spring.stiffness`` for both valves, ``valves.delivery.geometry.thickness``,
-    ``effects.seat_compliance.delivery.k_seat``); InputError names the path of a bad key or value.
+    """A model with some of its keys changed, each named by its path in a model file.
+
+    Paths: ``pump.dead_volume``, ``valves.inlet.spring.stiffness``, ``valves.spring.stiffness`` for both
+    valves, ``valves.delivery.geometry.thickness``, ``effects.seat_compliance.delivery.k_seat``; an
+    InputError names the path of a bad key or value.
+
+    Parameters
+    ----------
+    model : PumpModel
+        The model to start from.
+    values : dict
+        {key path: value} (SI units; an effect's switch true/false).
+    field_prefix : str
+        Put before a path in an error (e.g. the sweep's ``factors.``).
+
+    Returns
+    -------
+    PumpModel
+        A new model (``model`` is not changed).
 
     Examples
     --------
@@ -520,69 +552,78 @@ def with_values(model: PumpModel, values: dict, field_prefix: str = "") -> PumpM
 
 
 def _set_path(table: dict, model: PumpModel, path: str, value, prefix: str) -> None:
+    """Set ``path`` to ``value`` in a model table (:func:`model_table`); InputError naming ``prefix + path``."""
     parts = path.split(".")
     if len(parts) < 2 or parts[0] not in ("pump", "oil", "circuit", "operating", "valves", "effects"):
         raise InputError(prefix + path, "not a model key path; expected pump.*, oil.*, circuit.*, operating.*, "
                                         "valves.<inlet|delivery>.*, valves.* (both) or effects.<name>[.<target>].*")
     if parts[0] == "valves":
-        targets = [parts[1]] if parts[1] in POSITIONS else list(POSITIONS)
-        rest = parts[2:] if parts[1] in POSITIONS else parts[1:]
-        if not rest:
-            raise InputError(prefix + path, "names a valve, not a key")
-        for pos in targets:
-            vt = table["valves"][pos]
-            v = model.valve(pos)
-            if rest[0] == "geometry" and len(rest) > 1:
-                geo = vt.get("geometry")
-                if getattr(v, "reed", None) is None:
-                    raise InputError(prefix + path, f"the {pos} valve has no reed geometry to change")
-                if not isinstance(geo, dict):
-                    from geometry.reed_io import reed_to_toml
-                    geo = tomllib.loads(reed_to_toml(v.reed))["reed"]
-                    vt["geometry"] = geo
-                _set_nested(geo, rest[1:], value)
-                continue
-            if rest == ["geometry"] or rest == ["kind"]:
-                for k in kind_of(v).params.FROM_GEOMETRY:
-                    _del_nested(vt, k.split("."))
-            _set_nested(vt, rest, value)
+        _set_valve_path(table, model, parts, value, prefix + path)
+    elif parts[0] == "effects":
+        _set_effect_path(table, model, parts, value, prefix + path)
+    else:
+        _set_nested(table.setdefault(parts[0], {}), parts[1:], value)
+
+
+def _set_valve_path(table: dict, model: PumpModel, parts: list, value, where: str) -> None:
+    """``valves.<pos>.<key>`` (``valves.<key>``: both valves); a reed's ``geometry.<key>`` changes its geometry
+    table; a new geometry or kind drops what the old geometry supplied."""
+    targets = [parts[1]] if parts[1] in POSITIONS else list(POSITIONS)
+    rest = parts[2:] if parts[1] in POSITIONS else parts[1:]
+    if not rest:
+        raise InputError(where, "names a valve, not a key")
+    for pos in targets:
+        vt = table["valves"][pos]
+        v = model.valve(pos)
+        if rest[0] == "geometry" and len(rest) > 1:
+            geo = vt.get("geometry")
+            if getattr(v, "reed", None) is None:
+                raise InputError(where, f"the {pos} valve has no reed geometry to change")
+            if not isinstance(geo, dict):
+                from geometry.reed_io import reed_to_toml
+                geo = tomllib.loads(reed_to_toml(v.reed))["reed"]
+                vt["geometry"] = geo
+            _set_nested(geo, rest[1:], value)
+            continue
+        if rest == ["geometry"] or rest == ["kind"]:
+            for k in kind_of(v).params.FROM_GEOMETRY:
+                _del_nested(vt, k.split("."))
+        _set_nested(vt, rest, value)
+
+
+def _set_effect_path(table: dict, model: PumpModel, parts: list, value, where: str) -> None:
+    """``effects.<name>[.<target>].<parameter>``, or ``effects.<name>[.<target>]`` = true/false: a switch (on
+    at the effect's priors, or off: every target, or the one named)."""
+    name = parts[1]
+    if name not in LIBRARY:
+        raise InputError(where, f"unknown effect {name!r}; expected one of {', '.join(LIBRARY.names())}")
+    effects = table.setdefault("effects", {})
+    rest = parts[2:]
+    if isinstance(value, bool) and (not rest or (len(rest) == 1 and rest[0] in POSITIONS)):
+        if rest:
+            if value:
+                effects.setdefault(name, {}).setdefault(rest[0], {})
+            elif isinstance(effects.get(name), dict):
+                effects[name].pop(rest[0], None)
+                if not effects[name]:
+                    effects.pop(name)
+        elif value:
+            eff = LIBRARY[name]
+            effects.setdefault(name, {})
+            if eff.targets == ("inlet", "delivery"):
+                for t in POSITIONS:
+                    if eff.applies_to(model, t):
+                        effects[name].setdefault(t, {})
+        else:
+            effects.pop(name, None)
         return
-    if parts[0] == "effects":
-        name = parts[1]
-        if name not in LIBRARY:
-            raise InputError(prefix + path, f"unknown effect {name!r}; expected one of {', '.join(LIBRARY.names())}")
-        effects = table.setdefault("effects", {})
-        rest = parts[2:]
-        if isinstance(value, bool) and (not rest or (len(rest) == 1 and rest[0] in POSITIONS)):
-            # a switch: on at the effect's priors, or off (every target, or the one named)
-            if rest:
-                if value:
-                    effects.setdefault(name, {}).setdefault(rest[0], {})
-                elif isinstance(effects.get(name), dict):
-                    effects[name].pop(rest[0], None)
-                    if not effects[name]:
-                        effects.pop(name)
-            elif value:
-                eff = LIBRARY[name]
-                if eff.targets == ("inlet", "delivery"):
-                    effects.setdefault(name, {})
-                    for t in POSITIONS:
-                        if eff.applies_to(model, t):
-                            effects[name].setdefault(t, {})
-                else:
-                    effects.setdefault(name, {})
-            else:
-                effects.pop(name, None)
-            return
-        eff = effects.setdefault(name, {})
-        if rest and rest[0] in POSITIONS:
-            eff = eff.setdefault(rest[0], {})
-            rest = rest[1:]
-        if len(rest) != 1:
-            raise InputError(prefix + path, "expected effects.<name>[.<target>].<parameter>")
-        eff[rest[0]] = value
-        return
-    _set_nested(table.setdefault(parts[0], {}), parts[1:], value)
+    eff = effects.setdefault(name, {})
+    if rest and rest[0] in POSITIONS:
+        eff = eff.setdefault(rest[0], {})
+        rest = rest[1:]
+    if len(rest) != 1:
+        raise InputError(where, "expected effects.<name>[.<target>].<parameter>")
+    eff[rest[0]] = value
 
 
 def _set_nested(d: dict, parts: list, value) -> None:

@@ -85,14 +85,70 @@ class Circuit:
 
 # ----------------------------------------------------------------- kinematics (section 4.3.1)
 def piston_position(theta: float, crank: float, rod: float) -> float:
-    """Piston displacement from TDC x_p [m] at crank angle theta [rad] (eq 4.1)."""
+    """Displacement of the piston from top dead centre at a crank angle, x_p = r (1 - cos theta) + l - sqrt(l^2 -
+    r^2 sin^2 theta) (eq 4.1).
+
+    Parameters
+    ----------
+    theta : float
+        Crank angle from TDC [rad].
+    crank : float
+        Crank radius r [m].
+    rod : float
+        Connecting-rod length l [m].
+
+    Returns
+    -------
+    float
+        x_p [m].
+
+    References
+    ----------
+    Knutson (2016), eq 4.1, Table 5.1.
+
+    Examples
+    --------
+    >>> import math
+    >>> round(piston_position(math.pi, 5.6e-3, 86.0e-3) * 1e3, 3)     # BDC: the stroke 2 r of Table 5.1
+    11.2
+    """
     s = math.sin(theta)
     return crank * (1.0 - math.cos(theta)) + rod - math.sqrt(rod * rod - crank * crank * s * s)
 
 
 def cylinder_volume(theta: float, omega: float, area: float, crank: float, rod: float,
                     v_tdc: float) -> tuple[float, float]:
-    """(V_cyl [m^3], dV_cyl/dt [m^3/s]) of the crank-slider at angle theta, speed omega (eq 4.2)."""
+    """Cylinder volume of the crank-slider pump and its rate at a crank angle, V = V_TDC + A_p x_p (eq 4.2).
+
+    Parameters
+    ----------
+    theta : float
+        Crank angle [rad].
+    omega : float
+        Crank speed [rad/s].
+    area : float
+        Piston area A_p [m^2].
+    crank, rod : float
+        r, l [m].
+    v_tdc : float
+        Dead volume at TDC [m^3].
+
+    Returns
+    -------
+    tuple of float
+        (V [m^3], dV/dt [m^3/s]).
+
+    References
+    ----------
+    Knutson (2016), eqs 4.1-4.2, Table 5.1.
+
+    Examples
+    --------
+    >>> import math
+    >>> v, dv = cylinder_volume(math.pi, 62.1, math.pi * 15.88e-3**2 / 4, 5.6e-3, 86.0e-3, 2.17e-5)
+    >>> round((v - 2.17e-5) * 1e6, 3), abs(dv) < 1e-15      # the swept volume at BDC, 2.22 cc (Table 5.1)
+    (2.218, True)
+    """
     s = math.sin(theta)
     c = math.cos(theta)
     root = math.sqrt(rod * rod - crank * crank * s * s)

@@ -2,13 +2,8 @@
 
 Three layers, each usable on its own:
 
-1. Closed forms of the thesis: the uniform cantilever (eqs 3.1-3.4), the stepped
-   cantilever (eqs 3.5-3.7) from the exact characteristic determinant of
-   piecewise-uniform beams (Naguleswaran 2002, written as a product of exact
-   segment transfer matrices), and the uniform-load stiffness of eq 3.40.
-2. The thesis's approximate static method for a stepped reed with a rounded tip
-   (Tables 3.5, 3.6, eqs 3.37-3.39 for kappa, eqs 3.42-3.45 for the shape); it
-   takes the tip section as rigid.
+1. Closed forms of the thesis (the uniform and stepped cantilever, eq 3.40's stiffness) and
+2. the thesis's approximate three-section method: :mod:`lumped.reed.closed_forms`, re-exported here;
 3. Exact Euler-Bernoulli theory on the real profile of any :class:`geometry.Reed`
    (width and thickness steps, tapers, several sections, rounded tips, grooves):
    EI(s) = E I(s) and m(s) = rho A(s) from ``reed.section``. The static deflection of a cantilever is a chain of four
@@ -28,302 +23,18 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
-from geometry.errors import InputError
 from geometry.reed import Reed
 
+# the closed forms and the stepped beam, re-exported: this module is the reed's Euler-Bernoulli models' one name
+from .closed_forms import (  # noqa: F401
+    uniform_frequency_parameter, uniform_natural_frequency, frequency_parameter_from_omega, uniform_stiffness,
+    stiffness_eq_3_40, Segment,
+    segment_transfer_matrix, cantilever_characteristic, cantilever_frequencies, cantilever_mode_shape, stepped_segments,
+    stepped_frequency_parameter, ThreeSection, three_section_stiffness, three_section_shape,
+)
 from .mode_function import ReedProperties, effective_thickness, mode_integrals
 from .quadrature import NODES_PER_PIECE, ProfileQuadrature, profile_breaks
-
-# --------------------------------------------------------------------------------
-# 1. Closed forms
-# --------------------------------------------------------------------------------
-
-
-def uniform_frequency_parameter(mode: int = 1) -> float:
-    """n-th root alpha_n of cosh(a) cos(a) + 1 = 0 (eq 3.2), dimensionless; alpha_1 = 1.8751."""
-    if mode < 1:
-        raise ValueError("mode must be >= 1")
-    # roots lie within 0.2 of (2n - 1) pi / 2 for every n
-    c = (2 * mode - 1) * np.pi / 2
-    f = lambda a: np.cos(a) + 1.0 / np.cosh(a)  # eq 3.2 divided by cosh, well scaled
-    return brentq(f, c - 0.35, c + 0.35, xtol=1e-15, rtol=4 * np.finfo(float).eps)
-
-
-def uniform_natural_frequency(youngs_modulus: float, density: float, thickness: float,
-                              length: float, alpha: float | None = None) -> float:
-    """omega_n = alpha^2 (h / L^2) sqrt(E / (12 rho)) [rad/s] of a uniform (or stepped-width) reed (eqs 3.4, 3.7).
-
-    Examples
-    --------
-    >>> print(f"{uniform_natural_frequency(2.9e9, 1410.0, 1.35e-3, 25.4e-3):.0f} rad/s")   # Table 3.3: 3046
-    3046 rad/s
-    """
-    a = uniform_frequency_parameter() if alpha is None else alpha
-    return a**2 * thickness / length**2 * np.sqrt(youngs_modulus / (12.0 * density))
-
-
-def frequency_parameter_from_omega(omega: float, thickness: float, length: float,
-                                   youngs_modulus: float, density: float) -> float:
-    """alpha = L (omega / h)^(1/2) (12 rho / E)^(1/4), dimensionless (eq 3.75; h may be h_eff)."""
-    return length * np.sqrt(omega / thickness) * (12.0 * density / youngs_modulus) ** 0.25
-
-
-def uniform_stiffness(youngs_modulus: float, thickness: float, length: float) -> float:
-    """kappa = 2 E h^3 / (3 L^4) [Pa/m]: uniform pressure / tip deflection of a uniform reed."""
-    return 2.0 * youngs_modulus * thickness**3 / (3.0 * length**4)
-
-
-def stiffness_eq_3_40(youngs_modulus: float, thickness: float, width_root: float,
-                      width_tip: float, length_root: float, length_tip: float) -> float:
-    """kappa [Pa/m] of a square-tipped stepped-width reed under uniform pressure (eq 3.40).
-
-    kappa = 24 E I1 / (3 W1 L1^4 + (4 W1 + 8 W2) L1^3 L2 + 18 W2 L1^2 L2^2 + 12 W2 L1 L2^3 + 3 W1 L2^4),
-    I1 = W1 h^3 / 12.
-
-    The thesis prints the last term as (3/2) W2 L2^4, which equals 3 W1 L2^4 only for
-    W2 = 2 W1 (its reeds); the general term is 3 W2 L2^4 I1 / I2 = 3 W1 L2^4
-    (docs/errata.md). Exact Euler-Bernoulli for a square tip.
-    """
-    W1, W2, L1, L2 = width_root, width_tip, length_root, length_tip
-    I1 = W1 * thickness**3 / 12.0
-    den = (3 * W1 * L1**4 + (4 * W1 + 8 * W2) * L1**3 * L2 + 18 * W2 * L1**2 * L2**2
-           + 12 * W2 * L1 * L2**3 + 3 * W1 * L2**4)
-    return 24.0 * youngs_modulus * I1 / den
-
-
-# -- exact piecewise-uniform beams (transfer matrices) ----------------------------
-
-
-@dataclass(frozen=True)
-class Segment:
-    """A uniform piece of beam: length [m], flexural rigidity EI [N m^2], mass per length m [kg/m]."""
-
-    length: float
-    EI: float
-    m: float
-
-
-def segment_transfer_matrix(seg: Segment, omega: float) -> np.ndarray:
-    """Exact 4x4 transfer matrix of a uniform Euler-Bernoulli segment at circular frequency omega [rad/s].
-
-    Maps the state (w, w', M = EI w'', V = EI w''') at the segment start to its end, for
-    EI w'''' = m omega^2 w (Krylov-Duncan functions); omega = 0 gives the static matrix.
-    """
-    L, EI = seg.length, seg.EI
-    beta = (seg.m * omega**2 / EI) ** 0.25
-    x = beta * L
-    if x < 1e-3:  # series of the Krylov functions (avoids 0/0 at low frequency)
-        x4 = x**4
-        S = 1 + x4 / 24
-        T = L * (1 + x4 / 120)            # T / beta
-        U = L**2 / 2 * (1 + x4 / 360)     # U / beta^2
-        Vb = L**3 / 6 * (1 + x4 / 840)    # V / beta^3
-        bV = beta**4 * L**3 / 6           # beta V
-        b2U = beta**4 * L**2 / 2          # beta^2 U
-        b3T = beta**4 * L                 # beta^3 T
-    else:
-        ch, sh, c, s = np.cosh(x), np.sinh(x), np.cos(x), np.sin(x)
-        S, Tf, Uf, Vf = (ch + c) / 2, (sh + s) / 2, (ch - c) / 2, (sh - s) / 2
-        T, U, Vb = Tf / beta, Uf / beta**2, Vf / beta**3
-        bV, b2U, b3T = beta * Vf, beta**2 * Uf, beta**3 * Tf
-    return np.array([
-        [S, T, U / EI, Vb / EI],
-        [bV, S, T / EI, U / EI],
-        [EI * b2U, EI * bV, S, T],
-        [EI * b3T, EI * b2U, bV, S],
-    ])
-
-
-def cantilever_characteristic(omega: float, segments: list[Segment]) -> float:
-    """Frequency determinant of a clamped-free chain of uniform segments (zero at natural frequencies).
-
-    Clamp: w = w' = 0 at s = 0; free tip: M = V = 0. With P the product of segment
-    transfer matrices, nontrivial (M0, V0) need det P[2:, 2:] = 0: the exact
-    characteristic equation of Naguleswaran (2002) for a stepped beam and
-    (1 + cosh a cos a) / 2 (eq 3.2) for a uniform one; it equals 1 at omega = 0.
-    """
-    P = np.eye(4)
-    for seg in segments:
-        P = segment_transfer_matrix(seg, omega) @ P
-    return float(np.linalg.det(P[2:, 2:]))
-
-
-def cantilever_frequencies(segments: list[Segment], n_modes: int = 1) -> np.ndarray:
-    """First n natural frequencies [rad/s] of a clamped-free chain of uniform segments (exact E-B)."""
-    if not segments:
-        raise ValueError("need at least one segment")
-    Ltot = sum(sg.length for sg in segments)
-    ref = segments[-1]
-    scale = np.sqrt(ref.EI / (ref.m * Ltot**4))  # omega = alpha^2 scale
-    f = lambda a: cantilever_characteristic(a * a * scale, segments)
-    roots: list[float] = []
-    a0, f0 = 1e-3, f(1e-3)
-    step = 0.01
-    while len(roots) < n_modes:
-        a1 = a0 + step
-        f1 = f(a1)
-        if np.sign(f1) != np.sign(f0):
-            roots.append(brentq(f, a0, a1, xtol=1e-15, rtol=4 * np.finfo(float).eps))
-        a0, f0 = a1, f1
-        if a0 > 200.0:
-            raise RuntimeError("no natural frequency found below alpha = 200")
-    return np.array(roots) ** 2 * scale
-
-
-def cantilever_mode_shape(segments: list[Segment], omega: float, s) -> np.ndarray:
-    """Exact mode shape w(s) at natural frequency omega of a chain of uniform segments, w(L) = 1."""
-    P = np.eye(4)
-    starts, mats = [], []
-    pos = 0.0
-    for seg in segments:
-        starts.append(pos)
-        mats.append(P.copy())
-        P = segment_transfer_matrix(seg, omega) @ P
-        pos += seg.length
-    # null vector of P[2:, 2:] gives (M0, V0) with the tip free
-    B = P[2:, 2:]
-    mv = np.array([-B[0, 1], B[0, 0]]) if abs(B[0, 0]) + abs(B[0, 1]) > 0 else np.array([-B[1, 1], B[1, 0]])
-    z0 = np.array([0.0, 0.0, *mv])
-    s = np.asarray(s, dtype=float)
-    out = np.empty_like(s)
-    bounds = np.array(starts + [pos])
-    for i, si in np.ndenumerate(s):
-        k = min(max(int(np.searchsorted(bounds, si, side="right")) - 1, 0), len(segments) - 1)
-        zk = mats[k] @ z0
-        local = Segment(si - starts[k], segments[k].EI, segments[k].m)
-        out[i] = (segment_transfer_matrix(local, omega) @ zk)[0]
-    tip = (P @ z0)[0]
-    return out / tip
-
-
-def stepped_segments(reed: Reed) -> list[Segment]:
-    """The reed as uniform segments (width and thickness steps), valid for a square tip, no grooves and no taper."""
-    if not reed.is_piecewise_uniform:
-        raise InputError("reed", "the exact stepped-beam determinant needs a square tip, no grooves and no taper")
-    out = []
-    for a, b in zip(reed.breakpoints()[:-1], reed.breakpoints()[1:]):
-        mid = 0.5 * (a + b)
-        A, I = reed.section(mid)
-        out.append(Segment(b - a, reed.material.youngs_modulus * float(I), reed.material.density * float(A)))
-    return out
-
-
-def stepped_frequency_parameter(step_fraction: float, width_ratio: float) -> float:
-    """Natural frequency parameter alpha of a stepped-width cantilever of uniform thickness (eq 3.7).
-
-    ``step_fraction`` R_l = L1 / L, ``width_ratio`` W21 = W2 / W1; root of the exact
-    Naguleswaran (2002) determinant. I/m is equal in both sections (eq 3.6), so alpha
-    depends on R_l and W21 only; R_l = 0 or W21 = 1 give the uniform 1.8751.
-    """
-    if not 0.0 <= step_fraction < 1.0 or not width_ratio > 0.0:
-        raise ValueError("need 0 <= step_fraction < 1 and width_ratio > 0")
-    segs = []
-    if step_fraction > 0.0:
-        segs.append(Segment(step_fraction, 1.0, 1.0))  # W1 = 1, both EI and m scale with W
-    segs.append(Segment(1.0 - step_fraction, width_ratio, width_ratio))
-    omega = cantilever_frequencies(segs, 1)[0]
-    return float(np.sqrt(omega))  # L = 1 and EI/m = 1 make omega = alpha^2
-
-
-# --------------------------------------------------------------------------------
-# 2. The thesis's approximate three-section method (rigid tip section)
-# --------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class ThreeSection:
-    """Sections of Table 3.5 and the loads of Table 3.6 per unit pressure (SI units)."""
-
-    L1: float
-    L2: float
-    L3: float
-    W1: float
-    W2: float
-    R: float
-    A2: float
-    A3: float
-    EI1: float
-    EI2: float
-
-    @classmethod
-    def from_reed(cls, reed: Reed) -> "ThreeSection":
-        """Table 3.5 quantities of a stepped reed with a rounded tip (grooves ignored: nominal h).
-
-        Needs the thesis's outline: at most one width step, uniform thickness, no taper
-        (InputError naming reed.sections otherwise).
-        """
-        if reed.is_sectioned and (len(reed.pieces()) > 2 or reed.is_tapered or reed.has_thickness_steps):
-            raise InputError("reed.sections", "the thesis's three-section method (Tables 3.5, 3.6) needs one "
-                             "width step at uniform thickness and no taper; use the exact E-B model")
-        L, R, h, E = reed.length, reed.tip_radius, reed.thickness, reed.material.youngs_modulus
-        L1 = reed.step_location
-        W1 = reed.width_root if reed.step_fraction > 0.0 else reed.width_tip
-        W2 = reed.width_tip
-        L3 = R
-        L2 = L - L1 - L3
-        if L1 + L2 <= 0.0:
-            raise ValueError("the three-section method needs a flexible part: the rounded tip fills the "
-                             "whole reed (L1 + L2 = 0), so it would be rigid")
-        return cls(L1=L1, L2=L2, L3=L3, W1=W1, W2=W2, R=R, A2=L2 * W2,
-                   A3=R * (W2 - (2.0 - np.pi / 2.0) * R),
-                   EI1=E * W1 * h**3 / 12.0, EI2=E * W2 * h**3 / 12.0)
-
-    def loads(self):
-        """q1, q2 [N/m], F1, F2 [N], M1, M2 [N m] per unit pressure (Table 3.6, eq 3.37)."""
-        q1, q2 = self.W1, self.W2
-        F2 = self.A3
-        F1 = self.A2 + self.A3
-        M2 = self.R**2 * (self.W2 / 2.0 - self.R / 3.0)
-        M1 = self.A2 * self.L2 / 2.0 + F2 * self.L2 + M2
-        return q1, q2, F1, F2, M1, M2
-
-    def ends(self):
-        """x1, theta1, x2, theta2: end deflection [m] and slope of sections 1 and 2 per unit pressure (Table 3.6)."""
-        q1, q2, F1, F2, M1, M2 = self.loads()
-        L1, L2, EI1, EI2 = self.L1, self.L2, self.EI1, self.EI2
-        x1 = q1 * L1**4 / (8 * EI1) + F1 * L1**3 / (3 * EI1) + M1 * L1**2 / (2 * EI1)
-        t1 = q1 * L1**3 / (6 * EI1) + F1 * L1**2 / (2 * EI1) + M1 * L1 / EI1
-        x2 = q2 * L2**4 / (8 * EI2) + F2 * L2**3 / (3 * EI2) + M2 * L2**2 / (2 * EI2)
-        t2 = q2 * L2**3 / (6 * EI2) + F2 * L2**2 / (2 * EI2) + M2 * L2 / EI2
-        return x1, t1, x2, t2
-
-    def tip_deflection(self) -> float:
-        """x = x1 + L2 theta1 + x2 + L3 (theta1 + theta2) [m] per unit pressure (eq 3.39)."""
-        x1, t1, x2, t2 = self.ends()
-        return x1 + self.L2 * t1 + x2 + self.L3 * (t1 + t2)
-
-    def deflection(self, s) -> np.ndarray:
-        """v(s) [m] per unit pressure, eqs 3.42-3.44 (eq 3.44 with L2 theta1; docs/errata.md)."""
-        s = np.asarray(s, dtype=float)
-        q1, q2, F1, F2, M1, M2 = self.loads()
-        x1, t1, x2, t2 = self.ends()
-        L1, L2, EI1, EI2 = self.L1, self.L2, self.EI1, self.EI2
-        u = np.clip(s, 0.0, L1)
-        v1 = (q1 * u**2 / (24 * EI1) * (u**2 + 6 * L1**2 - 4 * L1 * u)
-              + F1 * u**2 / (6 * EI1) * (3 * L1 - u) + M1 * u**2 / (2 * EI1))
-        r = np.clip(s - L1, 0.0, L2)
-        v2 = (x1 + r * t1 + q2 * r**2 / (24 * EI2) * (r**2 + 6 * L2**2 - 4 * L2 * r)
-              + F2 * r**2 / (6 * EI2) * (3 * L2 - r) + M2 * r**2 / (2 * EI2))
-        v3 = x1 + L2 * t1 + x2 + (s - L1 - L2) * (t1 + t2)
-        return np.where(s < L1, v1, np.where(s <= L1 + L2, v2, v3))
-
-
-def three_section_stiffness(reed: Reed) -> float:
-    """kappa = 1 / x per unit pressure [Pa/m] by the three-section method (Table 3.6, eqs 3.37-3.39).
-
-    Takes the rounded tip section as rigid, so it overestimates kappa of rounded reeds;
-    for a square tip it equals eq 3.40 (exact).
-    """
-    return 1.0 / ThreeSection.from_reed(reed).tip_deflection()
-
-
-def three_section_shape(reed: Reed, s) -> np.ndarray:
-    """psi(s) = v(s) / v(L) under uniform pressure by eqs 3.42-3.45 (rigid tip section), dimensionless."""
-    ts = ThreeSection.from_reed(reed)
-    return ts.deflection(s) / ts.tip_deflection()
-
 
 # --------------------------------------------------------------------------------
 # 3. Exact Euler-Bernoulli theory on the real profile
@@ -367,9 +78,22 @@ class BeamModel:
 
 
 def static_shape(reed: Reed, s_out=None, n: int = NODES_PER_PIECE):
-    """Exact E-B deflection v(s) [m] per unit uniform pressure (load q = W(s)) and tip deflection [m].
+    """Exact Euler-Bernoulli deflection of any reed per unit uniform pressure (load q = W(s) per unit dP), by
+    integrating the moment twice on the spectral quadrature (eqs 3.34-3.36).
 
-    Returns (s, v, v_tip): at the quadrature nodes unless ``s_out`` is given.
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile.
+    s_out : array_like, optional
+        Positions [m] (None: the quadrature nodes).
+    n : int
+        Chebyshev nodes per piece.
+
+    Returns
+    -------
+    tuple
+        (s [m], v(s) [m/Pa], v_tip [m/Pa]).
     """
     bm = BeamModel.of(reed, n)
     th = bm.slope(bm.W)
@@ -380,7 +104,34 @@ def static_shape(reed: Reed, s_out=None, n: int = NODES_PER_PIECE):
 
 
 def exact_stiffness(reed: Reed, n: int = NODES_PER_PIECE) -> float:
-    """kappa = Delta P / x [Pa/m] by exact E-B integration on the real profile (eq 3.30; tip flexible)."""
+    """Stiffness of any reed, kappa = dP / x_tip, by exact Euler-Bernoulli integration on the real profile
+    (eq 3.30; the tip flexible, unlike the three-section method).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile.
+    n : int
+        Chebyshev nodes per piece.
+
+    Returns
+    -------
+    float
+        kappa [Pa/m].
+
+    References
+    ----------
+    Knutson (2016), eq 3.30.
+
+    Examples
+    --------
+    A uniform reed: the closed form 2 E h^3 / (3 L^4):
+
+    >>> from geometry import load_reed
+    >>> r = load_reed("uniform")
+    >>> round(exact_stiffness(r) / uniform_stiffness(2.9e9, r.thickness, r.length), 12)
+    1.0
+    """
     return 1.0 / static_shape(reed, [reed.length], n)[2]
 
 
@@ -411,10 +162,22 @@ def _first_mode(bm: BeamModel):
 
 
 def free_vibration(reed: Reed, n: int = NODES_PER_PIECE, s_out=None):
-    """First bending mode of the real profile (exact E-B): (omega_n [rad/s], s, psi) with psi(L) = 1.
+    """First bending mode of any reed in vacuum (exact Euler-Bernoulli): w = omega^2 G[m w] on the spectral
+    quadrature, G the static flexibility of the cantilever.
 
-    Solves w = omega^2 G[m w] on the spectral quadrature (G the static flexibility of
-    the cantilever); at the quadrature nodes unless ``s_out`` [m] is given.
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile.
+    n : int
+        Chebyshev nodes per piece.
+    s_out : array_like, optional
+        Positions [m] (None: the quadrature nodes).
+
+    Returns
+    -------
+    tuple
+        (omega_n [rad/s], s [m], psi(s) [-] with psi(L) = 1).
     """
     bm = BeamModel.of(reed, n)
     omega, th = _first_mode(bm)
@@ -426,8 +189,34 @@ def free_vibration(reed: Reed, n: int = NODES_PER_PIECE, s_out=None):
 
 
 def natural_frequency(reed: Reed, n: int = NODES_PER_PIECE, model: BeamModel | None = None) -> float:
-    """omega_n [rad/s] of the first bending mode in vacuum by exact E-B on the real profile.
+    """First bending frequency of any reed in vacuum by exact Euler-Bernoulli on the real profile.
 
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile.
+    n : int
+        Chebyshev nodes per piece.
+    model : BeamModel, optional
+        The discretised reed, if the caller has it.
+
+    Returns
+    -------
+    float
+        omega_n [rad/s].
+
+    References
+    ----------
+    Knutson (2016), eqs 3.2-3.8, Table 3.3; Naguleswaran (2002).
+
+    Examples
+    --------
+    >>> from geometry import load_reed
+    >>> round(natural_frequency(load_reed("stepped1")))         # Table 3.3: 2427 rad/s
+    2427
+
+    Notes
+    -----
     Piecewise-uniform reeds (square tip, no grooves, no taper; width and thickness
     steps allowed) use the exact Naguleswaran determinant; others the spectral solution
     of :func:`free_vibration`.
@@ -453,8 +242,26 @@ class BendingModes:
 
 
 def modes(reed: Reed, n_modes: int, mesh_size=None, nodes: int | None = None) -> BendingModes:
-    """First ``n_modes`` bending natural frequencies [rad/s] and mode shapes of any reed by exact E-B.
+    """First bending natural frequencies and mode shapes of any reed by exact Euler-Bernoulli.
 
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile.
+    n_modes : int
+        How many.
+    mesh_size : float, optional
+        Ignored (the fidelities' common signature).
+    nodes : int, optional
+        Chebyshev nodes per piece (None: max(24, 6 n)).
+
+    Returns
+    -------
+    BendingModes
+        omega [rad/s], labels, shapes on :func:`plot_grid`.
+
+    Notes
+    -----
     (EI(s) w'')'' = omega^2 m(s) w, clamped-free. Piecewise-uniform profiles (width and
     thickness steps, square tip, no grooves): roots of the Naguleswaran (2002) determinant
     of the exact segment transfer matrices and their exact shapes. Others (tapers, rounded
@@ -483,7 +290,22 @@ def modes(reed: Reed, n_modes: int, mesh_size=None, nodes: int | None = None) ->
 
 
 def properties_and_modes(reed: Reed, n: int, mesh_size=None):
-    """(ReedProperties of :func:`reed_properties`, :class:`BendingModes` of :func:`modes`)."""
+    """The analytic fidelity's properties and its first bending modes from one call.
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile.
+    n : int
+        Modes.
+    mesh_size : float, optional
+        Ignored.
+
+    Returns
+    -------
+    tuple
+        (ReedProperties of :func:`reed_properties`, :class:`BendingModes` of :func:`modes`).
+    """
     return reed_properties(reed), modes(reed, n)
 
 
@@ -492,9 +314,25 @@ SHAPES = ("load", "free", "three_section")
 
 
 def shape(reed: Reed, kind: str = "load", s_out=None, n: int = NODES_PER_PIECE):
-    """(s, psi) of a reed, psi(L) = 1: ``load`` exact static uniform-pressure shape, ``free`` exact
-    first vibration mode, ``three_section`` the thesis's eqs 3.42-3.45 (rigid tip). At the
-    quadrature nodes unless ``s_out`` [m] is given."""
+    """A reed's mode function psi(s), psi(L) = 1: the exact static uniform-pressure shape (``load``), the exact
+    first vibration mode (``free``) or the thesis's three-section shape of eqs 3.42-3.45 (``three_section``).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile (one-step for ``three_section``).
+    kind : str
+        ``load``, ``free`` or ``three_section``.
+    s_out : array_like, optional
+        Positions [m] (None: the quadrature nodes).
+    n : int
+        Chebyshev nodes per piece.
+
+    Returns
+    -------
+    tuple
+        (s [m], psi [-]).
+    """
     if kind == "load":
         s, v, tip = static_shape(reed, s_out, n)
         return s, v / tip
@@ -508,20 +346,76 @@ def shape(reed: Reed, kind: str = "load", s_out=None, n: int = NODES_PER_PIECE):
 
 
 def shape_mode_parameters(reed: Reed, kind: str = "load", n: int = NODES_PER_PIECE):
-    """gamma1, gamma2, gamma3 (Table 3.4) of the ``kind`` shape (see :func:`shape`), spectral quadrature."""
+    """The mode-function parameters gamma1, gamma2, gamma3 of a reed's ``kind`` shape (:func:`shape`), integrated
+    on the spectral quadrature (Table 3.4).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile.
+    kind : str
+        ``load``, ``free`` or ``three_section``.
+    n : int
+        Chebyshev nodes per piece.
+
+    Returns
+    -------
+    tuple of float
+        (gamma1, gamma2, gamma3) [-].
+
+    References
+    ----------
+    Knutson (2016), Table 3.4, Table 3.8.
+
+    Examples
+    --------
+    >>> from geometry import load_reed
+    >>> [round(g, 3) for g in shape_mode_parameters(load_reed("stepped1"), "load")]    # Table 3.8: 1.534, 0.743, 1.0
+    [1.534, 0.743, 1.0]
+    """
     bm = BeamModel.of(reed, n)
     _, psi = shape(reed, kind, bm.quad.s, n)
     return mode_integrals(bm.quad, psi, bm.W, reed.width_tip)
 
 
 def plot_grid(reed: Reed, n: int = 401) -> np.ndarray:
-    """Sample points [m] for shapes: uniform in s, plus every breakpoint."""
+    """Sample points for drawing a reed's shapes: uniform in s, plus every section breakpoint.
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile.
+    n : int
+        Uniform points.
+
+    Returns
+    -------
+    numpy.ndarray
+        s [m], sorted.
+    """
     return np.unique(np.concatenate([np.linspace(0.0, reed.length, n), profile_breaks(reed)]))
 
 
 def reed_properties(reed: Reed, mesh_size=None) -> ReedProperties:
-    """The ``analytic`` fidelity: omega_n, kappa, gamma1..3, h_eff of any reed by exact E-B.
+    """The ``analytic`` fidelity: omega_n, kappa, gamma1..3 and h_eff of any reed by exact Euler-Bernoulli.
 
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile.
+    mesh_size : float, optional
+        Ignored.
+
+    Returns
+    -------
+    lumped.reed.mode_function.ReedProperties
+
+    References
+    ----------
+    Knutson (2016), eqs 3.30, 3.62, Table 3.4.
+
+    Notes
+    -----
     omega_n from the free-vibration eigenproblem (Naguleswaran determinant where the
     profile is piecewise uniform), kappa = Delta P / x from the static uniform-pressure
     deflection (load q = Delta P W(s)), gammas (Table 3.4) from that static shape,
@@ -542,8 +436,22 @@ def reed_properties(reed: Reed, mesh_size=None) -> ReedProperties:
 
 
 def free_mode_shape(reed: Reed, mesh_size=None) -> tuple[np.ndarray, np.ndarray]:
-    """(s [m], psi) of the first free-vibration mode on :func:`plot_grid`, psi(L) = 1 (exact E-B).
+    """The first free-vibration mode of a reed on :func:`plot_grid`, psi(L) = 1 (exact Euler-Bernoulli).
 
+    Parameters
+    ----------
+    reed : geometry.Reed
+        Any profile.
+    mesh_size : float, optional
+        Ignored.
+
+    Returns
+    -------
+    tuple
+        (s [m], psi [-]).
+
+    Notes
+    -----
     The optional hook of a fidelity module that ``valvelab reed --plot`` draws beside
     the static shape; ``mesh_size`` is ignored.
     """

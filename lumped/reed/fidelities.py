@@ -27,7 +27,19 @@ _loaded = {"entry_points": False}
 
 
 def register(name: str, func: Callable) -> None:
-    """Add (or replace) a fidelity."""
+    """Add (or replace) a fidelity of the one-mode reed parameters.
+
+    Parameters
+    ----------
+    name : str
+        The fidelity's name (model-file key ``fidelity``).
+    func : callable
+        ``reed_properties(reed, mesh_size=None) -> ReedProperties``.
+
+    Returns
+    -------
+    None
+    """
     FIDELITIES[name] = func
 
 
@@ -39,14 +51,32 @@ def _load_plugins() -> None:
 
 
 def names() -> list[str]:
-    """Every available fidelity, cheapest first."""
+    """Every available fidelity, cheapest first.
+
+    Returns
+    -------
+    list of str
+    """
     _load_plugins()
     known = [n for n in ORDER if n in FIDELITIES]
     return known + sorted(n for n in FIDELITIES if n not in ORDER)
 
 
 def reed_model(fidelity: str, field: str = "--fidelity") -> Callable:
-    """The ``reed_properties`` function of a fidelity; InputError naming ``field`` if unknown."""
+    """The ``reed_properties`` function of a fidelity.
+
+    Parameters
+    ----------
+    fidelity : str
+        Its name; unknown: InputError naming ``field``.
+    field : str
+        The key or option the fidelity came from.
+
+    Returns
+    -------
+    callable
+        ``reed_properties(reed, mesh_size=None) -> ReedProperties``.
+    """
     _load_plugins()
     if not isinstance(fidelity, str) or fidelity not in FIDELITIES:
         raise InputError(field, f"expected one of {', '.join(names())}, got {fidelity!r}")
@@ -54,14 +84,15 @@ def reed_model(fidelity: str, field: str = "--fidelity") -> Callable:
 
 
 def reed_properties(reed, fidelity: str = "analytic", mesh_size=None, field: str = "fidelity"):
-    """kappa, gamma1..3, h_eff, omega_n of ``reed`` by ``fidelity`` (a ReedProperties); the reed is
-    checked first as a reed file would be (geometry.reed_io.check_reed).
+    """The one-mode reed parameters of a reed (stiffness, gammas, h_eff, frequency) by a fidelity.
+
+    kappa, gamma1..3, h_eff and omega_n of ``reed`` by ``fidelity`` (a ReedProperties); the reed is checked
+    first as a reed file would be (geometry.reed_io.check_reed).
 
     Parameters
     ----------
     reed : geometry.Reed, str or Path
-        The reed, or a preset name (``uniform``, ``stepped1``, ``stepped2``, ``prototype``) or reed
-        file that ``geometry.load_reed`` reads.
+        The reed, or a preset name (``geometry.PRESETS``) or reed file that ``geometry.load_reed`` reads.
     fidelity : str
         ``analytic`` (exact Euler-Bernoulli) or a registered FEA fidelity (``beam``, ``plate``, ``solid``).
     mesh_size : float, optional

@@ -28,13 +28,29 @@ def _data(name: str) -> dict:
 
 
 def fluid_data() -> dict:
-    """The parsed ``lumped/data/reed_fluid.toml``."""
+    """The reed's fluid data: the parsed ``lumped/data/reed_fluid.toml``.
+
+    Returns
+    -------
+    dict
+    """
     return _data("reed_fluid")
 
 
 def oil_properties(temperature: float | None = None) -> tuple[float, float]:
-    """Oil density [kg/m^3] and dynamic viscosity [Pa s] at ``temperature`` [K] (eqs A.1-A.3):
-    :func:`lumped.fluid.oil.thesis_oil_viscosity` (the one viscosity law)."""
+    """Density and viscosity of the thesis oil at a temperature (eqs A.1-A.3,
+    :func:`lumped.fluid.oil.thesis_oil_viscosity`: the one viscosity law).
+
+    Parameters
+    ----------
+    temperature : float, optional
+        T [K]; None: 22 C.
+
+    Returns
+    -------
+    tuple of float
+        (rho [kg/m^3], mu [Pa s]).
+    """
     return thesis_oil_viscosity(temperature)
 
 
@@ -46,7 +62,28 @@ _PADE_DEN = (1.0, 0.74273, 0.35004, 0.058364)
 
 
 def hydrodynamic_function(kappa_n):
-    """Gamma_f(kappa_n), dimensionless: Pade approximant of the flexural hydrodynamic function (eq 3.13)."""
+    """The flexural hydrodynamic function Gamma_f of a reed vibrating in a fluid: the Pade approximant of Van Eysden
+    & Sader (eq 3.13).
+
+    Parameters
+    ----------
+    kappa_n : float or array_like
+        Normalised mode number [-] (eqs 3.12, 3.14).
+
+    Returns
+    -------
+    float or numpy.ndarray
+        Gamma_f [-].
+
+    References
+    ----------
+    Knutson (2016), eq 3.13; Van Eysden & Sader (2006).
+
+    Examples
+    --------
+    >>> round(hydrodynamic_function(0.9677), 4)       # Table 3.13: 0.8850
+    0.885
+    """
     k = np.asarray(kappa_n, dtype=float)
     num = sum(c * k**i for i, c in enumerate(_PADE_NUM))
     den = sum(c * k**i for i, c in enumerate(_PADE_DEN))
@@ -55,34 +92,163 @@ def hydrodynamic_function(kappa_n):
 
 
 def normalised_mode_number(alpha: float, width: float, length: float) -> float:
-    """kappa_n = alpha W / L, dimensionless, of a uniform reed (eq 3.12)."""
+    """Normalised mode number of a uniform reed, kappa_n = alpha W / L (eq 3.12).
+
+    Parameters
+    ----------
+    alpha : float
+        Frequency parameter [-].
+    width : float
+        W [m]
+    length : float
+        L [m].
+
+    Returns
+    -------
+    float
+        kappa_n [-].
+
+    References
+    ----------
+    Knutson (2016), eq 3.12.
+    """
     return alpha * width / length
 
 
 def normalised_mode_number_area(alpha: float, face_area: float, length: float) -> float:
-    """kappa_n = alpha A / L^2, dimensionless, with the face area A [m^2] of a non-uniform reed (eq 3.14)."""
+    """Normalised mode number of a non-uniform reed, kappa_n = alpha A / L^2 with its face area A (eq 3.14).
+
+    Parameters
+    ----------
+    alpha : float
+        Frequency parameter [-].
+    face_area : float
+        A [m^2].
+    length : float
+        L [m].
+
+    Returns
+    -------
+    float
+        kappa_n [-].
+
+    References
+    ----------
+    Knutson (2016), eq 3.14, Table 3.13.
+    """
     return alpha * face_area / length**2
 
 
 def added_mass_per_length(rho: float, width, gamma_f: float):
-    """m_f = (pi / 4) rho W^2 Gamma_f [kg/m], added fluid mass per unit length (eq 3.17)."""
+    """Added fluid mass per unit length of a vibrating strip, m_f = (pi/4) rho W^2 Gamma_f (eq 3.17).
+
+    Parameters
+    ----------
+    rho : float
+        Fluid density [kg/m^3].
+    width : float or array_like
+        W [m]
+    gamma_f : float
+        Hydrodynamic function [-].
+
+    Returns
+    -------
+    float or numpy.ndarray
+        m_f [kg/m].
+
+    References
+    ----------
+    Knutson (2016), eq 3.17.
+    """
     return np.pi / 4.0 * rho * np.asarray(width, dtype=float) ** 2 * gamma_f
 
 
 def added_mass_coefficient(gamma3: float, rho: float, width_tip: float, gamma_f: float) -> float:
-    """gamma3 rho W2 (pi / 4) Gamma_f [kg/m^2]: the added-mass term of the lumped equation (eq 3.21)."""
+    """The added-mass term of the lumped reed equation, gamma3 rho W2 (pi/4) Gamma_f (eq 3.21).
+
+    Parameters
+    ----------
+    gamma3 : float
+        [-].
+    rho : float
+        Fluid density [kg/m^3].
+    width_tip : float
+        W2 [m].
+    gamma_f : float
+        [-].
+
+    Returns
+    -------
+    float
+        [kg/m^2].
+
+    References
+    ----------
+    Knutson (2016), eq 3.21.
+    """
     return gamma3 * rho * width_tip * np.pi / 4.0 * gamma_f
 
 
 def frequency_in_fluid(omega_vac: float, rho: float, width: float, density_reed: float,
                        thickness: float, gamma_f: float) -> float:
-    """omega_f = omega_vac (1 + pi rho W Gamma_f / (4 rho_c h))^(-1/2) [rad/s] (eq 3.11)."""
+    """Natural frequency of a reed in a fluid, omega_f = omega_vac (1 + pi rho W Gamma_f / (4 rho_c h))^(-1/2) (eq
+    3.11).
+
+    Parameters
+    ----------
+    omega_vac : float
+        In vacuum [rad/s].
+    rho : float
+        Fluid density [kg/m^3].
+    width : float
+        W [m]
+    density_reed : float
+        rho_c [kg/m^3].
+    thickness : float
+        h [m].
+    gamma_f : float
+        [-].
+
+    Returns
+    -------
+    float
+        omega_f [rad/s].
+
+    References
+    ----------
+    Knutson (2016), eq 3.11.
+    """
     return omega_vac / np.sqrt(1.0 + np.pi * rho * width * gamma_f / (4.0 * density_reed * thickness))
 
 
 def added_to_reed_mass_ratio(gamma3: float, rho: float, width_tip: float, gamma_f: float,
                              density_reed: float, thickness: float) -> float:
-    """gamma3 rho W2 (pi/4) Gamma_f / (rho_c h), dimensionless: added over reed mass (eq 3.76)."""
+    """The added fluid mass over the reed's mass, gamma3 rho W2 (pi/4) Gamma_f / (rho_c h) (eq 3.76).
+
+    Parameters
+    ----------
+    gamma3 : float
+        [-].
+    rho : float
+        Fluid density [kg/m^3].
+    width_tip : float
+        W2 [m].
+    gamma_f : float
+        [-].
+    density_reed : float
+        rho_c [kg/m^3].
+    thickness : float
+        h [m].
+
+    Returns
+    -------
+    float
+        [-].
+
+    References
+    ----------
+    Knutson (2016), eq 3.76, Table 3.13 (air: 0.0062).
+    """
     return added_mass_coefficient(gamma3, rho, width_tip, gamma_f) / (density_reed * thickness)
 
 
@@ -90,17 +256,61 @@ def added_to_reed_mass_ratio(gamma3: float, rho: float, width_tip: float, gamma_
 
 
 def kinetic_reynolds(rho: float, omega: float, width: float, mu: float) -> float:
-    """R_k = rho omega W^2 / (4 mu), dimensionless kinetic Reynolds number (eq 3.79)."""
+    """Kinetic Reynolds number of a strip vibrating in a fluid, R_k = rho omega W^2 / (4 mu) (eq 3.79).
+
+    Parameters
+    ----------
+    rho : float
+        [kg/m^3].
+    omega : float
+        [rad/s].
+    width : float
+        W [m]
+    mu : float
+        [Pa s].
+
+    Returns
+    -------
+    float
+        R_k [-].
+
+    References
+    ----------
+    Knutson (2016), eq 3.79.
+
+    Examples
+    --------
+    >>> round(kinetic_reynolds(876.0, 2786.0, 15.875e-3, 0.0683), -1)     # Table 3.13: 2250
+    2250.0
+    """
     return rho * omega * width**2 / (4.0 * mu)
 
 
 def damping_per_length(mu: float, cv_over_mu: float | None = None) -> float:
-    """R_f = (c_v / mu) mu [Pa s]: viscous damping per unit length (section 3.8.3, Naik et al. 2003).
+    """Viscous damping per unit length of a strip, R_f = (c_v / mu) mu (section 3.8.3, Naik et al. 2003).
 
-    ``cv_over_mu`` is the non-dimensional damping read from Naik et al.'s curve (Figure
-    3.22) at the reed's kinetic Reynolds number; the curve is not in the thesis, so it is
-    an explicit input. Default: the thesis's reading, 500 at R_k = 2250
-    (``lumped/data/reed_fluid.toml``).
+    Parameters
+    ----------
+    mu : float
+        [Pa s].
+    cv_over_mu : float, optional
+        The non-dimensional damping read from Naik et al.'s curve (Figure 3.22) at the reed's kinetic Reynolds
+        number; not in the thesis, so an explicit input (None: the thesis's reading, 500 at R_k = 2250,
+        lumped/data/reed_fluid.toml).
+
+    Returns
+    -------
+    float
+        R_f [Pa s].
+
+    References
+    ----------
+    Knutson (2016), section 3.8.3, Figure 3.22; Naik, Longmire & Mantell (2003).
+
+    Examples
+    --------
+    >>> damping_per_length(0.0683, 500.0)       # Table 3.13: 34.15 Pa s
+    34.15
     """
     c = fluid_data()["damping"]["cv_over_mu"] if cv_over_mu is None else cv_over_mu
     if not c >= 0.0:
@@ -109,11 +319,31 @@ def damping_per_length(mu: float, cv_over_mu: float | None = None) -> float:
 
 
 def fluid_damping(s, psi, width, mu: float, cv_over_mu: float | None = None, weights=None) -> float:
-    """c_f = (int psi^2 ds / int psi W ds) R_f [Pa s/m], viscous fluid damping (eq 3.80).
+    """Viscous fluid damping of the one-mode reed, c_f = (int psi^2 ds / int psi W ds) R_f (eq 3.80).
 
-    ``s`` [m], ``psi`` and ``width`` [m] sampled along the reed; ``weights`` (quadrature
-    weights for those samples) replace Simpson's rule when given. R_f from
-    :func:`damping_per_length`.
+    Parameters
+    ----------
+    s : array_like
+        Positions [m].
+    psi : array_like
+        The mode function there [-].
+    width : array_like
+        W [m]
+    mu : float
+        [Pa s].
+    cv_over_mu : float, optional
+        As :func:`damping_per_length`.
+    weights : array_like, optional
+        Quadrature weights for the samples (None: Simpson's rule).
+
+    Returns
+    -------
+    float
+        c_f [Pa s/m].
+
+    References
+    ----------
+    Knutson (2016), eq 3.80, Table 3.13 (1650 Pa s/m).
     """
     psi = np.asarray(psi, dtype=float)
     W = np.asarray(width, dtype=float)
@@ -122,7 +352,28 @@ def fluid_damping(s, psi, width, mu: float, cv_over_mu: float | None = None, wei
 
 
 def fluid_displacement_area(s, psi, width, weights=None) -> float:
-    """A_2 = int W psi ds [m^2], fluid displacement area with an unobstructed seat (eq 3.29)."""
+    """Fluid displacement area of a reed with an unobstructed seat, A_2 = int W psi ds (eq 3.29).
+
+    Parameters
+    ----------
+    s : array_like
+        Positions [m].
+    psi : array_like
+        [-].
+    width : array_like
+        W [m]
+    weights : array_like, optional
+        Quadrature weights (None: Simpson's rule).
+
+    Returns
+    -------
+    float
+        A_2 [m^2].
+
+    References
+    ----------
+    Knutson (2016), eq 3.29.
+    """
     return _integrate(s, np.asarray(psi, float) * np.asarray(width, float), weights)
 
 
@@ -138,10 +389,32 @@ def _integrate(s, f, weights) -> float:
 
 
 def plate_pressure(y, width: float, dp: float, mu: float = 0.0, u: float = 0.0, gap: float = np.inf):
-    """Delta P(y) [Pa] across a sealing strip of width W between parallel plates (eq 3.51).
+    """Pressure across a sealing strip between parallel plates, d2P/dy2 = 12 mu u / x^3 with P(0) = P_up, P(W) =
+    P_down (eq 3.51; u = 0: eq 3.52, mean dp/2, eq 3.53).
 
-    Solves d2P/dy2 = 12 mu u / x^3 with P(0) = P_up, P(W) = P_down; ``u`` [m/s] the normal
-    velocity, ``gap`` x [m]. With u = 0 it is eq 3.52, whose mean is dp / 2 (eq 3.53).
+    Parameters
+    ----------
+    y : array_like
+        Position across the strip [m].
+    width : float
+        W [m]
+    dp : float
+        P_up - P_down [Pa].
+    mu : float
+        [Pa s].
+    u : float
+        Normal velocity [m/s].
+    gap : float
+        x [m].
+
+    Returns
+    -------
+    numpy.ndarray
+        P(y) - P_down [Pa].
+
+    References
+    ----------
+    Knutson (2016), eqs 3.51-3.53.
     """
     y = np.asarray(y, dtype=float)
     squeeze = 0.0 if u == 0.0 else 6.0 * mu * u / gap**3
@@ -149,17 +422,53 @@ def plate_pressure(y, width: float, dp: float, mu: float = 0.0, u: float = 0.0, 
 
 
 def side_pressure_fraction() -> float:
-    """F2 = mean Delta P / Delta P_u-d = 1/2 over a straight sealing land (eqs 3.52-3.53, 3.58)."""
+    """F2, the mean pressure over a straight sealing land as a fraction of the pressure difference: 1/2 (eqs
+    3.52-3.53, 3.58).
+
+    Returns
+    -------
+    float
+        F2 = 0.5 [-].
+
+    References
+    ----------
+    Knutson (2016), eq 3.58.
+    """
     return 0.5  # the mean of the linear profile (1 - y / W) over 0 <= y <= W
 
 
 def annulus_pressure(r, r_inner: float, r_outer: float, dp: float, mu: float = 0.0,
                      u: float = 0.0, gap: float = np.inf):
-    """Delta P(r) [Pa] across an annular land R_i <= r <= R_o (eq 3.55, with R_i^2 and R_o^2).
+    """Pressure across an annular sealing land R_i <= r <= R_o, d/dr(r x^3 dP/dr) = 12 mu r u with P(R_i) = P_up,
+    P(R_o) = P_down (eqs 3.54-3.56).
 
-    Solves d/dr(r x^3 dP/dr) = 12 mu r u (eq 3.54) with P(R_i) = P_up, P(R_o) = P_down.
-    The printed eq 3.55 has R_i and R_o where R_i^2 and R_o^2 belong (docs/errata.md);
-    with u = 0 it is eq 3.56.
+    Parameters
+    ----------
+    r : array_like
+        Radius [m].
+    r_inner, r_outer : float
+        R_i, R_o [m].
+    dp : float
+        [Pa].
+    mu : float
+        [Pa s].
+    u : float
+        [m/s].
+    gap : float
+        [m].
+
+    Returns
+    -------
+    numpy.ndarray
+        P(r) - P_down [Pa].
+
+    Notes
+    -----
+    The printed eq 3.55 has R_i and R_o where R_i^2 and R_o^2 belong (docs/errata.md); with u = 0 it is eq 3.56.
+
+    References
+    ----------
+    Knutson (2016), eqs 3.54-3.56.
     """
     r = np.asarray(r, dtype=float)
     k = 0.0 if u == 0.0 else 3.0 * mu * u / gap**3
@@ -170,7 +479,28 @@ def annulus_pressure(r, r_inner: float, r_outer: float, dp: float, mu: float = 0
 
 
 def annulus_pressure_fraction(r_inner: float, r_outer: float) -> float:
-    """F3 = 1 / (2 ln(R_o/R_i)) - 1 / ((R_o/R_i)^2 - 1), dimensionless (eqs 3.57, 3.59)."""
+    """F3, the mean pressure over an annular land as a fraction of the pressure difference, 1 / (2 ln(R_o/R_i)) - 1
+    / ((R_o/R_i)^2 - 1) (eqs 3.57, 3.59).
+
+    Parameters
+    ----------
+    r_inner, r_outer : float
+        R_i, R_o [m].
+
+    Returns
+    -------
+    float
+        F3 [-].
+
+    References
+    ----------
+    Knutson (2016), eqs 3.57, 3.59, Table 3.12.
+
+    Examples
+    --------
+    >>> round(float(annulus_pressure_fraction(6.35e-3, 7.94e-3)), 3)      # Table 3.12: 0.463
+    0.463
+    """
     q = r_outer / r_inner
     return 1.0 / (2.0 * np.log(q)) - 1.0 / (q**2 - 1.0)
 
@@ -233,10 +563,29 @@ class SealingLayout:
 
 def poiseuille_multiplier(reed: Reed, psi, F4: float, layout: SealingLayout | None = None,
                           nodes: int = 48) -> float:
-    """X = iint psi F dA / int psi W ds, dimensionless, in the Poiseuille regime (eq 3.60).
+    """The pressure load multiplier X of the Poiseuille regime, X = iint psi F dA / int psi W ds (eq 3.60).
 
-    ``psi``: a callable psi(s) (s in m), the mode function normalised at the tip;
-    ``F4`` the pressure fraction of the base section (Table 3.12 varies it over 0..1).
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed.
+    psi : callable
+        psi(s) [-] (s in m), the mode function normalised at the tip.
+    F4 : float
+        The pressure fraction of the base section [-] (Table 3.12 varies it over 0..1).
+    layout : SealingLayout, optional
+        The four pressure sections (None: the thesis's).
+    nodes : int
+        Chebyshev nodes per piece.
+
+    Returns
+    -------
+    float
+        X [-].
+
+    References
+    ----------
+    Knutson (2016), eqs 3.58-3.60, Table 3.12.
     """
     from .quadrature import ProfileQuadrature
 
@@ -247,11 +596,38 @@ def poiseuille_multiplier(reed: Reed, psi, F4: float, layout: SealingLayout | No
 
 
 def orifice_reynolds(flow, rho: float, perimeter: float, mu: float):
-    """Re = rho V D_H / mu = 4 rho Q_o / (p_o mu), dimensionless, for orifice flow Q_o [m^3/s] (eqs 3.85-3.87).
+    """Reynolds number of the reed's orifice flow, Re = rho V D_H / mu = 4 rho Q_o / (p_o mu) (eqs 3.85-3.87; A_o
+    cancels).
 
-    D_H = 4 A_o / p_o and V = Q_o / A_o, so A_o cancels. For the prototype (p_o = 91.2 mm,
-    rho = 876 kg/m^3, mu = 0.0683 Pa s) the coefficient is 5.625e5 s/m^3; eq 3.87 prints
-    its reciprocal 1.778e-6 (docs/errata.md).
+    Parameters
+    ----------
+    flow : float or array_like
+        Q_o [m^3/s].
+    rho : float
+        [kg/m^3].
+    perimeter : float
+        p_o [m].
+    mu : float
+        [Pa s].
+
+    Returns
+    -------
+    float or numpy.ndarray
+        Re [-].
+
+    Notes
+    -----
+    For the prototype (p_o = 91.2 mm) the coefficient is 5.625e5 s/m^3; eq 3.87 prints its reciprocal 1.778e-6
+    (docs/errata.md).
+
+    References
+    ----------
+    Knutson (2016), eqs 3.85-3.87.
+
+    Examples
+    --------
+    >>> round(float(orifice_reynolds(1.0, 876.0, 91.2e-3, 0.0683)) / 1e5, 3)     # 1 / 1.778e-6 s/m^3
+    5.625
     """
     return 4.0 * rho * np.asarray(flow, dtype=float) / (perimeter * mu)
 
@@ -291,11 +667,29 @@ class PressureMultiplierFit:
 
 
 def orifice_multiplier(x, fit: PressureMultiplierFit | None = None):
-    """X(x), dimensionless, for tip opening x [m]: eq 3.83 capped where it first reaches 0.
+    """The pressure load multiplier X of the orifice regime at a tip opening: eq 3.83 capped where it first reaches
+    0.
 
-    X = max(0, min(X_Poiseuille, rational(x))) for x below the fit's first zero
-    (1.369 mm for the prototype) and 0 above it: the printed correlation has a pole at
-    1.651 mm and climbs back to 0.835 beyond it (docs/errata.md).
+    Parameters
+    ----------
+    x : float or array_like
+        Tip opening [m].
+    fit : PressureMultiplierFit, optional
+        The fit (None: the prototype's).
+
+    Returns
+    -------
+    float or numpy.ndarray
+        X [-].
+
+    Notes
+    -----
+    X = max(0, min(X_Poiseuille, rational(x))) for x below the fit's first zero (1.369 mm for the prototype) and
+    0 above it: the printed correlation has a pole at 1.651 mm and climbs back to 0.835 beyond it (docs/errata.md).
+
+    References
+    ----------
+    Knutson (2016), eq 3.83, Figure 3.24.
     """
     f = PressureMultiplierFit.thesis() if fit is None else fit
     x = np.asarray(x, dtype=float)

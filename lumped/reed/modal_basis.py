@@ -156,21 +156,59 @@ def _opening_mode(tip) -> int:
     return int(big[0]) if big.size else 0
 
 
-def build_basis(reed: Reed, port: ReedPort | None, fidelity: str, omega, kinds, raw_mass,
-                evaluate: Callable, *, plane: bool = False, breaks=None,
-                raw_load=None, mesh_size: float | None = None, dofs: int | None = None) -> ModalBasis:
-    """A :class:`ModalBasis` from a fidelity's modes: omega [rad/s], names, raw modal masses
-    int rho_c h phi^2 dA [kg] and ``evaluate(s, y) -> (len(s), N)``, the raw shapes at face points [m].
+@dataclass(frozen=True)
+class Sampling:
+    """How a fidelity's shapes are sampled on the face: ``plane`` (they vary across the width: plate, solid;
+    else one point across suffices), ``breaks`` (extra s [m] where they are not smooth: FE nodes)."""
 
-    Normalises each shape to max |phi| = 1 on :func:`geometry.reed_port.face_grid` (positive
-    there), integrates Gamma over :func:`~geometry.reed_port.face_rule`, the edge mean over
-    :func:`~geometry.reed_port.edge_rule` and the station values over Gauss points across
-    the width. ``plane``: the shapes vary across the width (plate, solid); else one point
-    across suffices. ``breaks``: extra s [m] where the shapes are not smooth (FE nodes).
-    ``raw_load``: Gamma of the raw shapes [m^2] when the fidelity integrates it itself (an
-    FE model's consistent load vector f . phi), instead of the face rule. The opening is
-    scaled to the first bending mode (``_opening_mode``).
+    plane: bool = False
+    breaks: object = None
+
+
+@dataclass(frozen=True)
+class Modes:
+    """A fidelity's modes as it computed them: ``omega`` [rad/s], ``kinds`` (names), raw modal masses
+    int rho_c h phi^2 dA [kg], ``evaluate(s, y) -> (len(s), N)`` the raw shapes at face points [m], and
+    ``raw_load`` [m^2], Gamma of the raw shapes when the fidelity integrates it itself (an FE model's
+    consistent load vector f . phi; None: the face rule), ``mesh_size`` [m] and ``dofs`` of its model."""
+
+    omega: object
+    kinds: tuple
+    raw_mass: object
+    evaluate: Callable
+    raw_load: object = None
+    mesh_size: float | None = None
+    dofs: int | None = None
+
+
+def build_basis(reed: Reed, port: ReedPort | None, fidelity: str, modes: Modes,
+                sampling: Sampling = Sampling()) -> ModalBasis:
+    """A :class:`ModalBasis` from a fidelity's :class:`Modes`: the modal mass, stiffness, load, opening and strips
+    of eqs 3.8-3.21 generalised to several modes.
+
+    Each shape normalised to max |phi| = 1 on the face grid (positive there); Gamma_i = int_F phi_i dA (unless
+    ``modes.raw_load``), the edge mean and the strips by geometry.reed_port's rules; the opening scaled to the
+    first bending mode.
+
+    Parameters
+    ----------
+    reed, port : geometry.Reed, geometry.reed_port.ReedPort or None
+        The reed and its loaded footprint (None: the whole face, eq 3.21).
+    fidelity : str
+        Names the basis.
+    modes : Modes
+        The fidelity's frequencies [rad/s], raw modal masses [kg] and shape evaluator.
+    sampling : Sampling
+        Plane (Gauss points across the width) or not; the breakpoints.
+
+    Returns
+    -------
+    ModalBasis
+        Modal mass [kg], stiffness [N/m], load Gamma [m^2], opening and tip weights [-], strips (eqs 3.8-3.21,
+        docs/reed_dynamics.md).
     """
+    omega, kinds, raw_mass, evaluate = modes.omega, modes.kinds, modes.raw_mass, modes.evaluate
+    plane, breaks, raw_load = sampling.plane, sampling.breaks, modes.raw_load
     omega = np.asarray(omega, dtype=float)
     n = len(omega)
     gs, gy = face_grid(reed)
@@ -202,19 +240,36 @@ def build_basis(reed: Reed, port: ReedPort | None, fidelity: str, omega, kinds, 
                       modal_stiffness=_frozen(mass * omega**2), load=_frozen(load), opening=_frozen(opening),
                       tip=_frozen(tip), kinds=tuple(kinds), stations=_frozen(sk), weights=_frozen(wk),
                       widths=_frozen(Wk), wbar=_frozen(wbar), theta=_frozen(theta), port=port,
-                      mesh_size=mesh_size, dofs=dofs)
+                      mesh_size=modes.mesh_size, dofs=modes.dofs)
 
 
 # ------------------------------------------------------------------------------ exact E-B
 def analytic_basis(reed: Reed, port: ReedPort | None = None, mesh_size=None, n_modes: int = MAX_MODES) -> ModalBasis:
-    """The ``analytic`` modal basis: the first bending modes of exact Euler-Bernoulli theory.
+    """The ``analytic`` modal basis: the first bending modes of exact Euler-Bernoulli theory, (EI(s) w'')'' =
+    omega^2 m(s) w, clamped-free (eq 3.8 in vacuum, no damping).
 
-    (EI(s) w'')'' = omega^2 m(s) w, clamped-free (thesis eq 3.8 in vacuum, no damping).
-    Piecewise-uniform reeds: roots of the exact transfer-matrix determinant (Naguleswaran
-    2002) and the exact segment shapes (:func:`lumped.reed.euler_bernoulli.cantilever_mode_shape`);
-    others (rounded tips, grooves, tapers): w = omega^2 G[m w] on the spectral quadrature
-    (:class:`lumped.reed.euler_bernoulli.BeamModel`). Modal masses int m phi^2 ds by that quadrature.
-    Bending only: w does not vary across the width. ``mesh_size`` is ignored.
+    Piecewise-uniform reeds: roots of the exact transfer-matrix determinant (Naguleswaran 2002) and the exact
+    segment shapes (lumped.reed.euler_bernoulli.cantilever_mode_shape); others (rounded tips, grooves, tapers): w =
+    omega^2 G[m w] on the spectral quadrature (lumped.reed.euler_bernoulli.BeamModel). Modal masses int m phi^2 ds
+    by that quadrature. Bending only: w does not vary across the width.
+
+    Parameters
+    ----------
+    reed, port
+        As :func:`build_basis`.
+    mesh_size : float or None
+        Ignored (no mesh).
+    n_modes : int
+        Modes to find.
+
+    Returns
+    -------
+    ModalBasis
+        As :func:`build_basis`.
+
+    References
+    ----------
+    Knutson (2016), eq 3.8, Table 3.3 (:func:`modal_basis`'s example); Naguleswaran (2002).
     """
     from .quadrature import NODES_PER_PIECE, ProfileQuadrature, profile_breaks
     from .euler_bernoulli import BeamModel, cantilever_frequencies, cantilever_mode_shape, stepped_segments
@@ -248,7 +303,7 @@ def analytic_basis(reed: Reed, port: ReedPort | None = None, mesh_size=None, n_m
 
         raw = bm.quad.weights @ (bm.m[:, None] * (bm.quad.Q @ slopes) ** 2)
     labels = [f"bending {k + 1}" for k in range(n)]
-    return build_basis(reed, port, "analytic", omega, labels, raw, lambda s, y: shapes(np.asarray(s, float)))
+    return build_basis(reed, port, "analytic", Modes(omega, labels, raw, lambda s, y: shapes(np.asarray(s, float))))
 
 
 # ------------------------------------------------------------------------------ the FE reed
@@ -322,12 +377,49 @@ def _dense_modes(mass, stiffness, n: int | None = None) -> tuple[np.ndarray, np.
     return omega, vecs * omega       # K-normalised phi^T K phi = 1 -> M-normalised
 
 
-def fe_reed_from(reed: Reed, port: ReedPort | None, fidelity: str, mass, stiffness, probe: Callable, *,
-                 plane: bool = False, breaks=None, load=None, mesh_size=None, dof_units: str = "") -> FEReed:
-    """An :class:`FEReed` from dense M, K [kg, N/m] and ``probe(s, y) -> (len(s), n)``, the
-    interpolation of the DOFs to w at face points; the load (unless the FE model assembles
-    it, ``load`` [m^2]), opening, tip and station rows are built with the same rules as
-    :func:`build_basis`."""
+@dataclass(frozen=True, eq=False)
+class FESystem:
+    """A fidelity's whole FE reed as it assembled it: dense ``mass``, ``stiffness`` [kg, N/m] on the free DOFs,
+    ``probe(s, y) -> (len(s), n)`` the interpolation of the DOFs to w at face points, ``load`` [m^2] if the FE
+    model assembles the footprint's load itself (None: the face rule), ``mesh_size`` [m], ``dof_units``."""
+
+    mass: np.ndarray
+    stiffness: np.ndarray
+    probe: Callable
+    load: np.ndarray | None = None
+    mesh_size: float | None = None
+    dof_units: str = ""
+
+
+def fe_reed_from(reed: Reed, port: ReedPort | None, fidelity: str, system: FESystem,
+                 sampling: Sampling = Sampling()) -> FEReed:
+    """An :class:`FEReed` from a fidelity's :class:`FESystem`, the load (unless the FE model assembles it), opening,
+    tip and station rows built with the rules of :func:`build_basis`.
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed.
+    port : geometry.reed_port.ReedPort or None
+        The loaded footprint; None: the whole face (eq 3.21).
+    fidelity : str
+        Names the FE reed.
+    system : FESystem
+        Mass [kg] and stiffness [N/m] matrices, a probe of the nodal deflection, the load (or None).
+    sampling : Sampling
+        As :func:`build_basis`.
+
+    Returns
+    -------
+    FEReed
+        M, K, f [m^2], opening and tip rows [-], strips.
+
+    References
+    ----------
+    docs/reed_dynamics.md.
+    """
+    mass, stiffness, probe, load = system.mass, system.stiffness, system.probe, system.load
+    plane, breaks = sampling.plane, sampling.breaks
     if load is None:
         S, Y, wt = face_rule(reed, port, n_y=12 if plane else 1, breaks=breaks)
         load = wt @ probe(S, Y)
@@ -351,7 +443,7 @@ def fe_reed_from(reed: Reed, port: ReedPort | None, fidelity: str, mass, stiffne
     return FEReed(fidelity=fidelity, mass=_frozen(mass), stiffness=_frozen(stiffness), load=_frozen(load),
                   opening=_frozen(opening), tip=_frozen(tip), stations=_frozen(sk), weights=_frozen(wk),
                   widths=_frozen(Wk), wbar=_frozen(wbar), theta=_frozen(theta), port=port,
-                  mesh_size=mesh_size, dof_units=dof_units)
+                  mesh_size=system.mesh_size, dof_units=system.dof_units)
 
 
 # ------------------------------------------------------------------------------ registries
@@ -363,13 +455,37 @@ _loaded = {"entry_points": False}
 
 
 def register(name: str, func: Callable) -> None:
-    """Add (or replace) a modal-basis fidelity."""
+    """Add (or replace) a modal-basis fidelity.
+
+    Parameters
+    ----------
+    name : str
+        The fidelity's name.
+    func : callable
+        ``f(reed, port=None, mesh_size=None, n_modes=MAX_MODES) -> ModalBasis``.
+
+    Returns
+    -------
+    None
+    """
     FIDELITIES[name] = func
     _cached_basis.cache_clear()
 
 
 def register_fe(name: str, func: Callable) -> None:
-    """Add (or replace) an FE-reed fidelity."""
+    """Add (or replace) an FE-reed fidelity.
+
+    Parameters
+    ----------
+    name : str
+        The fidelity's name.
+    func : callable
+        ``f(reed, port=None, mesh_size=None) -> FEReed``.
+
+    Returns
+    -------
+    None
+    """
     FE_FIDELITIES[name] = func
     _cached_fe.cache_clear()
 
@@ -388,19 +504,41 @@ def _ordered(names) -> list[str]:
 
 
 def names() -> list[str]:
-    """Every fidelity that gives a modal basis, cheapest first."""
+    """Every fidelity that gives a modal basis, cheapest first.
+
+    Returns
+    -------
+    list of str
+    """
     _load_plugins()
     return _ordered(FIDELITIES)
 
 
 def fe_names() -> list[str]:
-    """Every fidelity that gives a whole FE reed."""
+    """Every fidelity that gives a whole FE reed.
+
+    Returns
+    -------
+    list of str
+    """
     _load_plugins()
     return _ordered(FE_FIDELITIES)
 
 
 def check_modes(n_modes, field: str = "modes") -> int:
-    """``n_modes`` as an int 1..MAX_MODES, else InputError naming ``field``."""
+    """``n_modes`` as an int 1..MAX_MODES, else an InputError naming ``field``.
+
+    Parameters
+    ----------
+    n_modes : int or str
+        What the user wrote.
+    field : str
+        The key it came from.
+
+    Returns
+    -------
+    int
+    """
     return int(validate.number(n_modes, field, bounds=(1, MAX_MODES), integer=True))
 
 
@@ -476,8 +614,23 @@ def fe_reed(reed: Reed, port: ReedPort | None = None, fidelity: str = "beam", me
             *, fidelity_field: str = "fidelity", port_field: str = "port") -> FEReed:
     """The whole FE reed of ``fidelity`` (``beam``; ``plate`` where registered) with the load of ``port``.
 
-    Cached per (reed, fidelity, port, mesh_size). An unknown fidelity is an InputError
-    naming ``fidelity_field``; a port off the reed names ``port_field.<key>``.
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed.
+    port : geometry.reed_port.ReedPort or None
+        The loaded footprint; None: the whole face (eq 3.21).
+    fidelity : str
+        An FE fidelity; unknown: InputError naming ``fidelity_field``.
+    mesh_size : float or None
+        Element size [m]; None: the fidelity's default.
+    fidelity_field, port_field : str
+        The keys errors name (a port off the reed names ``port_field.<key>``).
+
+    Returns
+    -------
+    FEReed
+        Cached per (reed, fidelity, port, mesh_size).
     """
     _load_plugins()
     if fidelity not in FE_FIDELITIES:
@@ -491,8 +644,18 @@ def fe_reed(reed: Reed, port: ReedPort | None = None, fidelity: str = "beam", me
 def static_convergence(basis: ModalBasis, fe: FEReed, dp: float = 1.0) -> dict:
     """The modal static deflection with N = 1..basis.n_modes modes against the FE reed's K^-1 f dP.
 
-    Returns {"fe": {"tip", "opening"} [m], "rows": [{"modes", "tip", "opening" [m],
-    "tip_error", "opening_error" (relative to the FE values)}]} under dP [Pa] on the footprint.
+    Parameters
+    ----------
+    basis : ModalBasis
+    fe : FEReed
+    dp : float
+        Pressure on the footprint [Pa].
+
+    Returns
+    -------
+    dict
+        {"fe": {"tip", "opening"} [m], "rows": [{"modes", "tip", "opening" [m], "tip_error", "opening_error"
+        (relative to the FE values)}]}.
     """
     tip_fe, x_fe = fe.static_deflection(dp)
     rows = []
@@ -505,16 +668,29 @@ def static_convergence(basis: ModalBasis, fe: FEReed, dp: float = 1.0) -> dict:
 
 def release_errors(basis: ModalBasis, fe: FEReed, periods: float = 20.0, samples_per_period: int = 2000,
                    dp: float = 1.0) -> dict:
-    """The free reed released from rest at its static deflection under dP on the footprint: tip and
-    opening histories of the N-mode model (N = 1..basis.n_modes) against the whole FE reed.
+    """The free reed released from rest at its static deflection under dP on the footprint: tip and opening
+    histories of the N-mode model (N = 1..basis.n_modes) against the whole FE reed.
 
-    The FE reed starts from u0 = K^-1 f dP and moves by exact superposition of all its modes;
-    the N-mode model from its own static deflection q_i = Gamma_i dP / k_i (no damping, no
-    flow, no contact). Over ``periods`` periods of mode 1 (``samples_per_period`` samples
-    each) it reports per N the largest difference of the tip and the opening relative to the
-    FE amplitude (max |.| of the FE history), and ``bound``, sum over the FE modes the N-mode
-    model lacks of |a_j tip . phi_j| / amplitude when the basis is the FE reed's own modes
-    (same fidelity and mesh; None otherwise): the largest the tip error can ever get.
+    The FE reed starts from u0 = K^-1 f dP and moves by exact superposition of all its modes; the N-mode model from
+    its own static deflection q_i = Gamma_i dP / k_i (no damping, no flow, no contact).
+
+    Parameters
+    ----------
+    basis : ModalBasis
+    fe : FEReed
+    periods : float
+        Span, in periods of mode 1.
+    samples_per_period : int
+    dp : float
+        Pressure on the footprint [Pa].
+
+    Returns
+    -------
+    dict
+        Per N the largest difference of the tip and the opening relative to the FE amplitude (max |.| of the FE
+        history), and ``bound``: the sum over the FE modes the N-mode model lacks of |a_j tip . phi_j| / amplitude
+        when the basis is the FE reed's own modes (same fidelity and mesh; None otherwise), the largest the tip
+        error can get.
     """
     t = np.linspace(0.0, periods * 2 * np.pi / basis.omega[0], int(periods * samples_per_period) + 1)
     omega, P = fe.modes()

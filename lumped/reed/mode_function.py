@@ -13,11 +13,29 @@ import numpy as np
 
 
 def mode_integrals(quad, psi, W, width_ref: float) -> tuple[float, float, float]:
-    """gamma1, gamma2, gamma3 of Table 3.4 (dimensionless) from psi and W [m] at the nodes of ``quad``.
+    """The mode-function parameters gamma1, gamma2, gamma3 of Table 3.4 from a shape and the width sampled at a
+    quadrature's nodes.
 
-    gamma1 = int psi W / int psi^2 W, gamma2 = int psi^3 W / int psi^2 W,
-    gamma3 = int psi^2 W^2 / (W_2 int psi^2 W); ``width_ref`` is W_2 [m];
-    ``quad`` a :class:`lumped.reed.quadrature.ProfileQuadrature`.
+    Parameters
+    ----------
+    quad : lumped.reed.quadrature.ProfileQuadrature
+        The quadrature whose nodes psi and W are sampled at.
+    psi : numpy.ndarray
+        The mode function psi(s) [-] at the nodes (psi(L) = 1).
+    W : numpy.ndarray
+        The width W(s) [m] at the nodes.
+    width_ref : float
+        W_2 [m], the tip width.
+
+    Returns
+    -------
+    tuple of float
+        (gamma1, gamma2, gamma3) [-]: gamma1 = int psi W / int psi^2 W, gamma2 = int psi^3 W / int psi^2 W, gamma3 =
+        int psi^2 W^2 / (W_2 int psi^2 W).
+
+    References
+    ----------
+    Knutson (2016), Table 3.4, eqs 3.18-3.21.
     """
     m2 = quad.integral(psi**2 * W)
     return (float(quad.integral(psi * W) / m2), float(quad.integral(psi**3 * W) / m2),
@@ -25,12 +43,32 @@ def mode_integrals(quad, psi, W, width_ref: float) -> tuple[float, float, float]
 
 
 def mode_parameters(reed, s, psi) -> tuple[float, float, float]:
-    """gamma1, gamma2, gamma3 of Table 3.4 for a shape psi(s) sampled on ``reed`` (e.g. FEA nodes).
+    """The mode-function parameters gamma1, gamma2, gamma3 of Table 3.4 for a shape sampled on a reed (e.g. at FEA
+    nodes).
 
-    psi is interpolated by a cubic spline through the samples (``s`` [m] increasing,
-    covering [0, L]) and integrated piece by piece between the reed's breakpoints
-    with its exact width W(s): a rule across the width step or the rounded tip would
-    cost ~1e-4 in the gammas. psi is normalised at the tip here.
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed (its exact width W(s) and breakpoints).
+    s : array_like
+        Positions [m], increasing, covering [0, L].
+    psi : array_like
+        The shape there [-] (normalised at the tip here).
+
+    Returns
+    -------
+    tuple of float
+        (gamma1, gamma2, gamma3) [-] (:func:`mode_integrals`).
+
+    Notes
+    -----
+    psi is interpolated by a cubic spline through the samples and integrated piece by piece between the reed's
+    breakpoints with its exact width W(s): a rule across the width step or the rounded tip would cost ~1e-4 in
+    the gammas.
+
+    References
+    ----------
+    Knutson (2016), Table 3.4.
     """
     from scipy.interpolate import CubicSpline
 
@@ -46,12 +84,67 @@ def mode_parameters(reed, s, psi) -> tuple[float, float, float]:
 
 
 def effective_thickness(gamma1: float, kappa: float, density: float, omega_n: float) -> float:
-    """h_eff = gamma1 kappa / (rho_c omega_n^2) [m] (eq 3.62)."""
+    """The effective thickness of a reed's one-mode model, h_eff = gamma1 kappa / (rho_c omega_n^2) (eq 3.62): the
+    thickness a uniform plate of the same frequency and stiffness would have.
+
+    Parameters
+    ----------
+    gamma1 : float
+        Table 3.4's gamma1 [-].
+    kappa : float
+        Stiffness [Pa/m].
+    density : float
+        rho_c [kg/m^3].
+    omega_n : float
+        First frequency in vacuum [rad/s].
+
+    Returns
+    -------
+    float
+        h_eff [m].
+
+    References
+    ----------
+    Knutson (2016), eq 3.62, Table 3.13.
+
+    Examples
+    --------
+    The prototype reed (Table 3.10's kappa and omega_n; Table 3.13 lists 1.161 mm with the FEA's):
+
+    >>> round(effective_thickness(1.640, 7.709e6, 1410.0, 2786.0) * 1e3, 2)
+    1.16
+    """
     return gamma1 * kappa / (density * omega_n**2)
 
 
 def gamma1_alternative(density: float, h_eff: float, omega_n: float, kappa: float) -> float:
-    """gamma1 = rho_c h_eff omega_n^2 / kappa (eq 3.48), from frequency and stiffness alone."""
+    """gamma1 from frequency and stiffness alone, gamma1 = rho_c h_eff omega_n^2 / kappa (eq 3.48).
+
+    Parameters
+    ----------
+    density : float
+        rho_c [kg/m^3].
+    h_eff : float
+        Effective thickness [m].
+    omega_n : float
+        First frequency [rad/s].
+    kappa : float
+        Stiffness [Pa/m].
+
+    Returns
+    -------
+    float
+        gamma1 [-].
+
+    References
+    ----------
+    Knutson (2016), eq 3.48, Table 3.9.
+
+    Examples
+    --------
+    >>> round(gamma1_alternative(1410.0, effective_thickness(1.534, 7.345e6, 1410.0, 2427.0), 2427.0, 7.345e6), 3)
+    1.534
+    """
     return density * h_eff * omega_n**2 / kappa
 
 

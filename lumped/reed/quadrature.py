@@ -2,7 +2,7 @@
 
 Integrals over a reed (mode-function parameters, static deflection chains) have
 integrands that jump at the width step and behave like square roots at rounded tips
-and half-ring grooves; a rule across such points converges slowly. Splitting the
+and inside grooves (half rings); a rule across such points converges slowly. Splitting the
 reed at its breakpoints and mapping each piece so the end behaviour becomes analytic
 gives exponential convergence with a few tens of nodes per piece.
 """
@@ -101,9 +101,16 @@ class ProfileQuadrature:
 
 
 def profile_breaks(reed: Reed) -> np.ndarray:
-    """Breakpoints of the section properties: the reed's own plus inner radii of half-ring grooves."""
-    pts = list(reed.breakpoints())
-    for g in reed.grooves:
-        if g.kind == "half_ring":
-            pts.append(g.s_center + g.r_inner)
-    return np.clip(np.array(pts), 0.0, reed.length)
+    """Breakpoints of the section properties (geometry.reed.Reed.section_breaks).
+
+    Parameters
+    ----------
+    reed : geometry.Reed
+        The reed.
+
+    Returns
+    -------
+    array of float
+        Arc lengths [m] where EI(s) or m(s) jumps or changes law.
+    """
+    return reed.section_breaks()

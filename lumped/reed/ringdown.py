@@ -24,30 +24,144 @@ from geometry.errors import InputError
 
 
 def decay_rate(c_c: float, gamma1: float, rho_c: float, h_eff: float) -> float:
-    """sigma = gamma1 c_c / (2 rho_c h_eff) [1/s], the envelope decay rate of eq 3.67."""
+    """Envelope decay rate of a plucked reed's ring-down, sigma = gamma1 c_c / (2 rho_c h_eff) (eq 3.67).
+
+    Parameters
+    ----------
+    c_c : float
+        Internal damping [Pa s/m].
+    gamma1 : float
+        [-].
+    rho_c : float
+        [kg/m^3].
+    h_eff : float
+        [m].
+
+    Returns
+    -------
+    float
+        sigma [1/s].
+
+    References
+    ----------
+    Knutson (2016), eq 3.67.
+    """
     return gamma1 * c_c / (2.0 * rho_c * h_eff)
 
 
 def internal_damping(sigma: float, gamma1: float, rho_c: float, h_eff: float) -> float:
-    """c_c = 2 rho_c h_eff sigma / gamma1 [Pa s/m], from a fitted decay rate sigma [1/s] (eq 3.67)."""
+    """Internal damping from a fitted decay rate, c_c = 2 rho_c h_eff sigma / gamma1 (eq 3.67 inverted).
+
+    Parameters
+    ----------
+    sigma : float
+        Decay rate [1/s].
+    gamma1 : float
+        [-].
+    rho_c : float
+        [kg/m^3].
+    h_eff : float
+        [m].
+
+    Returns
+    -------
+    float
+        c_c [Pa s/m].
+
+    References
+    ----------
+    Knutson (2016), eq 3.67, Table 3.10.
+
+    Examples
+    --------
+    Table 3.10's mean c_c, through its decay rate and back:
+
+    >>> round(internal_damping(decay_rate(77.50, 1.6, 1410.0, 1.161e-3), 1.6, 1410.0, 1.161e-3), 2)
+    77.5
+    """
     return 2.0 * rho_c * h_eff * sigma / gamma1
 
 
 def undamped_frequency(omega_d: float, c_c: float, gamma1: float, rho_c: float, h_eff: float) -> float:
-    """omega_n = sqrt(omega_d^2 + (gamma1 c_c / (2 rho_c h_eff))^2) [rad/s] (eq 3.70)."""
+    """Undamped frequency of a plucked reed from its damped one, omega_n = sqrt(omega_d^2 + sigma^2) (eq 3.70).
+
+    Parameters
+    ----------
+    omega_d : float
+        Damped frequency [rad/s].
+    c_c : float
+        Internal damping [Pa s/m].
+    gamma1 : float
+        [-].
+    rho_c : float
+        [kg/m^3].
+    h_eff : float
+        [m].
+
+    Returns
+    -------
+    float
+        omega_n [rad/s].
+
+    References
+    ----------
+    Knutson (2016), eq 3.70.
+    """
     return float(np.hypot(omega_d, decay_rate(c_c, gamma1, rho_c, h_eff)))
 
 
 def stiffness_from_frequency(omega_n: float, gamma1: float, rho_c: float, h_eff: float) -> float:
-    """kappa = rho_c h_eff omega_n^2 / gamma1 [Pa/m] (eq 3.73)."""
+    """Stiffness of a reed from its undamped frequency, kappa = rho_c h_eff omega_n^2 / gamma1 (eq 3.73).
+
+    Parameters
+    ----------
+    omega_n : float
+        [rad/s].
+    gamma1 : float
+        [-].
+    rho_c : float
+        [kg/m^3].
+    h_eff : float
+        [m].
+
+    Returns
+    -------
+    float
+        kappa [Pa/m].
+
+    References
+    ----------
+    Knutson (2016), eq 3.73, Table 3.10.
+    """
     return rho_c * h_eff * omega_n**2 / gamma1
 
 
 def implied_effective_thickness(kappa: float, omega_d: float, c_c: float, gamma1: float,
                                 rho_c: float) -> float:
-    """h_eff [m] for which eqs 3.70 and 3.73 turn (c_c, omega_d) into kappa (inverse of the two).
+    """The effective thickness for which eqs 3.70 and 3.73 turn (c_c, omega_d) into kappa: the larger root h of
+    kappa = rho_c h omega_d^2 / gamma1 + gamma1 c_c^2 / (4 rho_c h).
 
-    kappa = rho_c h omega_d^2 / gamma1 + gamma1 c_c^2 / (4 rho_c h): the larger root in h.
+    Parameters
+    ----------
+    kappa : float
+        [Pa/m].
+    omega_d : float
+        [rad/s].
+    c_c : float
+        [Pa s/m].
+    gamma1 : float
+        [-].
+    rho_c : float
+        [kg/m^3].
+
+    Returns
+    -------
+    float
+        h_eff [m].
+
+    References
+    ----------
+    Knutson (2016), eqs 3.70, 3.73.
     """
     a = rho_c * omega_d**2 / gamma1
     c = gamma1 * c_c**2 / (4.0 * rho_c)
@@ -55,7 +169,32 @@ def implied_effective_thickness(kappa: float, omega_d: float, c_c: float, gamma1
 
 
 def ringdown(t, amplitude: float, sigma: float, omega_d: float, phase: float, offset: float = 0.0):
-    """Eq 3.67: amplitude exp(-sigma t) sin(omega_d t + phase) + offset (units of amplitude)."""
+    """A plucked reed's ring-down, amplitude exp(-sigma t) sin(omega_d t + phase) + offset (eq 3.67).
+
+    Parameters
+    ----------
+    t : array_like
+        Time [s].
+    amplitude : float
+        In the trace's units.
+    sigma : float
+        [1/s].
+    omega_d : float
+        [rad/s].
+    phase : float
+        [rad].
+    offset : float
+        In the trace's units.
+
+    Returns
+    -------
+    numpy.ndarray
+        The signal (the amplitude's units).
+
+    References
+    ----------
+    Knutson (2016), eq 3.67.
+    """
     t = np.asarray(t, dtype=float)
     return amplitude * np.exp(-sigma * t) * np.sin(omega_d * t + phase) + offset
 
@@ -99,11 +238,27 @@ def _check_trace(t, v, where: str):
 
 
 def initial_guess(t, v) -> tuple[float, float, float, float, float]:
-    """(amplitude, sigma, omega_d, phase, offset) from the FFT peak and the logarithmic decrement.
+    """Starting values of eq 3.67's fit from the FFT peak and the logarithmic decrement.
 
-    omega_d: Hann-windowed, zero-padded FFT peak refined by parabolic interpolation;
-    sigma: slope of log(peak height) over successive peaks (log decrement / period);
-    amplitude and phase: linear least squares with sigma and omega_d fixed.
+    omega_d: Hann-windowed, zero-padded FFT peak refined by parabolic interpolation; sigma: slope of log(peak
+    height) over successive peaks (log decrement / period); amplitude and phase: linear least squares with sigma and
+    omega_d fixed; the offset: the median of the last fifth.
+
+    Parameters
+    ----------
+    t : array of float
+        Sample times [s], increasing.
+    v : array of float
+        The trace (any unit: volts or metres).
+
+    Returns
+    -------
+    (amplitude, sigma, omega_d, phase, offset) : tuple of float
+        In v's unit, 1/s, rad/s, rad, v's unit.
+
+    References
+    ----------
+    Knutson (2016), eq 3.67.
     """
     t = np.asarray(t, float)
     v = np.asarray(v, float)
@@ -136,10 +291,30 @@ def initial_guess(t, v) -> tuple[float, float, float, float, float]:
 
 
 def fit_ringdown(t, v, *, with_offset: bool = True, where: str = "trace") -> tuple[np.ndarray, float]:
-    """Fit eq 3.67 to one trace by nonlinear least squares (scipy.optimize.least_squares).
+    """Fit eq 3.67, v = A exp(-sigma t) sin(omega_d t + phase) + offset, to one trace by nonlinear least squares
+    (scipy.optimize.least_squares from :func:`initial_guess`).
 
-    Returns ([amplitude, sigma, omega_d, phase, offset], rms residual); time is measured
-    from the first sample. ``with_offset=False`` fixes the offset at 0 (eq 3.67 as printed).
+    Parameters
+    ----------
+    t : array of float
+        Sample times [s], increasing; time is measured from the first sample.
+    v : array of float
+        The trace (any unit).
+    with_offset : bool
+        False fixes the offset at 0 (eq 3.67 as printed).
+    where : str
+        Names the trace in an InputError (NaN, times not increasing, constant).
+
+    Returns
+    -------
+    x : array of float
+        [amplitude, sigma [1/s], omega_d [rad/s], phase [rad], offset].
+    rms : float
+        The residual's root mean square (v's unit).
+
+    References
+    ----------
+    Knutson (2016), eq 3.67.
     """
     t, v = _check_trace(t, v, where)
     t0 = t - t[0]
@@ -168,7 +343,30 @@ def fit_ringdown(t, v, *, with_offset: bool = True, where: str = "trace") -> tup
 
 def identify_run(t, v, gamma1: float, rho_c: float, h_eff: float, *, with_offset: bool = True,
                  where: str = "trace") -> RingdownFit:
-    """One plucked-reed run: eq 3.67 fit, then c_c (eq 3.67), omega_n (eq 3.70), kappa (eq 3.73)."""
+    """One plucked-reed run: eq 3.67's fit, then c_c (eq 3.69), omega_n (eq 3.70) and kappa (eq 3.73).
+
+    Parameters
+    ----------
+    t, v : array of float
+        The trace: times [s] and values (any unit).
+    gamma1 : float
+        The reed's gamma1 [-] (the thesis took stepped reed #2's 1.640).
+    rho_c : float
+        Density [kg/m^3].
+    h_eff : float
+        Effective thickness [m].
+    with_offset, where
+        As :func:`fit_ringdown`.
+
+    Returns
+    -------
+    RingdownFit
+        The fit and c_c [Pa s/m], omega_n [rad/s], kappa [Pa/m].
+
+    References
+    ----------
+    Knutson (2016), section 3.8.2.1, eqs 3.67-3.73.
+    """
     for name, val in (("gamma1", gamma1), ("rho_c", rho_c), ("h_eff", h_eff)):
         if not (np.isfinite(val) and val > 0):
             raise InputError(name, f"must be a positive number, got {val}")
@@ -181,11 +379,33 @@ def identify_run(t, v, gamma1: float, rho_c: float, h_eff: float, *, with_offset
 
 
 def summarise(values) -> dict:
-    """mean, sample standard deviation and uncertainty [+- %] of repeated runs, as in Table 3.10.
+    """Mean, sample standard deviation and uncertainty [+- %] of repeated runs, as in Table 3.10.
 
-    Table 3.10's uncertainty is 100 std / (2 sqrt(n) |mean|) (it reproduces the printed
-    0.3953 % for c_c and 0.04083 % for omega; its kappa entry 0.8174 is 10x the same
-    formula's 0.08174, docs/errata.md).
+    Table 3.10's uncertainty is 100 std / (2 sqrt(n) |mean|): it gives 0.3954 % for c_c (printed 0.3953,
+    truncated) and 0.04083 % for omega; its kappa entry 0.8174 is 10x the same formula's 0.08174
+    (docs/errata.md).
+
+    Parameters
+    ----------
+    values : array_like of float
+        One value per run.
+
+    Returns
+    -------
+    dict
+        {"mean", "std", "uncertainty_pct", "n"}.
+
+    References
+    ----------
+    Knutson (2016), Table 3.10.
+
+    Examples
+    --------
+    Table 3.10's six runs of c_c [Pa s/m] (printed: mean 77.50, standard deviation 1.501, +- 0.3953 %):
+
+    >>> s = summarise([79.18, 77.52, 75.88, 76.00, 77.07, 79.34])
+    >>> print(f"{s['mean']:.2f} {s['std']:.3f} {s['uncertainty_pct']:.3f}")
+    77.50 1.501 0.395
     """
     a = np.asarray(values, dtype=float)
     n = a.size
@@ -198,9 +418,21 @@ def summarise(values) -> dict:
 def identify(traces, gamma1: float, rho_c: float, h_eff: float, *, with_offset: bool = True) -> dict:
     """Identify c_c, omega_d, omega_n and kappa from plucked-reed traces, summarised like Table 3.10.
 
-    ``traces``: an iterable of (t [s], v) pairs (v in any unit: volts or metres).
-    Returns {"runs": [RingdownFit, ...], "c_c": summary, "omega_d": ..., "omega_n": ...,
-    "kappa": ...} with each summary from :func:`summarise`.
+    Parameters
+    ----------
+    traces : iterable of (array, array)
+        (t [s], v) pairs (v in any unit: volts or metres).
+    gamma1, rho_c, h_eff, with_offset
+        As :func:`identify_run`.
+
+    Returns
+    -------
+    dict
+        {"runs": [RingdownFit, ...], "c_c", "omega_d", "omega_n", "kappa"}, each summary from :func:`summarise`.
+
+    References
+    ----------
+    Knutson (2016), section 3.8.2.1, Table 3.10.
     """
     runs = [identify_run(t, v, gamma1, rho_c, h_eff, with_offset=with_offset, where=f"trace[{i}]")
             for i, (t, v) in enumerate(traces)]

@@ -89,7 +89,36 @@ class Structure:
 
 
 def damping_ratio(valve) -> float:
-    """zeta = gamma1 c / (2 rho_c h_eff omega_n) of eq 3.21's one mode (c = c_c + c_f) [-]."""
+    """The damping ratio of eq 3.21's one mode, zeta = gamma1 c / (2 rho_c h_eff omega_n), omega_n = sqrt(gamma1
+    kappa / (rho_c h_eff)) (eq 3.72), c = c_c + c_f.
+
+    Parameters
+    ----------
+    valve : lumped.model.pump.ReedValve
+        Its ``gamma1`` [-], ``stiffness`` kappa [Pa/m], ``damping`` c [Pa s/m], ``density`` rho_c [kg/m^3] and
+        ``effective_thickness`` h_eff [m].
+
+    Returns
+    -------
+    float
+        zeta [-].
+
+    References
+    ----------
+    Knutson (2016), eqs 3.21, 3.69, 3.72; Table 3.10.
+
+    Examples
+    --------
+    The prototype reed: gamma1 1.640, c_c 77.50 Pa s/m and kappa 7.709 MPa/m (Table 3.10), rho_c 1410 kg/m^3 and
+    h_eff 1.161 mm (Table 3.13), so omega_n = 2779 rad/s (Table 3.10: 2786) and zeta = gamma1 c / (2 rho_c h_eff
+    omega_n):
+
+    >>> from types import SimpleNamespace
+    >>> v = SimpleNamespace(gamma1=1.640, stiffness=7.709e6, damping=77.50, density=1410.0,
+    ...                     effective_thickness=1.161e-3)
+    >>> print(f"{damping_ratio(v):.4f}")
+    0.0140
+    """
     m = valve.density * valve.effective_thickness
     omega_n = math.sqrt(valve.gamma1 * valve.stiffness / m)
     return valve.gamma1 * valve.damping / (2.0 * m * omega_n)
@@ -103,8 +132,26 @@ def _rest(stiffness, load, opening, x0: float) -> np.ndarray:
 
 @functools.lru_cache(maxsize=64)
 def structure(valve, rho_oil: float) -> Structure:
-    """The matrices of a reed valve with ``dynamics`` "modal" or "fe" in oil of density rho_oil [kg/m^3]
-    (cached: a model is packed for every simulation)."""
+    """The structural matrices of a reed valve with ``dynamics`` "modal" or "fe" in oil: M q'' + C q' + K (q - q0) =
+    b [dP X(x) + F_c] - Q_drag (module docstring).
+
+    Parameters
+    ----------
+    valve : lumped.model.pump.ReedValve
+        A reed valve with ``dynamics`` "modal" or "fe".
+    rho_oil : float
+        Oil density [kg/m^3].
+
+    Returns
+    -------
+    Structure
+        M [kg], C [N s/m], K [N/m], b [m^2], e, c, tip [-], q0 [m], the strips' width-mean deflections and areas
+        [m^2], the vacuum frequencies [rad/s]. Cached: a model is packed for every simulation.
+
+    References
+    ----------
+    Knutson (2016), eqs 3.17, 3.21; Sader (1998); Green & Sader (2002).
+    """
     parts = _modal(valve, rho_oil) if valve.dynamics == "modal" else _fe(valve, rho_oil)
     mass, damping, stiffness, load, sealing, tip, wbar, areas, freqs, kinds, scale = parts
     opening = scale * load
@@ -160,9 +207,21 @@ def _fe(valve, rho_oil: float) -> tuple:
 
 
 def coordinates(opening: np.ndarray, dynamics: str = "modal") -> tuple[np.ndarray, np.ndarray]:
-    """(S, T = S^-1): the pump's coordinates z = S q of a modal reed with opening weights e (x = e . q): z_0 = x,
-    then every q_j but the pivot, the j of the largest |e_j| (q_pivot = (x - sum of the others' e_j q_j) /
-    e_pivot); the identity for the FE reed."""
+    """The pump's coordinates z = S q of a modal reed: z_0 = x = e . q, then every q_j but the pivot (the j of the
+    largest |e_j|); the identity for the FE reed.
+
+    Parameters
+    ----------
+    opening : array of float
+        e, the opening's weights (x = e . q) [-].
+    dynamics : str
+        "modal" or "fe".
+
+    Returns
+    -------
+    (S, T) : tuple of array of float
+        S and T = S^-1, (n, n) [-]; q_pivot = (x - sum of the others' e_j q_j) / e_pivot.
+    """
     n = len(opening)
     if dynamics != "modal":
         return np.eye(n), np.eye(n)
@@ -175,10 +234,24 @@ def coordinates(opening: np.ndarray, dynamics: str = "modal") -> tuple[np.ndarra
 
 
 def tail(valve, rho_oil: float) -> np.ndarray:
-    """The packed data of :func:`lumped.valves.reed.reed_accelerations` in the coordinates z = S q
-    (:func:`coordinates`), row-major: [e T = (1, 0, ..) (n) | S g (n) | S q0 (n) | S A T (n^2) | S B T (n^2) |
-    S D (n K) | wbar T (K n)], with g = M^-1 b, A = M^-1 K, B = M^-1 C, D = M^-1 wbar^T diag(areas). The
-    opening weights come first: lumped.solver.layout reads them there."""
+    """The packed data of lumped.valves.reed.reed_accelerations in the coordinates z = S q (:func:`coordinates`),
+    row-major: [e T = (1, 0, ..) (n) | S g (n) | S q0 (n) | S A T (n^2) | S B T (n^2) | S D (n K) | wbar T (K n)].
+
+    g = M^-1 b, A = M^-1 K, B = M^-1 C, D = M^-1 wbar^T diag(areas). The opening weights come first:
+    lumped.solver.layout reads them there.
+
+    Parameters
+    ----------
+    valve : lumped.model.pump.ReedValve
+        A reed valve with ``dynamics`` "modal" or "fe".
+    rho_oil : float
+        Oil density [kg/m^3].
+
+    Returns
+    -------
+    array of float
+        The tail (SI: 1/s^2, 1/s, m^2/kg, m, -).
+    """
     st = structure(valve, rho_oil)
     s, t = coordinates(st.opening, valve.dynamics)
     minv = np.linalg.inv(st.mass)
@@ -188,12 +261,40 @@ def tail(valve, rho_oil: float) -> np.ndarray:
 
 
 def modal_shares(valve, rho_oil: float, z: np.ndarray) -> np.ndarray:
-    """Each mode's share e_i q_i [m] of the opening, from the pump's coordinates z (rows: samples; q = T z)."""
+    """Each mode's share e_i q_i of the opening, from the pump's coordinates z (q = T z).
+
+    Parameters
+    ----------
+    valve : lumped.model.pump.ReedValve
+        A reed valve with ``dynamics`` "modal" or "fe".
+    rho_oil : float
+        Oil density [kg/m^3].
+    z : array of float
+        (samples, n): the reed's coordinates [m].
+
+    Returns
+    -------
+    array of float
+        (samples, n): e_i q_i [m]; each row sums to the opening x.
+    """
     st = structure(valve, rho_oil)
     _, t = coordinates(st.opening, valve.dynamics)
     return (np.asarray(z) @ t.T) * st.opening
 
 
 def n_stations(valve, rho_oil: float) -> int:
-    """Stations of the drag's strips (the basis's or the FE reed's)."""
+    """The number of strips the reed's drag acts on (the basis's or the FE reed's stations).
+
+    Parameters
+    ----------
+    valve : lumped.model.pump.ReedValve
+        A reed valve with ``dynamics`` "modal" or "fe".
+    rho_oil : float
+        Oil density [kg/m^3].
+
+    Returns
+    -------
+    int
+        K.
+    """
     return structure(valve, rho_oil).wbar.shape[0]

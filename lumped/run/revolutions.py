@@ -32,26 +32,23 @@ from lumped.valves.kind import VALVE
 
 
 #: the studies' steady-state tolerance. The test measures the change the *previous* revolution still
-#: made; the revolution map contracts so hard (a revolution's delivery error is at most a tenth of the
-#: one before, or the integrator's noise, and thousands of times smaller in the median, on the
-#: validation cases and random designs of every kind: benchmarks/periodic_solver.py, docs/performance.md)
-#: that when the change is below 1e-3 the last revolution's delivery is within 1e-4 of the cycle's
+#: made; the revolution map contracts so hard (a valve that reseats forgets its past) that a change below
+#: 1e-3 leaves the last revolution's delivery within 1e-4 of the cycle's (measured: docs/models.md,
+#: "Numerical choices")
 STEADY_TOL = 1e-3
 #: the one-revolution test's tolerance as a fraction of the steady-state tolerance. It compares states only
-#: (a first revolution's delivery has no predecessor): a valve's opening at TDC changed by 1e-3 of its gap
-#: moved the delivery by up to ~1e-4 on random designs, hence the margin. On 300 random designs of an
-#: 8,000-design sweep (benchmarks/bench_sweep.py's space) 92 % stopped after one revolution; against a sharp
-#: reference (rtol 1e-5) their deliveries were as close (183 of 300 within 1e-4, 95 % within 2.0e-4) as with
-#: two revolutions (178; 2.2e-4) and as 40 revolutions at the same rtol 1e-3 (182; 2.3e-4): what separates
-#: them from a 40-revolution run is the integrator's error at rtol 1e-3, not the stop (against that run: 12 of
-#: 300 beyond 1e-4, 5 with two revolutions; a fraction of 0.05 stopped 54 % after one and left 8). The
-#: sweeps use it (studies/sweeps/pump.py)
+#: (a first revolution's delivery has no predecessor), and a valve's opening at TDC changed by a fraction of
+#: its gap moves the delivery by about a tenth of that, hence the margin; it stops a warm-started design after
+#: one revolution as accurately as two would (docs/models.md, "Numerical choices"). The sweeps use it
+#: (studies/sweeps/pump.py)
 SINGLE_FRACTION = 0.2
 
 
 @dataclass(frozen=True)
 class StopRule:
-    """Run at least ``revolutions``; with ``max_revolutions`` (> revolutions) continue until the cyclic
+    """When a run of the pump stops: after a number of revolutions, or at the cyclic steady state.
+
+    Run at least ``revolutions``; with ``max_revolutions`` (> revolutions) continue until the cyclic
     steady state (relative change of the delivery and of the state at TDC between the last two
     revolutions below ``tol``, or the integrator's rtol if larger: :func:`cycle_change`) or that many.
 
@@ -295,56 +292,52 @@ def mean_load_pressure(problem, span, physics) -> float:
 
 
 def run(problem, stepper, y: np.ndarray, mode: np.ndarray, rule: StopRule, physics, *, rtol: float,
-        keep: int = 0, progress: bool = False, label: str = "", warm: bool = False) -> Run:
-    """Revolutions from TDC (state ``y``, mode ``mode``) until ``rule`` stops them; the last ``keep``
-    spans are kept for a trace. ``warm``: ``y`` is a solved state (``rule.single`` may then stop the run
-    after one revolution)."""
-    lay, p = problem.layout, problem.p
-    q = lay.quadratures
-    i_in, i_out, i_leak, i_nv = q["m_in"], q["m_out"], q["m_leak"], q["m_nv"]
-    i_load = lay.index(LOAD_STATES[0])
-    period, rho0, load = problem.period, problem.rho0, problem.load_pressure
+        **options) -> Run:
+    """Revolutions from TDC until ``rule`` stops them.
+
+    Parameters
+    ----------
+    problem : lumped.solver.problem.PumpProblem
+        The packed pump.
+    stepper : lumped.solver.steppers.Stepper
+        What advances it a revolution at a time.
+    y, mode : numpy.ndarray
+        The state and mode at TDC to start from.
+    rule : StopRule
+        When to stop.
+    physics
+        The driver's pump functions (lumped.run.simulate._Physics: load pressure and mass).
+    rtol : float
+        The integrator's relative tolerance (the steady-state test's floor).
+    **options
+        ``keep`` (how many of the last spans to keep, for a trace; 0), ``progress`` (a bar on stderr),
+        ``label`` (its text), ``warm`` (``y`` is a solved state: ``rule.single`` may then stop the run after
+        one revolution).
+
+    Returns
+    -------
+    Run
+    """
+    keep = options.get("keep", 0)
     out = Run()
     tdc_states = [y.copy()]
-    tuned_at = None if problem.tune_needle else 0
     # the needle valve's tuning (complete circuit) needs revolutions of its own: no single revolution there
-    single = rule.single and warm and not problem.complete
-    bar = _progress_bar(progress, rule.limit, label)
+    single = rule.single and options.get("warm", False) and not problem.complete
+    tuning = _NeedleTuning(problem, physics, None if problem.tune_needle else 0)
+    bar = _progress_bar(options.get("progress", False), rule.limit, options.get("label", ""))
     k = 0
     while k < rule.limit:
         y_start = y.copy()
-        span = stepper.advance(k * period, (k + 1) * period, y, mode)
+        span = stepper.advance(k * problem.period, (k + 1) * problem.period, y, mode)
         y, mode = span.y_end.copy(), span.mode_end.copy()
         out.n_rhs += span.n_rhs
         out.n_steps += span.n_steps
         out.n_events += span.n_events
-        d_in, d_out, d_leak = y[i_in] - y_start[i_in], y[i_out] - y_start[i_out], y[i_leak] - y_start[i_leak]
-        d_cyl = y[S_MCYL] - y_start[S_MCYL]
-        mass_err = abs(d_cyl - (d_in - d_out - d_leak)) / max(abs(d_in), abs(d_out), 1e-300)
-        pl_mean = mean_load_pressure(problem, span, physics)
-        if tuned_at is None:
-            # start-up procedure, like the experimenter's needle-valve setting (section 5.5.2):
-            # match the needle flow to the delivery at the requested mean pressure and move
-            # the load-side mass to it; the cylinder and its mass balance are not touched
-            d_nv = y[i_nv] - y_start[i_nv]
-            a_old = p[G.needle_cda]
-            a_new = a_old * (d_out / d_nv) * math.sqrt((pl_mean - p[G.tank_pressure]) / (load - p[G.tank_pressure]))
-            if abs(a_new / a_old - 1.0) < 2e-4 and abs(pl_mean / load - 1.0) < 2e-4:
-                tuned_at = k + 1                                  # needle valve frozen from here on
-            else:
-                p[G.needle_cda] = a_new
-                y[i_load] += physics.load_mass(load, p)[0] - physics.load_mass(pl_mean, p)[0]
-        out.revolutions.append(Revolution(k, span, y_start, d_out / rho0, mass_err, pl_mean, d_leak / rho0))
+        rev = _revolution(problem, k, span, y_start, y, mean_load_pressure(problem, span, physics))
+        tuning.update(k, rev, y_start, y)
+        out.revolutions.append(rev)
         tdc_states.append(y.copy())
-        if k >= 1:
-            out.change = cycle_change(problem, out.deliveries, tdc_states)
-            settled = tuned_at is not None and k + 1 - tuned_at >= 2
-            out.tol = rule.tolerance(rtol)
-            out.steady = out.change < out.tol and (not problem.complete or settled)
-        elif single:
-            out.change = first_change(problem, tdc_states[0], y, d_out)
-            out.tol = SINGLE_FRACTION * rule.tolerance(rtol)
-            out.steady = out.change < out.tol
+        _steady_test(out, problem, rule, rtol, tdc_states, k, single, tuning.settled(k))
         if keep:
             out.kept = (out.kept + [span])[-keep:]
         k += 1
@@ -357,6 +350,63 @@ def run(problem, stepper, y: np.ndarray, mode: np.ndarray, rule: StopRule, physi
         bar.close()
     out.y_end, out.mode_end = y, mode
     return out
+
+
+def _revolution(problem, k: int, span, y_start: np.ndarray, y: np.ndarray, pl_mean: float) -> Revolution:
+    """The :class:`Revolution` k from its span and its start and end states: delivery and leakage at atmospheric
+    density (eq 4.17), the mass balance of the running totals."""
+    q = problem.layout.quadratures
+    i_in, i_out, i_leak = q["m_in"], q["m_out"], q["m_leak"]
+    d_in, d_out, d_leak = y[i_in] - y_start[i_in], y[i_out] - y_start[i_out], y[i_leak] - y_start[i_leak]
+    d_cyl = y[S_MCYL] - y_start[S_MCYL]
+    mass_err = abs(d_cyl - (d_in - d_out - d_leak)) / max(abs(d_in), abs(d_out), 1e-300)
+    return Revolution(k, span, y_start, d_out / problem.rho0, mass_err, pl_mean, d_leak / problem.rho0)
+
+
+class _NeedleTuning:
+    """The complete circuit's start-up procedure, like the experimenter's needle-valve setting (section 5.5.2):
+    after each revolution the needle flow is matched to the delivery at the requested mean pressure and the
+    load-side mass moved to it (the cylinder and its mass balance untouched), until both hold to 2e-4; the
+    needle valve is frozen from then on (``tuned_at``: the revolution count then; 0: nothing to tune)."""
+
+    def __init__(self, problem, physics, tuned_at: int | None):
+        self.problem, self.physics, self.tuned_at = problem, physics, tuned_at
+
+    def update(self, k: int, rev: Revolution, y_start: np.ndarray, y: np.ndarray) -> None:
+        if self.tuned_at is not None:
+            return
+        problem, p = self.problem, self.problem.p
+        q = problem.layout.quadratures
+        i_out, i_nv, i_load = q["m_out"], q["m_nv"], problem.layout.index(LOAD_STATES[0])
+        load, pl_mean = problem.load_pressure, rev.mean_load_pressure
+        d_out, d_nv = y[i_out] - y_start[i_out], y[i_nv] - y_start[i_nv]
+        a_old = p[G.needle_cda]
+        a_new = a_old * (d_out / d_nv) * math.sqrt((pl_mean - p[G.tank_pressure]) / (load - p[G.tank_pressure]))
+        if abs(a_new / a_old - 1.0) < 2e-4 and abs(pl_mean / load - 1.0) < 2e-4:
+            self.tuned_at = k + 1                                  # needle valve frozen from here on
+        else:
+            p[G.needle_cda] = a_new
+            y[i_load] += self.physics.load_mass(load, p)[0] - self.physics.load_mass(pl_mean, p)[0]
+
+    def settled(self, k: int) -> bool:
+        """Two revolutions run with the needle valve frozen (after revolution k)."""
+        return self.tuned_at is not None and k + 1 - self.tuned_at >= 2
+
+
+def _steady_test(out: Run, problem, rule: StopRule, rtol: float, tdc_states: list, k: int, single: bool,
+                 settled: bool) -> None:
+    """After revolution k: the cyclic steady-state test (:func:`cycle_change` from the second revolution on,
+    :func:`first_change` after a single warm one) into ``out.change``, ``out.tol``, ``out.steady``."""
+    if k >= 1:
+        out.change = cycle_change(problem, out.deliveries, tdc_states)
+        out.tol = rule.tolerance(rtol)
+        out.steady = out.change < out.tol and (not problem.complete or settled)
+    elif single:
+        i_out = problem.layout.quadratures["m_out"]
+        delivered = tdc_states[-1][i_out] - tdc_states[-2][i_out]          # the mass delivered [kg]
+        out.change = first_change(problem, tdc_states[0], tdc_states[-1], delivered)
+        out.tol = SINGLE_FRACTION * rule.tolerance(rtol)
+        out.steady = out.change < out.tol
 
 
 def tdc_state(problem, done: Run, load_mass, stepper=None) -> TdcState:

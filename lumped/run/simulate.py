@@ -17,7 +17,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from geometry.declare import Spec, check_field, check_value
+from geometry.declare import check_field, check_value
 from geometry.errors import InputError, ModelFailure
 from lumped.run import postprocess as post
 from lumped import validity
@@ -26,16 +26,17 @@ from lumped.solver.layout import CAVITATION_SLOT, N_MODE, POSITIONS, G
 from lumped.model.pump_model import Operating, PumpModel
 from lumped.model.model_file import load_model
 from lumped.solver.problem import PumpProblem
-from lumped.run.revolutions import StopRule, TdcState, run, tdc_state
-from lumped.solver.steppers import DEFAULT_TOLERANCES, METHODS as STEPPERS, family
+from lumped.run.options import (  # noqa: F401 - SolverOptions, TraceOptions: simulate's options objects
+    MAX_REVOLUTIONS, METHODS, Overrides, RunOptions, SolverOptions, TraceOptions,
+)
+from lumped.run.revolutions import StopRule, TdcState, run, tdc_state  # noqa: F401 - TdcState: simulate's type
+from lumped.solver.steppers import DEFAULT_TOLERANCES, METHODS as STEPPERS  # noqa: F401 - the tolerances: API
 from lumped.run.trace import Trace
 from lumped.valves.kind import kind_of
 
-METHODS = tuple(STEPPERS)
 #: a result's own invariants (checked unless simulate(..., check=False))
 MASS_BALANCE_LIMIT = 1e-6
 DELIVERY_LIMITS = (-0.01, 1.01)      # x the swept volume (times rho(P_tank)/rho_0: a supercharged inlet)
-MAX_REVOLUTIONS = 100_000
 
 
 class InvariantError(ModelFailure):
@@ -197,88 +198,70 @@ _SPEED = Operating.__dataclass_fields__["speed_rpm"].metadata["valvelab"]
 _LOAD = Operating.__dataclass_fields__["load_pressure"].metadata["valvelab"]
 
 
-def _int(name: str, v, lo: int, hi: int) -> int:
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
-        raise InputError(name, f"expected an integer from {lo} to {hi}, got {v!r}")
-    return int(v)
-
-
-def _tol(name: str, v) -> float:
-    return check_value(v, Spec(None, "-", "", bounds=(1e-14, 0.1), positive=True), name)
-
-
-def _check(speed_rpm, load_pressure, revolutions, max_revolutions, circuit, method, trace_revolutions,
-           trace_points, steady_tol, contact_atol):
+def _model_for_run(model, speed_rpm, load_pressure, overrides: Overrides, solver: SolverOptions):
+    """(model, speed [rpm], load [Pa]): the model loaded with the run's overrides, the operating point checked
+    (the model's ``[operating]`` where None); InputError naming a bad one, before anything is compiled."""
+    m = load_model(model, field="model")
+    if overrides.air_content is not None:
+        check_field(m.oil, "air_content", overrides.air_content, "air_content")
+        m = replace(m, oil=replace(m.oil, air_content=float(overrides.air_content)))
+    speed_rpm = m.operating.speed_rpm if speed_rpm is None else speed_rpm
+    load_pressure = m.operating.load_pressure if load_pressure is None else load_pressure
+    if speed_rpm is None:
+        raise InputError("speed_rpm", f"missing: the model {m.name!r} has no [operating] speed_rpm")
+    if load_pressure is None:
+        raise InputError("load_pressure", f"missing: the model {m.name!r} has no [operating] load_pressure")
     speed = check_value(speed_rpm, _SPEED, "speed_rpm")
     load = check_value(load_pressure, _LOAD, "load_pressure")
-    revs = _int("revolutions", revolutions, 2, MAX_REVOLUTIONS)
-    if max_revolutions is not None:
-        _int("max_revolutions", max_revolutions, revs, MAX_REVOLUTIONS)
-    if circuit not in (None, "simplified", "complete"):
-        raise InputError("circuit", f"expected simplified or complete, got {circuit!r}")
-    if method not in METHODS:
-        raise InputError("method", f"expected one of {', '.join(METHODS)}, got {method!r}")
-    _int("trace_revolutions", trace_revolutions, 1, revs)
-    _int("trace_points", trace_points, 16, 1_000_000)
-    _tol("steady_tol", steady_tol)
-    if contact_atol is not None:
-        check_value(contact_atol, Spec(None, "-", "", bounds=(1e-6, 1e6), positive=True), "contact_atol")
-    return speed, load, revs
+    if load < m.pump.tank_pressure:      # absolute pressures: the pump would be fed from above its outlet
+        raise InputError("load_pressure", f"{load:g} Pa is below the tank pressure {m.pump.tank_pressure:g} Pa "
+                                          "(absolute): a pump delivers into a load above its inlet")
+    if overrides.needle_area is not None:
+        check_field(m.circuit, "needle_area", overrides.needle_area, "needle_area")
+    for pos in POSITIONS:
+        if solver.family == "fast" and getattr(m.valve(pos), "dynamics", None) == "fe":
+            raise InputError(f"valves.{pos}.dynamics", "the whole FE reed runs on the reference stepper only: "
+                             "give method='reference' (--method reference), or dynamics = \"modal\" for the fast one")
+    return m, speed, load
 
 
 # --------------------------------------------------------------------------- the driver
 def simulate(model="thesis-disc", speed_rpm: float | None = None, load_pressure: float | None = None, *,
-             method: str = "fast", revolutions: int = 5, max_revolutions: int | None = None,
-             circuit: str | None = None, rtol: float | None = None, atol: float | None = None,
-             trace: bool = False, progress: bool = False, steady_tol: float = 1e-4, trace_revolutions: int = 1,
-             trace_points: int = 2000, contact_atol: float | None = None, air_content: float | None = None,
-             needle_area: float | None = None, check: bool = True, max_steps: int | None = None,
-             stop: StopRule | None = None, initial_state: TdcState | None = None) -> PumpResult:
+             method: str = "fast", trace: bool | TraceOptions = False, stop: StopRule | None = None,
+             **options) -> PumpResult:
     """Simulate the pump of ``model`` at ``speed_rpm`` [rpm] and ``load_pressure`` [Pa, absolute].
 
     Parameters
     ----------
     model : str or PumpModel
-        A shipped model (``thesis-disc``, ``thesis-reed``; ``disc``/``reed`` for short), a
-        model file, or a :class:`~lumped.model.pump_model.PumpModel`.
+        A shipped model (``thesis-disc``, ``thesis-reed``; ``disc``/``reed`` for short), a model file, or a
+        :class:`~lumped.model.pump_model.PumpModel`.
     speed_rpm, load_pressure : float
         Operating point [rpm], [Pa]; None: the model's ``[operating]`` values.
     method : str
-        ``fast`` (compiled Rodas4P; Rodas5P with a flow force at rtol <= 1e-4; default) or ``reference`` (scipy Radau; ``BDF``/``LSODA``
-        also accepted).
-    revolutions, max_revolutions : int
-        Revolutions from TDC; with ``max_revolutions``, continue until cyclic steady state
-        (relative change of delivery and TDC state below ``steady_tol``, or the
-        integrator's rtol if larger) or that many.
+        ``fast`` (compiled Rodas4P; Rodas5P with a flow force at rtol <= 1e-4; default) or ``reference``
+        (scipy Radau; ``BDF``/``LSODA`` also accepted).
+    trace : bool or TraceOptions
+        Keep the last revolutions sampled (PumpResult.trace).
     stop : StopRule
-        Instead of ``revolutions``, ``max_revolutions`` and ``steady_tol``:
-        ``StopRule.steady(tol)`` runs until the steady-state test passes (two revolutions at
-        least), as the studies do.
-    initial_state : TdcState
-        Start from this state at TDC (``PumpResult.tdc_state`` of a solved run, of this pump
-        or of a close design of the same layout and valve kinds; a warm start) instead of
-        today's start (valves seated, the cylinder full at the load pressure). A state of
-        another layout is not used (``PumpResult.start`` says which start was taken).
-    rtol, atol : float
-        Integrator tolerances, atol in units of each state's scale (stop gap, 1 m/s, mass per
-        revolution); None: DEFAULT_TOLERANCES of the method.
-    trace, trace_revolutions, trace_points
-        Keep the last revolutions sampled at ``trace_points`` per revolution (PumpResult.trace).
-    contact_atol : float
-        Fast path: velocity tolerance of a valve on its seat or stop, in units of atol x 1 m/s
-        (default: each kind's own).
-    air_content, circuit, needle_area
-        Overrides of the model's oil.air_content, circuit kind and needle valve area.
-    check : bool
-        Raise :class:`InvariantError` if the result breaks its invariants (mass balance worse
-        than 1e-6, delivery outside (-0.01, 1.01) swept volumes, NaN).
-    max_steps : int
-        Integrator steps allowed per revolution before giving up (RuntimeError); None: the
-        stepper's default (fast 2,000,000, reference 500,000).
+        When to stop, instead of ``revolutions``, ``max_revolutions``, ``steady_tol``
+        (``StopRule.steady(tol)``: until cyclic steady state, as the studies do).
+    **options
+        The keywords of :class:`~lumped.run.options.RunOptions` (CONTRACT.md): ``revolutions`` (5),
+        ``max_revolutions``, ``steady_tol`` (1e-4); ``rtol``, ``atol`` (atol in units of each state's scale),
+        ``contact_atol``, ``max_steps`` or ``solver=SolverOptions(...)``; ``trace_revolutions`` (1),
+        ``trace_points`` (2000); ``initial_state`` (a ``PumpResult.tdc_state``: a warm start); ``air_content``,
+        ``circuit``, ``needle_area`` (overrides of the model's); ``progress``; ``check`` (True: raise
+        :class:`InvariantError` for a result breaking its invariants).
 
     Returns
     -------
     PumpResult
+
+    Raises
+    ------
+    geometry.errors.InputError
+        A bad argument, named, before anything is compiled or integrated.
 
     References
     ----------
@@ -290,46 +273,39 @@ def simulate(model="thesis-disc", speed_rpm: float | None = None, load_pressure:
     >>> print(f"{r.delivery_per_rev * 1e6:.2f} cc/rev")    # Table 5.4, baseline: the thesis's model 1.731
     1.73 cc/rev
     """
-    m = load_model(model, field="model")
-    if air_content is not None:
-        check_field(m.oil, "air_content", air_content, "air_content")
-        m = replace(m, oil=replace(m.oil, air_content=float(air_content)))
-    speed_rpm = m.operating.speed_rpm if speed_rpm is None else speed_rpm
-    load_pressure = m.operating.load_pressure if load_pressure is None else load_pressure
-    if speed_rpm is None:
-        raise InputError("speed_rpm", f"missing: the model {m.name!r} has no [operating] speed_rpm")
-    if load_pressure is None:
-        raise InputError("load_pressure", f"missing: the model {m.name!r} has no [operating] load_pressure")
-    if stop is not None:
-        if not isinstance(stop, StopRule):
-            raise InputError("stop", f"expected a lumped.run.revolutions.StopRule, got {type(stop).__name__}")
-        revolutions, max_revolutions, steady_tol = stop.revolutions, stop.max_revolutions, stop.tol
-    if initial_state is not None and not isinstance(initial_state, TdcState):
-        raise InputError("initial_state", f"expected a lumped.run.revolutions.TdcState (PumpResult.tdc_state), "
-                                          f"got {type(initial_state).__name__}")
-    speed, load, revs = _check(speed_rpm, load_pressure, revolutions, max_revolutions, circuit, method,
-                               trace_revolutions, trace_points, steady_tol, contact_atol)
-    if load < m.pump.tank_pressure:      # absolute pressures: the pump would be fed from above its outlet
-        raise InputError("load_pressure", f"{load:g} Pa is below the tank pressure {m.pump.tank_pressure:g} Pa "
-                                          "(absolute): a pump delivers into a load above its inlet")
-    kind = family(method)
-    r_def, a_def = DEFAULT_TOLERANCES[kind]
-    rtol = r_def if rtol is None else _tol("rtol", rtol)
-    atol = a_def if atol is None else _tol("atol", atol)
-    if needle_area is not None:
-        check_field(m.circuit, "needle_area", needle_area, "needle_area")
-    if max_steps is not None:
-        _int("max_steps", max_steps, 10, 100_000_000)
-    for pos in POSITIONS:                 # before compiling: bad input costs nothing
-        if kind == "fast" and getattr(m.valve(pos), "dynamics", None) == "fe":
-            raise InputError(f"valves.{pos}.dynamics", "the whole FE reed runs on the reference stepper only: "
-                             "give method='reference' (--method reference), or dynamics = \"modal\" for the fast one")
+    opts = RunOptions.from_keywords(method, trace, stop, options)
+    m, speed, load = _model_for_run(model, speed_rpm, load_pressure, opts.overrides, opts.solver)
+    return _run(m, speed, load, opts)
+
+
+def _run(m: PumpModel, speed: float, load: float, opts: RunOptions) -> PumpResult:
+    """Integrate a checked run (:func:`simulate`) and post-process its last revolution."""
+    rtol, atol = opts.solver.tolerances()
+    kind = opts.solver.family
     if kind == "fast":
         ensure_compiled()                 # compiling (or loading numba's cache) is never counted
     cpu0 = _time.process_time()
-    problem = PumpProblem.build(m, speed, load, circuit, needle_area)
-    stepper = STEPPERS[method](problem, rtol, atol, contact_atol=contact_atol, record=True, max_steps=max_steps)
+    problem = PumpProblem.build(m, speed, load, opts.overrides.circuit, opts.overrides.needle_area)
+    stepper = STEPPERS[opts.solver.method](problem, rtol, atol, contact_atol=opts.solver.contact_atol, record=True,
+                                           max_steps=opts.solver.max_steps)
     physics = _physics(kind + ("1" if kind == "fast" and problem.layout.one_dof else ""))
+    warm, y, mode = _start(problem, stepper, physics, opts.initial_state)
+    done = run(problem, stepper, y, mode, opts.stop, physics, rtol=rtol,
+               keep=opts.trace.revolutions if opts.trace else 0, progress=opts.progress,
+               label=f"{m.name} {speed:.0f} rpm ({kind})", warm=warm)
+    cpu = _time.process_time() - cpu0
+    info = _RunInfo(opts.solver.method, rtol, atol, cpu, opts.trace.points if opts.trace else 0,
+                    "warm" if warm else "cold", done.tol if done.tol else opts.stop.tolerance(rtol),
+                    tdc_state(problem, done, physics.load_mass, stepper))
+    res = _result(m, problem, done, physics, info)
+    if opts.check:
+        check_invariants(res, problem.model)
+    return res
+
+
+def _start(problem: PumpProblem, stepper, physics, initial_state) -> tuple[bool, np.ndarray, np.ndarray]:
+    """(warm, state, mode) a run starts from: ``initial_state`` where it fits the problem (its step-size memory
+    handed to the stepper), else today's start (valves seated, the cylinder full at the load pressure)."""
     warm = initial_state is not None and initial_state.fits(problem)
     if warm:
         y, mode = initial_state.start(problem, physics.load_mass)
@@ -337,53 +313,50 @@ def simulate(model="thesis-disc", speed_rpm: float | None = None, load_pressure:
             problem.p[G.needle_cda] = initial_state.needle_cda   # the tuning starts from the solved design's
         if hasattr(stepper, "restore"):
             stepper.restore(initial_state.memory)
-    else:
-        y = problem.initial_state(physics.load_mass)
-        mode = np.zeros(N_MODE)
-        sw.initial_mode(0.0, y, problem.p, mode)
-    rule = StopRule(revs, max_revolutions, steady_tol, stop.single if stop is not None else False)
-    done = run(problem, stepper, y, mode, rule, physics, rtol=rtol, keep=trace_revolutions if trace else 0,
-               progress=progress, label=f"{m.name} {speed:.0f} rpm ({kind})", warm=warm)
-    cpu = _time.process_time() - cpu0
-    res = _result(m, problem, done, physics, method, rtol, atol, cpu, trace_points if trace else 0,
-                  start="warm" if warm else "cold", steady_tol=done.tol if done.tol else rule.tolerance(rtol),
-                  tdc=tdc_state(problem, done, physics.load_mass, stepper))
-    if check:
-        check_invariants(res, problem.model)
-    return res
+        return True, y, mode
+    y = problem.initial_state(physics.load_mass)
+    mode = np.zeros(N_MODE)
+    sw.initial_mode(0.0, y, problem.p, mode)
+    return False, y, mode
 
 
-def _result(m: PumpModel, problem: PumpProblem, done, physics, method: str, rtol: float, atol: float,
-            cpu: float, trace_points: int, start: str = "cold", steady_tol: float = math.nan,
-            tdc=None) -> "PumpResult":
+@dataclass(frozen=True)
+class _RunInfo:
+    """How a finished run was made, for its :class:`PumpResult`: the method, tolerances, CPU seconds, trace
+    samples per revolution (0: none), the start ("cold"/"warm"), the steady-state tolerance tested, the
+    :class:`~lumped.run.revolutions.TdcState` it ended with."""
+
+    method: str
+    rtol: float
+    atol: float
+    cpu: float
+    trace_points: int
+    start: str
+    steady_tol: float
+    tdc: object
+
+
+def _result(m: PumpModel, problem: PumpProblem, done, physics, info: _RunInfo) -> "PumpResult":
     """The :class:`PumpResult` of a finished run: the last revolution post-processed."""
     last = done.last
     span = last.span
-    openings, closings, stops = post.valve_timing(span, problem, last.y_start)
-    impacts = post.impacts(span, problem)
+    resolved = problem.model
     rt, modes = post.rates(span, problem, physics)
     losses = post.losses(rt, problem, problem.period / post.ENERGY_SAMPLES)
     cav = float(np.mean(modes[:, CAVITATION_SLOT] > 0.5)) * 2.0 * math.pi
-    resolved = problem.model
+    valves = _valve_results(problem, span, last, losses)
     runs = post.valve_runs(span, problem, rt, losses, [kind_of(resolved.valve(pos)).name for pos in POSITIONS])
     vapour = float(np.max(rt[:, post.COL["vapour_volume"]] / rt[:, post.COL["volume"]]))
     warns = [w for pos in POSITIONS for w in validity.valve_warnings(resolved.valve(pos), runs[pos], resolved.oil)]
-    warns += validity.pump_warnings(runs, last.delivery, rtol, cav, vapour)
-    valves = {}
-    for v, pos in enumerate(POSITIONS):
-        valves[pos] = ValveResult(
-            kind=kind_of(resolved.valve(pos)).name, peak_opening=float(span.peaks[v]),
-            opening_angle=openings[v], closing_angle=closings[v], stop_contacts=stops[v],
-            seat_impact_velocity=impacts[v][0], stop_impact_velocity=impacts[v][1], energy_loss=losses[v])
-    tr = post.trace(done.kept, problem, trace_points, physics) if trace_points else None
+    warns += validity.pump_warnings(runs, last.delivery, info.rtol, cav, vapour)
+    tr = post.trace(done.kept, problem, info.trace_points, physics) if info.trace_points else None
     p_cyl = rt[:, post.COL["p_cyl"]]
-    from lumped.solver.layout import G
-
+    method = info.method
     return PumpResult(
         model=m.name, valve=resolved.label, circuit=problem.circuit, speed_rpm=problem.speed_rpm,
         load_pressure=problem.load_pressure, air_content=resolved.oil.air_content, delivery_per_rev=last.delivery,
         swept_volume=resolved.pump.displacement, deliveries=done.deliveries, revolutions=len(done.revolutions),
-        cyclic_steady=bool(done.steady), cycle_change=float(done.change), cpu_seconds=cpu,
+        cyclic_steady=bool(done.steady), cycle_change=float(done.change), cpu_seconds=info.cpu,
         simulated_seconds=len(done.revolutions) * problem.period, mass_balance_error=post.mass_balance(problem, last),
         inlet=valves["inlet"], delivery=valves["delivery"], mean_load_pressure=float(last.mean_load_pressure),
         leakage_per_rev=float(last.leakage),
@@ -391,8 +364,21 @@ def _result(m: PumpModel, problem: PumpProblem, done, physics, method: str, rtol
         min_cylinder_pressure=float(p_cyl.min()), max_cylinder_pressure=float(p_cyl.max()),
         cavitation_angle=cav, rhs_evaluations=int(done.n_rhs), steps=int(done.n_steps), events=int(done.n_events),
         method="fast" if method == "fast" else ("reference" if method == "reference" else method),
-        rtol=rtol, atol=atol, trace=tr, dynamics=_dynamics(resolved), warnings=tuple(warns), start=start,
-        steady_tol=steady_tol, tdc_state=tdc)
+        rtol=info.rtol, atol=info.atol, trace=tr, dynamics=_dynamics(resolved), warnings=tuple(warns),
+        start=info.start, steady_tol=info.steady_tol, tdc_state=info.tdc)
+
+
+def _valve_results(problem: PumpProblem, span, last, losses) -> dict:
+    """{position: :class:`ValveResult`} of the last revolution: timing, peak, stop contacts, impacts, losses."""
+    openings, closings, stops = post.valve_timing(span, problem, last.y_start)
+    impacts = post.impacts(span, problem)
+    out = {}
+    for v, pos in enumerate(POSITIONS):
+        out[pos] = ValveResult(
+            kind=kind_of(problem.model.valve(pos)).name, peak_opening=float(span.peaks[v]),
+            opening_angle=openings[v], closing_angle=closings[v], stop_contacts=stops[v],
+            seat_impact_velocity=impacts[v][0], stop_impact_velocity=impacts[v][1], energy_loss=losses[v])
+    return out
 
 
 def _dynamics(model) -> dict:

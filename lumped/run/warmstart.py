@@ -115,8 +115,10 @@ def _normalized(state) -> np.ndarray:
 
 
 def chain_order(features, groups=None) -> list[int]:
-    """An order of the points (rows of ``features``) in which each follows a near one: within each group
-    (in order of first appearance), a greedy nearest-neighbour chain from the group's first point.
+    """An order of the points in which each follows a near one (a chain of warm starts).
+
+    Within each group (in order of first appearance) of the points (rows of ``features``), a greedy
+    nearest-neighbour chain from the group's first point.
 
     Examples
     --------

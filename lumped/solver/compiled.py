@@ -1,8 +1,8 @@
 """The reference physics, compiled: numba copies of the very functions the reference path runs.
 
-``_jit_physics`` compiles every function of :data:`physics_modules` (oil, orifice,
-valve kinds, pump kinematics, layout, right-hand side, switching, Jacobian) with ``numba.njit``: each function's own code
-object, its module globals re-pointed at the compiled siblings. Nothing is written
+``_jit_physics`` compiles every function of :data:`physics_modules` (oil, orifice, the valves' shared data and
+force terms, valve kinds, pump kinematics, layout, right-hand side, switching, Jacobian) with ``numba.njit``: each
+function's own code object, its module globals re-pointed at the compiled siblings. Nothing is written
 twice; the fast stepper (``lumped.solver.steppers.RodasStepper``) integrates these.
 
 The copies use numba's ``error_model="numpy"`` (no zero test before each float
@@ -27,7 +27,8 @@ def physics_modules() -> tuple[str, ...]:
     """Modules whose functions are the physics, in dependency order (valve kinds from the registry)."""
     kinds = tuple(sorted({f.__module__ for k in KINDS.values() for f in (k.acceleration, k.accelerations)
                           if f is not None}))
-    return ("lumped.fluid.oil", "lumped.fluid.orifice", "lumped.valves.kind", *kinds, "lumped.model.pump", "lumped.solver.layout", "lumped.solver.rhs",
+    return ("lumped.fluid.oil", "lumped.fluid.orifice", "lumped.valves.common", "lumped.valves.forces",
+            "lumped.valves.kind", *kinds, "lumped.model.pump", "lumped.solver.layout", "lumped.solver.rhs",
             "lumped.solver.switching", "lumped.solver.jacobian")
 
 
@@ -38,8 +39,8 @@ def _jit_physics(one_dof: bool) -> dict[str, types.ModuleType]:
     called is ever compiled) with its globals copied and every reference to a physics
     function or module replaced by its compiled counterpart. ``one_dof``: the flavour for pumps
     whose valves have one DOF each, with ``lumped.solver.layout.ONE_DOF_ONLY`` True in every module that
-    reads it, so that numba folds the several-DOF paths away (their loops and calls cost about 15 %
-    of the fast path's time when merely present, measured).
+    reads it, so that numba folds the several-DOF paths away: merely present, their loops and calls cost
+    the hot path time (docs/models.md, "Numerical choices").
     """
     mods = {name: importlib.import_module(name) for name in physics_modules()}
     # the symbol numba gives a function is its qualified name and a per-process counter: the flavour and
@@ -134,7 +135,7 @@ def source_digest(*extra: str) -> str:
 
 def _digest(extra: tuple) -> str:
     h = hashlib.sha256()
-    for name in (*physics_modules(), "lumped.solver.rodas", __name__, *extra):
+    for name in (*physics_modules(), "lumped.solver.rosenbrock", "lumped.solver.rodas", __name__, *extra):
         h.update(inspect.getsource(importlib.import_module(name)).encode())
     h.update(numba.__version__.encode())
     return h.hexdigest()[:12]

@@ -3,7 +3,7 @@
 df/dy by the chain rule through the pump equations (``lumped.solver.rhs.evaluate``):
 rho_cyl = m_cyl / V(t) (eq 4.6), P_cyl from eq 4.11 with dP/dm = 1 / (V drho/dP) (0 while
 cavitating), the valve mass flows of eqs 4.3-4.4 and their partials from
-:func:`lumped.valves.kind.mass_flow` (the same function ``evaluate`` takes the flows from:
+:func:`lumped.valves.forces.mass_flow` (the same function ``evaluate`` takes the flows from:
 the mass-balance partials are written once) through each valve's opening x and rate u
 (linear in its states: lumped.solver.layout.opening_weight), the piston leakage and needle valve
 from ``lumped.solver.rhs``'s own (value, derivative) functions, and the load line's dP/dm. A
@@ -22,6 +22,8 @@ and both circuits.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from lumped.solver.layout import (
@@ -39,37 +41,132 @@ from lumped.valves.kind import (
 SQRT_EPS = 1.4901161193847656e-08
 
 
-def _accel(x: float, u: float, dp: float, p_down: float, rho: float, ddp_dt: float, p, o: int, contact: int,
-           regime: int, recompute: bool, qo: float, cd: float, aq: float, dqp: float, dqx: float) -> float:
-    """A one-DOF valve's acceleration at perturbed inputs; its flow recomputed if the kind reads it."""
-    if recompute:
-        qo, cd, aq, dqp, dqx = valve_flow(x, u, dp, rho, p[G.viscosity], p, o, contact)
-    f = ValveInputs(dp, p_down, p[G.vapour_pressure], rho, p[G.viscosity], qo, cd, aq, dqp, dqx, ddp_dt)
-    return valve_acceleration(x, u, f, p, o, contact, regime)
+class Cylinder(NamedTuple):
+    """The cylinder at (t, y): volume V [m^3] and dV/dt [m^3/s], oil mass m [kg], pressure P [Pa], dP/dm
+    [Pa/kg] (0 while cavitating), density m / V [kg/m^3], cavitation state."""
+
+    vol: float
+    dvol: float
+    m: float
+    pc: float
+    pc_m: float
+    rho_c: float
+    cav: int
 
 
-def _accels(y, x: float, u: float, dp: float, p_down: float, rho: float, ddp_dt: float, p, o: int, contact: int,
-            regime: int, recompute: bool, flow, out) -> None:
-    """A several-DOF valve's accelerations at perturbed inputs (states y) into out at its rates' slots."""
+class Load(NamedTuple):
+    """The load side: its oil mass [kg] (complete circuit; else 0), pressure [Pa] and dP/dm [Pa/kg]."""
+
+    ml: float
+    pl: float
+    pl_ml: float
+
+
+class Increments(NamedTuple):
+    """The differencing: atol (array) and rtol of the integrator the increments scale with, the increments of
+    m_cyl and m_load [kg], and whether the load line is a state (complete circuit)."""
+
+    atol: np.ndarray
+    rtol: float
+    hm: float
+    hml: float
+    complete: bool
+
+
+class Scratch(NamedTuple):
+    """Scratch arrays the length of the state: a perturbed state, a several-DOF valve's accelerations twice."""
+
+    y: np.ndarray
+    a0: np.ndarray
+    a1: np.ndarray
+
+
+class Side(NamedTuple):
+    """One valve as its rows see it: block offset ``o`` and number ``v``; its pressure difference dp, downstream
+    pressure pd and orifice density rho [SI], each with its partials by m_cyl (``_m``) and m_load (``_l``);
+    d(dp)/dt [Pa/s]."""
+
+    o: int
+    v: int
+    dp: float
+    dp_m: float
+    dp_l: float
+    pd: float
+    pd_m: float
+    pd_l: float
+    rho: float
+    r_m: float
+    r_l: float
+    ddt: float
+
+
+class At(NamedTuple):
+    """The pressures and density a valve's acceleration is evaluated at (perturbed or not)."""
+
+    dp: float
+    pd: float
+    rho: float
+    ddt: float
+
+
+class ValveMode(NamedTuple):
+    """A valve's block offset, contact state, pressure regime, and whether its flow is recomputed at the
+    perturbed inputs (a kind whose acceleration reads the flow)."""
+
+    o: int
+    contact: int
+    regime: int
+    recompute: bool
+
+
+def _at(s: Side) -> At:
+    """The valve's unperturbed inputs."""
+    return At(s.dp, s.pd, s.rho, s.ddt)
+
+
+def _at_m(s: Side, h: float) -> At:
+    """Its inputs with m_cyl moved by h [kg]."""
+    return At(s.dp + s.dp_m * h, s.pd + s.pd_m * h, s.rho + s.r_m * h, s.ddt)
+
+
+def _at_l(s: Side, h: float) -> At:
+    """Its inputs with m_load moved by h [kg]."""
+    return At(s.dp + s.dp_l * h, s.pd + s.pd_l * h, s.rho + s.r_l * h, s.ddt)
+
+
+def _inputs(at: At, p, flow) -> ValveInputs:
     qo, cd, aq, dqp, dqx = flow
-    if recompute:
-        qo, cd, aq, dqp, dqx = valve_flow(x, u, dp, rho, p[G.viscosity], p, o, contact)
-    f = ValveInputs(dp, p_down, p[G.vapour_pressure], rho, p[G.viscosity], qo, cd, aq, dqp, dqx, ddp_dt)
-    valve_accelerations(y, state_start(p, o), dofs(p, o), x, u, f, p, o, contact, regime, out)
+    return ValveInputs(at.dp, at.pd, p[G.vapour_pressure], at.rho, p[G.viscosity], qo, cd, aq, dqp, dqx, at.ddt)
 
 
-def _flow_partials(y, p, o: int, contact: int, dp: float, dp_m: float, dp_l: float, rho_c: float, other: float,
-                   rho_other_l: float, vol: float, mu: float):
+def _accel(x: float, u: float, at: At, p, vm: ValveMode, flow) -> float:
+    """A one-DOF valve's acceleration at perturbed inputs; its flow recomputed if the kind reads it."""
+    if vm.recompute:
+        flow = valve_flow(x, u, at.dp, at.rho, p[G.viscosity], p, vm.o, vm.contact)
+    return valve_acceleration(x, u, _inputs(at, p, flow), p, vm.o, vm.contact, vm.regime)
+
+
+def _accels(y, x: float, u: float, at: At, p, vm: ValveMode, flow, out) -> None:
+    """A several-DOF valve's accelerations at perturbed inputs (states y) into out at its rates' slots."""
+    if vm.recompute:
+        flow = valve_flow(x, u, at.dp, at.rho, p[G.viscosity], p, vm.o, vm.contact)
+    valve_accelerations(y, state_start(p, vm.o), dofs(p, vm.o), x, u, _inputs(at, p, flow), p, vm.o, vm.contact,
+                        vm.regime, out)
+
+
+def _flow_partials(y, p, o: int, contact: int, drop, cyl: Cylinder, other):
     """A valve's flow and the partials of its mass flow by (m_cyl, x, u, m_load).
 
-    ``dp_m``, ``dp_l``: d(dp)/dm_cyl, d(dp)/dm_load; ``other`` the density on the valve's other side
-    and ``rho_other_l`` its derivative by m_load (the load side of the complete circuit).
+    ``drop``: (dp, d(dp)/dm_cyl, d(dp)/dm_load); ``other``: (the density on the valve's other side, its
+    derivative by m_load: the load side of the complete circuit). Returns (partials, flow, rho, d rho/dm_cyl,
+    d rho/dm_load).
     """
+    dp, dp_m, dp_l = drop
     x, u = opening(y, p, o)
-    rho_v, frac = orifice_density(rho_c, other, p, o)
-    r_m = frac / vol
-    r_l = rho_other_l if frac < 1.0 else 0.0
-    qo, cd, aq, dqp, dqx = valve_flow(x, u, dp, rho_v, mu, p, o, contact)
+    rho_v, frac = orifice_density(cyl.rho_c, other[0], p, o)
+    r_m = frac / cyl.vol
+    r_l = other[1] if frac < 1.0 else 0.0
+    qo, cd, aq, dqp, dqx = valve_flow(x, u, dp, rho_v, p[G.viscosity], p, o, contact)
     mdot, f_dp, f_rho, f_x, f_u = mass_flow(qo, aq, u, dp, rho_v, dqp, dqx)
     part = (f_dp * dp_m + f_rho * r_m, f_x, f_u, f_dp * dp_l + f_rho * r_l)
     return part, (qo, cd, aq, dqp, dqx), rho_v, r_m, r_l
@@ -93,86 +190,90 @@ def _multi_flow_columns(jac, row: int, sign: float, p, o: int, f_x: float, f_u: 
         jac[row, accel_index(p, o, j)] = sign * f_u * w
 
 
-def _valve_rows(t, y, p, mode, jac, yscratch, atol, rtol: float, o: int, v: int, dp: float, dp_m: float,
-                dp_l: float, pd: float, pd_m: float, pd_l: float, rho_v: float, r_m: float, r_l: float, ddt: float,
-                flow, hm: float, hml: float, complete: bool, a0, a1) -> float:
+def _valve_rows(y, p, mode, jac, scratch: Scratch, inc: Increments, side: Side, flow) -> float:
     """The valve's rows: positions move at their rates; its accelerations differenced (forward) by its
     states, m_cyl and m_load. Returns d(acceleration)/d(ddp_dt) of a one-DOF kind that reads the flow
-    (the transient flow force's chain; 0 otherwise). ``a0``, ``a1``: scratch the length of the state."""
-    contact = int(mode[CONTACT_SLOT[v]])
-    regime = int(mode[REGIME_SLOT[v]])
+    (the transient flow force's chain; 0 otherwise)."""
+    o = side.o
     rec = p[o + VALVE.flow_in_acceleration] > 0.5
-    qo, cd, aq, dqp, dqx = flow
+    contact = int(mode[CONTACT_SLOT[side.v]])
+    regime = int(mode[REGIME_SLOT[side.v]])
+    if not is_scalar(p, o):
+        _multi_rows(y, p, jac, scratch, inc, side, flow, ValveMode(o, contact, regime, rec))
+        return 0.0
     x, u = opening(y, p, o)
-    n = dofs(p, o)
-    i_load = load_index(p)
-    if is_scalar(p, o):
-        xi, ui = position_index(p, o, 0), accel_index(p, o, 0)
-        jac[xi, ui] = 1.0
-        hx = SQRT_EPS * max(abs(x), atol[xi] / rtol)
-        hu = SQRT_EPS * max(abs(u), atol[ui] / rtol)
-        a0 = _accel(x, u, dp, pd, rho_v, ddt, p, o, contact, regime, False, qo, cd, aq, dqp, dqx)
-        ax = _accel(x + hx, u, dp, pd, rho_v, ddt, p, o, contact, regime, rec, qo, cd, aq, dqp, dqx)
-        au = _accel(x, u + hu, dp, pd, rho_v, ddt, p, o, contact, regime, rec, qo, cd, aq, dqp, dqx)
-        am = _accel(x, u, dp + dp_m * hm, pd + pd_m * hm, rho_v + r_m * hm, ddt, p, o, contact, regime, rec,
-                    qo, cd, aq, dqp, dqx)
-        jac[ui, xi] = (ax - a0) / hx
-        jac[ui, ui] = (au - a0) / hu
-        jac[ui, S_MCYL] = (am - a0) / hm
-        if complete:
-            al = _accel(x, u, dp + dp_l * hml, pd + pd_l * hml, rho_v + r_l * hml, ddt, p, o, contact, regime,
-                        rec, qo, cd, aq, dqp, dqx)
-            jac[ui, i_load] = (al - a0) / hml
-        if not rec:
-            return 0.0
-        hd = SQRT_EPS * max(abs(ddt), 1.0)
-        return (_accel(x, u, dp, pd, rho_v, ddt + hd, p, o, contact, regime, False, qo, cd, aq, dqp, dqx) - a0) / hd
-    _multi_rows(y, p, mode, jac, yscratch, atol, rtol, o, x, u, dp, dp_m, dp_l, pd, pd_m, pd_l, rho_v, r_m, r_l, ddt,
-                flow, hm, hml, complete, contact, regime, rec, n, a0, a1)
-    return 0.0
+    fixed = ValveMode(o, contact, regime, False)
+    moved = ValveMode(o, contact, regime, rec)
+    xi, ui = position_index(p, o, 0), accel_index(p, o, 0)
+    jac[xi, ui] = 1.0
+    hx = SQRT_EPS * max(abs(x), inc.atol[xi] / inc.rtol)
+    hu = SQRT_EPS * max(abs(u), inc.atol[ui] / inc.rtol)
+    at = _at(side)
+    a0 = _accel(x, u, at, p, fixed, flow)
+    jac[ui, xi] = (_accel(x + hx, u, at, p, moved, flow) - a0) / hx
+    jac[ui, ui] = (_accel(x, u + hu, at, p, moved, flow) - a0) / hu
+    jac[ui, S_MCYL] = (_accel(x, u, _at_m(side, inc.hm), p, moved, flow) - a0) / inc.hm
+    if inc.complete:
+        jac[ui, load_index(p)] = (_accel(x, u, _at_l(side, inc.hml), p, moved, flow) - a0) / inc.hml
+    if not rec:
+        return 0.0
+    hd = SQRT_EPS * max(abs(side.ddt), 1.0)
+    return (_accel(x, u, At(side.dp, side.pd, side.rho, side.ddt + hd), p, fixed, flow) - a0) / hd
 
 
-def _multi_rows(y, p, mode, jac, yscratch, atol, rtol: float, o: int, x: float, u: float, dp: float, dp_m: float,
-                dp_l: float, pd: float, pd_m: float, pd_l: float, rho_v: float, r_m: float, r_l: float, ddt: float,
-                flow, hm: float, hml: float, complete: bool, contact: int, regime: int, rec: bool, n: int, a0,
-                a1) -> None:
+def _multi_rows(y, p, jac, scratch: Scratch, inc: Increments, side: Side, flow, vm: ValveMode) -> None:
     """The acceleration rows of a valve with n > 1 DOFs: columns by each position and rate (its kind's
     partials where it has them and does not read the flow, else forward differences), then by the
-    pressures (forward differences). ``a0``, ``a1``: scratch for its accelerations at their rates' slots."""
-    i_load = load_index(p)
+    pressures (forward differences); its accelerations at their rates' slots of the scratch."""
+    o = side.o
+    n = dofs(p, o)
+    x, u = opening(y, p, o)
     s = state_start(p, o)
     r = s + n                                # the rows of its accelerations (its rates' slots)
+    a0, a1 = scratch.a0, scratch.a1
     for j in range(n):
         jac[s + j, r + j] = 1.0
-    _accels(y, x, u, dp, pd, rho_v, ddt, p, o, contact, regime, False, flow, a0)
+    at = _at(side)
+    _accels(y, x, u, at, p, ValveMode(o, vm.contact, vm.regime, False), flow, a0)
     own = False
-    if not rec:
-        qo, cd, aq, dqp, dqx = flow
-        f = ValveInputs(dp, pd, p[G.vapour_pressure], rho_v, p[G.viscosity], qo, cd, aq, dqp, dqx, ddt)
-        own = valve_accelerations_jacobian(y, s, n, x, u, f, p, o, contact, regime, jac)
+    if not vm.recompute:
+        own = valve_accelerations_jacobian(y, s, n, x, u, _inputs(at, p, flow), p, o, vm.contact, vm.regime, jac)
     if not own:
-        for i in range(y.shape[0]):
-            yscratch[i] = y[i]
-        for j in range(2 * n):
-            k = s + j                        # positions, then the rates right after them
-            h = SQRT_EPS * max(abs(y[k]), atol[k] / rtol)
-            w = opening_weight(p, o, j % n)
-            yscratch[k] = y[k] + h
-            if j < n:
-                _accels(yscratch, x + w * h, u, dp, pd, rho_v, ddt, p, o, contact, regime, rec, flow, a1)
-            else:
-                _accels(yscratch, x, u + w * h, dp, pd, rho_v, ddt, p, o, contact, regime, rec, flow, a1)
-            yscratch[k] = y[k]
-            for i in range(n):
-                jac[r + i, k] = (a1[r + i] - a0[r + i]) / h
-    _accels(y, x, u, dp + dp_m * hm, pd + pd_m * hm, rho_v + r_m * hm, ddt, p, o, contact, regime, rec, flow, a1)
+        _multi_state_columns(y, p, jac, scratch, inc, side, flow, vm)
+    _accels(y, x, u, _at_m(side, inc.hm), p, vm, flow, a1)
     for i in range(n):
-        jac[r + i, S_MCYL] = (a1[r + i] - a0[r + i]) / hm
-    if complete:
-        _accels(y, x, u, dp + dp_l * hml, pd + pd_l * hml, rho_v + r_l * hml, ddt, p, o, contact, regime, rec,
-                flow, a1)
+        jac[r + i, S_MCYL] = (a1[r + i] - a0[r + i]) / inc.hm
+    if inc.complete:
+        _accels(y, x, u, _at_l(side, inc.hml), p, vm, flow, a1)
+        i_load = load_index(p)
         for i in range(n):
-            jac[r + i, i_load] = (a1[r + i] - a0[r + i]) / hml
+            jac[r + i, i_load] = (a1[r + i] - a0[r + i]) / inc.hml
+
+
+def _multi_state_columns(y, p, jac, scratch: Scratch, inc: Increments, side: Side, flow, vm: ValveMode) -> None:
+    """A several-DOF valve's acceleration rows by its own positions and rates, forward differences against
+    its unperturbed accelerations in ``scratch.a0``."""
+    o = side.o
+    n = dofs(p, o)
+    x, u = opening(y, p, o)
+    s = state_start(p, o)
+    r = s + n
+    yp, a0, a1 = scratch.y, scratch.a0, scratch.a1
+    at = _at(side)
+    for i in range(y.shape[0]):
+        yp[i] = y[i]
+    for j in range(2 * n):
+        k = s + j                        # positions, then the rates right after them
+        h = SQRT_EPS * max(abs(y[k]), inc.atol[k] / inc.rtol)
+        w = opening_weight(p, o, j % n)
+        yp[k] = y[k] + h
+        if j < n:
+            _accels(yp, x + w * h, u, at, p, vm, flow, a1)
+        else:
+            _accels(yp, x, u + w * h, at, p, vm, flow, a1)
+        yp[k] = y[k]
+        for i in range(n):
+            jac[r + i, k] = (a1[r + i] - a0[r + i]) / h
 
 
 def _mass_rows(jac, p, complete: bool, dmi, dmd, leak_m: float, nv_l: float) -> None:
@@ -197,43 +298,43 @@ def _mass_rows(jac, p, complete: bool, dmi, dmd, leak_m: float, nv_l: float) -> 
         jac[i_nv, i_load] = nv_l
 
 
-def _pressure_rates(t: float, y, p, mode, fscratch, vol: float, dvol: float, rho_c: float, pc: float, pc_m: float,
-                    ml: float, pl_ml: float, hm: float, hml: float, cav: int, complete: bool):
+def _pressure_rates(t: float, y, p, mode, fscratch, cyl: Cylinder, load: Load, inc: Increments):
     """What a transient flow force's chain needs: (dm_cyl/dt, dm_load/dt, dP_cyl/dt, dP_load/dt,
     d(dP_cyl/dm)/dm_cyl, d(dP_load/dm)/dm_load)."""
     r0 = evaluate(t, y, p, mode, fscratch)
     dmc = r0.dm_cyl
     dmlr = r0.dm_load
-    dpc_dt = (dmc - rho_c * dvol) * pc_m
+    dpc_dt = (dmc - cyl.rho_c * cyl.dvol) * cyl.pc_m
     dpl_dt = 0.0
     dpcm_m = 0.0
     dplm_l = 0.0
-    if complete:
-        dpl_dt = dmlr * pl_ml
-    if cav != CAVITATING:
+    if inc.complete:
+        dpl_dt = dmlr * load.pl_ml
+    if cyl.cav != CAVITATING:
         # d(pc_m)/dm = d/dm 1/(V rho'(P)): rho' at the perturbed pressure, no inversion
-        pc_m2 = 1.0 / (vol * oil_density_slope(pc + pc_m * hm, p))
-        dpcm_m = (pc_m2 - pc_m) / hm
-    if complete:
-        plm2 = load_pressure(ml + hml, p)[1]
-        dplm_l = (plm2 - pl_ml) / hml
+        pc_m2 = 1.0 / (cyl.vol * oil_density_slope(cyl.pc + cyl.pc_m * inc.hm, p))
+        dpcm_m = (pc_m2 - cyl.pc_m) / inc.hm
+    if inc.complete:
+        plm2 = load_pressure(load.ml + inc.hml, p)[1]
+        dplm_l = (plm2 - load.pl_ml) / inc.hml
     return dmc, dmlr, dpc_dt, dpl_dt, dpcm_m, dplm_l
 
 
-def _transient_chain(jac, p, n_dyn: int, a_d_in: float, a_d_del: float, vol: float, dvol: float, rho_c: float,
-                     pc_m: float, pl_ml: float, rates, complete: bool) -> None:
+def _transient_chain(jac, p, n_dyn: int, a_d, cyl: Cylinder, load: Load, rates, complete: bool) -> None:
     """Add to the acceleration rows the chain through d(dP)/dt of a transient flow force (eq 2.37):
     dP_cyl/dt = (dm_cyl/dt - rho V') dP/dm, its partial by y_s through the mass row of J, rho = m/V
-    and dP/dm itself; the inlet sees -dP_cyl/dt, the delivery dP_cyl/dt - dP_load/dt."""
+    and dP/dm itself; the inlet sees -dP_cyl/dt, the delivery dP_cyl/dt - dP_load/dt. ``a_d``: (inlet,
+    delivery) d(acceleration)/d(ddp_dt)."""
     dmc, dmlr, _, _, dpcm_m, dplm_l = rates
+    a_d_in, a_d_del = a_d
     i_load = load_index(p)
     for s in range(n_dyn):
-        dpc_s = jac[S_MCYL, s] * pc_m
+        dpc_s = jac[S_MCYL, s] * cyl.pc_m
         if s == S_MCYL:
-            dpc_s += -(dvol / vol) * pc_m + (dmc - rho_c * dvol) * dpcm_m
+            dpc_s += -(cyl.dvol / cyl.vol) * cyl.pc_m + (dmc - cyl.rho_c * cyl.dvol) * dpcm_m
         dpl_s = 0.0
         if complete:
-            dpl_s = jac[i_load, s] * pl_ml
+            dpl_s = jac[i_load, s] * load.pl_ml
             if s == i_load:
                 dpl_s += dmlr * dplm_l
         if a_d_in != 0.0:
@@ -242,17 +343,8 @@ def _transient_chain(jac, p, n_dyn: int, a_d_in: float, a_d_del: float, vol: flo
             jac[accel_index(p, OFF_DEL, 0), s] += a_d_del * (dpc_s - dpl_s)
 
 
-def pump_jacobian(t: float, y, p, mode, pc_hint: float, jac, ft, fscratch, yscratch, atol, rtol: float,
-                  n_dyn: int) -> int:
-    """Fill ``jac`` (df/dy, columns n_dyn.. zero) and ``ft`` (df/dt); returns the rhs calls made (0 or 2).
-
-    ``pc_hint``: P_cyl at (t, y) if the caller has it (NaN: computed here). Increments of
-    the differenced accelerations: sqrt(eps) max(|y_j|, atol_j / rtol).
-    """
-    n = y.shape[0]
-    for j in range(n):
-        for i in range(n):
-            jac[i, j] = 0.0
+def _cylinder(t: float, y, p, mode, pc_hint: float) -> Cylinder:
+    """The cylinder at (t, y); ``pc_hint``: its pressure if the caller has it (NaN: computed)."""
     vol, dvol = cylinder_volume_at(t, p)
     m = y[S_MCYL]
     cav = int(mode[MODE.cavitation])
@@ -262,60 +354,93 @@ def pump_jacobian(t: float, y, p, mode, pc_hint: float, jac, ft, fscratch, yscra
         pc_m = 0.0 if cav == CAVITATING else 1.0 / (vol * oil_density_slope(pc, p))
     else:
         pc, pc_m, rho_c = cylinder_pressure(m, vol, p, cav)
-    complete = p[G.complete] > 0.5
-    pt = p[G.tank_pressure]
-    pl = p[G.load_pressure]
-    pl_ml = 0.0
-    ml = 0.0
-    i_load = load_index(p)
-    if complete:
-        ml = y[i_load]
+    return Cylinder(vol, dvol, m, pc, pc_m, rho_c, cav)
+
+
+def _load(y, p) -> Load:
+    """The load side at y: the requested pressure in the simplified circuit, the load line's in the complete."""
+    if p[G.complete] > 0.5:
+        ml = y[load_index(p)]
         pl, pl_ml = load_pressure(ml, p)
-    mu = p[G.viscosity]
-    hm = SQRT_EPS * max(abs(m), atol[S_MCYL] / rtol)
-    hml = SQRT_EPS * max(abs(ml), atol[i_load] / rtol)
+        return Load(ml, pl, pl_ml)
+    return Load(0.0, p[G.load_pressure], 0.0)
 
+
+def pump_jacobian(t: float, y, p, mode, pc_hint: float, jac, ft, fscratch, yscratch, atol, rtol: float,
+                  n_dyn: int) -> int:
+    """The pump's Jacobian df/dy (columns n_dyn.. zero) and df/dt, analytic where the physics is and differenced
+    (increments sqrt(eps) max(|y_j|, atol_j / rtol)) where it is not; the integrator's hook (rodas.specialize).
+
+    Parameters
+    ----------
+    t, y, p, mode
+        Time [s], the pump's state, the flat parameter array and the mode (lumped.solver.layout).
+    pc_hint : float
+        P_cyl at (t, y) [Pa] if the caller has it (NaN: computed here).
+    jac, ft, fscratch, yscratch : array of float
+        Written: (n, n) df/dy and df/dt (per state's unit); scratch of the state's length.
+    atol, rtol : array of float, float
+        The integrator's tolerances (the increments' floor).
+    n_dyn : int
+        States that feed back.
+
+    Returns
+    -------
+    int
+        The right-hand side calls made (0 or 2).
+    """
+    n = y.shape[0]
+    for j in range(n):
+        for i in range(n):
+            jac[i, j] = 0.0
+    cyl = _cylinder(t, y, p, mode, pc_hint)
+    load = _load(y, p)
+    complete = p[G.complete] > 0.5
+    inc = Increments(atol, rtol, SQRT_EPS * max(abs(cyl.m), atol[S_MCYL] / rtol),
+                     SQRT_EPS * max(abs(load.ml), atol[load_index(p)] / rtol), complete)
     # ---- mass flows and their partials: d mdot / d(m_cyl, x, u, m_load) per valve
-    # inlet: from the tank (a fixed pressure) into the cylinder
-    dp_in, dpm_in = pt - pc, -pc_m
+    # inlet: from the tank (a fixed pressure) into the cylinder; delivery: from the cylinder into the load line
+    drop_in = (p[G.tank_pressure] - cyl.pc, -cyl.pc_m, 0.0)
     dmi, flow_in, rho_in, rm_in, rl_in = _flow_partials(
-        y, p, OFF_IN, int(mode[MODE.inlet_contact]), dp_in, dpm_in, 0.0, rho_c, p[G.rho_tank], 0.0, vol, mu)
-    # delivery: from the cylinder into the load line
-    dp_del, dpm_del, dpl_del = pc - pl, pc_m, -pl_ml
-    other_l = 0.5 * oil_density_slope(pl, p) * pl_ml
+        y, p, OFF_IN, int(mode[MODE.inlet_contact]), drop_in, cyl, (p[G.rho_tank], 0.0))
+    drop_del = (cyl.pc - load.pl, cyl.pc_m, -load.pl_ml)
+    other_del = (load_side_density(load.pl, p), 0.5 * oil_density_slope(load.pl, p) * load.pl_ml)
     dmd, flow_del, rho_del, rm_del, rl_del = _flow_partials(
-        y, p, OFF_DEL, int(mode[MODE.delivery_contact]), dp_del, dpm_del, dpl_del, rho_c,
-        load_side_density(pl, p), other_l, vol, mu)
+        y, p, OFF_DEL, int(mode[MODE.delivery_contact]), drop_del, cyl, other_del)
     uses_flow = p[OFF_IN + VALVE.flow_in_acceleration] > 0.5 or p[OFF_DEL + VALVE.flow_in_acceleration] > 0.5
-    leak, leak_pc, leak_rho = leakage_mass_flow(pc, rho_c, p)
-    nv_l = needle_mass_flow(pl, p)[1] * pl_ml if complete else 0.0
-    _mass_rows(jac, p, complete, dmi, dmd, leak_pc * pc_m + leak_rho / vol, nv_l)
-
+    leak, leak_pc, leak_rho = leakage_mass_flow(cyl.pc, cyl.rho_c, p)
+    nv_l = needle_mass_flow(load.pl, p)[1] * load.pl_ml if complete else 0.0
+    _mass_rows(jac, p, complete, dmi, dmd, leak_pc * cyl.pc_m + leak_rho / cyl.vol, nv_l)
     # ---- pressure rates seen by a transient flow force, and their partials
     rates = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     if uses_flow:
-        rates = _pressure_rates(t, y, p, mode, fscratch, vol, dvol, rho_c, pc, pc_m, ml, pl_ml, hm, hml, cav,
-                                complete)
+        rates = _pressure_rates(t, y, p, mode, fscratch, cyl, load, inc)
     dpc_dt, dpl_dt = rates[2], rates[3]
-
-    # ---- accelerations, differenced
-    # fscratch and ft are free until the end: the several-DOF valves' scratch
-    a_d_in = _valve_rows(t, y, p, mode, jac, yscratch, atol, rtol, OFF_IN, 0, dp_in, dpm_in, 0.0, pc, pc_m, 0.0,
-                         rho_in, rm_in, rl_in, -dpc_dt, flow_in, hm, hml, complete, fscratch, ft)
-    a_d_del = _valve_rows(t, y, p, mode, jac, yscratch, atol, rtol, OFF_DEL, 1, dp_del, dpm_del, dpl_del, pl, 0.0,
-                          pl_ml, rho_del, rm_del, rl_del, dpc_dt - dpl_dt, flow_del, hm, hml, complete, fscratch, ft)
+    # ---- accelerations, differenced (fscratch and ft are free until the end: the several-DOF valves' scratch)
+    scratch = Scratch(yscratch, fscratch, ft)
+    side_in = Side(OFF_IN, 0, drop_in[0], drop_in[1], 0.0, cyl.pc, cyl.pc_m, 0.0, rho_in, rm_in, rl_in, -dpc_dt)
+    side_del = Side(OFF_DEL, 1, drop_del[0], drop_del[1], drop_del[2], load.pl, 0.0, load.pl_ml, rho_del, rm_del,
+                    rl_del, dpc_dt - dpl_dt)
+    a_d_in = _valve_rows(y, p, mode, jac, scratch, inc, side_in, flow_in)
+    a_d_del = _valve_rows(y, p, mode, jac, scratch, inc, side_del, flow_del)
     if a_d_in != 0.0 or a_d_del != 0.0:
-        _transient_chain(jac, p, n_dyn, a_d_in, a_d_del, vol, dvol, rho_c, pc_m, pl_ml, rates, complete)
+        _transient_chain(jac, p, n_dyn, (a_d_in, a_d_del), cyl, load, rates, complete)
+    return _time_partials(t, y, p, mode, jac, ft, (fscratch, yscratch), cyl)
 
-    # ---- df/dt: through rho_cyl = m/V(t) only, unless a transient flow force holds V' itself
-    if not uses_flow:
-        dm_dt = -m * dvol / vol
+
+def _time_partials(t: float, y, p, mode, jac, ft, scratch, cyl: Cylinder) -> int:
+    """df/dt into ``ft``: through rho_cyl = m/V(t) only (the m_cyl column times -m V'/V), unless a transient
+    flow force holds V' itself (a valve's acceleration reads the flow: then differenced, the rhs calls made, 2)."""
+    n = y.shape[0]
+    if not (p[OFF_IN + VALVE.flow_in_acceleration] > 0.5 or p[OFF_DEL + VALVE.flow_in_acceleration] > 0.5):
+        dm_dt = -cyl.m * cyl.dvol / cyl.vol
         for i in range(n):
             ft[i] = jac[i, S_MCYL] * dm_dt
         return 0
+    f0, f1 = scratch
     dt = SQRT_EPS * max(abs(t), 1e-6)
-    evaluate(t, y, p, mode, fscratch)
-    evaluate(t + dt, y, p, mode, yscratch)
+    evaluate(t, y, p, mode, f0)
+    evaluate(t + dt, y, p, mode, f1)
     for i in range(n):
-        ft[i] = (yscratch[i] - fscratch[i]) / dt
+        ft[i] = (f1[i] - f0[i]) / dt
     return 2

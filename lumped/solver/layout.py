@@ -6,7 +6,7 @@ quantity of the pump lives, generated from declarations.
 (:func:`pack`): the global block (:data:`G`: the operating point, derived pump quantities,
 the bookkeeping of the state layout, the stepper's mode, tolerance table and stash, and every
 Pump/Oil/Circuit field declared ``packed=True``), one block per valve (its kind's block:
-:data:`lumped.valves.kind.COMMON`, the kind's packed fields, its derived quantities), then the
+:data:`lumped.valves.common.COMMON`, the kind's packed fields, its derived quantities), then the
 valves' variable-length data (a modal reed's modes).
 
 The state vector (:class:`StateLayout`) is declared, not numbered: the pump's states
@@ -188,10 +188,10 @@ INLINE = ("mode_of", "state_start", "dofs", "is_scalar", "opening", "opening_wei
           "write_rates")
 #: True in the one-DOF flavour of the compiled physics (lumped.solver.compiled.physics(one_dof=True)), for pumps
 #: whose valves have one DOF each: numba folds the constant, so the several-DOF paths (their loops and
-#: calls) are not compiled into the hot path (~20 ns per call of :func:`opening` with them present, measured)
+#: calls) are not compiled into the hot path
 ONE_DOF_ONLY = False
 #: True in the compiled physics (lumped.solver.compiled): loops there; numpy in the Python reference, where an FE
-#: reed's ~100 states made the element-wise loops a third of a reference run's time (measured). The loop form
+#: reed's ~100 states would make element-wise Python loops a large share of a reference run. The loop form
 #: comes first, under ``if COMPILED:``: with the numpy form first, under ``if not COMPILED:``, the compiled
 #: stepper failed at its first step (numba 0.68; not chased further)
 COMPILED = False

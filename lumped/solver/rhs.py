@@ -33,7 +33,24 @@ from lumped.valves.kind import VALVE, ValveInputs, mass_flow, valve_flow
 
 
 def cylinder_volume_at(t: float, p) -> tuple[float, float]:
-    """(V_cyl, dV_cyl/dt) at time t [s] after TDC for the packed parameters p (eq 4.2)."""
+    """Cylinder volume and its rate at a time after top dead centre (eq 4.2 with theta = omega t).
+
+    Parameters
+    ----------
+    t : float
+        Time from TDC [s].
+    p : array of float
+        The packed parameters (lumped.solver.layout: the global block G).
+
+    Returns
+    -------
+    tuple of float
+        (V_cyl [m^3], dV_cyl/dt [m^3/s]).
+
+    References
+    ----------
+    Knutson (2016), eq 4.2.
+    """
     omega = p[G.omega]
     return cylinder_volume(omega * t, omega, p[G.piston_area], p[G.crank_radius], p[G.rod_length],
                            p[G.dead_volume])
@@ -41,24 +58,80 @@ def cylinder_volume_at(t: float, p) -> tuple[float, float]:
 
 # ----------------------------------------------------------------- fluid states and their partials
 def oil_density(pressure: float, p) -> float:
-    """Density of the oil at absolute pressure [Pa] (eq 4.11) for the packed parameters p [kg/m^3]."""
+    """Density of the pump's oil at an absolute pressure (eq 4.11, :func:`lumped.fluid.oil.density`).
+
+    Parameters
+    ----------
+    pressure : float
+        [Pa, absolute].
+    p : array of float
+        The packed parameters (lumped.solver.layout: the global block G).
+
+    Returns
+    -------
+    float
+        rho [kg/m^3].
+
+    References
+    ----------
+    Knutson (2016), eq 4.11.
+    """
     return oil_mod.density(pressure, p[G.density], p[G.atmospheric_pressure], p[G.bulk_modulus],
                            p[G.polytropic_exponent], p[G.air_content])
 
 
 def oil_density_slope(pressure: float, p) -> float:
-    """d rho / dP of eq 4.11 [kg/m^3/Pa] for the packed parameters p."""
+    """Slope d rho/dP of the pump oil's density (eq 4.11, :func:`lumped.fluid.oil.density_slope`).
+
+    Parameters
+    ----------
+    pressure : float
+        [Pa, absolute].
+    p : array of float
+        The packed parameters (lumped.solver.layout: the global block G).
+
+    Returns
+    -------
+    float
+        [kg/m^3/Pa].
+
+    References
+    ----------
+    Knutson (2016), eq 4.11.
+    """
     return oil_mod.density_slope(pressure, p[G.density], p[G.atmospheric_pressure], p[G.bulk_modulus],
                                  p[G.polytropic_exponent], p[G.air_content])
 
 
 def cylinder_pressure(m: float, vol: float, p, cavitating: int) -> tuple[float, float, float]:
-    """(P_cyl [Pa], dP_cyl/dm_cyl [Pa/kg], rho_cyl [kg/m^3]) of oil mass m in volume vol.
+    """Pressure of an oil mass in the cylinder volume: eq 4.11 inverted while the liquid fills it, the vapour
+    pressure while it cavitates.
 
-    Eq 4.11 inverted (eqs 4.12-4.16) while the liquid fills the cylinder; cavitating,
-    the pressure is held at the vapour pressure (the liquid at rho(P_vap), the rest of
-    the volume vapour; Wylie's discrete vapour cavity model, Wylie & Streeter, Fluid
-    Transients in Systems, 1993, section 8.5), so dP/dm = 0 there.
+    Parameters
+    ----------
+    m : float
+        Oil mass in the cylinder [kg].
+    vol : float
+        Cylinder volume [m^3].
+    p : array of float
+        The packed parameters (lumped.solver.layout: the global block G).
+    cavitating : int
+        The cylinder's mode (lumped.solver.layout.CAVITATING: cavitating).
+
+    Returns
+    -------
+    tuple of float
+        (P_cyl [Pa], dP_cyl/dm [Pa/kg] (0 cavitating), rho_cyl = m / V [kg/m^3]).
+
+    Notes
+    -----
+    Cavitating, the pressure is held at the vapour pressure (the liquid at rho(P_vap), the rest of the volume
+    vapour; Wylie's discrete vapour cavity model), so dP/dm = 0 there. The root starts the next inversion (kept
+    in the packed array's scratch slot).
+
+    References
+    ----------
+    Knutson (2016), eqs 4.6, 4.11-4.16; Wylie & Streeter, *Fluid Transients in Systems* (1993), section 8.5.
     """
     rho = m / vol
     if cavitating == CAVITATING:
@@ -72,10 +145,24 @@ def cylinder_pressure(m: float, vol: float, p, cavitating: int) -> tuple[float, 
 
 
 def load_mass(pl: float, p) -> tuple[float, float]:
-    """(oil mass [kg], d mass/dP [kg/Pa]) in load line + accumulator at pressure pl (section 4.2.1).
+    """Oil mass held by the load line and accumulator at a load pressure (section 4.2.1): oil volume V_line + V_acc
+    - V_gas, the gas at V_acc (P_pre/P)^(1/n) above its precharge, filling the accumulator below it.
 
-    Oil volume = V_line + V_acc - V_gas, the gas at V_gas = V_acc (P_pre/P)^(1/n) above its
-    precharge (polytropic) and filling the accumulator below it.
+    Parameters
+    ----------
+    pl : float
+        Load pressure [Pa, absolute].
+    p : array of float
+        The packed parameters (lumped.solver.layout: the global block G).
+
+    Returns
+    -------
+    tuple of float
+        (mass [kg], d mass/dP [kg/Pa]).
+
+    References
+    ----------
+    Knutson (2016), section 4.2.1, eq 4.11.
     """
     rho = oil_density(pl, p)
     drho = oil_density_slope(pl, p)
@@ -90,11 +177,24 @@ def load_mass(pl: float, p) -> tuple[float, float]:
 
 
 def load_pressure(m: float, p) -> tuple[float, float]:
-    """(P_load [Pa], dP_load/dm [Pa/kg]): the pressure holding oil mass m in the load line and
-    accumulator (inverse of :func:`load_mass`).
+    """The load pressure holding an oil mass in the load line and accumulator (the inverse of :func:`load_mass`, by
+    Newton's method in a shrinking bracket).
 
-    The mass is increasing in P, so Newton's method is kept inside a shrinking bracket
-    (bisection when a step leaves it).
+    Parameters
+    ----------
+    m : float
+        Oil mass [kg].
+    p : array of float
+        The packed parameters (lumped.solver.layout: the global block G).
+
+    Returns
+    -------
+    tuple of float
+        (P_load [Pa], dP_load/dm [Pa/kg]).
+
+    References
+    ----------
+    Knutson (2016), section 4.2.1.
     """
     vline, vacc, ppre, n = p[G.line_volume], p[G.accumulator_volume], p[G.accumulator_precharge], \
         p[G.accumulator_exponent]
@@ -126,8 +226,25 @@ def load_pressure(m: float, p) -> tuple[float, float]:
 
 
 def needle_mass_flow(pl: float, p) -> tuple[float, float]:
-    """(mass flow through the needle valve to tank [kg/s], its derivative by P_load [kg/s/Pa]):
-    Cd A sqrt(2 rho |dP|) sign(dP) (complete circuit)."""
+    """Mass flow through the complete circuit's needle valve to tank, rho Cd A sqrt(2 |dP| / rho) sign(dP), and its
+    derivative by the load pressure.
+
+    Parameters
+    ----------
+    pl : float
+        Load pressure [Pa, absolute].
+    p : array of float
+        The packed parameters (lumped.solver.layout: the global block G).
+
+    Returns
+    -------
+    tuple of float
+        (mdot [kg/s], d mdot/dP_load [kg/s/Pa]).
+
+    References
+    ----------
+    Knutson (2016), section 4.2.1 (the orifice equation of eq 2.38).
+    """
     dp = pl - p[G.tank_pressure]
     rho = oil_density(pl, p)
     cda = p[G.needle_cda]
@@ -142,22 +259,80 @@ def needle_mass_flow(pl: float, p) -> tuple[float, float]:
 
 
 def leakage_mass_flow(pc: float, rho: float, p) -> tuple[float, float, float]:
-    """(laminar piston leakage rho K (P_cyl - P_tank) [kg/s] (eq 4.5), its partials by P_cyl and rho)."""
+    """Laminar leakage past the piston, rho K (P_cyl - P_tank) (eq 4.5), and its partials.
+
+    Parameters
+    ----------
+    pc : float
+        Cylinder pressure [Pa].
+    rho : float
+        Cylinder density [kg/m^3].
+    p : array of float
+        The packed parameters (lumped.solver.layout: the global block G).
+
+    Returns
+    -------
+    tuple of float
+        (mdot [kg/s], d mdot/dP_cyl [kg/s/Pa], d mdot/d rho [m^3/s]).
+
+    References
+    ----------
+    Knutson (2016), eq 4.5.
+    """
     k = p[G.leak]
     d = pc - p[G.tank_pressure]
     return rho * k * d, rho * k, k * d
 
 
 def orifice_density(rho_cyl: float, rho_other: float, p, o: int) -> tuple[float, float]:
-    """(density in the valve's orifice equation, its derivative by rho_cyl) (section 4.3.5):
-    the cylinder's, or the mean of the cylinder's and the other side's ``rho_other``."""
+    """The density in a valve's orifice equation (section 4.3.5): the cylinder's, or the mean of the cylinder's and
+    the other side's.
+
+    Parameters
+    ----------
+    rho_cyl : float
+        Cylinder density [kg/m^3].
+    rho_other : float
+        The valve's other side [kg/m^3].
+    p : array of float
+        The packed parameters (lumped.solver.layout: the global block G).
+    o : int
+        The valve's block offset.
+
+    Returns
+    -------
+    tuple of float
+        (rho [kg/m^3], d rho/d rho_cyl [-]).
+
+    References
+    ----------
+    Knutson (2016), section 4.3.5.
+    """
     if p[o + VALVE.average_density] > 0.5:
         return 0.5 * (rho_cyl + rho_other), 0.5
     return rho_cyl, 1.0
 
 
 def load_side_density(pl: float, p) -> float:
-    """Oil density on the load side [kg/m^3]: at the constant load pressure (packed once), or at P_load."""
+    """Oil density on the load side: at the constant load pressure (simplified circuit, packed once) or at the load
+    line's pressure (complete circuit).
+
+    Parameters
+    ----------
+    pl : float
+        Load pressure [Pa].
+    p : array of float
+        The packed parameters (lumped.solver.layout: the global block G).
+
+    Returns
+    -------
+    float
+        rho [kg/m^3].
+
+    References
+    ----------
+    Knutson (2016), eq 4.11, section 4.2.1.
+    """
     if p[G.complete] > 0.5:
         return oil_density(pl, p)
     return p[G.rho_load]
@@ -191,14 +366,30 @@ class Rates(NamedTuple):
 
 
 def evaluate(t: float, y, p, mode, dydt, accelerations: bool = True) -> Rates:
-    """Everything the pump equations give at time t [s] (t = 0 at TDC) for state y; dy/dt into ``dydt``
-    (``accelerations=False``: the valves' accelerations and their rates are not computed, ``a_in`` and
-    ``a_del`` are NaN).
+    """Everything the pump equations give at one instant: the rates of every state into ``dydt`` and the named
+    record of the pump's quantities.
 
-    The mass balance of eq 4.5 with the valve mass flows of eqs 4.3-4.4, cylinder
-    pressure from eq 4.11 inverted by Newton (eqs 4.12-4.16) or held at the vapour
-    pressure while cavitating, the load line of the complete circuit (section 4.2.1),
-    and the valve dynamics of the valves' kinds (chapters 2 and 3).
+    The mass balance of eq 4.5 with the valve mass flows of eqs 4.3-4.4, the cylinder pressure from eq 4.11 inverted
+    by Newton (eqs 4.12-4.16) or held at the vapour pressure while cavitating, the load line of the complete circuit
+    (section 4.2.1), and the valve dynamics of the valves' kinds (chapters 2 and 3).
+
+    Parameters
+    ----------
+    t, y, p, mode
+        Time from TDC [s], the state, the packed parameters and the mode (lumped.solver.layout).
+    dydt : array of float
+        Written: dy/dt.
+    accelerations : bool
+        False: the valves' accelerations and their rates are not computed (``a_in``, ``a_del`` NaN).
+
+    Returns
+    -------
+    Rates
+        The pump's quantities at (t, y), SI units.
+
+    References
+    ----------
+    Knutson (2016), eqs 4.1-4.17, chapters 2-3.
     """
     vol, dvol = cylinder_volume_at(t, p)
     m = y[S_MCYL]
@@ -212,6 +403,8 @@ def evaluate(t: float, y, p, mode, dydt, accelerations: bool = True) -> Rates:
     if complete:
         pl, pl_m = load_pressure(y[i_load], p)
     mu = p[G.viscosity]
+    # the valves' openings, orifice densities (section 4.3.5), flows and mass flows (eqs 4.3, 4.4) written out
+    # here, not in a helper: a compiled call binding y and p costs a reference count each (docs/extending.md)
     x_in, u_in = opening(y, p, OFF_IN)
     x_del, u_del = opening(y, p, OFF_DEL)
     rho_in = orifice_density(rho_cyl, p[G.rho_tank], p, OFF_IN)[0]
@@ -260,7 +453,28 @@ def evaluate(t: float, y, p, mode, dydt, accelerations: bool = True) -> Rates:
 
 
 def rhs(t: float, y, p, mode) -> np.ndarray:
-    """dy/dt of the pump state (lumped.solver.layout's state vector)."""
+    """Time derivative of the pump's state (lumped.solver.layout's state vector): :func:`evaluate` into a new array.
+
+    Parameters
+    ----------
+    t : float
+        Time from TDC [s].
+    y : array of float
+        The state.
+    p : array of float
+        The packed parameters (lumped.solver.layout: the global block G).
+    mode : array of float
+        The mode (contact states, regimes, cavitation).
+
+    Returns
+    -------
+    numpy.ndarray
+        dy/dt (SI units of the states per second).
+
+    References
+    ----------
+    Knutson (2016), eqs 4.1-4.17.
+    """
     out = np.empty(n_states(p))
     evaluate(t, y, p, mode, out)
     return out
@@ -272,10 +486,24 @@ N_RATES = len(RATES_FIELDS)
 
 
 def rates_table(ts, ys, modes, p) -> np.ndarray:
-    """:func:`evaluate` at sampled times, states and modes: one row per sample, columns RATES_FIELDS.
+    """The pump equations' quantities (:class:`Rates`) at sampled times, states and modes, one row per sample.
 
-    The valves' accelerations (columns ``a_in``, ``a_del``) are left NaN: no post-processor reads them, and
-    the valve forces they need are a third of an evaluation's cost (the table is 1,440 of them a revolution).
+    Parameters
+    ----------
+    ts : array of float
+        Times [s].
+    ys : array of float
+        States (rows).
+    modes : array of float
+        Modes (rows).
+    p : array of float
+        The packed parameters (lumped.solver.layout: the global block G).
+
+    Returns
+    -------
+    numpy.ndarray
+        (len(ts), len(RATES_FIELDS)), SI units of each field; the valves' accelerations a_in, a_del are left NaN (no
+        post-processor reads them, and their forces are a third of an evaluation's cost).
     """
     out = np.empty((ts.shape[0], N_RATES))
     scratch = np.empty(ys.shape[1])

@@ -157,8 +157,8 @@ class RadauStepper(Stepper):
         # list indexing is the fast path for CPython floats (arrays where a valve has many DOFs)
         self.plist = self.problem.p.tolist() if self.scalar else self.problem.p.copy()
         run = _RadauRun(self, t0, t1, np.array(y, dtype=float), np.array(mode, dtype=float))
-        # one BLAS thread: Radau factorises small matrices at every step size change, and threaded
-        # BLAS on a loaded machine made a 120 x 120 complex LU take 95 ms instead of 0.2 ms (measured)
+        # one BLAS thread: Radau factorises small matrices at every step size change, where threads only add
+        # their start-up and, on a shared machine, wait for each other (docs/models.md, "Numerical choices")
         with threadpool_limits(limits=1, user_api="blas"):
             while run.t < t1:
                 run.segment()
@@ -270,13 +270,10 @@ class _RadauRun:
 # --------------------------------------------------------------------------- fast: compiled Rodas4P/5P
 def _build_rodas(one_dof: bool):
     """The compiled solver bound to the pump's compiled physics of a flavour (lumped.solver.compiled.physics),
-    cached on disk by source digest."""
+    cached on disk by source digest; (solver, digest)."""
     import numba
 
     from lumped.solver import compiled, rodas
-
-    def fn(module, name):
-        return compiled.function(module, name, one_dof)
 
     digest = compiled.source_digest(__name__)
     flavour = f"pump{'1' if one_dof else 'n'}_{digest}"
@@ -285,10 +282,18 @@ def _build_rodas(one_dof: bool):
         # numba names a compiled function's symbol by its qualified name and a per-process counter: a
         # solver loaded from the cache and one compiled here may then share a symbol for two different
         # closures (one-DOF and several-DOF), and the loader binds the wrong one (a modal reed then ran
-        # one-DOF physics: step size underflow at t = 0, measured). The flavour and digest make it unique.
+        # one-DOF physics). The flavour and digest make it unique.
         f.__qualname__ = f"{f.__qualname__}__{flavour}"
         return numba.njit(error_model="numpy")(f)
 
+    hooks = _pump_hooks(lambda module, name: compiled.function(module, name, one_dof), jit)
+    _drop_stale_cache(digest)
+    return rodas.specialize(hooks.pop("rhs"), flavour, **hooks), digest
+
+
+def _pump_hooks(fn, jit) -> dict:
+    """The pump's functions in the form lumped.solver.rodas.specialize takes them, each reading the mode the
+    stepper keeps in the flat array (``fn(module, name)``: a compiled physics function; ``jit``: compiles)."""
     evaluate_c = fn("lumped.solver.rhs", "evaluate")
     switch_values = fn("lumped.solver.switching", "switch_values")
     apply_switch = fn("lumped.solver.switching", "apply_switch")
@@ -332,10 +337,8 @@ def _build_rodas(one_dof: bool):
     def _tag(p):
         return tag(mode_c(p))
 
-    _drop_stale_cache(digest)
-    solver = rodas.specialize(_rhs, flavour, events=_events, apply=_apply,
-                              tagger=_tag, jac=_jac, tolerances=_tolerances, retry=_retry)
-    return solver, digest
+    return {"rhs": _rhs, "events": _events, "apply": _apply, "tagger": _tag, "jac": _jac, "tolerances": _tolerances,
+            "retry": _retry}
 
 
 def _drop_stale_cache(digest: str) -> None:
@@ -389,12 +392,9 @@ def rodas_order(rtol: float, flow_in_acceleration: bool = False) -> int:
     rtol <= RODAS5P_FLOW_RTOL, else 4 (Rodas4P).
 
     The transient flow force's d(dP)/dt term slaves the valve's velocity to the pressure (eigenvalues to
-    -1e6 1/s), and Rodas4P's embedded estimate over-reads its error there (docs/discrepancy.md, "Cost").
-    Measured per simulation (3 revolutions from rest, best of 3): the thesis disc with the flow force at
-    593 rpm, 2.76 MPa, 45 % less time at rtol 1e-5 and 25 % less at 1e-4; the thesis ball 4-37 % less at
-    1e-5 and -12 to +7 % at 1e-4 (593-900 rpm). At rtol 1e-3 Rodas5P costs as much and its delivery can be
-    further from the converged one (2.1e-4 against 1.5e-5 on the ball at 649.7 rpm); without a flow force
-    it costs the same at 1e-5 and 10-20 % more at 1e-4.
+    -1e6 1/s), and Rodas4P's embedded estimate over-reads its error there: Rodas5P takes fewer steps where the
+    tolerance is tight enough for that to matter; at looser tolerances, or without a flow force, it only costs
+    more (the measurements: docs/models.md, "Numerical choices").
     """
     return 5 if flow_in_acceleration and rtol <= RODAS5P_FLOW_RTOL * (1.0 + 1e-9) else 4
 

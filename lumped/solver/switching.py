@@ -22,6 +22,15 @@ load-pressure deflection (held for sure: no force evaluation, :func:`force_decid
 stepper (``lumped.solver.steppers.RodasStepper``) calls the compiled copies of these very
 functions inside its loop; the scipy stepper (``RadauStepper``) builds its terminal
 events from them. Plain floats and arrays, so numba compiles the same source.
+
+The functions (:func:`switch_values`; x the opening, lumped.solver.layout.opening; h the hysteresis): each
+valve's seat function, on its seat, -x (lifts off at x > 0), or where :func:`force_decides`, -a_f m / k_seat,
+about the quasi-static deflection of the net non-contact force (its sign is what counts: the valve lifts off when
+that force turns away from the seat); free, x + h (lands at x < -h). Its stop function: free, x_stop - x
+(reaches the stop); on its stop, x - (x_stop - h), or where the force decides, a_f m / k_stop (leaves when the
+force turns away from the stop). Its regime function: x_t - x in the Poiseuille regime and x - (x_t - h) in the
+orifice one. The cylinder's: liquid, rho - rho(P_vap) (cavitates when the density falls below the liquid's at the
+vapour pressure); cavitating, rho(P_vap) (1 + e) - rho (refilled). A function with no surface is 1.
 """
 
 from __future__ import annotations
@@ -46,8 +55,8 @@ DENSITY_HYSTERESIS = 1e-12
 SETTLED_FRACTION = 1e-3
 #: a settled valve pressed deeper than this fraction of the load-pressure deflection P_load A / k
 #: is held by a force ~10x its tolerance (contact_position_atol x atol <= 1 % of that deflection):
-#: its deflection decides (the same quantity; saves a pump evaluation per event check, ~5 % of the
-#: fast path's time)
+#: its deflection decides (the same quantity, and it spares the pump evaluation the force would cost at
+#: every event check)
 DEEP_FRACTION = 0.1
 #: what a switching function switches (lumped.solver.layout.SWITCH_WHAT, as numbers numba compares)
 _WHAT_SEAT, _WHAT_STOP, _WHAT_REGIME, _WHAT_CAVITATION = 0, 1, 2, 3
@@ -55,13 +64,26 @@ SWITCH_KIND = tuple({"seat": 0, "stop": 1, "regime": 2, "cavitation": 3}[w] for 
 
 
 def settled_speed(p, o: int, k: float) -> float:
-    """Speed [m/s] below which a valve on a contact of stiffness k (seat or stop) has settled.
+    """The speed below which a valve on a contact of stiffness k (seat or stop) has settled.
 
-    eps P_load A / sqrt(k m) = eps omega delta: a contact oscillation (omega = sqrt(k/m)) at this
-    speed spans eps = SETTLED_FRACTION of the deflection delta = P_load A / k a load-pressure force
-    causes (the scale of lumped.solver.steppers.tolerance_table). Scale-free: 0.14 mm/s for the thesis
-    disc on its seat, 4 mm/s on the bench pump's soft seat (k = 1.5e6 N/m), whose deflection moves
-    at ~1 mm/s near lift-off.
+    eps P_load A / sqrt(k m) = eps omega delta: a contact oscillation (omega = sqrt(k/m)) at this speed spans eps =
+    SETTLED_FRACTION of the deflection delta = P_load A / k a load-pressure force causes (the scale of
+    lumped.solver.steppers.tolerance_table). Scale-free: 0.14 mm/s for the thesis disc on its seat, 4 mm/s on the
+    bench pump's soft seat (k = 1.5e6 N/m), whose deflection moves at ~1 mm/s near lift-off.
+
+    Parameters
+    ----------
+    p : array of float
+        The flat parameter array.
+    o : int
+        The valve's block offset in p.
+    k : float
+        The contact's stiffness [N/m].
+
+    Returns
+    -------
+    float
+        [m/s]; inf for a massless or rigid-free block.
     """
     km = k * p[o + VALVE.moving_mass]
     if km <= 0.0:
@@ -70,13 +92,30 @@ def settled_speed(p, o: int, k: float) -> float:
 
 
 def force_decides(depth: float, u: float, p, o: int, k: float) -> bool:
-    """Whether the force (not the deflection ``depth`` [m] into a contact of stiffness k) decides
-    a valve's lift-off: settled (|u| below :func:`settled_speed`), and its depth below
-    SETTLED_FRACTION of the stop gap (a soft contact's deflection is followed to the tolerance)
-    and below DEEP_FRACTION of the load-pressure deflection (deeper, it is held for sure). A valve of
-    several DOFs (a modal or FE reed on its seat lands) is decided by its opening: its net free
-    acceleration holds its higher modes' elastic forces, whose sign flips at their frequency (the FE
-    reed chattered on its seat, 187 switches in 0.2 deg)."""
+    """Whether the force, not the deflection into a contact, decides a valve's lift-off.
+
+    Settled (|u| below :func:`settled_speed`), and its depth below SETTLED_FRACTION of the stop gap (a soft
+    contact's deflection is followed to the tolerance) and below DEEP_FRACTION of the load-pressure deflection
+    (deeper, it is held for sure). A valve of several DOFs (a modal or FE reed on its seat lands) is decided by its
+    opening: its net free acceleration holds its higher modes' elastic forces, whose sign flips at their frequency.
+
+    Parameters
+    ----------
+    depth : float
+        Deflection into the contact [m].
+    u : float
+        Opening rate [m/s].
+    p : array of float
+        The flat parameter array.
+    o : int
+        The valve's block offset in p.
+    k : float
+        The contact's stiffness [N/m].
+
+    Returns
+    -------
+    bool
+    """
     if not is_scalar(p, o):
         return False
     if abs(u) > settled_speed(p, o, k):
@@ -97,9 +136,29 @@ def _set_contact(p, o: int, c) -> None:
 
 
 def free_accelerations(t: float, y, p, mode, scratch) -> tuple[float, float]:
-    """(inlet, delivery) accelerations of the openings [m/s^2] without the seat and stop reactions:
-    the net non-contact force over the moving mass, in the current mode (lumped.solver.rhs.evaluate with
-    the contact stiffness and damping zeroed for the call; p is restored; ``scratch``: room for dy/dt)."""
+    """The openings' accelerations without the seat and stop reactions: the net non-contact force over the moving
+    mass, in the current mode.
+
+    lumped.solver.rhs.evaluate with the contact stiffness and damping zeroed for the call; p is restored.
+
+    Parameters
+    ----------
+    t : float
+        Time [s].
+    y : array of float
+        The pump's state (lumped.solver.layout).
+    p : array of float
+        The flat parameter array.
+    mode : array of float
+        The mode (contact, regime and cylinder states; lumped.solver.layout slots).
+    scratch : array of float
+        Room for dy/dt (the state's length).
+
+    Returns
+    -------
+    (a_in, a_del) : tuple of float
+        Inlet and delivery [m/s^2].
+    """
     o_in, o_del = BLOCK_OFFSET
     c_in, c_del = _contact(p, o_in), _contact(p, o_del)
     _set_contact(p, o_in, (0.0, 0.0, 0.0, 0.0))
@@ -111,19 +170,19 @@ def free_accelerations(t: float, y, p, mode, scratch) -> tuple[float, float]:
 
 
 def switch_values(t: float, y, p, mode, g) -> None:
-    """Fill g[0:N_SWITCHES] with the switching functions of the current mode (fire below 0); g holds
-    the state's length more as scratch (:func:`free_accelerations`; the steppers size it so).
+    """The switching functions of the current mode into g[0:N_SWITCHES] (an event fires where one drops below 0;
+    each function: the module docstring).
 
-    Each valve's seat function: on its seat, -x (lifts off at x > 0), or where
-    :func:`force_decides`, -a_f m / k_seat, about the quasi-static deflection of the net
-    non-contact force (its sign is what counts: the valve lifts off when that force turns away
-    from the seat); free, x + h (lands at x < -h). Its stop function: free, x_stop - x (reaches
-    the stop); on its stop, x - (x_stop - h), or where the force decides, a_f m / k_stop (leaves
-    when the force turns away from the stop). Its regime function: x_t - x in the Poiseuille
-    regime and x - (x_t - h) in the orifice one. The cylinder's: liquid, rho - rho(P_vap)
-    (cavitates when the density falls below the liquid's at the vapour pressure); cavitating,
-    rho(P_vap) (1 + e) - rho (refilled). A function with no surface is 1. x is the opening
-    (lumped.solver.layout.opening).
+    Parameters
+    ----------
+    t, y, p, mode
+        Time [s], the pump's state, the flat parameter array and the mode (lumped.solver.layout).
+    g : array of float
+        Written: the functions; the state's length more is scratch (:func:`free_accelerations`).
+
+    Returns
+    -------
+    None
     """
     hy = HYSTERESIS
     need = False
@@ -154,14 +213,7 @@ def switch_values(t: float, y, p, mode, g) -> None:
         if xt > 0.0:
             g[i_reg] = xt - x if r == POISEUILLE else x - (xt - hy)
     if need:
-        a = free_accelerations(t, y, p, mode, g[N_SWITCHES:])
-        for v in range(N_VALVES):
-            o = BLOCK_OFFSET[v]
-            m = p[o + VALVE.moving_mass]
-            if math.isnan(g[SEAT_SWITCH[v]]):
-                g[SEAT_SWITCH[v]] = -a[v] * m / p[o + VALVE.seat_k]
-            if math.isnan(g[STOP_SWITCH[v]]):
-                g[STOP_SWITCH[v]] = a[v] * m / p[o + VALVE.stop_k]
+        _force_switches(t, y, p, mode, g)
     i_cav = CAVITATION_SWITCH
     g[i_cav] = 1.0
     rho_v = p[G.rho_vapour]
@@ -173,16 +225,44 @@ def switch_values(t: float, y, p, mode, g) -> None:
             g[i_cav] = (rho_v * (1.0 + DENSITY_HYSTERESIS) - rho) / rho_v
 
 
-def apply_switch(k: int, y, p, mode) -> int:
-    """Make the mode change of switching function k at its crossing; returns its event code
-    (lumped.solver.layout.event_code).
+def _force_switches(t: float, y, p, mode, g) -> None:
+    """The seat and stop functions :func:`switch_values` left NaN (where :func:`force_decides`): -a_f m / k_seat
+    and a_f m / k_stop from the free accelerations a_f (the valve's loop stays free of this call, which only a
+    settled contact needs)."""
+    a = free_accelerations(t, y, p, mode, g[N_SWITCHES:])
+    for v in range(N_VALVES):
+        o = BLOCK_OFFSET[v]
+        m = p[o + VALVE.moving_mass]
+        if math.isnan(g[SEAT_SWITCH[v]]):
+            g[SEAT_SWITCH[v]] = -a[v] * m / p[o + VALVE.seat_k]
+        if math.isnan(g[STOP_SWITCH[v]]):
+            g[STOP_SWITCH[v]] = a[v] * m / p[o + VALVE.stop_k]
 
-    A valve is put exactly onto its surface (x = 0, -h, x_stop, x_stop - h, x_t, x_t - h),
-    so the new mode starts on the right side of it; a valve leaving a contact does not move
-    into it (u >= 0 off the seat, <= 0 off the stop: a settled valve leaves with the contact
-    surface, which is at rest, and a speed of the integrator's error into the contact would
-    land it again at once); the cylinder switch moves no state (the mass is the state: it
-    stays exactly conserved).
+
+def apply_switch(k: int, y, p, mode) -> int:
+    """Make the mode change of switching function k at its crossing.
+
+    A valve is put exactly onto its surface (x = 0, -h, x_stop, x_stop - h, x_t, x_t - h), so the new mode starts on
+    the right side of it; a valve leaving a contact does not move into it (u >= 0 off the seat, <= 0 off the stop: a
+    settled valve leaves with the contact surface, which is at rest, and a speed of the integrator's error into the
+    contact would land it again at once); the cylinder switch moves no state (the mass is the state: it stays
+    exactly conserved).
+
+    Parameters
+    ----------
+    k : int
+        The switching function.
+    y : array of float
+        The state; the valve's opening and rate may be rewritten.
+    p : array of float
+        The flat parameter array.
+    mode : array of float
+        Rewritten: the new mode.
+
+    Returns
+    -------
+    int
+        The event code (lumped.solver.layout.event_code).
     """
     what = SWITCH_KIND[k]
     if what == _WHAT_CAVITATION:
@@ -211,10 +291,22 @@ def apply_switch(k: int, y, p, mode) -> int:
 
 
 def redo_at_crossing(k: int, mode) -> bool:
-    """Whether a step should be redone to end at crossing k: only when a valve leaves its seat
-    or stop. In contact the opening is a stiff component slaved to the pressure, which the
-    interpolant of a long step does not follow; in free flight (and the cylinder density)
-    it does, to the tolerance."""
+    """Whether a step should be redone to end at crossing k: only when a valve leaves its seat or stop.
+
+    In contact the opening is a stiff component slaved to the pressure, which the interpolant of a long step does
+    not follow; in free flight (and the cylinder density) it does, to the tolerance.
+
+    Parameters
+    ----------
+    k : int
+        The switching function.
+    mode : array of float
+        The mode (contact, regime and cylinder states; lumped.solver.layout slots).
+
+    Returns
+    -------
+    bool
+    """
     what = SWITCH_KIND[k]
     if what == _WHAT_CAVITATION or what == _WHAT_REGIME:
         return False
@@ -223,7 +315,23 @@ def redo_at_crossing(k: int, mode) -> bool:
 
 
 def initial_mode(t: float, y, p, mode) -> None:
-    """Contact state, regime and cylinder state decided from the state (at the start of a run)."""
+    """Contact state, regime and cylinder state decided from the state (at the start of a run).
+
+    Parameters
+    ----------
+    t : float
+        Time [s].
+    y : array of float
+        The pump's state (lumped.solver.layout).
+    p : array of float
+        The flat parameter array.
+    mode : array of float
+        Written: the mode.
+
+    Returns
+    -------
+    None
+    """
     for v in range(N_VALVES):
         o = BLOCK_OFFSET[v]
         x = opening(y, p, o)[0]

@@ -26,7 +26,7 @@ Forces on the ball, as for the thesis's disc (eq 2.4) with the ball's areas:
   (theta_jet = alpha unless given).
 
 The flow (orifice equation with Cd(Re) of eq 2.47, displacement area of eq 2.42) is shared with
-every kind (:func:`lumped.valves.kind.valve_flow`). Values of the shipped ball valve:
+every kind (:func:`lumped.valves.forces.valve_flow`). Values of the shipped ball valve:
 ``lumped/data/models/thesis-ball.toml``.
 """
 
@@ -37,18 +37,67 @@ from dataclasses import dataclass
 
 from geometry.declare import param, read_table
 from geometry.errors import InputError
-from lumped.valves.kind import Common, ValveKind, ValveParams, check_discharge, contact_reaction, kind_block, register
+from lumped.valves.kind import (
+    Common, ValveKind, ValveParams, check_discharge, contact_reaction, kind_block, register, spring_force,
+    steady_flow_force,
+)
 
 CRITICAL = "critical damping 2 sqrt(k m) of eq 2.23 with the moving mass (derived when left out)"
 
 
 def contact_diameter(ball_diameter: float, half_angle: float) -> float:
-    """d_c = d_b cos(alpha) [m]: the circle where a ball touches a cone of half-angle alpha (ball 1)."""
+    """Diameter of the circle where a ball touches a cone of half-angle alpha, d_c = d_b cos(alpha) (ball 1).
+
+    Parameters
+    ----------
+    ball_diameter : float
+        d_b [m].
+    half_angle : float
+        alpha [rad].
+
+    Returns
+    -------
+    float
+        d_c [m].
+
+    Examples
+    --------
+    A 1/2 in ball in a 90 deg countersink (thesis-ball.toml):
+
+    >>> import math
+    >>> round(contact_diameter(12.7e-3, math.pi / 4) * 1e3, 3)
+    8.98
+    """
     return ball_diameter * math.cos(half_angle)
 
 
 def curtain_area(x: float, ball_diameter: float, half_angle: float) -> float:
-    """Flow area A_o [m^2] between a ball lifted by x [m] and its conical seat (ball 1, Merritt 1967 s. 3.5)."""
+    """Flow (curtain) area between a ball lifted by x and its conical seat,
+    A_o = pi x sin(alpha) (d_c + x sin(alpha) cos(alpha)) (ball 1, after Merritt 1967, section 3.5).
+
+    Parameters
+    ----------
+    x : float
+        Lift [m].
+    ball_diameter : float
+        d_b [m].
+    half_angle : float
+        alpha [rad].
+
+    Returns
+    -------
+    float
+        A_o [m^2].
+
+    Examples
+    --------
+    Small lifts: the gap h = x sin(alpha) around the circle pi d_c:
+
+    >>> import math
+    >>> a = curtain_area(1e-6, 12.7e-3, math.pi / 4)
+    >>> round(a / (math.pi * contact_diameter(12.7e-3, math.pi / 4) * 1e-6 * math.sin(math.pi / 4)), 3)
+    1.0
+    """
     s = math.sin(half_angle)
     return math.pi * x * s * (contact_diameter(ball_diameter, half_angle) + x * s * math.cos(half_angle))
 
@@ -146,25 +195,9 @@ class BallValve(ValveParams):
         """pi d_b^2 / 4 [m^2] (= A_2 of eq 2.42, and the drag area)."""
         return math.pi * self.ball_diameter**2 / 4.0
 
-    @property
-    def seat_damping_value(self) -> float:
-        """c_seat [N s/m]: as given, else critical for the moving mass (eq 2.23)."""
-        return 2.0 * math.sqrt(self.seat_stiffness * self.moving_mass) if self.seat_damping is None else self.seat_damping
-
-    @property
-    def stop_damping_value(self) -> float:
-        """c_stop [N s/m]: as given, else critical for the moving mass (eq 2.23)."""
-        return 2.0 * math.sqrt(self.stop_stiffness * self.moving_mass) if self.stop_damping is None else self.stop_damping
-
     def natural_frequency(self) -> float:
         """Undamped natural frequency of the ball on its spring sqrt(k_spr / m) [rad/s]."""
         return math.sqrt(self.spring_stiffness / self.moving_mass)
-
-    def damping_ratios(self) -> dict:
-        """Contact damping ratios c / (2 sqrt(k m)) with the moving mass (eq 2.23 gives 1)."""
-        m = self.moving_mass
-        return {"seat": self.seat_damping_value / (2.0 * math.sqrt(self.seat_stiffness * m)),
-                "stop": self.stop_damping_value / (2.0 * math.sqrt(self.stop_stiffness * m))}
 
     def common(self, oil=None) -> Common:
         """The quantities every kind shares (lumped.valves.kind.Common): eqs 2.3, 2.20, 2.42, 2.47 and ball 1."""
@@ -217,36 +250,53 @@ BALL = kind_block(BallValve)
 
 
 def ball_acceleration(x: float, u: float, f, p, o: int, contact: int, regime: int) -> float:
-    """du/dt [m/s^2] of the ball: F / (m_ball + m_s/3 + m_f), F the forces of the module docstring.
+    """Acceleration of the ball, F / (m_ball + m_s/3 + m_f), F the forces of the module docstring.
 
+    Parameters
+    ----------
+    x, u : float
+        Lift [m] and its rate [m/s].
+    f : lumped.valves.common.ValveInputs
+        What the pump gives the valve.
+    p : array of float
+        The flat parameter array; ``o`` the ball's block offset (:data:`BALL`).
+    contact, regime : int
+        The valve's mode.
+
+    Returns
+    -------
+    float
+        du/dt [m/s^2].
+
+    References
+    ----------
+    Knutson (2016), eqs 2.3, 2.19, 2.20, 2.28, 2.36; Merritt (1967), section 3.5.
+
+    Notes
+    -----
     Pressure over the seat circle, spring with preload (eq 2.19), seat/stop contact (eq 2.20),
     drag opposing the motion (eq 2.28 with a sphere's coefficients) and the steady flow force
     (eq 2.36; Merritt 1967) with the jet along the cone.
     """
     dp, rho = f.dp, f.rho
     force = dp * p[o + BALL.seat_area]
-    force -= p[o + BALL.spring_stiffness] * (x + p[o + BALL.spring_preload])
+    force -= spring_force(x, p[o + BALL.spring_stiffness], p[o + BALL.spring_preload])
     force += contact_reaction(x, u, p, o, contact)
     force -= p[o + BALL.viscous_term] * f.mu * u + p[o + BALL.inertial_term] * rho * abs(u) * u
     if p[o + BALL.flow_force_on] > 0.5:
-        q = f.q_o + f.aq * u
-        a_o = 0.0
-        if contact != 0 and x > 0.0:
-            a_o = (p[o + BALL.area_per_opening] + p[o + BALL.area_curvature] * x) * x
-        force += rho * q * q / p[o + BALL.port_area] - 2.0 * f.cd * f.cd * a_o * abs(dp) * p[o + BALL.cos_jet]
+        force += steady_flow_force(x, u, f, p, o, contact, p[o + BALL.port_area], p[o + BALL.cos_jet])
     return force / p[o + BALL.moving_mass]
 
 
 KIND = register(ValveKind(
     name="ball", default_model="thesis-ball", params=BallValve, acceleration=ball_acceleration, block=BALL,
-    # a stiff steel seat and a housing stop like the disc's: the disc's contact tolerances; in free
-    # flight the ball's velocity decides its timing (it floats on the flow between seat and stop): x3
-    # atol (the kinds' default x100 put it 0.08 % / 0.29 deg off a tight reference on the six points of
-    # lumped.conformance.POINTS; x3 0.006 % / 0.05 deg with 16 % more steps)
+    # the fast path's tolerances (docs/models.md, "The fast path's tolerances"): a stiff steel seat and a
+    # housing stop like the disc's, its lift-off decided by the net force; in free flight the ball floats on
+    # the flow between seat and stop, and its velocity decides its timing
     contact_velocity_atol=100.0,
     contact_position_atol=1000.0,
     free_velocity_atol=3.0,
-    # designs the fast path is checked on (studies.sweeps.random_designs)
+    # designs the fast path is checked on (lumped.model.random_designs)
     design_ranges={"spring.stiffness": (150.0, 300.0), "ball.diameter": (12.3e-3, 14.0e-3),
                    "flow.f1": (0.6, 1.0), "flow.f2": (0.6, 1.0)},
     summary="spring-loaded ball on a conical seat (Merritt 1967; valvelab)",

@@ -20,40 +20,127 @@ from dataclasses import dataclass, replace
 from geometry.declare import param, read_table
 from geometry.disc import load_disc_geometry
 from geometry.errors import InputError
-from lumped.valves.kind import Common, fluid_param, ValveKind, ValveParams, check_discharge, contact_reaction, kind_block, register
+from lumped.valves.kind import (  # noqa: F401 - critical_damping: eq 2.23 as the thesis tables use it
+    Common, ValveKind, ValveParams, check_discharge, contact_reaction, critical_damping, fluid_param, kind_block,
+    register, spring_force, steady_flow_force,
+)
 
 EQ_2_23 = "critical damping 2 sqrt(k m) of eq 2.23 with the contact mass (derived when left out)"
 
 
 # ----------------------------------------------------------------- coefficients (section 2.4)
 def c1_coefficient(inner_radius: float, outer_radius: float) -> float:
-    """Poiseuille flow pressure coefficient C1 (dimensionless, eq 2.14)."""
+    """Poiseuille pressure coefficient C1 of the disc: the mean pressure on the face over dP when the seat's
+    annulus carries a laminar radial flow, C1 = (1 - q^2) / (2 ln(1/q)), q = R_i / R_o (eq 2.14).
+
+    Parameters
+    ----------
+    inner_radius, outer_radius : float
+        R_i, R_o [m] of the seat annulus.
+
+    Returns
+    -------
+    float
+        C1 [-].
+
+    References
+    ----------
+    Knutson (2016), eqs 2.7-2.14.
+
+    Examples
+    --------
+    >>> round(c1_coefficient(5.24e-3, 7.50e-3), 3)          # Table 2.3: 0.714
+    0.714
+    """
     q = inner_radius / outer_radius
     return (1.0 - q * q) / (2.0 * math.log(outer_radius / inner_radius))
 
 
 def squeeze_area_moment(inner_radius: float, outer_radius: float) -> float:
-    """G [m^4] with C2 = 3 mu G / sin^4(theta): (pi/2) R_i^4 (r^4 - 1)(1 - (r^2 - 1)/((r^2 + 1) ln r)), r = R_o/R_i
-    (eq 2.15 without the film's viscosity and bevel; the annulus integral of the squeeze pressure, eqs 2.11-2.12)."""
+    """The squeeze film's area moment G with C2 = 3 mu G / sin^4(theta) (eq 2.15 without the film's viscosity and
+    bevel; the annulus integral of the squeeze pressure, eqs 2.11-2.12).
+
+    Parameters
+    ----------
+    inner_radius, outer_radius : float
+        R_i, R_o [m].
+
+    Returns
+    -------
+    float
+        G = (pi/2) R_i^4 (r^4 - 1)(1 - (r^2 - 1)/((r^2 + 1) ln r)) [m^4], r = R_o / R_i.
+
+    References
+    ----------
+    Knutson (2016), eqs 2.11-2.15.
+    """
     r = outer_radius / inner_radius
     lr = math.log(r)
     return 0.5 * math.pi * inner_radius**4 * (r**4 - 1.0) * (1.0 - (r * r - 1.0) / ((r * r + 1.0) * lr))
 
 
 def c2_coefficient(inner_radius: float, outer_radius: float, bevel_angle: float, viscosity: float) -> float:
-    """Stiction coefficient C2 [N m^2 s] (eq 2.15; Reynolds equation 2.7-2.13)."""
+    """Stiction coefficient C2 of the squeeze film under the disc: the film force is C2 u / x^3 (eq 2.15, from
+    the Reynolds equation 2.7-2.13 over the bevelled seat).
+
+    Parameters
+    ----------
+    inner_radius, outer_radius : float
+        R_i, R_o [m].
+    bevel_angle : float
+        theta [rad].
+    viscosity : float
+        mu [Pa s].
+
+    Returns
+    -------
+    float
+        C2 = 3 mu G / sin^4(theta) [N m^2 s] (:func:`squeeze_area_moment`).
+
+    References
+    ----------
+    Knutson (2016), eqs 2.7-2.15.
+
+    Examples
+    --------
+    Table 2.3's 7.630e-11 N m^2 s at 21 C (mu = 0.0705 Pa s by eq A.3; docs/errata.md):
+
+    >>> import math
+    >>> from lumped.fluid.oil import thesis_oil_viscosity
+    >>> round(c2_coefficient(5.24e-3, 7.5e-3, math.radians(54.0), thesis_oil_viscosity(294.15)[1]) / 7.630e-11, 3)
+    0.999
+    """
     return 3.0 * viscosity / math.sin(bevel_angle) ** 4 * squeeze_area_moment(inner_radius, outer_radius)
 
 
 def helical_spring_stiffness(wire_diameter: float, coil_diameter: float, shear_modulus: float,
                              active_coils: float) -> float:
-    """k_spr = d^4 G / (8 D^3 N_a) [N/m] (eq 2.43)."""
+    """Stiffness of a helical compression spring, k_spr = d^4 G / (8 D^3 N_a) (eq 2.43).
+
+    Parameters
+    ----------
+    wire_diameter, coil_diameter : float
+        d, D [m].
+    shear_modulus : float
+        G [Pa].
+    active_coils : float
+        N_a [-].
+
+    Returns
+    -------
+    float
+        k_spr [N/m].
+
+    References
+    ----------
+    Knutson (2016), eq 2.43, Table 2.2.
+
+    Examples
+    --------
+    >>> round(helical_spring_stiffness(0.61e-3, 9.9e-3, 80.0e9, 6.5))     # Table 2.3: 220 N/m
+    220
+    """
     return wire_diameter**4 * shear_modulus / (8.0 * coil_diameter**3 * active_coils)
-
-
-def critical_damping(stiffness: float, mass: float) -> float:
-    """c_critical = 2 sqrt(k m) (eq 2.23), SI units of k and m."""
-    return 2.0 * math.sqrt(stiffness * mass)
 
 
 # ----------------------------------------------------------------- parameters
@@ -210,27 +297,14 @@ class DiscValve(ValveParams):
         """m_disc + m_s/3 + m_f [kg] (eq 2.3)."""
         return self.disc_mass + self.spring_mass / 3 + self.added_mass
 
-    @property
-    def seat_damping_value(self) -> float:
-        """c_seat [N s/m]: as given, else critical for the contact mass (eq 2.23)."""
-        return critical_damping(self.seat_stiffness, self.contact_mass) if self.seat_damping is None \
-            else self.seat_damping
-
-    @property
-    def stop_damping_value(self) -> float:
-        """c_stop [N s/m]: as given, else critical for the contact mass (eq 2.23)."""
-        return critical_damping(self.stop_stiffness, self.contact_mass) if self.stop_damping is None \
-            else self.stop_damping
+    def damping_reference(self) -> tuple[float, float]:
+        """(m_contact, 1): a contact left without its damping is critical for ``mass.contact_reference``
+        (eq 2.23; the thesis used Table 2.1's 3.9 g, docs/errata.md), not the moving mass."""
+        return self.contact_mass, 1.0
 
     def natural_frequency(self) -> float:
         """Undamped natural frequency of disc on spring sqrt(k_spr / m) [rad/s] (eq 2.3 without fluid)."""
         return math.sqrt(self.spring_stiffness / self.moving_mass)
-
-    def damping_ratios(self) -> dict:
-        """Contact damping ratios c / (2 sqrt(k m)) with the moving mass (eq 2.23 gives 1)."""
-        m = self.moving_mass
-        return {"seat": self.seat_damping_value / critical_damping(self.seat_stiffness, m),
-                "stop": self.stop_damping_value / critical_damping(self.stop_stiffness, m)}
 
     def common(self, oil=None) -> Common:
         """The quantities every kind shares (lumped.valves.kind.Common): eqs 2.3, 2.20, 2.40-2.42, 2.47, 2.18."""
@@ -361,12 +435,33 @@ def _film_root(c: float, top: float, side: float) -> float:
 
 
 def film_force(p_up: float, p_down: float, p_lim: float, k: float, r_i: float, r_o: float) -> float:
-    """Axial force [N] of the fluid on the disc face over r <= R_o (Poiseuille regime) with a squeeze
-    film whose pressure cannot fall below p_lim: P_up inside R_i (eq 2.6), the Reynolds film of eq 2.8
-    on R_i..R_o, minus P_down on the back face (eq 2.12).
+    """Axial force of the fluid on the disc face over r <= R_o (Poiseuille regime) with a squeeze film whose
+    pressure cannot fall below p_lim: P_up inside R_i (eq 2.6), the Reynolds film of eq 2.8 on R_i..R_o, minus
+    P_down on the back face (eq 2.12).
 
-    ``k`` = 3 mu u / (x^3 sin^4 theta) [Pa/m^2], the squeeze term of eq 2.11 in the projected radius r
-    (> 0 opening). Where the full film of eq 2.11 would fall below p_lim the film cavitates: a zone
+    Parameters
+    ----------
+    p_up, p_down : float
+        Pressures upstream and behind the disc [Pa].
+    p_lim : float
+        The film's lowest pressure [Pa] (the vapour pressure minus the oil's tensile strength).
+    k : float
+        3 mu u / (x^3 sin^4 theta) [Pa/m^2], the squeeze term of eq 2.11 in the projected radius r (> 0 opening).
+    r_i, r_o : float
+        R_i, R_o [m].
+
+    Returns
+    -------
+    float
+        The force [N], positive opening.
+
+    References
+    ----------
+    Knutson (2016), eqs 2.6-2.17; Scheidl & Gradl (2016) for separating plates.
+
+    Notes
+    -----
+    Where the full film of eq 2.11 would fall below p_lim the film cavitates: a zone
     r_1..r_2 at p_lim bounded by liquid zones in which eq 2.8 holds with the Reynolds (Swift-Stieber)
     condition P = p_lim, dP/dr = 0 at the cavity edges, which conserves mass while the cavity grows
     (the edge moves with the liquid; Jakobsson-Floberg-Olsson theory), as in the approximate
@@ -398,8 +493,34 @@ def film_force(p_up: float, p_down: float, p_lim: float, k: float, r_i: float, r
 # ----------------------------------------------------------------- forces
 def pressure_force(x: float, u: float, dp: float, p_down: float, p_vap: float, p, o: int,
                    regime: int, contact: int = -1) -> float:
-    """Pressure force F_p [N] with the Poiseuille/orifice switch of eq 2.18.
+    """Pressure force F_p on the disc with the Poiseuille/orifice switch of eq 2.18.
 
+    Parameters
+    ----------
+    x, u : float
+        Opening [m], rate [m/s].
+    dp : float
+        P_up - P_down [Pa].
+    p_down, p_vap : float
+        Pressure behind the disc and the vapour pressure [Pa].
+    p : array of float
+        The flat parameter array; ``o`` the disc's block offset.
+    regime : int
+        0 Poiseuille, 1 orifice, -1 from x.
+    contact : int
+        Contact state (-1: from x).
+
+    Returns
+    -------
+    float
+        F_p [N], positive opening.
+
+    References
+    ----------
+    Knutson (2016), eqs 2.13-2.18.
+
+    Notes
+    -----
     Poiseuille regime: C1 dP A_disc (eq 2.13); with the squeeze_film effect the Reynolds film of
     eqs 2.7-2.13 over the bevelled annulus, x + min_gap thick, its pressure bounded below at the
     vapour pressure minus the oil's tensile strength (eq 2.17 applied to the film pressure, not
@@ -425,8 +546,30 @@ def pressure_force(x: float, u: float, dp: float, p_down: float, p_vap: float, p
 
 
 def disc_acceleration(x: float, u: float, f, p, o: int, contact: int, regime: int) -> float:
-    """du/dt [m/s^2] of the disc: F / (m_disc + m_s/3 + m_f) with F of eq 2.4 (eqs 2.1-2.4).
+    """Acceleration of the disc, F / (m_disc + m_s/3 + m_f) with F of eq 2.4 (eqs 2.1-2.4).
 
+    Parameters
+    ----------
+    x, u : float
+        Opening [m] and its rate [m/s].
+    f : lumped.valves.common.ValveInputs
+        What the pump gives the valve (pressures, density, viscosity, the orifice flow and its partials).
+    p : array of float
+        The flat parameter array; ``o`` the disc's block offset (:data:`DISC`).
+    contact, regime : int
+        The valve's mode (contact state; pressure regime of eq 2.18).
+
+    Returns
+    -------
+    float
+        du/dt [m/s^2].
+
+    References
+    ----------
+    Knutson (2016), eqs 2.1-2.4, 2.18-2.20, 2.28, 2.30, 2.36, 2.37.
+
+    Notes
+    -----
     Forces: pressure (eq 2.18), spring with preload (eq 2.19), seat/stop contact
     (eq 2.20), drag opposing the motion (eq 2.28), and with the flow_force effect the
     steady (eq 2.36, the jet leaving at theta_jet, eq 2.30) and transient (eq 2.37, an oil column
@@ -437,7 +580,7 @@ def disc_acceleration(x: float, u: float, f, p, o: int, contact: int, regime: in
     dp, rho = f.dp, f.rho
     m = p[o + DISC.moving_mass]
     force = pressure_force(x, u, dp, f.p_down, f.p_vap, p, o, regime, contact)
-    force -= p[o + DISC.spring_stiffness] * (x + p[o + DISC.spring_preload])
+    force -= spring_force(x, p[o + DISC.spring_stiffness], p[o + DISC.spring_preload])
     force += contact_reaction(x, u, p, o, contact)
     # drag (eq 2.28) opposes the motion
     force -= p[o + DISC.viscous_drag] * f.mu * u * p[o + DISC.disc_diameter] \
@@ -445,11 +588,8 @@ def disc_acceleration(x: float, u: float, f, p, o: int, contact: int, regime: in
     ks = p[o + DISC.flow_force_steady]
     kt = p[o + DISC.flow_force_transient]
     if ks > 0.0 or kt > 0.0:
+        force += ks * steady_flow_force(x, u, f, p, o, contact, p[o + DISC.port_area], p[o + DISC.cos_jet])
         q = f.q_o + f.aq * u
-        a_o = 0.0
-        if contact != 0 and x > 0.0:
-            a_o = p[o + DISC.area_per_opening] * x
-        force += ks * (rho * q * q / p[o + DISC.port_area] - 2.0 * f.cd * f.cd * a_o * abs(dp) * p[o + DISC.cos_jet])
         arm = p[o + DISC.transient_arm] + x
         force -= kt * rho * (q * u + arm * (f.dq_ddp * f.ddp_dt + f.dq_dx * u))
         m += kt * rho * arm * f.aq
@@ -458,16 +598,14 @@ def disc_acceleration(x: float, u: float, f, p, o: int, contact: int, regime: in
 
 KIND = register(ValveKind(
     name="disc", default_model="thesis-disc", params=DiscValve, acceleration=disc_acceleration, block=DISC,
-    # In contact the disc's opening and velocity hardly matter since its lift-off is decided by
-    # the net force (lumped.solver.switching): x100 velocity and x1000 opening (a kind's defaults: x1,
-    # x30) take 214 steps per revolution (224 at x30/x300; 232 with the lift-off decided
-    # by the opening) for the same accuracy: worst angle 0.03 deg (validation cases and random
-    # designs), 0.17 deg on the discrepancy workflow's models (21.5 deg before the force-decided
-    # lift-off), deliveries within 0.083 % (benchmarks/pump_tolerance_study.py --effects). Stop
-    # contacts are counted after a real excursion (lumped.run.simulate.CONTACT_EXCURSION).
+    # the fast path's tolerances (lumped.solver.steppers.tolerance_table; measured in docs/models.md, "The fast
+    # path's tolerances"): on its seat or stop the disc's lift-off is decided by the net force
+    # (lumped.solver.switching), not by its opening or velocity there, which may be loose; in free flight its
+    # velocity carries its timing and delivery, most at high speed and load
     contact_velocity_atol=100.0,
     contact_position_atol=1000.0,
-    # designs the fast path is checked on (studies.sweeps.random_designs): the O-ring compliance of
+    free_velocity_atol=30.0,
+    # designs the fast path is checked on (lumped.model.random_designs): the O-ring compliance of
     # the delivery seat (section 2.4.3.2), its displacement factors and the inlet spring
     design_ranges={"effects.seat_compliance.delivery.k_seat": (10**5.5, 1e7), "delivery.flow.f1": (0.6, 1.0),
                    "delivery.flow.f2": (0.6, 1.0), "inlet.spring.stiffness": (150.0, 300.0)},

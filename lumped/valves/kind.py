@@ -1,4 +1,4 @@
-"""Check-valve kinds: the kind contract, the registry, and the physics every kind shares.
+"""Check-valve kinds: the kind contract and the registry.
 
 A valve *kind* (disc, reed, ball, ...) is one :class:`ValveKind` entry, registered by the
 module that implements it (``lumped/valves/disc.py``, ``lumped/valves/reed.py``,
@@ -6,9 +6,10 @@ module that implements it (``lumped/valves/disc.py``, ``lumped/valves/reed.py``,
 
 - its parameter class: a frozen dataclass subclassing :class:`ValveParams` whose fields
   are declared with :func:`geometry.declare.param`, and whose :meth:`ValveParams.common`
-  returns the quantities every kind shares as one frozen, checked :class:`Common`;
+  returns the quantities every kind shares as one frozen, checked
+  :class:`~lumped.valves.common.Common`;
 - its acceleration: ``acceleration(x, u, f, p, o, contact, regime) -> du/dt`` of the opening
-  x [m] and its rate u [m/s], with ``f`` the :class:`ValveInputs` the pump gives every kind
+  x [m] and its rate u [m/s], with ``f`` the :class:`~lumped.valves.common.ValveInputs` the pump gives every kind
   (pressures, density, the orifice flow and its partials) and the flat parameter array
   ``p`` read at the kind's block offset ``o`` (floats and arrays only: numba compiles it);
   a kind with several mechanical degrees of freedom (the modal reed) adds
@@ -19,161 +20,45 @@ module that implements it (``lumped/valves/disc.py``, ``lumped/valves/reed.py``,
   (written into the pump's Jacobian; without it lumped.solver.jacobian differences them);
 - its tolerances on the fast path and the shipped model that gives its defaults.
 
-:func:`~lumped.conformance.check_valve_kind` checks a kind against this contract.
-The pump, the fast path, the effects and the command line find kinds here instead of
-branching on names.
-
-Contact state ``contact``: 0 seat (x < 0 side), 1 free, 2 stop (x > x_stop side),
--1 decide from x. The pump integrator fixes it per step and switches it only at a
-located crossing (``lumped.solver.switching``), so the right-hand side is smooth in a step.
+:func:`register` checks what can be checked before anything runs (the parameter class, the fields the
+acceleration reads are declared and packed, the default model exists) and refuses a kind with a
+:class:`KindError` naming what to fix; :func:`~lumped.conformance.check_valve_kind` checks the rest by
+running it. The pump, the fast path, the effects and the command line find kinds here instead of
+branching on names. What every kind shares is written once: the packed block and the inputs in
+:mod:`lumped.valves.common`, the contact, flow and force terms in :mod:`lumped.valves.forces` (both
+re-exported here).
 """
 
 from __future__ import annotations
 
 import collections
+import linecache
 import math
-from dataclasses import dataclass, fields
-from typing import Callable, ClassVar, NamedTuple
+from dataclasses import dataclass
+from typing import Callable, ClassVar
 
 from geometry.declare import param
-from lumped.fluid.orifice import discharge_slope, orifice_flow
-
-#: quantities every kind packs first, at these offsets of its block (lumped.solver.layout): the fields of
-#: :class:`Common`, then the bookkeeping the layout writes
-COMMON = (
-    "kind_id",         # registry id of the kind
-    "moving_mass",     # kg (disc, ball) or kg/m^2 (reed: per unit area, eq 3.21)
-    "stop_gap",        # x_stop [m]
-    "seat_k",          # seat contact stiffness, N/m or Pa/m
-    "seat_c",          # seat contact damping, N s/m or Pa s/m
-    "stop_k",          # stop contact stiffness
-    "stop_c",          # stop contact damping
-    "area_1",          # A_1 of the displacement area (eqs 2.42, 3.26) [m^2]
-    "area_2",          # A_2 [m^2]
-    "f_closing",       # f1 (u < 0)
-    "f_opening",       # f2 (u > 0)
-    "cd_inf",          # Cd(Re) correlation (eqs 2.47, 3.89)
-    "cd_a",
-    "cd_b",
-    "cd_c",
-    "cd_lift_exponent",  # k: Cd at the effective Re (x / x_stop)^k (0: independent of the opening)
-    "perimeter",       # orifice perimeter of the Reynolds number [m]
-    "average_density",  # 1: orifice density is the mean of both sides (section 4.3.5), 0: cylinder's
-    "area_per_opening",  # A_o / x at small openings [m]
-    "area_curvature",  # A_o = area_per_opening x + area_curvature x^2 (a ball in a cone) [-]
-    "regime_opening",  # x of a pressure-regime switch (eq 2.18) [m]; <= 0: none
-    "contact_area",    # area turning the contact force into a pressure load (disc face; reed 1)
-    "flow_in_acceleration",  # 1 if the kind's acceleration reads the flow inputs (flow forces), else 0
-    "orifice_start",   # scratch, not a parameter: sqrt(Re) of the last orifice solve (warm start)
-    "dofs",            # mechanical degrees of freedom of the valve (its states: dofs positions, dofs rates)
-    "state_start",     # index of its first state in the state vector (lumped.solver.layout)
-    "tail",            # offset of its variable-length data in the flat array (0: none; lumped.solver.layout)
+from geometry.errors import InputError
+# the shared data and physics, re-exported: a kind's module imports what it needs from here
+from lumped.valves.common import (  # noqa: F401
+    COMMON, CONTACT_NAMES, FREE, ORIFICE, POISEUILLE, REGIME_NAMES, SEAT, STOP, VALVE, Common, ValveInputs,
 )
-#: the offsets, as a namedtuple numba folds into constants: p[o + VALVE.stop_gap]
-VALVE = collections.namedtuple("ValveBlock", COMMON)(*range(len(COMMON)))
+from lumped.valves.forces import (  # noqa: F401
+    contact_force, contact_reaction, contact_slopes, contact_state, critical_damping, displacement_area,
+    mass_flow, orifice_area, regime_of, spring_force, steady_flow_force, valve_flow,
+)
 
-SEAT, FREE, STOP = 0, 1, 2
-POISEUILLE, ORIFICE = 0, 1
-#: names of the contact states and pressure regimes (event records, reports)
-CONTACT_NAMES = ("seat", "free", "stop")
-REGIME_NAMES = ("poiseuille", "orifice")
-
-
-class ValveInputs(NamedTuple):
-    """What the pump gives a kind's acceleration at one instant (SI), besides x, u and the block.
-
-    ``dp`` = P_up - P_down [Pa]; ``p_down`` [Pa]; ``p_vap`` the vapour pressure [Pa]; ``rho`` the
-    density of the orifice equation [kg/m^3]; ``mu`` [Pa s]; ``q_o`` the orifice flow [m^3/s] and
-    ``cd``, ``aq`` [m^2], ``dq_ddp`` [m^3/s/Pa], ``dq_dx`` [m^2/s] from :func:`valve_flow`;
-    ``ddp_dt`` d(dp)/dt [Pa/s] (the transient flow force of eq 2.37). A kind reads what it needs.
-    """
-
-    dp: float
-    p_down: float
-    p_vap: float
-    rho: float
-    mu: float
-    q_o: float
-    cd: float
-    aq: float
-    dq_ddp: float
-    dq_dx: float
-    ddp_dt: float
+#: the choices of a valve's ``fluid`` key (lumped.valves.fluid_forms)
+FLUID_CHOICES = ("empirical", "predicted")
 
 
-# --------------------------------------------------------------------------- the shared quantities
-@dataclass(frozen=True)
-class Common:
-    """The quantities every valve kind shares (SI units), checked when built.
+def fluid_param():
+    """The declaration of a valve's ``fluid`` key, shared by the kinds that offer predicted fluid parameters."""
+    return param("fluid", "-", 'the valve\'s fluid parameters: "empirical" (the thesis\'s correlations and '
+                 'estimates, as given) or "predicted" (the compact forms the fluid references compute for this '
+                 'geometry and oil, lumped.valves.fluid_forms; docs/fluid.md)', choices=FLUID_CHOICES,
+                 default="empirical")
 
-    ``moving_mass`` [kg, or kg/m^2 per unit area]; ``stop_gap`` x_stop [m]; ``seat_k``, ``seat_c``,
-    ``stop_k``, ``stop_c`` the contact stiffness and damping of eq 2.20 (N/m, N s/m; per unit area
-    for the reed: Pa/m, Pa s/m); ``area_1``, ``area_2``, ``f_closing``, ``f_opening`` the fluid
-    displacement area of eqs 2.42, 3.26; ``cd_inf``, ``cd_a``, ``cd_b``, ``cd_c`` the Cd(Re)
-    correlation of eqs 2.47, 3.89; ``perimeter`` [m] of its Reynolds number; ``average_density``
-    (section 4.3.5); ``area_per_opening`` A_o / x [m] and ``area_curvature`` [-], the orifice area
-    A_o = area_per_opening x + area_curvature x^2; ``cd_lift_exponent`` k [-]: Cd(Re) is taken at
-    the effective Reynolds number Re (x / x_stop)^k (0: Cd independent of the opening, eqs 2.47, 3.89); ``regime_opening`` [m] of a pressure-regime
-    switch (eq 2.18; None: none); ``contact_area`` [m^2] that turns a contact force into a
-    pressure load (1 for a per-unit-area kind); ``flow_in_acceleration``: the acceleration reads
-    the flow inputs (then the Jacobian recomputes the flow at each perturbation).
-    """
-
-    moving_mass: float
-    stop_gap: float
-    seat_k: float
-    seat_c: float
-    stop_k: float
-    stop_c: float
-    area_1: float
-    area_2: float
-    f_closing: float
-    f_opening: float
-    cd_inf: float
-    cd_a: float
-    cd_b: float
-    cd_c: float
-    perimeter: float
-    area_per_opening: float
-    contact_area: float
-    average_density: bool = False
-    regime_opening: float | None = None
-    flow_in_acceleration: bool = False
-    area_curvature: float = 0.0
-    cd_lift_exponent: float = 0.0
-
-    #: fields that must be > 0 and those that must be >= 0
-    POSITIVE: ClassVar[tuple] = ("moving_mass", "stop_gap", "seat_k", "stop_k", "perimeter", "area_per_opening",
-                                 "contact_area", "cd_inf")
-    NON_NEGATIVE: ClassVar[tuple] = ("seat_c", "stop_c", "area_1", "area_2", "f_closing", "f_opening",
-                                     "area_curvature")
-
-    def __post_init__(self):
-        for name in _COMMON_FIELDS:
-            v = getattr(self, name)
-            if isinstance(v, bool) or (v is None and name == "regime_opening"):
-                continue
-            if not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"Common.{name}: expected a finite number, got {v!r}")
-            if name in self.POSITIVE and not v > 0:
-                raise ValueError(f"Common.{name}: must be positive, got {v!r}")
-            if name in self.NON_NEGATIVE and v < 0:
-                raise ValueError(f"Common.{name}: must not be negative, got {v!r}")
-        if self.regime_opening is not None and not self.regime_opening > 0:
-            raise ValueError(f"Common.regime_opening: must be positive or None, got {self.regime_opening!r}")
-        if self.area_1 > self.area_2:
-            raise ValueError(f"Common.area_1 ({self.area_1:g}) exceeds area_2 ({self.area_2:g})")
-
-    def packed(self) -> dict:
-        """{COMMON name: float} as the flat array holds them."""
-        out = {}
-        for name in _COMMON_FIELDS:
-            v = getattr(self, name)
-            out[name] = (-1.0 if v is None else (1.0 if v is True else (0.0 if v is False else float(v))))
-        return out
-
-
-_COMMON_FIELDS = tuple(f.name for f in fields(Common))
 
 
 #: the choices of a valve's ``fluid`` key (lumped.valves.fluid_forms)
@@ -232,11 +117,69 @@ class ValveParams:
         """Undamped natural frequency of the moving element in vacuum [rad/s]."""
         raise NotImplementedError
 
+    # ---- contact damping (eq 2.23), derived here for every kind
+    def critical_mass(self) -> tuple[float, float]:
+        """(m, gamma) of the element's equation m x'' + gamma (c x' + k x) = F, against whose critical damping
+        (:func:`~lumped.valves.forces.critical_damping`, eq 2.23) the damping ratios are measured.
+
+        Returns
+        -------
+        tuple of float
+            The moving mass [kg] (its ``moving_mass``, else that of :meth:`common`) and gamma = 1 (a rigid
+            element); the reed returns its modal mass per unit area [kg/m^2] and gamma1 (eq 3.21).
+        """
+        m = getattr(self, "moving_mass", None)
+        return (self.common(None).moving_mass if m is None else m), 1.0
+
+    def damping_reference(self) -> tuple[float, float]:
+        """(m, gamma) whose critical damping a contact left without its damping takes (default:
+        :meth:`critical_mass`; the thesis disc used another mass, ``mass.contact_reference``)."""
+        return self.critical_mass()
+
+    def contact_damping(self, contact: str) -> float:
+        """The damping of a contact, c_seat or c_stop (eq 2.20).
+
+        Parameters
+        ----------
+        contact : str
+            ``"seat"`` or ``"stop"``: the kind's ``<contact>_damping`` field (None: left out) and
+            ``<contact>_stiffness`` field [N/m, or Pa/m per unit area].
+
+        Returns
+        -------
+        float
+            As given, else critical for :meth:`damping_reference`: 2 sqrt(gamma k m) / gamma [N s/m, or
+            Pa s/m per unit area] (eq 2.23).
+        """
+        given = getattr(self, f"{contact}_damping", None)
+        if given is not None:
+            return given
+        return critical_damping(getattr(self, f"{contact}_stiffness"), *self.damping_reference())
+
+    @property
+    def seat_damping_value(self) -> float:
+        """c_seat [N s/m; Pa s/m per unit area]: as given, else critical (:meth:`contact_damping`, eq 2.23)."""
+        return self.contact_damping("seat")
+
+    @property
+    def stop_damping_value(self) -> float:
+        """c_stop [N s/m; Pa s/m per unit area]: as given, else critical (:meth:`contact_damping`, eq 2.23)."""
+        return self.contact_damping("stop")
+
     def damping_ratios(self) -> dict:
-        """Damping ratios of the moving element on its contacts (default: seat and stop, eq 2.23)."""
+        """Damping ratios of the moving element on its seat and stop: c / c_crit with c_crit of
+        :meth:`critical_mass` (eq 2.23; a contact left without its damping has 1 unless the kind's
+        :meth:`damping_reference` differs).
+
+        Returns
+        -------
+        dict
+            {"seat": zeta, "stop": zeta} (dimensionless).
+        """
         c = self.common(None)
-        crit = lambda k: 2.0 * math.sqrt(k * c.moving_mass)  # noqa: E731
-        return {"seat": c.seat_c / crit(c.seat_k), "stop": c.stop_c / crit(c.stop_k)}
+        m, gamma = self.critical_mass()
+        return {"seat": c.seat_c / critical_damping(c.seat_k, m, gamma),
+                "stop": c.stop_c / critical_damping(c.stop_k, m, gamma)}
 
     def describe(self) -> dict:
         """Kind-specific quantities ``valvelab model check`` reports (default: none)."""
@@ -302,9 +245,22 @@ BLOCK_SIZE = 96
 
 
 def kind_block(params: type, derived: tuple | None = None) -> tuple:
-    """Offsets of a kind's packed quantities: :data:`COMMON`, then every field declared
-    ``packed=True`` (by field name), then the kind's derived quantities (``params.DERIVED``); a
-    namedtuple that numba folds into constants (``p[o + DISC.spring_stiffness]``)."""
+    """Offsets of a kind's packed quantities: COMMON, then every field declared ``packed=True`` (by field name),
+    then the kind's derived quantities (``params.DERIVED``).
+
+    Parameters
+    ----------
+    params : type
+        The kind's parameter class.
+    derived : tuple of str, optional
+        Derived names; None: ``params.DERIVED``.
+
+    Returns
+    -------
+    namedtuple
+        Name -> offset in the valve's block, which numba folds into constants (``p[o + DISC.spring_stiffness]``);
+        ValueError when a name repeats or the block overflows BLOCK_SIZE.
+    """
     from geometry.declare import specs
 
     derived = tuple(params.DERIVED if derived is None else derived)
@@ -317,22 +273,207 @@ def kind_block(params: type, derived: tuple | None = None) -> tuple:
     return collections.namedtuple(f"{params.__name__}Block", names)(*range(len(names)))
 
 
+class KindError(InputError):
+    """A valve kind that breaks the kind contract, refused by :func:`register` before anything runs.
+
+    ``field`` names what to fix (``DiscValve.squeeze_min_gap``, ``disc.default_model``, ...), ``message`` how.
+    """
+
+
 def register(kind: ValveKind) -> ValveKind:
-    """Add a kind to the registry (its id is its registration order)."""
-    if kind.name in KINDS:
-        raise ValueError(f"valve kind {kind.name!r} is registered twice")
-    if not (isinstance(kind.params, type) and issubclass(kind.params, ValveParams)):
-        raise TypeError(f"valve kind {kind.name!r}: params must subclass lumped.valves.kind.ValveParams")
+    """Add a kind to the registry (its id is its registration order) after checking its contract.
+
+    Parameters
+    ----------
+    kind : ValveKind
+        The kind's entry (see the module docstring).
+
+    Returns
+    -------
+    ValveKind
+        The registered entry, with its ``id``.
+
+    Raises
+    ------
+    KindError
+        Naming the field or entry to fix: a name registered twice; ``params`` not a frozen
+        :class:`ValveParams` dataclass with a ``position`` field; ``block`` not ``kind_block(params)``; a
+        quantity the acceleration reads (``p[o + BLOCK.name]``, in it or the functions it calls) that is no
+        packed field, derived name or common quantity, in particular a declared field without
+        ``packed=True``; no ``default_model``, or one that is neither shipped nor a file; a design range or
+        tolerance that is not a positive interval or number.
+    """
     from dataclasses import replace
 
+    check_kind(kind)
     kind = replace(kind, id=len(KINDS), design_ranges=dict(kind.design_ranges or {}))
     KINDS[kind.name] = kind
     _build_dispatch()
     return kind
 
 
+def check_kind(kind: ValveKind) -> None:
+    """The static kind contract (what :func:`register` refuses, see there), without registering.
+
+    Parameters
+    ----------
+    kind : ValveKind
+
+    Returns
+    -------
+    None
+        Or KindError naming the field.
+    """
+    import dataclasses
+
+    name = kind.name
+    if not isinstance(name, str) or not name.isidentifier():
+        raise KindError("ValveKind.name", f"expected an identifier-like name, got {name!r}")
+    if name in KINDS:
+        raise KindError("ValveKind.name", f"valve kind {name!r} is registered twice")
+    cls = kind.params
+    if not (isinstance(cls, type) and issubclass(cls, ValveParams)):
+        raise KindError(f"{name}.params", f"must be a class subclassing lumped.valves.kind.ValveParams, got {cls!r}")
+    if not (dataclasses.is_dataclass(cls) and cls.__dataclass_params__.frozen):
+        raise KindError(f"{cls.__name__}", "must be a frozen dataclass (@dataclass(frozen=True))")
+    if "position" not in {f.name for f in dataclasses.fields(cls)}:
+        raise KindError(f"{cls.__name__}.position", "missing: every valve parameter class has a position field")
+    try:
+        expected = kind_block(cls)
+    except ValueError as exc:
+        raise KindError(f"{cls.__name__}", str(exc)) from None
+    if tuple(getattr(kind.block, "_fields", ())) != expected._fields:
+        raise KindError(f"{name}.block", f"expected kind_block({cls.__name__}) (its packed fields and DERIVED names "
+                        "in declaration order)")
+    for attr in ("acceleration", "accelerations", "accelerations_jacobian"):
+        fn = getattr(kind, attr)
+        if fn is None:
+            if attr == "acceleration":
+                raise KindError(f"{name}.acceleration", "missing: du/dt(x, u, f, p, o, contact, regime)")
+            continue
+        _check_arguments(name, attr, fn)
+        for reader, block_name, field, block in _block_reads(fn):
+            if block is kind.block or tuple(block._fields) == expected._fields:
+                if field not in expected._fields:
+                    raise KindError(*_unpacked(cls, reader, block_name, field))
+    _check_default_model(kind)
+    _check_numbers(kind)
+
+
+def _unpacked(cls: type, reader: str, block_name: str, field: str) -> tuple[str, str]:
+    """(field, message) of a quantity the physics reads that the kind's block has no slot for."""
+    import dataclasses
+
+    declared = {f.name for f in dataclasses.fields(cls)}
+    if field in declared:
+        return (f"{cls.__name__}.{field}",
+                f"{reader}() reads p[o + {block_name}.{field}], but the field is not declared packed=True: "
+                f"declare it param(..., packed=True) (or add a derived quantity to DERIVED and packed_extra) so the "
+                "flat array has a slot for it (docs/extending.md)")
+    return (f"{cls.__name__}.{field}",
+            f"{reader}() reads p[o + {block_name}.{field}], which is neither a field declared packed=True, a "
+            "DERIVED name of packed_extra() nor a common quantity (lumped.valves.common.COMMON)")
+
+
+#: the arguments the compiled physics calls each of a kind's functions with
+_SIGNATURES = {"acceleration": "x, u, f, p, o, contact, regime",
+               "accelerations": "y, s, n, x, u, f, p, o, contact, regime, dydt",
+               "accelerations_jacobian": "y, s, n, x, u, f, p, o, contact, regime, jac"}
+
+
+def _check_arguments(name: str, attr: str, fn) -> None:
+    import inspect
+
+    if not callable(fn):
+        raise KindError(f"{name}.{attr}", f"expected a function ({_SIGNATURES[attr]}), got {fn!r}")
+    n = len(_SIGNATURES[attr].split(", "))
+    try:
+        params = inspect.signature(fn).parameters.values()
+    except (TypeError, ValueError):
+        return
+    positional = [q for q in params if q.kind in (q.POSITIONAL_ONLY, q.POSITIONAL_OR_KEYWORD)]
+    if len(positional) != n or any(q.kind in (q.VAR_POSITIONAL, q.VAR_KEYWORD) for q in params):
+        raise KindError(f"{name}.{attr}", f"{getattr(fn, '__name__', fn)} takes ({', '.join(q.name for q in params)}); "
+                        f"the compiled physics calls it with ({_SIGNATURES[attr]})")
+
+
+def _is_block(obj) -> bool:
+    return isinstance(obj, tuple) and hasattr(obj, "_fields") and type(obj).__name__.endswith("Block")
+
+
+def _block_reads(fn, seen: set | None = None):
+    """(function, block name, field, block) of every ``BLOCK.field`` a kind's function reads, in it and in the
+    Python functions it calls (transitively): what its flat-array block must hold."""
+    import ast
+    import inspect
+    import textwrap
+    import types
+
+    seen = set() if seen is None else seen
+    fn = getattr(fn, "py_func", fn)                        # a numba dispatcher: its Python function
+    if not isinstance(fn, types.FunctionType) or fn in seen:
+        return
+    seen.add(fn)
+    try:
+        tree = ast.parse(textwrap.dedent(inspect.getsource(fn)))
+    except (OSError, TypeError, SyntaxError):
+        return
+    scope = dict(fn.__globals__)
+    for name, cell in zip(fn.__code__.co_freevars, fn.__closure__ or ()):
+        try:
+            scope[name] = cell.cell_contents          # a closure's block counts as a global's does
+        except ValueError:
+            pass
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and _is_block(scope.get(node.value.id)):
+            yield fn.__name__, node.value.id, node.attr, scope[node.value.id]
+        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
+            yield from _block_reads(scope.get(node.func.id), seen)
+
+
+def _check_default_model(kind: ValveKind) -> None:
+    from pathlib import Path
+
+    from geometry.data_files import package_names
+
+    shipped = package_names("lumped", "models")
+    dm = kind.default_model
+    if not dm:
+        raise KindError(f"{kind.name}.default_model", "missing: name the shipped model "
+                        f"(lumped/data/models/thesis-{kind.name}.toml, its name thesis-{kind.name}) or a model file "
+                        "whose valves give the keys a user's model file leaves out (docs/extending.md, file 3)")
+    if not isinstance(dm, str) or (dm not in shipped and not Path(dm).is_file()):
+        raise KindError(f"{kind.name}.default_model", f"{dm!r} is neither a shipped model ({', '.join(shipped)}) "
+                        "nor an existing model file")
+
+
+def _check_numbers(kind: ValveKind) -> None:
+    for attr in ("contact_velocity_atol", "contact_position_atol", "free_velocity_atol"):
+        v = getattr(kind, attr)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v > 0):
+            raise KindError(f"{kind.name}.{attr}", f"expected a positive number (units of atol), got {v!r}")
+    ranges = kind.design_ranges or {}
+    if not isinstance(ranges, dict):
+        raise KindError(f"{kind.name}.design_ranges", f"expected {{model-file key: (low, high)}}, got {ranges!r}")
+    for key, rng in ranges.items():
+        ok = isinstance(key, str) and isinstance(rng, (tuple, list)) and len(rng) == 2 and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in rng)
+        if not ok or not rng[0] < rng[1]:
+            raise KindError(f"{kind.name}.design_ranges.{key}", f"expected (low, high) with low < high, got {rng!r}")
+
+
 def kind_of(valve) -> ValveKind:
-    """The registered kind of a valve parameter object."""
+    """The registered kind of a valve parameter object.
+
+    Parameters
+    ----------
+    valve : ValveParams
+
+    Returns
+    -------
+    ValveKind
+        KeyError if its class is not registered.
+    """
     for k in KINDS.values():
         if type(valve) is k.params:
             return k
@@ -343,12 +484,27 @@ def kind_of(valve) -> ValveKind:
 
 
 def kind_named(name: str) -> ValveKind:
-    """The kind called ``name`` (KeyError if unknown)."""
+    """The kind called ``name``.
+
+    Parameters
+    ----------
+    name : str
+
+    Returns
+    -------
+    ValveKind
+        KeyError if unknown.
+    """
     return KINDS[name]
 
 
 def kind_names() -> tuple[str, ...]:
-    """Every registered kind's name, in registration order (command-line choices, tests)."""
+    """Every registered kind's name, in registration order (command-line choices, tests).
+
+    Returns
+    -------
+    tuple of str
+    """
     return tuple(KINDS)
 
 
@@ -387,7 +543,12 @@ def _build_dispatch() -> None:
                    "states into jac; False: the kind has none (generated dispatch).", "accelerations_jacobian",
                    "_accels_jac_", ["{f}({a})", "return True"], ["return False"]),
     ]
-    code = compile("\n".join(lines), __file__, "exec")
+    source = "\n".join(lines)
+    # compiled under a name that says what it is (numba's and Python's tracebacks print it), its text kept in
+    # linecache so that a traceback or numba's error shows the generated line
+    filename = f"<valvelab generated dispatch over the valve kinds {', '.join(KINDS)} (lumped.valves.kind)>"
+    linecache.cache[filename] = (len(source), None, source.splitlines(True), filename)
+    code = compile(source, filename, "exec")
     old = {name: globals()[name] for name in ("valve_acceleration", "valve_accelerations",
                                                 "valve_accelerations_jacobian")}
     exec(code, globals())  # noqa: S102 - generated from the registry above
@@ -405,127 +566,99 @@ def _build_dispatch() -> None:
 
 
 def valve_acceleration(x, u, f, p, o, contact, regime):  # replaced by _build_dispatch() as kinds register
-    """du/dt of the valve at block offset o (no kind registered yet: nan)."""
+    """du/dt of the valve at block offset o: the registered kinds' accelerations, dispatched on the kind code
+    (replaced as kinds register).
+
+    Parameters
+    ----------
+    x, u : float
+        Opening [m] and its rate [m/s].
+    f : lumped.valves.common.ValveInputs
+        What the pump gives the valve.
+    p : array of float
+        The flat parameter array; ``o`` the valve's block offset.
+    contact, regime : int
+        The valve's mode.
+    o : int
+        Block offset.
+
+    Returns
+    -------
+    float
+        du/dt [m/s^2]; nan while no kind is registered.
+    """
     return math.nan
 
 
 def valve_accelerations(y, s, n, x, u, f, p, o, contact, regime, dydt):  # replaced by _build_dispatch()
-    """The accelerations of a several-DOF valve (no kind registered yet: nan)."""
+    """The accelerations of a several-DOF valve, dispatched on the kind code (replaced as kinds register).
+
+    Parameters
+    ----------
+    y : array of float
+        The pump's state.
+    s, n : int
+        First state, number of coordinates.
+    x, u : float
+        Opening [m] and its rate [m/s].
+    f : lumped.valves.common.ValveInputs
+        What the pump gives the valve.
+    p : array of float
+        The flat parameter array; ``o`` the valve's block offset.
+    contact, regime : int
+        The valve's mode.
+    o : int
+        Block offset.
+    dydt : array of float
+        Written: q'' [m/s^2] at dydt[s + n:s + 2n].
+
+    Returns
+    -------
+    None
+    """
     for j in range(n):
         dydt[s + n + j] = math.nan
 
 
 def valve_accelerations_jacobian(y, s, n, x, u, f, p, o, contact, regime, jac):  # replaced by _build_dispatch()
-    """The partials of a several-DOF valve's accelerations (no kind registered yet: none)."""
+    """The partials of a several-DOF valve's accelerations into the pump's Jacobian, dispatched on the kind code
+    (replaced as kinds register).
+
+    Parameters
+    ----------
+    y, s, n, x, u, f, p, o, contact, regime
+        As :func:`valve_accelerations`.
+    jac : array of float
+        Written: the valve's rows.
+
+    Returns
+    -------
+    bool
+        Whether the kind wrote them (False: none registered).
+    """
     return False
 
 
-# --------------------------------------------------------------------------- shared physics
-def contact_state(x: float, xstop: float) -> int:
-    """0 seat (x < 0), 1 free, 2 stop (x > x_stop): the branch of eq 2.20."""
-    if x < 0.0:
-        return SEAT
-    if x > xstop:
-        return STOP
-    return FREE
-
-
-def contact_force(x: float, u: float, kseat: float, cseat: float, kstop: float, cstop: float,
-                  xstop: float, contact: int) -> float:
-    """Seat and stop reaction F_c (eq 2.20), in the units of k x (N for the disc, Pa for the reed)."""
-    if contact < 0:
-        contact = contact_state(x, xstop)
-    if contact == SEAT:
-        return -kseat * x - cseat * u
-    if contact == STOP:
-        return -kstop * (x - xstop) - cstop * u
-    return 0.0
-
-
-def contact_reaction(x: float, u: float, p, o: int, contact: int) -> float:
-    """F_c of eq 2.20 for the valve at block offset o (N for the disc, Pa for the reed)."""
-    return contact_force(x, u, p[o + VALVE.seat_k], p[o + VALVE.seat_c], p[o + VALVE.stop_k],
-                         p[o + VALVE.stop_c], p[o + VALVE.stop_gap], contact)
-
-
-def contact_slopes(x: float, p, o: int, contact: int) -> tuple[float, float]:
-    """(dF_c/dx, dF_c/du) of :func:`contact_reaction` (eq 2.20) in a contact state (units of k and c)."""
-    if contact < 0:
-        contact = contact_state(x, p[o + VALVE.stop_gap])
-    if contact == SEAT:
-        return -p[o + VALVE.seat_k], -p[o + VALVE.seat_c]
-    if contact == STOP:
-        return -p[o + VALVE.stop_k], -p[o + VALVE.stop_c]
-    return 0.0, 0.0
-
-
-def displacement_area(u: float, a1: float, a2: float, f1: float, f2: float, contact: int) -> float:
-    """Fluid displacement area A_Q(u) [m^2] (eq 2.42; 3.26).
-
-    While pressed into a compliant seat (contact 0) the element displaces the same volume
-    going in and coming out, so the mean of the two areas is used (valvelab's choice: the
-    direction-dependent A_Q would pump a net volume through a seated valve).
-    """
-    if contact == SEAT:
-        return a1 + 0.5 * (f1 + f2) * (a2 - a1)
-    if u < 0.0:
-        return a1 + f1 * (a2 - a1)
-    return a1 + f2 * (a2 - a1)
-
-
-def valve_flow(x: float, u: float, dp: float, rho: float, mu: float, p, o: int,
-               contact: int) -> tuple[float, float, float, float, float]:
-    """Flow through a check valve of any kind (disc eqs 2.40-2.42, reed eqs 3.23-3.26, ball lumped.valves.ball).
-
-    Returns (Q_o orifice [m^3/s], Cd, A_Q [m^2], dQ_o/d(dp) [m^3/s/Pa], dQ_o/dx [m^2/s]).
-    The total volume flow is Q_o + A_Q u. Seated (contact 0) the orifice is shut: Q_o = 0.
-    """
-    if contact < 0:
-        contact = contact_state(x, p[o + VALVE.stop_gap])
-    aq = displacement_area(u, p[o + VALVE.area_1], p[o + VALVE.area_2], p[o + VALVE.f_closing],
-                           p[o + VALVE.f_opening], contact)
-    if contact == SEAT or x <= 0.0:
-        return 0.0, 0.0, aq, 0.0, 0.0
-    k_area = p[o + VALVE.area_per_opening]
-    k2 = p[o + VALVE.area_curvature]
-    per = p[o + VALVE.perimeter]
-    lift_k = p[o + VALVE.cd_lift_exponent]
-    if lift_k != 0.0:
-        # Re_eff = Re (x / x_stop)^k: the same law with the perimeter p (x_stop / x)^k
-        per = per * (p[o + VALVE.stop_gap] / x) ** lift_k
-    area = k_area * x + k2 * x * x
-    q, cd, dq_ddp, dq_da = orifice_flow(area, dp, rho, mu, per, p[o + VALVE.cd_inf],
-                                        p[o + VALVE.cd_a], p[o + VALVE.cd_b], p[o + VALVE.cd_c],
-                                        p[o + VALVE.orifice_start])
-    # the root sqrt(Re) starts the next solve of this valve (2-3 Halley steps become ~1)
-    s = math.sqrt(4.0 * rho * abs(q) / (mu * per))
-    p[o + VALVE.orifice_start] = s
-    dq_dx = dq_da * (k_area + 2.0 * k2 * x)
-    if lift_k != 0.0 and cd > 0.0:
-        # the perimeter's share: dQ/dp_er = -dQ/dA A Cd'(s) s / (2 p_er Cd) (implicit in s^2 = 4 rho |Q| /
-        # (mu p_er), Q = Cd(s) A V), with dp_er/dx = -k p_er / x
-        slope = discharge_slope(s, p[o + VALVE.cd_inf], p[o + VALVE.cd_a], p[o + VALVE.cd_b], p[o + VALVE.cd_c])
-        dq_dx += dq_da * area * slope * s * lift_k / (2.0 * cd * x)
-    return q, cd, aq, dq_ddp, dq_dx
-
-
-def mass_flow(qo: float, aq: float, u: float, dp: float, rho: float, dq_ddp: float,
-              dq_dx: float) -> tuple[float, float, float, float, float]:
-    """Mass flow through a valve rho (Q_o + A_Q u) [kg/s] (eqs 4.3, 4.4) and its partials.
-
-    From the outputs of :func:`valve_flow`; returns (mdot, d mdot/d(dp), d mdot/d rho,
-    d mdot/dx, d mdot/du), each at fixed other arguments. Q_o of the orifice equation
-    with Cd(Re) scales as rho^(1/w' - 1) at fixed dp, so dQ_o/d rho = (dp dQ_o/d(dp) -
-    Q_o) / rho. The pump's right-hand side (lumped.solver.rhs.evaluate) and its Jacobian
-    (lumped.solver.jacobian) both take the valve mass flows from here: written once.
-    """
-    q = qo + aq * u
-    return rho * q, rho * dq_ddp, q + (dp * dq_ddp - qo), rho * dq_dx, rho * aq
-
-
 def check_discharge(cd_inf: float, a: float, b: float, c: float, where: str) -> None:
-    """The Cd(Re) correlation (eqs 2.47, 3.89) must rise from 0 with a positive slope and keep s^2/Cd(s)
-    increasing in s = sqrt(Re) (the orifice solve relies on it); InputError naming ``where``."""
+    """Check the Cd(Re) correlation (eqs 2.47, 3.89): it rises from 0 with a positive slope and keeps s^2/Cd(s)
+    increasing in s = sqrt(Re), which the orifice solve relies on.
+
+    Parameters
+    ----------
+    cd_inf, a, b, c : float
+        The correlation's coefficients (lumped.fluid.orifice).
+    where : str
+        The valve's key; errors name ``where.discharge.a``.
+
+    Returns
+    -------
+    None
+        Or InputError.
+
+    References
+    ----------
+    Knutson (2016), eqs 2.47, 3.89.
+    """
     import numpy as np
 
     from geometry.errors import InputError
@@ -538,11 +671,3 @@ def check_discharge(cd_inf: float, a: float, b: float, c: float, where: str) -> 
     if np.any(cd <= 0) or np.any(np.diff(np.log(s**2 / cd)) <= 0):
         raise InputError(f"{where}.discharge.a", "Cd(Re) must stay positive with s^2/Cd(s) increasing in "
                                                  "s = sqrt(Re) (eqs 2.47, 3.89)")
-
-
-def regime_of(x: float, p, o: int) -> int:
-    """Pressure regime decided from the opening: Poiseuille below the regime opening (eq 2.18)."""
-    xt = p[o + VALVE.regime_opening]
-    if xt > 0.0 and x < xt:
-        return POISEUILLE
-    return ORIFICE

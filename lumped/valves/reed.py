@@ -15,7 +15,7 @@ eq 3.21; it must oppose the motion, so |x'| x' is used (docs/errata.md).
 (preset, file, or an inline table of the reed-file schema) and a fidelity (analytic,
 beam, plate, solid: :mod:`lumped.reed.fidelities`) from which kappa, gamma1..3, h_eff,
 rho_c and W2 are derived. The flow (eqs 3.22-3.26, C_d of eq 3.89) is shared with every
-kind (:func:`lumped.valves.kind.valve_flow`).
+kind (:func:`lumped.valves.forces.valve_flow`).
 """
 
 from __future__ import annotations
@@ -28,9 +28,10 @@ import numpy as np
 from geometry.declare import param, read_table
 from geometry.errors import InputError
 from geometry.reed import Reed
+from geometry.reed_io import PRESETS
 from lumped.valves.kind import (
     SEAT, STOP, Common, ValveKind, ValveParams, check_discharge, contact_reaction, contact_slopes, contact_state,
-    fluid_param, kind_block, register,
+    critical_damping, fluid_param, kind_block, register,
 )
 
 CRITICAL = "critical damping of the modal equation (eq 2.23: 2 sqrt(gamma1 k rho_c h_eff) / gamma1), derived when left out"
@@ -38,8 +39,23 @@ DERIVED = "left out when the valve names a geometry: derived from it by the fide
 
 
 def modal_critical_damping(stiffness: float, gamma1: float, modal_mass: float) -> float:
-    """Critical damping of M x'' + gamma1 c x' + gamma1 k x [Pa s/m]: 2 sqrt(gamma1 k M) / gamma1 (eq 2.23)."""
-    return 2.0 * math.sqrt(gamma1 * stiffness * modal_mass) / gamma1
+    """Critical damping [Pa s/m] of the modal equation M x'' + gamma1 (c x' + k x) = F (eq 3.21 with eq 2.23).
+
+    Parameters
+    ----------
+    stiffness : float
+        k [Pa/m] (kappa, or a contact's stiffness per unit area).
+    gamma1 : float
+        The modal factor of eq 3.21 [-].
+    modal_mass : float
+        M = rho_c h_eff [kg/m^2].
+
+    Returns
+    -------
+    float
+        2 sqrt(gamma1 k M) / gamma1 (:func:`lumped.valves.forces.critical_damping` with gamma = gamma1).
+    """
+    return critical_damping(stiffness, modal_mass, gamma1)
 
 
 @dataclass(frozen=True)
@@ -81,8 +97,8 @@ class ReedValve(ValveParams):
     cd_b: float = param("discharge.b", "-", "eq 3.89", bounds=(0.0, 100.0), positive=True)
     cd_c: float = param("discharge.c", "-", "eq 3.89", bounds=(0.0, 100.0), positive=True)
     # geometry and fidelity, or the structural parameters directly
-    geometry: str = param("geometry", "-", "reed geometry: preset (uniform, stepped1, stepped2, prototype), "
-                          "reed TOML file, or an inline table of the reed-file schema", optional=True)
+    geometry: str = param("geometry", "-", f"reed geometry: preset ({', '.join(PRESETS)}), reed TOML file, or an "
+                          "inline table of the reed-file schema", optional=True)
     fidelity: str = param("fidelity", "-", "reed model deriving kappa, gamma1..3, h_eff from the geometry "
                           "(analytic, beam, plate, solid)", optional=True)
     density: float = param("structure.density", "kg/m^3", "rho_c (Table 3.13); " + DERIVED, bounds=(10.0, 3e4),
@@ -263,30 +279,20 @@ class ReedValve(ValveParams):
         return (self.density * self.effective_thickness
                 + self.gamma3 * density * self.width_tip * math.pi / 4 * self.hydrodynamic_function)
 
-    def _critical(self, k: float) -> float:
-        return modal_critical_damping(k, self.gamma1, self.density * self.effective_thickness)
-
-    @property
-    def seat_damping_value(self) -> float:
-        """c_seat [Pa s/m]: as given, else critical for the reed's modal mass rho_c h_eff."""
-        return self._critical(self.seat_stiffness) if self.seat_damping is None else self.seat_damping
-
-    @property
-    def stop_damping_value(self) -> float:
-        """c_stop [Pa s/m]: as given, else critical for the modal mass."""
-        return self._critical(self.stop_stiffness) if self.stop_damping is None else self.stop_damping
+    def critical_mass(self) -> tuple[float, float]:
+        """(rho_c h_eff [kg/m^2], gamma1): the modal equation 3.21, M x'' + gamma1 (c x' + k x) = F, in
+        vacuum; its contacts left without their damping are critical for it (eq 2.23)."""
+        return self.density * self.effective_thickness, self.gamma1
 
     def natural_frequency(self) -> float:
         """Undamped tip frequency in vacuum sqrt(gamma1 kappa / (rho_c h_eff)) [rad/s] (eq 3.21)."""
         return math.sqrt(self.gamma1 * self.stiffness / (self.density * self.effective_thickness))
 
     def damping_ratios(self) -> dict:
-        """Damping ratios of the free reed (c = c_c + c_f) and of its seat and stop contacts."""
-        m = self.density * self.effective_thickness
-        crit = modal_critical_damping(self.stiffness, self.gamma1, m)
-        return {"structure": self.damping / crit,
-                "seat": self.seat_damping_value / modal_critical_damping(self.seat_stiffness, self.gamma1, m),
-                "stop": self.stop_damping_value / modal_critical_damping(self.stop_stiffness, self.gamma1, m)}
+        """Damping ratios of the free reed (c = c_c + c_f against kappa) and of its seat and stop contacts, each
+        against the critical damping of eq 3.21's modal equation (:meth:`critical_mass`, eq 2.23)."""
+        m, g1 = self.critical_mass()
+        return {"structure": self.damping / critical_damping(self.stiffness, m, g1), **super().damping_ratios()}
 
     def common(self, oil) -> Common:
         """The quantities every kind shares (lumped.valves.kind.Common), per unit area (eqs 3.21, 3.23-3.26, 3.89)."""
@@ -388,12 +394,41 @@ REED = kind_block(ReedValve)
 
 def pressure_load_multiplier(x: float, plateau: float, n1: float, n0: float, d2: float, d1: float,
                              d0: float, x_zero: float) -> float:
-    """X(x) of eq 3.83 (dimensionless), x the tip opening in m.
+    """Pressure load multiplier X(x) of the reed: the fraction of dP that loads it at tip opening x (eq 3.83),
+    max(0, min(plateau, (n1 x + n0) / (x^3 + d2 x^2 + d1 x + d0))), and 0 from x_zero = -n0/n1 on.
 
-    max(0, min(plateau, (n1 x + n0) / (x^3 + d2 x^2 + d1 x + d0))), and 0 from the opening
-    x_zero = -n0/n1 (1.369 mm) on: the printed rational function has a pole near 1.651 mm
-    and turns back up to the 0.835 cap above it, which the measurements of Figure 3.24 do
-    not show (docs/errata.md).
+    The printed rational function has a pole near 1.651 mm and turns back up to the 0.835 cap above it,
+    which the measurements of Figure 3.24 do not show: X is held at 0 beyond its first zero (docs/errata.md).
+
+    Parameters
+    ----------
+    x : float
+        Tip opening [m].
+    plateau : float
+        The cap at small openings [-] (Table 3.12).
+    n1, n0, d2, d1, d0 : float
+        The fit's coefficients, x in m.
+    x_zero : float
+        -n0/n1 [m].
+
+    Returns
+    -------
+    float
+        X [-].
+
+    References
+    ----------
+    Knutson (2016), eq 3.83, Table 3.12, Figure 3.24.
+
+    Examples
+    --------
+    The prototype's fit (thesis-reed.toml): the 0.835 plateau, and 0 from 1.369 mm on:
+
+    >>> fit = (0.835, -52.28, 0.07158, 0.8145, -50.23, 0.08292, 0.07158 / 52.28)
+    >>> pressure_load_multiplier(0.0, *fit), round(pressure_load_multiplier(1e-3, *fit), 3)
+    (0.835, 0.59)
+    >>> pressure_load_multiplier(1.37e-3, *fit)
+    0.0
     """
     if x >= x_zero:
         return 0.0
@@ -407,8 +442,19 @@ def pressure_load_multiplier(x: float, plateau: float, n1: float, n0: float, d2:
 
 def pressure_load_multiplier_slope(x: float, plateau: float, n1: float, n0: float, d2: float, d1: float,
                                    d0: float, x_zero: float) -> float:
-    """dX/dx [1/m] of eq 3.83 as :func:`pressure_load_multiplier` takes it: the rational function's
-    derivative, 0 where X is held at its plateau or at 0."""
+    """Slope dX/dx of :func:`pressure_load_multiplier` (eq 3.83 differentiated), 0 where X is held at its
+    plateau or at 0.
+
+    Parameters
+    ----------
+    x, plateau, n1, n0, d2, d1, d0, x_zero : float
+        As :func:`pressure_load_multiplier`.
+
+    Returns
+    -------
+    float
+        dX/dx [1/m].
+    """
     if x >= x_zero:
         return 0.0
     den = ((x + d2) * x + d1) * x + d0
@@ -419,11 +465,73 @@ def pressure_load_multiplier_slope(x: float, plateau: float, n1: float, n0: floa
     return (n1 * den - num * ((3.0 * x + 2.0 * d2) * x + d1)) / (den * den)
 
 
+def packed_multiplier(x: float, p, o: int) -> float:
+    """X(x) of eq 3.83 (:func:`pressure_load_multiplier`) with the fit packed in the reed's block.
+
+    Parameters
+    ----------
+    x : float
+        Tip opening [m].
+    p : array of float
+        The flat parameter array; ``o`` the reed's block offset.
+
+    Returns
+    -------
+    float
+        X [-].
+    """
+    return pressure_load_multiplier(x, p[o + REED.multiplier_poiseuille], p[o + REED.multiplier_n1],
+                                    p[o + REED.multiplier_n0], p[o + REED.multiplier_d2], p[o + REED.multiplier_d1],
+                                    p[o + REED.multiplier_d0], p[o + REED.x_zero])
+
+
+def packed_multiplier_slope(x: float, p, o: int) -> float:
+    """dX/dx of eq 3.83 (:func:`pressure_load_multiplier_slope`) with the fit packed in the reed's block.
+
+    Parameters
+    ----------
+    x : float
+        Tip opening [m].
+    p : array of float
+        The flat parameter array; ``o`` the reed's block offset.
+
+    Returns
+    -------
+    float
+        dX/dx [1/m].
+    """
+    return pressure_load_multiplier_slope(x, p[o + REED.multiplier_poiseuille], p[o + REED.multiplier_n1],
+                                          p[o + REED.multiplier_n0], p[o + REED.multiplier_d2],
+                                          p[o + REED.multiplier_d1], p[o + REED.multiplier_d0], p[o + REED.x_zero])
+
+
 def reed_acceleration(x: float, u: float, f, p, o: int, contact: int, regime: int) -> float:
-    """Tip acceleration x'' [m/s^2] of the reed from eq 3.21 (per unit area, Pa)."""
+    """Tip acceleration of the one-mode reed from eq 3.21 (per unit area):
+    M x'' = gamma1 (dP X(x) - c x' - kappa (x - x0) + F_c) - gamma2 rho |x'| x' C_D / 2.
+
+    Parameters
+    ----------
+    x, u : float
+        Tip opening [m] and its rate [m/s].
+    f : lumped.valves.common.ValveInputs
+        What the pump gives the valve (dp, rho used).
+    p : array of float
+        The flat parameter array; ``o`` the reed's block offset (:data:`REED`).
+    contact, regime : int
+        The valve's mode (contact state; the reed has no regime switch).
+
+    Returns
+    -------
+    float
+        x'' [m/s^2].
+
+    References
+    ----------
+    Knutson (2016), eq 3.21 (the drag as |x'| x': docs/errata.md), eq 3.83; valvelab's contact (eq 2.20 per
+    unit area).
+    """
     g1 = p[o + REED.gamma1]
-    X = pressure_load_multiplier(x, p[o + REED.multiplier_poiseuille], p[o + REED.multiplier_n1], p[o + REED.multiplier_n0],
-                                 p[o + REED.multiplier_d2], p[o + REED.multiplier_d1], p[o + REED.multiplier_d0], p[o + REED.x_zero])
+    X = packed_multiplier(x, p, o)
     force = g1 * (f.dp * X - p[o + REED.damping_total] * u - p[o + REED.stiffness] * (x - p[o + REED.preload]))
     force += g1 * contact_reaction(x, u, p, o, contact)
     force -= p[o + REED.drag_term] * f.rho * abs(u) * u
@@ -437,18 +545,40 @@ COMPILED = False
 
 def reed_accelerations(y, s: int, n: int, x: float, u: float, f, p, o: int, contact: int, regime: int,
                        dydt) -> None:
-    """q'' [m/s^2] of the modal or FE reed into dydt[s + n:s + 2n] (lumped.reed.structure):
-    M q'' + C q' + K (q - q0) = b [dP X(x) + F_c(x, x')] - Q_drag, with A = M^-1 K, B = M^-1 C, g = M^-1 b
-    packed in the tail; X of eq 3.83 and the seat and stop of eq 2.20 (per unit area) at the port's opening
-    x = e . q, the drag of eq 3.21 on the width-mean rate of each strip."""
+    """Accelerations q'' of the modal or FE reed (lumped.reed.structure):
+    M q'' + C q' + K (q - q0) = b [dP X(x) + F_c(x, x')] - Q_drag.
+
+    A = M^-1 K, B = M^-1 C, g = M^-1 b are packed in the tail; X of eq 3.83 and the seat and stop of eq 2.20
+    (per unit area) act at the port's opening x = e . q, the drag of eq 3.21 on the width-mean rate of each
+    strip.
+
+    Parameters
+    ----------
+    y : array of float
+        The pump's state; the reed's coordinates q [m] at ``y[s:s + n]``, rates at ``y[s + n:s + 2n]``.
+    s, n : int
+        First state index, number of coordinates.
+    x, u : float
+        The opening [m] and its rate [m/s].
+    f : lumped.valves.common.ValveInputs
+        What the pump gives the valve.
+    p : array of float
+        The flat parameter array; ``o`` the reed's block offset.
+    contact, regime : int
+        The valve's mode.
+    dydt : array of float
+        Written: q'' [m/s^2] at ``dydt[s + n:s + 2n]``.
+
+    References
+    ----------
+    Knutson (2016), eqs 3.21, 3.83; docs/reed_dynamics.md.
+    """
     w = int(p[o + REED.tail])
     g, q0 = w + n, w + 2 * n
     a_m = w + 3 * n
     b_m = a_m + n * n
     r = s + n                                  # its rates, and where their derivatives go
-    load = f.dp * pressure_load_multiplier(
-        x, p[o + REED.multiplier_poiseuille], p[o + REED.multiplier_n1], p[o + REED.multiplier_n0],
-        p[o + REED.multiplier_d2], p[o + REED.multiplier_d1], p[o + REED.multiplier_d0], p[o + REED.x_zero])
+    load = f.dp * packed_multiplier(x, p, o)
     load += contact_reaction(x, u, p, o, contact)
     if COMPILED:
         for i in range(n):
@@ -475,8 +605,21 @@ def reed_accelerations(y, s: int, n: int, x: float, u: float, f, p, o: int, cont
 
 
 def strip_rate(p, y, r_m: int, r: int, n: int, k: int) -> float:
-    """Width-mean rate wbar'_k = W_k . q' [m/s] of the reed's strip k, from the modal rates y[r:r + n]
-    (W at p[r_m:], lumped.reed.structure.tail): the velocity eq 3.21's quadratic drag acts on."""
+    """Width-mean rate wbar'_k = W_k . q' of the reed's strip k: the velocity eq 3.21's quadratic drag acts on.
+
+    Parameters
+    ----------
+    p, y : array of float
+        The flat parameter array (W at ``p[r_m:]``, lumped.reed.structure.tail) and the state (the modal
+        rates at ``y[r:r + n]``).
+    r_m, r, n, k : int
+        Offset of W, of the rates, their number, the strip.
+
+    Returns
+    -------
+    float
+        wbar'_k [m/s].
+    """
     vk = 0.0
     for j in range(n):
         vk += p[r_m + k * n + j] * y[r + j]
@@ -485,21 +628,33 @@ def strip_rate(p, y, r_m: int, r: int, n: int, k: int) -> float:
 
 def reed_accelerations_jacobian(y, s: int, n: int, x: float, u: float, f, p, o: int, contact: int, regime: int,
                                 jac) -> None:
-    """The partials of :func:`reed_accelerations` by the reed's positions q and rates q' into the pump's
-    Jacobian (rows s + n.., columns s.. and s + n..) [1/s^2, 1/s]:
+    """The partials of :func:`reed_accelerations` by the reed's positions q and rates q' into the pump's Jacobian:
+    dq''/dq = g L_x e^T - A, dq''/dq' = g L_u e^T - B - D diag(C_D rho |wbar'_k|) W.
 
-        dq''/dq = g L_x e^T - A,    dq''/dq' = g L_u e^T - B - D diag(C_D rho |wbar'_k|) W,
+    L(x, u) = dP X(x) + F_c(x, u), the load on the opening x = e . q; wbar'_k = W_k . q' the strips' width-mean
+    rates (lumped.reed.structure.tail's D, W). Exact: the accelerations are linear in q and q' but for L and the
+    drag.
 
-    L(x, u) = dP X(x) + F_c(x, u) the load on the opening x = e . q (X of eq 3.83, F_c of eq 2.20 in the
-    contact state), wbar'_k = W_k . q' the strips' width-mean rates (lumped.reed.structure.tail's D, W).
-    Exact: the accelerations are linear in q and q' but for L and the drag."""
+    Parameters
+    ----------
+    y, s, n, x, u, f, p, o, contact, regime
+        As :func:`reed_accelerations`.
+    jac : array of float
+        Written: rows s + n.., columns s.. [1/s^2] and s + n.. [1/s].
+
+    Returns
+    -------
+    None
+
+    References
+    ----------
+    Knutson (2016), eqs 2.20, 3.21, 3.83.
+    """
     w = int(p[o + REED.tail])
     g, a_m = w + n, w + 3 * n
     b_m = a_m + n * n
     fx, fu = contact_slopes(x, p, o, contact)
-    lx = fx + f.dp * pressure_load_multiplier_slope(
-        x, p[o + REED.multiplier_poiseuille], p[o + REED.multiplier_n1], p[o + REED.multiplier_n0],
-        p[o + REED.multiplier_d2], p[o + REED.multiplier_d1], p[o + REED.multiplier_d0], p[o + REED.x_zero])
+    lx = fx + f.dp * packed_multiplier_slope(x, p, o)
     r = s + n
     for i in range(n):
         gi = p[g + i]
@@ -524,14 +679,12 @@ def reed_accelerations_jacobian(y, s: int, n: int, x: float, u: float, f, p, o: 
 KIND = register(ValveKind(
     name="reed", default_model="thesis-reed", params=ReedValve, acceleration=reed_acceleration, block=REED,
     accelerations=reed_accelerations, accelerations_jacobian=reed_accelerations_jacobian,
-    # a reed lifting off its seat at near-zero speed is the most sensitive timing: the lift-off
-    # angle drifts by 1 deg at x100, so it keeps x1; its stop rebounds (the tip a few hundred
-    # nanometres into the stop) need the opening to 3 x atol x the deflection: at the default
-    # x30 a reed with added mass closed 1.02 deg off the reference (0.41 deg at x3, 10 % more
-    # steps; benchmarks/pump_tolerance_study.py --effects)
+    # the fast path's tolerances (docs/models.md, "The fast path's tolerances"): a reed lifts off its seat at
+    # near-zero speed, the most sensitive timing, so its velocity in contact keeps the kinds' default; its
+    # stop rebounds are a few hundred nanometres deep, so its opening in contact is held tighter
     contact_velocity_atol=1.0,
     contact_position_atol=3.0,
-    # designs the fast path is checked on (studies.sweeps.random_designs): stiffness and the
+    # designs the fast path is checked on (lumped.model.random_designs): stiffness and the
     # displacement factors of section 5.5.3
     design_ranges={"flow.f1": (0.1, 0.4), "flow.f2": (0.2, 0.5), "structure.stiffness": (5e6, 1e7)},
     summary="cantilevered reed over a slotted seat, single-mode tip model (thesis chapter 3)",

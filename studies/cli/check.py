@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import sys
 
-from geometry import load_reed
+from geometry import PRESETS, load_reed
 from geometry.errors import InputError
 from studies.cli import flags
 from studies.validation.reed_check import (
@@ -25,7 +25,7 @@ FIDELITY_NAMES = ("analytic", "beam", "plate", "solid")
 
 def configure(p):
     """Add the arguments of ``valvelab check`` to its parser (the command protocol: :mod:`studies.cli`)."""
-    p.add_argument("geometry", help="preset (uniform, stepped1, stepped2, prototype) or reed TOML file")
+    p.add_argument("geometry", help=f"preset ({', '.join(PRESETS)}) or reed TOML file")
     p.add_argument("--fidelities", default=",".join(FIDELITY_NAMES),
                    help="comma-separated subset of analytic,beam,plate,solid (default: all four)")
     p.add_argument("--tolerance-pct", type=flags.number("%", (0.0, 100.0), positive=True), default=DEFAULT_TOLERANCE_PCT,

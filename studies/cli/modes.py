@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 
-from geometry import load_reed
+from geometry import THESIS_PRESETS, load_reed
 from studies.cli import flags
 
 HELP = "natural frequencies and mode shapes of reeds at any fidelity: plots of every mode and VTU files"
@@ -15,7 +15,7 @@ DEFAULT_MODES = 6
 
 def configure(p):
     """Add the arguments of ``valvelab modes`` to its parser (the command protocol: :mod:`studies.cli`)."""
-    p.add_argument("geometries", nargs="*", default=["uniform", "stepped1", "stepped2", "prototype"],
+    p.add_argument("geometries", nargs="*", default=list(THESIS_PRESETS),
                    help="presets or reed TOML files (default: the four thesis reeds)")
     p.add_argument("--fidelity", default="solid", help="analytic, beam, plate or solid (default solid)")
     p.add_argument("--modes", type=flags.integer(1, 50), default=DEFAULT_MODES, metavar="N",

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from geometry import load_reed
+from geometry import PRESETS, load_reed
 from geometry.errors import InputError
 from studies.cli import flags
 
@@ -34,7 +34,7 @@ def check_modes_count(n, field: str = "--modes", allow_zero: bool = False) -> in
 
 def configure(p):
     """Add the arguments of ``valvelab reed`` to its parser (the command protocol: :mod:`studies.cli`)."""
-    p.add_argument("geometry", help="preset (uniform, stepped1, stepped2, prototype) or reed TOML file")
+    p.add_argument("geometry", help=f"preset ({', '.join(PRESETS)}) or reed TOML file")
     p.add_argument("--fidelity", default="analytic", help="analytic (default), beam, plate or solid")
     p.add_argument("--mesh-size", type=flags.number("m", (1e-7, 10.0), positive=True), default=None,
                    help="FEA element size [m] (default: converged size scaled to the reed)")

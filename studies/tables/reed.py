@@ -9,14 +9,14 @@ from __future__ import annotations
 
 from functools import cache
 
-from geometry import load_reed
+from geometry import THESIS_PRESETS, load_reed
 from lumped.reed import euler_bernoulli as rb
 from lumped.reed import fluid as rf
 from lumped.reed.mode_function import gamma1_alternative
 
 from studies.tables.thesis import thesis_values
 
-REEDS = ("uniform", "stepped1", "stepped2", "prototype")
+REEDS = THESIS_PRESETS      # Table 3.1's reeds
 
 
 @cache
