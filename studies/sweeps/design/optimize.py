@@ -93,32 +93,45 @@ def _nsga2(spec: DesignSpec, ev: Evaluator, progress: bool):
 
 def _de(spec: DesignSpec, ev: Evaluator, progress: bool):
     """Differential evolution (scipy, vectorised over the population, no polishing): ([the best vector],
-    iterations)."""
+    generations run).
+
+    Runs the spec's ``run.generations``: the initial population and ``generations - 1`` evolved ones (scipy's
+    convergence test is off, ``tol = atol = 0``: a population whose objectives agree within 1 % would otherwise
+    stop it after one evolution, a run that asked for four reporting one)."""
     from scipy.optimize import NonlinearConstraint, differential_evolution
 
     r = spec.run_dict
     d = len(spec.variables)
     bounds = [v.opt_bounds() for v in spec.variables]
     bar = _bar(progress, r["generations"])
+    populations = []
 
     def f(Z):
         F, _ = ev.evaluate(np.asarray(Z).T)
         return F[:, 0]
 
     def g(Z):
-        _, G = ev.evaluate(np.asarray(Z).T)
-        _tick(bar, ev)
+        Z = np.asarray(Z)
+        if Z.ndim == 1 and tuple(float(x) for x in Z) not in ev.cache:
+            # scipy asks once, before the first population, how many constraints there are: answered from the
+            # count (a run of its own would be one more sweep folder and generation than the spec asked for)
+            return np.zeros(ev.n_g)
+        _, G = ev.evaluate(Z.T)
+        if Z.ndim == 2:              # a population (the initial one, then each evolved one)
+            populations.append(Z.shape[1])
+            _tick(bar, ev)
         return G.T
 
     kw = {"rng" if "rng" in inspect.signature(differential_evolution).parameters else "seed": r["seed"]}
     try:
         res = differential_evolution(f, bounds, popsize=max(1, math.ceil(r["population"] / d)),
                                      maxiter=max(0, r["generations"] - 1), vectorized=True, updating="deferred",
-                                     polish=False, constraints=NonlinearConstraint(g, -np.inf, 0.0), **kw)
+                                     polish=False, tol=0.0, atol=0.0,
+                                     constraints=NonlinearConstraint(g, -np.inf, 0.0), **kw)
     finally:
         if bar is not None:
             bar.close()
-    return [tuple(float(x) for x in res.x)], int(res.nit)
+    return [tuple(float(x) for x in res.x)], len(populations)
 
 
 def _bar(progress: bool, total: int):
@@ -278,7 +291,8 @@ def _report(ctx: Study, ev: Evaluator, designs: list, base: dict | None) -> dict
     files.update(report.write_pareto(out, rows, cols))
     feas = _feasible_f(ev)
     files["front_plot"] = str(report.plot_front(out / "front.png", spec.objectives, ctx.catalogue,
-                                                feas * signs(spec.objectives) if len(feas) else None, designs, base))
+                                                feas * signs(spec.objectives) if len(feas) else None, designs, base,
+                                                ev.records))
     if designs:
         files["parallel_plot"] = str(report.plot_parallel(out / "parallel.png", spec.variables, spec.objectives,
                                                           ctx.catalogue, designs, base))
