@@ -9,6 +9,7 @@ from __future__ import annotations
 import csv
 import math
 import os
+import sys
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -104,6 +105,54 @@ def _probe(folder: Path) -> str | None:
     except OSError:
         pass
     return None
+
+
+def duration(seconds: float) -> str:
+    """A wall time as people say it: ``40 s``, ``12 min``, ``2.5 h``.
+
+    Parameters
+    ----------
+    seconds : float
+
+    Returns
+    -------
+    str
+
+    >>> duration(42.4), duration(754), duration(9000)
+    ('42 s', '13 min', '2.5 h')
+    """
+    if seconds < 90:
+        return f"{max(seconds, 1):.0f} s"
+    if seconds < 90 * 60:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+def announce(command: str, what: str, seconds: float | None = None, basis: str = "measured per-unit costs") -> str:
+    """Say on stderr, before a long computation starts, what it runs and about how long it takes.
+
+    Parameters
+    ----------
+    command : str
+        The command (``check``), named first.
+    what : str
+        What runs (counts and units: ``6 runs ... 3 revolutions each``).
+    seconds : float, optional
+        The estimate [s] (None: no estimate).
+    basis : str
+        Where the estimate comes from.
+
+    Returns
+    -------
+    str
+        The line written.
+    """
+    line = f"valvelab {command}: {what}"
+    if seconds is not None:
+        line += f"; about {duration(seconds)} on two cores ({basis})"
+    sys.stderr.write(line + "\n")
+    sys.stderr.flush()
+    return line
 
 
 def finite_or_none(x) -> float | None:

@@ -7,6 +7,7 @@ import sys
 from geometry import load_reed
 from geometry.errors import InputError
 from studies.cli import flags
+from studies.outputs import announce
 
 HELP = "multi-fidelity check of a reed: analytic, beam, plate and solid FEA with % deviations"
 FIDELITY_NAMES = ("analytic", "beam", "plate", "solid")
@@ -37,8 +38,11 @@ def configure(p):
                    help="instead of the fidelity check: the reed in the pump with one mode (eq 3.21), 1, 2, 3 and 6 "
                         "modes and the whole FE reed, on the six cases of Table 5.6, for this reed and five made "
                         "from it (twice and three times as long and half as thick, an off-axis port, a port near "
-                        "the clamp, a heavy tip); how many modes each needs (slow: about 20 minutes)")
-    p.add_argument("--quick", action="store_true", help="with --dynamics: the first case of Table 5.6 only")
+                        "the clamp, a heavy tip); how many modes each needs (slow: about 20 minutes on two "
+                        "cores; the estimate is printed before it starts)")
+    p.add_argument("--quick", action="store_true",
+                   help="with --dynamics: this reed only, at the first case of Table 5.6 only: eq 3.21, 1, 2, 3 and "
+                        "6 modes and the whole FE reed (under a minute on two cores)")
     p.add_argument("--markdown", action="store_true",
                    help="with --dynamics: print the study's tables in Markdown (also written to --out as "
                         "reed_dynamics.md)")
@@ -106,9 +110,16 @@ def _run_dynamics(reed, args) -> dict:
         from studies.outputs import prepare_output_dir
 
         out_dir = prepare_output_dir(args.out, "--out", args.force, kind="check")
-    ops = cases(valve="reed")
-    study = rd.dynamics_study(rd.study_reeds(reed), ops[:1] if args.quick else ops, revolutions=args.revolutions,
-                              progress=True, traces=out_dir is not None)
+    ops, reeds = cases(valve="reed"), rd.study_reeds(reed)
+    if args.quick:
+        ops, reeds = ops[:1], reeds[:1]
+    numerics = not args.quick          # the fast stepper's check: a compilation on a fresh install
+    announce("check", rd.plan_words(reeds, ops, args.revolutions, numerics=numerics),
+             rd.estimate_seconds(reeds, ops, args.revolutions, numerics=numerics),
+             "measured per-run costs" + ("; the fast stepper compiles once on a fresh install, about 2 min"
+                                         if numerics else ""))
+    study = rd.dynamics_study(reeds, ops, revolutions=args.revolutions, progress=True, traces=out_dir is not None,
+                              numerics=numerics)
     result = {"geometry": args.geometry, "dynamics": rd.as_json(study)}
     if args.markdown:
         result["markdown"] = rd.markdown(study)
