@@ -128,8 +128,15 @@ def duration(seconds: float) -> str:
     return f"{seconds / 3600:.1f} h"
 
 
-def announce(command: str, what: str, seconds: float | None = None, basis: str = "measured per-unit costs") -> str:
+#: a computation estimated to take less than this is not announced [s]
+ANNOUNCE_ABOVE_S = 5.0
+
+
+def announce(command: str, what: str, seconds: float | None = None, basis: str = "measured per-unit costs",
+             always: bool = False) -> str:
     """Say on stderr, before a long computation starts, what it runs and about how long it takes.
+
+    Nothing is said of one estimated under :data:`ANNOUNCE_ABOVE_S` (unless ``always``).
 
     Parameters
     ----------
@@ -142,11 +149,16 @@ def announce(command: str, what: str, seconds: float | None = None, basis: str =
     basis : str
         Where the estimate comes from.
 
+    always : bool
+        Say it whatever the estimate (a part of the work is not estimated).
+
     Returns
     -------
     str
-        The line written.
+        The line written ("" when nothing is said).
     """
+    if seconds is not None and seconds < ANNOUNCE_ABOVE_S and not always:
+        return ""
     line = f"valvelab {command}: {what}"
     if seconds is not None:
         line += f"; about {duration(seconds)} on two cores ({basis})"

@@ -78,6 +78,7 @@ def run(args) -> dict:
         from studies.outputs import prepare_output_dir
 
         out_dir = prepare_output_dir(args.out, "--out", args.force, kind="check")
+    _announce_check(reed, fids, out_dir is not None, args.convergence)
     check = multi_fidelity_check(reed, fids, args.tolerance_pct, args.mesh_size, progress=True, modes=n_modes)
     result = check_as_json(check)
     result["geometry"] = args.geometry
@@ -96,6 +97,23 @@ def run(args) -> dict:
     if out_dir is not None:
         result["files"] = _write_outputs(reed, fids, args.mesh_size, out_dir)
     return result
+
+
+def _announce_check(reed, fids: tuple, shapes: bool, convergence: bool) -> None:
+    """Say what the fidelity check runs and about how long (studies.costs; the convergence study not counted)."""
+    from studies import costs
+
+    fea = [f for f in fids if f != "analytic"]
+    units = {f"fea__{f}": 1 for f in fids}
+    if shapes:
+        units.update({f"shapes__{f}": 1 for f in fea})
+    what = (f"reed {reed.name} by {', '.join(fids)}" + (f"; with --out the {', '.join(fea)} shapes and VTU files"
+                                                         if shapes and fea else ""))
+    basis = "measured per-solve costs at the default meshes"
+    if convergence and fea:
+        what += f"; then a mesh convergence study of {', '.join(fea)} (three meshes or more each)"
+        basis += ", the convergence study not counted: minutes"
+    announce("check", what, costs.estimate(**units), basis, always=convergence and bool(fea))
 
 
 def _run_dynamics(reed, args) -> dict:

@@ -188,7 +188,17 @@ def run(args) -> dict:
     out["reed_parameters"] = _reed_source(model)
     if args.uncertainty:
         from lumped.model.model_file import with_values
+        from studies import costs
+        from studies.outputs import announce
+        from studies.validation import input_uncertainty as iu
+        from studies.validation.numerical import LADDER
         from studies.validation.vv20 import point_uncertainty
+
+        first, most = iu.SCRAMBLES * 2 ** iu.FIRST_POWER, iu.SCRAMBLES * 2 ** iu.MAX_POWER
+        announce("pump", f"u_num from {len(LADDER)} runs of a tolerance ladder; u_input from {first} Monte Carlo "
+                         "draws of the model's declared input uncertainties, doubled until precise to "
+                         f"{iu.TARGET_PRECISION:.0%} (at most {most})",
+                 costs.estimate(pump__fast=len(LADDER), pump__draw=first), f"measured per-run costs, {first} draws")
 
         m = model if args.air_content is None else with_values(model, {"oil.air_content": args.air_content})
         out["uncertainty"] = point_uncertainty(m, speed, load, res, revolutions=args.revolutions,

@@ -260,6 +260,8 @@ def run_optimize(spec: DesignSpec, out, *, scheduler: str | None = None, workers
     t_start = time.perf_counter()
     out = Path(out)
     model = _check(spec, out, force)
+    if progress:
+        _announce(spec, run)
     stages: dict = {}
     with _reed_cache(out), runner.open_study(spec, out, model, run, SUBFOLDERS) as ctx:
         ctx, ev, front, generations = _loop(ctx, batch_size, stages)
@@ -279,6 +281,34 @@ def run_optimize(spec: DesignSpec, out, *, scheduler: str | None = None, workers
                   designs_per_hour=ev.computed / ev.eval_seconds * 3600.0 if ev.computed and ev.eval_seconds else None)
     (out / "summary.json").write_text(json.dumps(_jsonable(result), indent=1, allow_nan=False))
     return _jsonable(result)
+
+
+def _announce(spec: DesignSpec, run: runner.StudyRun) -> None:
+    """Say what the optimisation runs and, for the pump model, about how long (studies.costs): the loop's
+    evaluations on the cluster, then the best design (DE) or the front (NSGA-II, at most ``recheck.max_designs``)
+    and the baseline on the reference integrator."""
+    from studies import costs
+    from studies.outputs import announce
+    from studies.sweeps.cluster import default_workers
+
+    r = spec.run_dict
+    npts, d = len(spec.points), len(spec.variables)
+    pop = math.ceil(r["population"] / d) * d if r["algorithm"] == "de" else r["population"]   # as _de sizes it
+    n_loop = pop * r["generations"] * npts
+    front = 1 if r["algorithm"] == "de" else min(pop, spec.recheck_dict.get("max_designs") or pop)
+    algorithm = {"de": "differential evolution", "nsga2": "NSGA-II"}.get(r["algorithm"], r["algorithm"])
+    what = (f"{algorithm}: {r['generations']} generations of {pop} designs x {npts} operating "
+            f"point{'s' if npts > 1 else ''} = {n_loop} runs in the loop, then "
+            f"{'the best design' if front == 1 else f'up to {front} designs of the front'} and the baseline re-checked "
+            "on the reference integrator" + (" (reed valves by the solid FEA too)" if study.needs_stress(spec) else ""))
+    if spec.model_kind != "pump":
+        announce("optimize", what + "; no measured cost for this model")
+        return
+    workers = run.workers or (2 if run.scheduler or run.client is not None else default_workers())
+    seconds = (0.0 if run.client is not None else costs.SECONDS["cluster"]) + costs.estimate(
+        generation=r["generations"], pump__reference=(front + 1) * npts) + costs.estimate(pump__evaluation=n_loop) / workers
+    announce("optimize", what, seconds, "measured per-run costs; the solid FEA and stress calibration not counted"
+             if study.needs_stress(spec) else "measured per-run costs")
 
 
 def _report(ctx: Study, ev: Evaluator, designs: list, base: dict | None) -> dict:
