@@ -64,8 +64,9 @@ def run(args) -> dict:
                       "every reed again", costs.estimate(**{f"modes__{args.fidelity}": 2 * len(reeds)}),
              "measured per-reed cost at the default mesh")
     files, modes = [], {}
-    for g, reed in zip(args.geometries, reeds):
-        print(f"modes: {args.fidelity} {reed.name} ({n} modes)", file=sys.stderr, flush=True)
+    for k, (g, reed) in enumerate(zip(args.geometries, reeds)):
+        print(f"modes: {args.fidelity} {reed.name} ({n} modes; reed {k + 1}/{len(reeds)})", file=sys.stderr,
+              flush=True)
         _, result = mod.properties_and_modes(reed, n, mesh_size=args.mesh_size)
         freqs, labels = result.first(n)
         families = getattr(result, "kinds", ["bending"] * len(labels))
