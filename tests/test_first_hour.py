@@ -112,3 +112,21 @@ def test_printed_objectives_keep_their_digits():
 
     assert [_f(v) for v in (1.726, 1.75768, 2.0)] == ["1.7260", "1.7577", "2.0000"]
     assert json.dumps(_f(None)) == '"-"'
+
+
+def test_a_tables_numbers_share_their_columns_decimals(capsys):
+    """Table 5.4's simulated deliveries S (modeled_cc) are printed to the same decimals (once 1.726 beside
+    1.70637), in the text, and agree with the JSON to that precision."""
+    from studies.cli import main
+    from studies.cli.table import render
+
+    assert main(["table", "5.4", "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)
+    lines = render(r).splitlines()           # the text valvelab table 5.4 prints
+    head = lines[1].split()
+    col = head.index("modeled_cc")
+    cells = [line.split()[col] for line in lines[3:3 + len(r["rows"])]]
+    decimals = {len(c.split(".")[1]) for c in cells}
+    assert len(decimals) == 1, cells
+    d = decimals.pop()
+    assert [float(c) for c in cells] == [round(row["modeled_cc"], d) for row in r["rows"]]
