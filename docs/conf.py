@@ -18,6 +18,7 @@ import importlib
 import os
 import importlib.metadata
 import pkgutil
+import re
 import sys
 from pathlib import Path
 
@@ -120,8 +121,7 @@ def _write_api_pages() -> None:
             if callable(obj) and target.startswith(("geometry.", "lumped.", "fea.", "instruments.", "studies.")):
                 ALIASES[f"{name}.{n}"] = target
                 role = "class" if isinstance(obj, type) else "func"
-                summary = (obj.__doc__ or "").strip().split("\n")[0]
-                rows.append(f"* :py:{role}:`{n} <{target}>`: {_escape(summary)}")
+                rows.append(f"* :py:{role}:`{n} <{target}>`: {_escape(summary(obj.__doc__))}")
             else:                        # a registry or a constant: no page of its own
                 rows.append(f"* ``{n}``: {type(obj).__name__}" + (f" of {len(obj)} entries" if hasattr(obj, "__len__")
                                                                   else ""))
@@ -143,8 +143,66 @@ def _write_api_pages() -> None:
             page.unlink()
 
 
+#: words ending in a full stop that end no sentence (eq. 3.21, e.g., Knutson et al.)
+ABBREVIATIONS = ("e.g.", "i.e.", "eq.", "eqs.", "Eq.", "Eqs.", "etc.", "vs.", "al.", "cf.", "Fig.", "Ref.", "No.")
+#: a reStructuredText role: :func:`~lumped.simulate`, :class:`text <target>`, :math:`x`
+ROLE = re.compile(r":(?:py:)?(\w+):`([^`]+)`")
+
+
+def _role_text(m: re.Match) -> str:
+    """A role as the text it renders: a cross-reference as its shown name in code style, math as math."""
+    role, body = m.group(1), m.group(2)
+    if role == "math":
+        return m.group(0)
+    titled = re.fullmatch(r"(.+?)\s*<[^>]+>", body)
+    if titled:
+        return titled.group(1)
+    target = body.lstrip("!")
+    if target.startswith("~"):
+        target = target[1:].split(".")[-1]
+    return f"``{target}{'()' if role in ('func', 'meth') else ''}``"
+
+
+def summary(doc: str | None) -> str:
+    """The first sentence of a docstring, its roles rendered, for the export tables.
+
+    The first paragraph is joined across its lines and cut after its first full stop that ends a
+    sentence (not inside a literal, not after an abbreviation such as ``eq.``); a cross-reference
+    role shows the name it links to (``:func:`~lumped.simulate``` as ``simulate()``), math stays math.
+
+    Parameters
+    ----------
+    doc : str or None
+
+    Returns
+    -------
+    str
+
+    >>> summary("Run at least ``revolutions``; continue until the\\n    steady state (eq. 3.2). More text.")
+    'Run at least ``revolutions``; continue until the steady state (eq. 3.2).'
+    >>> summary(":func:`parse_port` then :func:`~geometry.reed_port.check_port`.")
+    '``parse_port()`` then ``check_port()``.'
+    """
+    lines = []
+    for line in (doc or "").strip().splitlines():
+        if not line.strip():
+            break
+        lines.append(line.strip())
+    text = ROLE.sub(_role_text, " ".join(lines))
+    depth = 0                                   # inside ``literals`` no sentence ends
+    for i, ch in enumerate(text):
+        if text.startswith("``", i):
+            depth ^= 1
+        if ch in ".!?" and not depth and (i + 1 == len(text) or text[i + 1] == " "):
+            word = text[:i + 1].rsplit(" ", 1)[-1].lstrip("(")
+            if word not in ABBREVIATIONS:
+                return text[:i + 1]
+    return text
+
+
 def _escape(text: str) -> str:
-    return text.replace("|", "\\|").replace("*", "\\*").replace("`", "")
+    """A summary inside a reStructuredText list: bars and stars are text, not markup."""
+    return text.replace("|", "\\|").replace("*", "\\*")
 
 
 def _resolve_alias(app, env, node, contnode):

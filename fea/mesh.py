@@ -516,6 +516,8 @@ def write_vtu(path, mesh: skfem.Mesh, point_data: dict | None = None) -> None:
     from skfem.io.meshio import to_meshio
 
     m = to_meshio(mesh, point_data=point_data or {})
+    if m.points.shape[1] == 2:           # VTU points are 3-D: z = 0 here, not meshio's warning on stderr
+        m.points = np.column_stack([m.points, np.zeros(len(m.points))])
     meshio.write(str(path), m, file_format="vtu")
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import csv
 import math
 import os
+import sys
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -104,6 +105,66 @@ def _probe(folder: Path) -> str | None:
     except OSError:
         pass
     return None
+
+
+def duration(seconds: float) -> str:
+    """A wall time as people say it: ``40 s``, ``12 min``, ``2.5 h``.
+
+    Parameters
+    ----------
+    seconds : float
+
+    Returns
+    -------
+    str
+
+    >>> duration(42.4), duration(754), duration(9000)
+    ('42 s', '13 min', '2.5 h')
+    """
+    if seconds < 90:
+        return f"{max(seconds, 1):.0f} s"
+    if seconds < 90 * 60:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+#: a computation estimated to take less than this is not announced [s]
+ANNOUNCE_ABOVE_S = 5.0
+
+
+def announce(command: str, what: str, seconds: float | None = None, basis: str = "measured per-unit costs",
+             always: bool = False) -> str:
+    """Say on stderr, before a long computation starts, what it runs and about how long it takes.
+
+    Nothing is said of one estimated under :data:`ANNOUNCE_ABOVE_S` (unless ``always``).
+
+    Parameters
+    ----------
+    command : str
+        The command (``check``), named first.
+    what : str
+        What runs (counts and units: ``6 runs ... 3 revolutions each``).
+    seconds : float, optional
+        The estimate [s] (None: no estimate).
+    basis : str
+        Where the estimate comes from.
+
+    always : bool
+        Say it whatever the estimate (a part of the work is not estimated).
+
+    Returns
+    -------
+    str
+        The line written ("" when nothing is said).
+    """
+    if seconds is not None and seconds < ANNOUNCE_ABOVE_S and not always:
+        return ""
+    line = f"valvelab {command}: {what}"
+    if seconds is not None:
+        line += f"; about {duration(seconds)} on two cores ({basis})"
+    sys.stderr.write(line + "\n")
+    sys.stderr.flush()
+    return line
 
 
 def finite_or_none(x) -> float | None:
@@ -295,6 +356,46 @@ def format_cell(v, missing: str = "-") -> str:
     return str(v)
 
 
+def format_column(values, missing: str = "-") -> list[str]:
+    """A table column's cells as text, every number of it to the same decimals.
+
+    Each float keeps 6 significant figures (:func:`format_cell`); a column whose floats all print
+    without an exponent gives every one of them the most decimals any needs, so that a value of
+    the column is never shown to fewer digits than its neighbours (1.72600 beside 1.70637, not
+    1.726). A column with a number in exponent form keeps :func:`format_cell`'s.
+
+    Parameters
+    ----------
+    values : sequence
+    missing : str
+
+    Returns
+    -------
+    list of str
+
+    Examples
+    --------
+    >>> format_column([1.726, 1.70637, None, 2.0])
+    ['1.72600', '1.70637', '-', '2.00000']
+    >>> format_column([2.76e6, 0.013, "inlet"])
+    ['2.76e+06', '0.013', 'inlet']
+    """
+    cells = [format_cell(v, missing) for v in values]
+    floats = [(i, c) for i, (v, c) in enumerate(zip(values, cells)) if isinstance(v, float) and math.isfinite(v)]
+    if not floats or any("e" in c for _, c in floats):
+        return cells
+    decimals = max(len(c.split(".")[1]) if "." in c else 0 for _, c in floats)
+    for i, _ in floats:
+        cells[i] = f"{values[i]:.{decimals}f}"
+    return cells
+
+
+def _columns(rows, cols, missing: str) -> list[list[str]]:
+    """The rows' cells as text, column by column (:func:`format_column`), back as rows."""
+    by_col = [format_column([r.get(c) for r in rows], missing) for c in cols]
+    return [list(cells) for cells in zip(*by_col)] if cols else [[] for _ in rows]
+
+
 @dataclass(frozen=True)
 class Table:
     """A table of rows (dicts, SI values) with notes: what ``valvelab table``, ``validate`` and the
@@ -355,7 +456,7 @@ class Table:
         """
         cols = self.columns
         lines = [f"# {self.title}", "", "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
-        lines += ["| " + " | ".join(format_cell(r.get(k), missing="") for k in cols) + " |" for r in self.rows]
+        lines += ["| " + " | ".join(cells) + " |" for cells in _columns(self.rows, cols, "")]
         if self.notes:
             lines += [""] + [f"- {n}" for n in self.notes]
         return "\n".join(lines) + "\n"
@@ -368,7 +469,7 @@ class Table:
         str
         """
         cols = self.columns
-        cells = [[format_cell(row.get(c)) for c in cols] for row in self.rows]
+        cells = _columns(self.rows, cols, "-")
         widths = [max(len(c), *(len(x[i]) for x in cells)) for i, c in enumerate(cols)]
         out = [self.title, "  ".join(c.ljust(w) for c, w in zip(cols, widths)), "  ".join("-" * w for w in widths)]
         out += ["  ".join(x.ljust(w) for x, w in zip(line, widths)) for line in cells]
@@ -393,7 +494,7 @@ class Table:
         with open(csv_path, "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=cols)
             w.writeheader()
-            for r in self.rows:
-                w.writerow({k: format_cell(r.get(k), missing="") for k in cols})
+            for cells in _columns(self.rows, cols, ""):
+                w.writerow(dict(zip(cols, cells)))
         md_path.write_text(self.to_markdown())
         return [csv_path, md_path]

@@ -48,3 +48,40 @@ def client():
     yield c
     c.close()
     cluster.close()
+
+
+# --------------------------------------------------------------------------- what the default run leaves out
+#: the key a worker's count of deselected slow tests travels under to the controller (pytest-xdist)
+_SLOW_KEY = "valvelab_slow_deselected"
+
+
+def pytest_configure(config):
+    config._valvelab_slow_deselected = 0
+
+
+def pytest_deselected(items):
+    """Count the slow tests ``-m 'not slow'`` (the default, pyproject.toml) leaves out."""
+    if items:
+        config = items[0].config
+        config._valvelab_slow_deselected += sum(1 for it in items if it.get_closest_marker("slow") is not None)
+
+
+def pytest_sessionfinish(session):
+    """An xdist worker hands its count to the controller (every worker collects every test)."""
+    if hasattr(session.config, "workeroutput"):
+        session.config.workeroutput[_SLOW_KEY] = session.config._valvelab_slow_deselected
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node, error):
+    """The controller keeps the workers' count (each saw the same collection)."""
+    n = getattr(node, "workeroutput", {}).get(_SLOW_KEY, 0)
+    node.config._valvelab_slow_deselected = max(node.config._valvelab_slow_deselected, n)
+
+
+def pytest_terminal_summary(terminalreporter, config):
+    """Say what the run left out and how to run it."""
+    n = config._valvelab_slow_deselected
+    if n and "not slow" in (config.option.markexpr or "") and not hasattr(config, "workeroutput"):
+        terminalreporter.write_line(f"{n} slow test{'s' if n > 1 else ''} deselected; run them with pytest -m slow "
+                                    "(long convergence studies and full validation runs)")

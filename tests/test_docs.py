@@ -43,6 +43,32 @@ def test_the_site_builds_with_warnings_as_errors(tmp_path):
     assert (tmp_path / "html" / "index.html").exists()
     api = (tmp_path / "html" / "api" / "lumped.html").read_text()
     assert "simulate" in api and "check_valve_kind" in api
+    # the export tables: whole first sentences, roles rendered (no raw :func: markup)
+    for page in (tmp_path / "html" / "api").glob("*.html"):
+        text = page.read_text()
+        assert not re.search(r":(func|class|meth|mod|attr|obj|data):", text), page.name
+    assert "or that many." in api and "the state at TDC between the last two revolutions" in api   # StopRule
+
+
+def test_the_export_tables_show_first_sentences():
+    """docs/conf.py's summary: the first sentence whole (joined across lines, not cut at an abbreviation or a
+    literal), cross-references shown as the names they link to."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("docs_conf", DOCS / "conf.py")
+    conf = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(conf)          # (writes the generated pages of docs/api/, as a build does)
+    summary = conf.summary
+    from lumped import StopRule, reed_properties, with_values
+
+    for obj in (StopRule, with_values, reed_properties):
+        text = summary(obj.__doc__)
+        assert text.endswith("."), (obj, text)
+        assert text.split()[-1].rstrip(".") in " ".join(obj.__doc__.split()), (obj, text)
+        assert ":func:" not in text and ":class:" not in text
+    assert summary(":func:`~lumped.simulate` runs it (eq. 3.21, i.e. one mode). Then more.") == \
+        "``simulate()`` runs it (eq. 3.21, i.e. one mode)."
+    assert summary(":class:`the pump <lumped.PumpModel>` in ``a.b``. Next.") == "the pump in ``a.b``."
 
 
 def test_user_documents_speak_of_no_history():

@@ -8,6 +8,7 @@ form it states) fails here; so does a public function whose example is removed.
 from __future__ import annotations
 
 import inspect
+import json
 import os
 import subprocess
 import sys
@@ -23,15 +24,34 @@ def test_there_are_at_least_eight_examples():
     assert len(EXAMPLES) >= 8, [p.name for p in EXAMPLES]
 
 
+#: runs an example as ``python EXAMPLE`` would, then checks the figures it left open (the gallery shows them)
+RUN_AND_CHECK = """
+import json, runpy, sys
+import matplotlib.pyplot as plt
+import figure_checks
+sys.argv = [sys.argv[1]]
+runpy.run_path(sys.argv[0], run_name="__main__")
+figs = [plt.figure(n) for n in plt.get_fignums()]
+print("FIGURES " + json.dumps({"count": len(figs), "problems": [p for k, f in enumerate(figs)
+                                                             for p in figure_checks.problems(f, f"figure {k + 1}")]}))
+"""
+
+
 @pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
 def test_example_runs_and_meets_its_headline(path, tmp_path):
+    """Each example exits 0 (its asserts hold) and draws at least one figure fit for a report
+    (tests/figure_checks.py: legends off the data, a unit on every axis)."""
     # each in its own process: an example may register an effect or start a dask client
-    env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONPATH": str(ROOT)}
-    r = subprocess.run([sys.executable, str(path)], cwd=tmp_path, capture_output=True, text=True, env=env,
-                       timeout=600)
+    env = {**os.environ, "MPLBACKEND": "Agg",
+           "PYTHONPATH": os.pathsep.join([str(ROOT), str(ROOT / "tests")])}
+    r = subprocess.run([sys.executable, "-c", RUN_AND_CHECK, str(path)], cwd=tmp_path, capture_output=True,
+                       text=True, env=env, timeout=600)
     assert r.returncode == 0, f"{path.name} failed:\n{r.stdout[-1500:]}\n{r.stderr[-3000:]}"
     assert list(tmp_path.iterdir()) == [] or all(p.name.startswith("dask-") for p in tmp_path.iterdir()), \
         "an example wrote into the working folder"
+    figures = json.loads(r.stdout.rsplit("FIGURES ", 1)[1])
+    assert figures["count"] >= 1, f"{path.name} draws no figure for the gallery"
+    assert not figures["problems"], "\n".join(figures["problems"])
 
 
 def test_every_example_states_its_headline_number():

@@ -113,6 +113,13 @@ def test_differential_evolution_finds_the_constrained_optimum(client, tmp_path):
     assert d["variables"]["x1"] == pytest.approx(0.5, abs=0.03) and d["variables"]["x2"] == pytest.approx(0.0, abs=0.03)
     # the unconstrained optimum (0.3, -0.2) violates s >= 0.5: the constraint was active
     assert d["objectives"]["q"] > 0.05
+    # the generations asked for were run and written, one folder each, the designs counted once
+    import pandas as pd
+
+    folders = sorted((tmp_path / "de" / "generations").glob("gen-*"))
+    assert res["generations"] == len(folders) == 60
+    assert res["evaluated_designs"] == sum(len(pd.read_parquet(f / "designs.parquet")) for f in folders)
+    assert all(len(pd.read_parquet(f / "designs.parquet")) <= 20 for f in folders)   # one population each
 
 
 # ----------------------------------------------------------------- resume and clusters

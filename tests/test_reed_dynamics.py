@@ -285,3 +285,53 @@ def test_bad_dynamics_keys_exit_2_on_the_command_line(tmp_path, capsys, keys, fi
     assert main(["pump", "--model", str(f), "--json"]) == 2
     captured = capsys.readouterr()
     assert captured.out == "" and field in captured.err and len(captured.err.strip().splitlines()) == 1
+
+
+def test_check_dynamics_quick_runs_one_reed_at_one_case(monkeypatch, capsys):
+    """--quick is what its help says: this reed, the first case of Table 5.6, every model (no derived reeds, no
+    fast-stepper check); the plan is said with its estimate before anything runs."""
+    from studies.cli import main
+    from studies.validation import reed_dynamics as rd
+    from studies.validation.chain import cases
+
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    def fake(reeds, ops, **kw):
+        seen.update(reeds=reeds, ops=ops, **kw)
+        raise Stop
+
+    monkeypatch.setattr(rd, "dynamics_study", fake)
+    assert main(["check", "prototype", "--dynamics", "--quick"]) == 1        # Stop: the CLI's internal error
+    assert [r.name for r in seen["reeds"]] == ["prototype"] and seen["ops"] == cases(valve="reed")[:1]
+    assert seen["numerics"] is False
+    err = capsys.readouterr().err.splitlines()[0]
+    n_runs = len(rd.variants(seen["reeds"][0]))
+    assert err.startswith(f"valvelab check: {n_runs} pump runs of 3 revolutions and 1 solid FEA")
+    assert "low speed inlet, 595 rpm, 2.76 MPa" in err
+    estimate = rd.estimate_seconds(seen["reeds"], seen["ops"], 3, numerics=False)
+    assert estimate < 60 and f"about {estimate:.0f} s" in err
+    # the full study: every reed at every case, its count and estimate from the same per-run costs
+    assert main(["check", "prototype", "--dynamics"]) == 1
+    assert len(seen["reeds"]) == 6 and len(seen["ops"]) == 6 and seen["numerics"] is True
+    runs = sum(len(rd.variants(r)) for r in seen["reeds"]) * 6 + 6
+    assert f"{runs} pump runs" in capsys.readouterr().err
+
+
+def test_the_study_progress_total_is_its_steps(capsys, monkeypatch):
+    """The progress count's total, known from the start, is the number of steps it counts (runs and the FEA)."""
+    from studies.validation import reed_dynamics as rd
+    from studies.validation.chain import cases
+
+    monkeypatch.setattr(rd, "variants", lambda case, modes=rd.MODES, fe=True: [("one-mode", {"dynamics": "one-mode"})])
+    against = rd._against
+    monkeypatch.setattr(rd, "_against", lambda by_label, reference: against(by_label, "one-mode"))
+    case = rd.ReedCase("prototype", _model().delivery.reed, "beam", {}, "test")
+    ops = cases(valve="reed")[:2]
+    study = rd.dynamics_study([case], ops, revolutions=2, traces=False, numerics=False)
+    total = rd.runs_count([case], ops, numerics=False)
+    assert total == 3 and len(study["rows"]) == 2 and study["numerics"] == []
+    steps = [x for x in capsys.readouterr().err.split("\r") if x.startswith("reed dynamics:")]
+    assert [s.split()[2] for s in steps] == [f"{k}/{total}" for k in range(1, total + 1)]

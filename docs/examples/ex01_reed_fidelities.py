@@ -38,13 +38,14 @@ for name in ("plate", "solid"):
 # The first natural frequency by fidelity, against the closed form of eq 3.4
 import matplotlib.pyplot as plt
 
-fig, ax = plt.subplots(figsize=(6, 3.5))
+from studies.plots import legend_outside
+
+fig, ax = plt.subplots(figsize=(7.5, 3.5), layout="constrained")
 ax.bar(list(omega), list(omega.values()), color="tab:blue")
 ax.axhline(closed_form, color="k", ls="--", label="closed form, eq 3.4")
 ax.axhline(closed_form / math.sqrt(1.0 - nu**2), color="tab:red", ls=":", label="plate limit 1/sqrt(1 - nu^2)")
 ax.set_ylim(0.9 * closed_form, 1.1 * closed_form)
 ax.set_ylabel("first natural frequency [rad/s]")
 ax.set_title(f"uniform reed, L = {reed.length * 1e3:.1f} mm")
-ax.legend(loc="lower right")
-fig.tight_layout()
+legend_outside(ax, fontsize=8)
 plt.show()

@@ -57,13 +57,14 @@ assert abs(slope / closed - 1.0) < 0.03, (slope, closed)
 # Delivery against load pressure, with the closed-form compressibility slope
 import matplotlib.pyplot as plt
 
+from studies.plots import legend_outside
+
 p_mpa = ok["load_pressure"].to_numpy() / 1e6
-fig, ax = plt.subplots(figsize=(6, 3.5))
+fig, ax = plt.subplots(figsize=(7.5, 3.5), layout="constrained")
 ax.plot(p_mpa, ok["delivery_m3_per_rev"] * 1e6, "o", label="sweep (simulated)")
 mid = ok["delivery_m3_per_rev"].mean() * 1e6, ok["load_pressure"].mean()
 ax.plot(p_mpa, mid[0] + closed * (ok["load_pressure"] - mid[1]) * 1e6, "k--", label="slope -V_dead / beta")
 ax.set_xlabel("load pressure [MPa]")
 ax.set_ylabel("delivery [cc/rev]")
-ax.legend()
-fig.tight_layout()
+legend_outside(ax, fontsize=8)
 plt.show()

@@ -47,16 +47,17 @@ assert abs(drop / closed - 1.0) < 0.03, (drop, closed)
 # The delivery drop against the closed form, for a few trapped volumes
 import matplotlib.pyplot as plt
 
+from studies.plots import legend_outside
+
 volumes = [0.5e-6, 1.0e-6, 2.0e-6, 4.0e-6]
 drops = [before.delivery_per_rev - simulate(
     replace(base, effects=(Applied.of("trapped_volume", "pump", {"volume": v}),)), speed, load,
     revolutions=4, max_revolutions=20).delivery_per_rev for v in volumes]
-fig, ax = plt.subplots(figsize=(6, 3.5))
+fig, ax = plt.subplots(figsize=(7.5, 3.5), layout="constrained")
 ax.plot([v * 1e6 for v in volumes], [d * 1e9 for d in drops], "o", label="simulated")
 ax.plot([v * 1e6 for v in volumes], [v * (load - base.pump.tank_pressure) / base.oil.bulk_modulus * 1e9
                                      for v in volumes], "k--", label="V (p_load - p_tank) / beta")
 ax.set_xlabel("trapped volume [cc]")
 ax.set_ylabel("delivery lost [mm^3/rev]")
-ax.legend()
-fig.tight_layout()
+legend_outside(ax, fontsize=8)
 plt.show()

@@ -45,6 +45,8 @@ for name in ("analytic", "beam"):
 # The triangular reed's outline, and its deflection under 1 bar: the beam FE model against the closed form
 # w(s) = 2 p / (3 E h^3) [L^3 s - (L^4 - (L - s)^4) / 4], the curvature above integrated twice
 import matplotlib.pyplot as plt
+
+from studies.plots import legend_outside
 import numpy as np
 
 from fea import beam
@@ -53,7 +55,7 @@ p = 1e5                                                    # Pa
 fe = beam.solve(reed)
 sc = np.linspace(0.0, L, 200)
 w_closed = 2 * p / (3 * E * H**3) * (L**3 * sc - (L**4 - (L - sc) ** 4) / 4)
-fig, (a1, a2) = plt.subplots(2, 1, sharex=True, figsize=(6, 4.5))
+fig, (a1, a2) = plt.subplots(2, 1, sharex=True, figsize=(7.5, 4.5), layout="constrained")
 half = np.asarray(reed.width(sc)) / 2 * 1e3
 a1.fill_between(sc * 1e3, -half, half, color="tab:gray")
 a1.set_ylabel("y [mm]")
@@ -61,6 +63,5 @@ a2.plot(fe.s * 1e3, fe.psi_static * p / fe.kappa * 1e6, label="beam FE")
 a2.plot(sc * 1e3, w_closed * 1e6, "k--", label="closed form")
 a2.set_xlabel("s, from the clamp [mm]")
 a2.set_ylabel("deflection at 1 bar [um]")
-a2.legend()
-fig.tight_layout()
+legend_outside(a2, fontsize=8)
 plt.show()

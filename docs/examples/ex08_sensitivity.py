@@ -64,17 +64,18 @@ assert result["failed"] == 0
 # %%
 # First-order and total Sobol indices with their bootstrap intervals, and the linear model's
 import matplotlib.pyplot as plt
+
+from studies.plots import legend_outside
 import numpy as np
 
 names = list(indices)
 xs = np.arange(len(names))
-fig, ax = plt.subplots(figsize=(6, 3.5))
+fig, ax = plt.subplots(figsize=(7.5, 3.5), layout="constrained")
 ax.bar(xs - 0.2, [indices[k]["S1"] for k in names], 0.4, yerr=[indices[k]["S1_conf"] for k in names],
        label="S1 (SALib)", capsize=4)
 ax.bar(xs + 0.2, [indices[k]["ST"] for k in names], 0.4, label="ST (SALib)", color="tab:gray")
 ax.plot(xs - 0.2, [linear[k] for k in names], "k_", markersize=30, mew=2, label="linear model")
 ax.set_xticks(xs, names)
 ax.set_ylabel("Sobol index of the delivery [-]")
-ax.legend()
-fig.tight_layout()
+legend_outside(ax, fontsize=8)
 plt.show()

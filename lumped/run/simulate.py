@@ -179,7 +179,7 @@ class PumpResult:
 
         if self.trace is None:
             raise ValueError("the result holds no trace; simulate(..., trace=True)")
-        fig, (a1, a2) = plt.subplots(2, 1, sharex=True, figsize=(7, 5))
+        fig, (a1, a2) = plt.subplots(2, 1, sharex=True, figsize=(8.5, 5))
         self.trace.plot(a1, ("inlet_position", "delivery_position"))
         self.trace.plot(a2, ("cylinder_pressure", "load_pressure"))
         a1.set_ylabel("valve opening [mm]")

@@ -127,5 +127,5 @@ class Trace:
             ax.plot(deg, v * scale, label=f"{name.replace('_', ' ')} [{shown}]")
         ax.set_xlabel("crank angle from TDC [deg]")
         ax.set_ylabel(" / ".join(sorted({f"[{('mm' if unit_of(n) == 'm' else 'MPa' if unit_of(n) == 'Pa' else unit_of(n))}]" for n in signals if n in self.signals})))
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)   # off the data
         return ax

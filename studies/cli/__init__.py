@@ -27,7 +27,9 @@ Conventions shared by every command:
 from __future__ import annotations
 
 import argparse
+import ast
 import importlib
+import importlib.util
 import json
 import os
 import pkgutil
@@ -107,13 +109,41 @@ def _internal_error(command: str, exc: BaseException) -> int:
     return 1
 
 
+def help_line(modname: str) -> str:
+    """A command module's ``HELP``, read from its source without importing it.
+
+    ``valvelab --help`` lists every command: importing each module would import scipy, numba,
+    matplotlib, dask and scikit-fem (seconds); its ``HELP`` literal is all the list needs.
+
+    Parameters
+    ----------
+    modname : str
+        The command's module (``studies.cli.pump``).
+
+    Returns
+    -------
+    str
+        The line (the imported module's ``HELP`` where the source does not give it as a literal).
+    """
+    spec = importlib.util.find_spec(modname)
+    try:
+        tree = ast.parse(open(spec.origin, encoding="utf-8").read())
+        for node in tree.body:
+            if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "HELP" for t in node.targets):
+                return ast.literal_eval(node.value)
+    except (OSError, ValueError, SyntaxError, TypeError):
+        pass
+    return importlib.import_module(modname).HELP
+
+
 def build_parser(selected: str | None = None) -> argparse.ArgumentParser:
     """The command line's parser.
 
     Parameters
     ----------
     selected : str, optional
-        The command asked for: only its module is imported (every one for ``--help``).
+        The command asked for: only its module is imported (none for ``valvelab --help``, which
+        lists the commands from their ``HELP`` lines, :func:`help_line`).
 
     Returns
     -------
@@ -122,12 +152,15 @@ def build_parser(selected: str | None = None) -> argparse.ArgumentParser:
     parser = _Parser(prog="valvelab", description="Hydraulic disc, reed and ball check valve models.")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for name, modname in COMMANDS.items():
-        if selected is not None and name != selected:
+        if selected is None:
+            # argparse formats a command's help with %, not its description
+            sub.add_parser(name, help=help_line(modname).replace("%", "%%"))
+            continue
+        if name != selected:
             sub.add_parser(name)  # known name, configured only when chosen
             continue
         mod = importlib.import_module(modname)
-        text = mod.HELP.replace("%", "%%")  # argparse formats help strings with %
-        p = sub.add_parser(name, help=text, description=text)
+        p = sub.add_parser(name, help=mod.HELP.replace("%", "%%"), description=mod.HELP)
         p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
         mod.configure(p)
         p.set_defaults(_module=mod)

@@ -11,16 +11,14 @@ import sys
 from geometry import PRESETS, load_reed
 from geometry.errors import InputError
 from studies.cli import flags
-from studies.validation.reed_check import (
-    DEFAULT_TOLERANCE_PCT,
-    check_as_json,
-    multi_fidelity_check,
-    render_check,
-)
+from studies.outputs import announce
 
 HELP = ("multi-fidelity check of a reed (analytic, beam, plate and solid FEA) or of a disc-valve model's fluid "
         "(orifice laws, thin film, axisymmetric Navier-Stokes) with % deviations")
 FIDELITY_NAMES = ("analytic", "beam", "plate", "solid")
+#: studies.validation.reed_check.DEFAULT_TOLERANCE_PCT, for the help (importing that module imports the
+#: models: seconds); tests/test_cli_startup.py keeps the two equal
+DEFAULT_TOLERANCE_PCT = 4.0
 
 
 def configure(p):
@@ -45,8 +43,11 @@ def configure(p):
                    help="instead of the fidelity check: the reed in the pump with one mode (eq 3.21), 1, 2, 3 and 6 "
                         "modes and the whole FE reed, on the six cases of Table 5.6, for this reed and five made "
                         "from it (twice and three times as long and half as thick, an off-axis port, a port near "
-                        "the clamp, a heavy tip); how many modes each needs (slow: about 20 minutes)")
-    p.add_argument("--quick", action="store_true", help="with --dynamics: the first case of Table 5.6 only")
+                        "the clamp, a heavy tip); how many modes each needs (slow: about 20 minutes on two "
+                        "cores; the estimate is printed before it starts)")
+    p.add_argument("--quick", action="store_true",
+                   help="with --dynamics: this reed only, at the first case of Table 5.6 only: eq 3.21, 1, 2, 3 and "
+                        "6 modes and the whole FE reed (under a minute on two cores)")
     p.add_argument("--markdown", action="store_true",
                    help="with --dynamics: print the study's tables in Markdown (also written to --out as "
                         "reed_dynamics.md)")
@@ -80,6 +81,7 @@ def run(args) -> dict:
             raise InputError(flag, "applies to the pump study (--dynamics)")
     fids = _fidelities(args.fidelities)
     from studies.cli.reed import check_modes_count
+    from studies.validation.reed_check import check_as_json, multi_fidelity_check
 
     n_modes = check_modes_count(args.modes, allow_zero=True)
     out_dir = None
@@ -87,6 +89,7 @@ def run(args) -> dict:
         from studies.outputs import prepare_output_dir
 
         out_dir = prepare_output_dir(args.out, "--out", args.force, kind="check")
+    _announce_check(reed, fids, out_dir is not None, args.convergence)
     check = multi_fidelity_check(reed, fids, args.tolerance_pct, args.mesh_size, progress=True, modes=n_modes)
     result = check_as_json(check)
     result["geometry"] = args.geometry
@@ -107,6 +110,23 @@ def run(args) -> dict:
     return result
 
 
+def _announce_check(reed, fids: tuple, shapes: bool, convergence: bool) -> None:
+    """Say what the fidelity check runs and about how long (studies.costs; the convergence study not counted)."""
+    from studies import costs
+
+    fea = [f for f in fids if f != "analytic"]
+    units = {f"fea__{f}": 1 for f in fids}
+    if shapes:
+        units.update({f"shapes__{f}": 1 for f in fea})
+    what = (f"reed {reed.name} by {', '.join(fids)}" + (f"; with --out the {', '.join(fea)} shapes and VTU files"
+                                                         if shapes and fea else ""))
+    basis = "measured per-solve costs at the default meshes"
+    if convergence and fea:
+        what += f"; then a mesh convergence study of {', '.join(fea)} (three meshes or more each)"
+        basis += ", the convergence study not counted: minutes"
+    announce("check", what, costs.estimate(**units), basis, always=convergence and bool(fea))
+
+
 def _run_dynamics(reed, args) -> dict:
     """``--dynamics``: studies.validation.reed_dynamics for this reed and the five made from it."""
     from studies.validation import reed_dynamics as rd
@@ -119,9 +139,16 @@ def _run_dynamics(reed, args) -> dict:
         from studies.outputs import prepare_output_dir
 
         out_dir = prepare_output_dir(args.out, "--out", args.force, kind="check")
-    ops = cases(valve="reed")
-    study = rd.dynamics_study(rd.study_reeds(reed), ops[:1] if args.quick else ops, revolutions=args.revolutions,
-                              progress=True, traces=out_dir is not None)
+    ops, reeds = cases(valve="reed"), rd.study_reeds(reed)
+    if args.quick:
+        ops, reeds = ops[:1], reeds[:1]
+    numerics = not args.quick          # the fast stepper's check: a compilation on a fresh install
+    announce("check", rd.plan_words(reeds, ops, args.revolutions, numerics=numerics),
+             rd.estimate_seconds(reeds, ops, args.revolutions, numerics=numerics),
+             "measured per-run costs" + ("; the fast stepper compiles once on a fresh install, about 2 min"
+                                         if numerics else ""))
+    study = rd.dynamics_study(reeds, ops, revolutions=args.revolutions, progress=True, traces=out_dir is not None,
+                              numerics=numerics)
     result = {"geometry": args.geometry, "dynamics": rd.as_json(study)}
     if args.markdown:
         result["markdown"] = rd.markdown(study)
@@ -189,6 +216,8 @@ def render(r: dict) -> str:
 
         head = r["markdown"] if "markdown" in r else render_dynamics(r["dynamics"])
         return "\n".join([head] + [f"wrote {f}" for f in r.get("files", [])])
+    from studies.validation.reed_check import render_check
+
     text = render_check(r)
     for fid, st in r.get("convergence", {}).items():
         for q, c in st["quantities"].items():

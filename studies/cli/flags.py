@@ -53,8 +53,10 @@ def number(unit: str = "-", bounds=None, *, positive: bool = False, integer: boo
     ----------
     unit : str
         The flag's unit (for the message and the unit hint).
-    bounds : tuple of float, optional
-        Inclusive plausible range.
+    bounds : tuple of float or callable, optional
+        Inclusive plausible range, or a function returning it: called when the flag is given, so
+        a range declared in the model layer (``lumped``, seconds to import) costs nothing to
+        ``--help`` or to a command line without the flag.
     positive, integer : bool
 
     Returns
@@ -64,11 +66,40 @@ def number(unit: str = "-", bounds=None, *, positive: bool = False, integer: boo
 
     def parse(text: str):
         try:
-            return from_text(text, "", unit, bounds, positive=positive, integer=integer)
+            return from_text(text, "", unit, bounds() if callable(bounds) else bounds, positive=positive,
+                             integer=integer)
         except InputError as exc:
             raise argparse.ArgumentTypeError(exc.message) from None
 
     parse.__name__ = "integer" if integer else "number"
+    return parse
+
+
+def choice(names, what: str = "one of"):
+    """An argparse ``type``: one of the names a function returns, looked up when the flag is given.
+
+    argparse's ``choices`` needs the names while the parser is built; names registered by the model
+    layer (the valve kinds) would import it for every ``--help``.
+
+    Parameters
+    ----------
+    names : callable
+        Returns the accepted names.
+    what : str
+        Leads the list in the refusal.
+
+    Returns
+    -------
+    callable
+    """
+
+    def parse(s: str) -> str:
+        known = tuple(names())
+        if s not in known:
+            raise argparse.ArgumentTypeError(f"expected {what} {', '.join(known)}, got {s!r}")
+        return s
+
+    parse.__name__ = "choice"
     return parse
 
 

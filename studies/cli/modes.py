@@ -56,9 +56,17 @@ def run(args) -> dict:
         for reed in reeds:
             check_size(reed, args.mesh_size)
     out = prepare_output_dir(args.out, "--out", args.force, kind="modes")
+    from studies import costs
+    from studies.outputs import announce
+
+    announce("modes", f"{n} modes of {len(reeds)} reed{'s' if len(reeds) > 1 else ''} ({', '.join(args.geometries)}) "
+                      f"at the {args.fidelity} fidelity: each reed's plot and VTU file, then Figure 3.12 from "
+                      "every reed again", costs.estimate(**{f"modes__{args.fidelity}": 2 * len(reeds)}),
+             "measured per-reed cost at the default mesh")
     files, modes = [], {}
-    for g, reed in zip(args.geometries, reeds):
-        print(f"modes: {args.fidelity} {reed.name} ({n} modes)", file=sys.stderr, flush=True)
+    for k, (g, reed) in enumerate(zip(args.geometries, reeds)):
+        print(f"modes: {args.fidelity} {reed.name} ({n} modes; reed {k + 1}/{len(reeds)})", file=sys.stderr,
+              flush=True)
         _, result = mod.properties_and_modes(reed, n, mesh_size=args.mesh_size)
         freqs, labels = result.first(n)
         families = getattr(result, "kinds", ["bending"] * len(labels))

@@ -28,15 +28,17 @@ def run(args) -> dict:
 
 
 def _f(v) -> str:
-    return "-" if v is None else f"{v:.5g}"
+    return "-" if v is None else f"{v:#.5g}"
 
 
 def render(r: dict) -> str:
     """The result of ``valvelab optimize`` as readable text."""
     objs = r["objectives"]
-    lines = [f"{r['algorithm']} optimisation of {r['model']}: {len(r['variables'])} variables, "
-             f"{r['evaluated_designs']} designs ({r['feasible_designs']} feasible) x {len(r['operating_points'])} "
-             f"operating points in {r['out']}",
+    n_pts = len(r["operating_points"])
+    lines = [f"{r['algorithm']} optimisation of {r['model']}: {len(r['variables'])} variable"
+             f"{'s' if len(r['variables']) != 1 else ''}, {r['generations']} generations of up to "
+             f"{r['population']} designs: {r['evaluated_designs']} designs ({r['feasible_designs']} feasible) x "
+             f"{n_pts} operating point{'s' if n_pts != 1 else ''} in {r['out']}",
              f"  computed {r['computed']} evaluations, already done {r['skipped']}; {r['wall_seconds']:.1f} s wall"
              + (f", {r['designs_per_hour']:.0f} evaluations/hour in the loop" if r["computed"] else "")]
     head = "  " + " ".join(f"{o['sense']} {o['aggregate']}({o['output']}) [{o['unit']}]".rjust(30) for o in objs)

@@ -4,20 +4,54 @@ from __future__ import annotations
 
 import csv
 
-from geometry.declare import spec_of
 from geometry.errors import InputError
-from lumped.model.pump_model import LOAD_MPA, SPEED
-from lumped.model.model_file import kind_default_model
-from lumped.valves.kind import kind_names
-from lumped.fluid.oil import Oil
 from studies.cli import flags
 
 HELP = "simulate a pump (a shipped model or your model file) with its check valves to cyclic steady state"
 
-#: plausible ranges of the engineering-unit flags (speed and load: lumped.model.pump_model, with the model's)
-AIR_BOUNDS = spec_of(Oil, "air_content").bounds       # declared once, with the oil
+#: plausible ranges of the engineering-unit flags; speed, load and air content are declared once in the model
+#: layer (lumped.model.pump_model, lumped.fluid.oil) and read when a flag is given (importing lumped takes
+#: seconds, too long for --help)
 TOL_BOUNDS = (1e-14, 0.1)
 MAX_REVOLUTIONS = 100_000
+#: the valve kinds shipped with valvelab, for the help (the flag accepts every registered kind: lumped.valves.kind)
+SHIPPED_KINDS = ("disc", "reed", "ball")
+
+
+def speed_bounds() -> tuple[float, float]:
+    """The crank speed's plausible range [rpm] (lumped.model.pump_model.SPEED)."""
+    from lumped.model.pump_model import SPEED
+
+    return SPEED.bounds
+
+
+def load_bounds_mpa() -> tuple[float, float]:
+    """The load pressure's plausible range [MPa] (lumped.model.pump_model.LOAD_MPA)."""
+    from lumped.model.pump_model import LOAD_MPA
+
+    return LOAD_MPA.bounds
+
+
+def air_bounds() -> tuple[float, float]:
+    """The entrained air content's plausible range [-] (declared once, with the oil)."""
+    from geometry.declare import spec_of
+    from lumped.fluid.oil import Oil
+
+    return spec_of(Oil, "air_content").bounds
+
+
+def kind_names() -> tuple[str, ...]:
+    """The registered valve kinds (lumped.valves.kind)."""
+    from lumped.valves.kind import kind_names as names
+
+    return names()
+
+
+def __getattr__(name: str):
+    """``AIR_BOUNDS``: :func:`air_bounds`, computed when first asked for (PEP 562)."""
+    if name == "AIR_BOUNDS":
+        return air_bounds()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def configure(p):
@@ -25,12 +59,14 @@ def configure(p):
     p.add_argument("--model", default=None, metavar="NAME|FILE",
                    help="pump model: a shipped one (thesis-disc, thesis-reed, thesis-ball, ...) or a model TOML file "
                         "(default: the shipped model of --valve)")
-    p.add_argument("--valve", default=None, choices=kind_names(),
-                   help="valve kind: the shipped model of that kind (thesis-<kind>) when no --model")
-    p.add_argument("--speed-rpm", type=flags.number("rpm", SPEED.bounds), default=None, help="crank speed [rpm] (default: the model's)")
-    p.add_argument("--load-pressure-mpa", type=flags.number("MPa", LOAD_MPA.bounds), default=None,
+    p.add_argument("--valve", default=None, type=flags.choice(kind_names, "a valve kind:"), metavar="KIND",
+                   help=f"valve kind ({', '.join(SHIPPED_KINDS)} or one an extension registers): the shipped model "
+                        "of that kind (thesis-<kind>) when no --model")
+    p.add_argument("--speed-rpm", type=flags.number("rpm", speed_bounds), default=None,
+                   help="crank speed [rpm] (default: the model's)")
+    p.add_argument("--load-pressure-mpa", type=flags.number("MPa", load_bounds_mpa), default=None,
                    help="(mean) load pressure [MPa, absolute] (default: the model's)")
-    p.add_argument("--air-content", type=flags.number("-", AIR_BOUNDS), default=None,
+    p.add_argument("--air-content", type=flags.number("-", air_bounds), default=None,
                    help="entrained air R at 1 atm, in [0, 0.5) (default: the model's oil.air_content)")
     p.add_argument("--revolutions", type=flags.integer(2, MAX_REVOLUTIONS), default=5, help="revolutions to simulate (>= 2, default 5)")
     p.add_argument("--max-revolutions", type=flags.integer(2, MAX_REVOLUTIONS), default=None,
@@ -72,7 +108,7 @@ def model_for(args, field: str = "--model"):
     -------
     lumped.model.pump_model.PumpModel
     """
-    from lumped.model.model_file import load_model, with_values
+    from lumped.model.model_file import kind_default_model, load_model, with_values
 
     if args.model is None and args.valve is None:
         raise InputError("--model", "give a model (--model thesis-disc, thesis-reed, thesis-ball or a model file) or --valve")
@@ -153,7 +189,17 @@ def run(args) -> dict:
     out["fluid"] = {pos: getattr(model.valve(pos), "fluid", "empirical") for pos in ("inlet", "delivery")}
     if args.uncertainty:
         from lumped.model.model_file import with_values
+        from studies import costs
+        from studies.outputs import announce
+        from studies.validation import input_uncertainty as iu
+        from studies.validation.numerical import LADDER
         from studies.validation.vv20 import point_uncertainty
+
+        first, most = iu.SCRAMBLES * 2 ** iu.FIRST_POWER, iu.SCRAMBLES * 2 ** iu.MAX_POWER
+        announce("pump", f"u_num from {len(LADDER)} runs of a tolerance ladder; u_input from {first} Monte Carlo "
+                         "draws of the model's declared input uncertainties, doubled until precise to "
+                         f"{iu.TARGET_PRECISION:.0%} (at most {most})",
+                 costs.estimate(pump__fast=len(LADDER), pump__draw=first), f"measured per-run costs, {first} draws")
 
         m = model if args.air_content is None else with_values(model, {"oil.air_content": args.air_content})
         out["uncertainty"] = point_uncertainty(m, speed, load, res, revolutions=args.revolutions,

@@ -39,7 +39,8 @@ def configure(p):
     p.add_argument("--mesh-size", type=flags.number("m", (1e-7, 10.0), positive=True), default=None,
                    help="FEA element size [m] (default: converged size scaled to the reed)")
     p.add_argument("--modes", type=flags.integer(1, 50), default=None, metavar="N",
-                   help="also report the first N natural frequencies and their mode kinds")
+                   help="also report the first N natural frequencies [rad/s] (JSON: frequencies, ascending) and "
+                        "their mode kinds (JSON: mode_kinds)")
     p.add_argument("--plot", default=None, metavar="FILE.png",
                    help="draw the outline, the uniform-load shape and the free-vibration mode shape")
     p.add_argument("--force", action="store_true", help="let --plot replace an existing file")

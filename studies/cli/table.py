@@ -6,6 +6,12 @@ from geometry.errors import InputError
 from studies.tables import Table, registry
 
 HELP = "regenerate a table of the thesis (computed values beside the thesis's)"
+#: the tables that take seconds: what they run and its units of work (studies.costs); the others take less
+COSTS = {"3.3": ("a solid FEA of each thesis reed", {"fea__solid": 4}),
+         "3.9": ("a solid FEA of stepped reed #1", {"fea__solid": 1}),
+         "3.11": ("a solid FEA of each thesis reed", {"fea__solid": 4}),
+         "5.4": ("the six disc pump cases of Table 5.4 on the fast path", {"pump__fast": 6}),
+         "5.6": ("the six reed pump cases of Table 5.6 on the fast path", {"pump__fast": 6})}
 
 def configure(p):
     """Add the arguments of ``valvelab table`` to its parser (the command protocol: :mod:`studies.cli`)."""
@@ -31,6 +37,13 @@ def run(args) -> dict:
         from studies.plots import check_plot_suffix
 
         plot = check_new_file(check_plot_suffix(plot), "--plot", args.force)
+    if args.id in COSTS:
+        from studies import costs
+        from studies.outputs import announce
+
+        what, units = COSTS[args.id]
+        announce("table", f"Table {args.id}: {what}", costs.estimate(**units),
+                 "measured per-unit cost" + (costs.compile_note() if "pump__fast" in units else ""))
     out = TABLES[args.id].compute()
     if isinstance(out, list):
         out = {"rows": out}

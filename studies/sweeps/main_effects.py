@@ -82,7 +82,8 @@ def plot_main_effects(effects: dict, path: Path, title: str = "", units: dict | 
     responses = list(effects)
     factors = list(effects[responses[0]]) if responses else []
     fig, axes = plt.subplots(len(responses), len(factors), squeeze=False,
-                             figsize=(2.8 * len(factors) + 0.8, 2.4 * len(responses) + 0.6), sharey="row")
+                             figsize=(2.8 * len(factors) + 0.8, 2.4 * len(responses) + 0.6), sharey="row",
+                             sharex="col")     # one x axis per factor, numbered and labelled on the bottom row
     for i, r in enumerate(responses):
         for j, f in enumerate(factors):
             ax, e = axes[i][j], effects[r][f]

@@ -325,9 +325,28 @@ def run_sweep(spec: SweepSpec, out: str | Path, run: SweepRun | None = None, **o
             print(f"{run.desc}: all {len(designs)} designs are already recorded in {out}; nothing to compute",
                   file=sys.stderr, flush=True)
     else:
+        if run.progress:
+            _announce(spec, run, len(todo), len(designs), warm)
         with Cluster(run.scheduler, run.n_workers, run.client) as cluster:
             _compute(spec, todo, store, summary, cluster, run, warm)
     return _finish(store, len(designs), summary, t_start)
+
+
+def _announce(spec: SweepSpec, run: SweepRun, n_todo: int, n_designs: int, pump: bool) -> None:
+    """Say what the sweep computes and, for the pump model, about how long (studies.costs)."""
+    from studies import costs
+    from studies.outputs import announce
+
+    where = ("the scheduler's workers" if run.scheduler or run.client is not None
+             else f"a local cluster of {run.n_workers or default_workers()} workers")
+    workers = run.n_workers or (2 if run.scheduler or run.client is not None else default_workers())
+    what = f"{n_todo} of {n_designs} runs of the {spec.model} model to compute on {where}"
+    if not pump:
+        announce(run.desc, what + "; no measured cost for this model")
+        return
+    start = 0.0 if run.client is not None else costs.SECONDS["cluster"]
+    seconds = start + costs.estimate(pump__evaluation=n_todo) / workers
+    announce(run.desc, what, seconds, "measured per-run cost" + costs.compile_note())
 
 
 def _todo(store, designs: list[dict], retry_failed: bool) -> list:

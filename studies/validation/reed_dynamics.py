@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import sys
+import time
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -50,6 +51,15 @@ VALVE_OUTPUTS = (("opening_deg", "opening_angle", 180 / math.pi), ("closing_deg"
 VALIDATE_CASE = "high_speed_delivery"
 #: the validation chain's FE reed: this many beam elements (the study's default has 24; a third of the cost)
 VALIDATE_FE_ELEMENTS = 12
+#: wall seconds per simulated revolution of one run on the reference stepper, by model (the six reeds of
+#: :func:`study_reeds` at the first two cases of Table 5.6, 3 revolutions, on the project's 2-core machine at
+#: load average 7-8: eq 3.21 2.1-7.5 s, modal 1.6-10 s, FE reed 14-22 s per run; medians): the estimate
+#: :func:`estimate_seconds` announces
+SECONDS_PER_REVOLUTION = {"one-mode": 0.8, "modal": 1.4, "fe": 6.0}
+#: wall seconds of the solid FEA behind one reed's peak root stress (same machine and load: 5.7 s)
+STRESS_SECONDS = 6.0
+#: wall seconds of one fast-stepper run of the numerics check, its compiled solver cached (0.03-0.6 s)
+FAST_RUN_SECONDS = 0.5
 
 
 @dataclass(frozen=True)
@@ -274,8 +284,76 @@ def _against(by_label: dict, reference: str) -> None:
         row["worst_angle_vs_reference_deg"] = _worst_angle(row, ref)
 
 
+def estimate_seconds(reeds: list[ReedCase], cases, revolutions: int = 3, stress: bool = True,
+                     numerics: bool = True) -> float:
+    """The wall time :func:`dynamics_study` is expected to take, from measured per-run costs.
+
+    Parameters
+    ----------
+    reeds : list of ReedCase
+    cases : list of dict
+        The operating points.
+    revolutions : int
+    stress, numerics : bool
+        As :func:`dynamics_study`'s.
+
+    Returns
+    -------
+    float
+        Seconds on the project's 2-core machine (:data:`SECONDS_PER_REVOLUTION`, :data:`STRESS_SECONDS`,
+        :data:`FAST_RUN_SECONDS`), without the fast stepper's one-off compilation.
+    """
+    per_case = sum(SECONDS_PER_REVOLUTION[how["dynamics"]] for r in reeds for _, how in variants(r)) * revolutions
+    return (per_case * len(cases) + (STRESS_SECONDS * len(reeds) if stress else 0.0)
+            + (FAST_RUN_SECONDS * len(reeds) if numerics else 0.0))
+
+
+def runs_count(reeds: list[ReedCase], cases, stress: bool = True, numerics: bool = True) -> int:
+    """The steps :func:`dynamics_study`'s progress counts: every run, each reed's stress FEA and numerics run.
+
+    Parameters
+    ----------
+    reeds : list of ReedCase
+    cases : list of dict
+    stress, numerics : bool
+
+    Returns
+    -------
+    int
+    """
+    return sum(len(variants(r)) for r in reeds) * len(cases) + len(reeds) * (int(stress) + int(numerics))
+
+
+def plan_words(reeds: list[ReedCase], cases, revolutions: int = 3, stress: bool = True,
+               numerics: bool = True) -> str:
+    """What :func:`dynamics_study` will run, in words (announced before it starts).
+
+    Parameters
+    ----------
+    reeds : list of ReedCase
+    cases : list of dict
+    revolutions : int
+    stress, numerics : bool
+
+    Returns
+    -------
+    str
+        The runs and FEA counted, the reeds, cases and models.
+    """
+    runs = sum(len(variants(r)) for r in reeds) * len(cases) + (len(reeds) if numerics else 0)
+    where = (f"the {reeds[0].name} reed" if len(reeds) == 1 else f"{len(reeds)} reeds") + (
+        f" at the first case of Table 5.6 ({case_label(cases[0]).replace('_', ' ')}, {cases[0]['speed_rpm']:.0f} "
+        f"rpm, {cases[0]['load_pressure'] / 1e6:.2f} MPa)" if len(cases) == 1 else f" at the {len(cases)} cases of "
+                                                                                    "Table 5.6")
+    fea = f" and {len(reeds)} solid FEA (root stress)" if stress else ""
+    return (f"{runs} pump runs of {revolutions} revolutions{fea}: {where}; models eq 3.21, "
+            f"{', '.join(map(str, MODES))} modes and the whole FE reed" + ("; a fast-stepper check per reed"
+                                                                          if numerics else ""))
+
+
 def dynamics_study(reeds: list[ReedCase] | None = None, cases=None, revolutions: int = 3, progress: bool = True,
-                   stress: bool = True, traces: bool = True, method: str = "reference") -> dict:
+                   stress: bool = True, traces: bool = True, method: str = "reference",
+                   numerics: bool = True) -> dict:
     """Run the study (see the module docstring).
 
     Parameters
@@ -296,6 +374,9 @@ def dynamics_study(reeds: list[ReedCase] | None = None, cases=None, revolutions:
         study compares model forms, so its numerics must sit well below its 0.1 %: the reference
         stepper (rtol 1e-6) by default; per reed the first case's richest modal reed runs on the
         other stepper too, and ``numerics`` reports the difference.
+    numerics : bool
+        Run that check (False: ``numerics`` is empty; no fast-stepper run, so no compilation on a fresh
+        install).
 
     Returns
     -------
@@ -312,26 +393,31 @@ def dynamics_study(reeds: list[ReedCase] | None = None, cases=None, revolutions:
 
     reeds = study_reeds(load_reed("prototype")) if reeds is None else reeds
     cases = all_cases(valve="reed") if cases is None else cases
-    rows, summaries, traces_out, numerics = [], [], {}, []
-    counter = _Progress(sum(len(variants(r)) for r in reeds) * len(cases) + len(reeds), progress)
+    rows, summaries, traces_out, checks = [], [], {}, []
+    counter = _Progress(runs_count(reeds, cases, stress, numerics), progress)
     for case in reeds:
-        case_rows, tr, num = _study_reed(case, cases, revolutions, method, stress, traces, counter)
+        case_rows, tr, num = _study_reed(case, cases, revolutions, method, (stress, traces, numerics), counter)
         rows += case_rows
-        numerics.append(num)
+        if num is not None:
+            checks.append(num)
         summaries.append(_summary(case, case_rows, num))
         if tr:
             traces_out[case.name] = tr
     counter.done()
-    return {"reeds": summaries, "rows": rows, "numerics": numerics, "traces": traces_out,
+    return {"reeds": summaries, "rows": rows, "numerics": checks, "traces": traces_out,
             "tolerances": {"delivery_pct": DELIVERY_TOL * 100, "angle_deg": ANGLE_TOL_DEG, "method": method,
                            "fast_rtol": FAST_RTOL if method == "fast" else None}}
 
 
-def _study_reed(case: ReedCase, cases, revolutions: int, method: str, stress: bool, traces: bool,
-                counter) -> tuple[list, dict, dict]:
+def _study_reed(case: ReedCase, cases, revolutions: int, method: str, what: tuple[bool, bool, bool],
+                counter) -> tuple[list, dict, dict | None]:
     """One reed over the cases: (its rows, against its reference and with the peak root stress; the first case's
-    traces; the numerical part at the first case)."""
-    sigma = _stress_per_tip(case.reed) if stress else None
+    traces; the numerical part at the first case), ``what`` = (stress, traces, numerics) asked for."""
+    stress, traces, check_numerics = what
+    sigma = None
+    if stress:
+        sigma = _stress_per_tip(case.reed)
+        counter(case.name, "root stress (solid FEA)")
     rows, traces_first, numerics = [], {}, None
     for op in cases:
         first = op is cases[0]
@@ -344,21 +430,27 @@ def _study_reed(case: ReedCase, cases, revolutions: int, method: str, stress: bo
         rows += list(by_label.values())
         if first:
             traces_first = tr
-            numerics = _numerics(case, op, by_label[f"modal{MODES[-1]}"], revolutions, method)
-            counter(case.name, "numerics")
+            if check_numerics:
+                numerics = _numerics(case, op, by_label[f"modal{MODES[-1]}"], revolutions, method)
+                counter(case.name, "numerics")
     return rows, traces_first, numerics
 
 
 class _Progress:
-    """A count of the runs on stderr (``enabled``), called (reed, label) after each."""
+    """A count of the steps on stderr (``enabled``), called (reed, label) after each, with the time taken and
+    the time left at the mean step so far."""
 
     def __init__(self, total: int, enabled: bool):
         self.total, self.enabled, self.n = total, enabled, 0
+        self.t0 = time.perf_counter()
 
     def __call__(self, reed: str, label: str) -> None:
         self.n += 1
         if self.enabled:
-            sys.stderr.write(f"\rreed dynamics: {self.n}/{self.total} runs ({reed}, {label})   ")
+            took = time.perf_counter() - self.t0
+            left = took / self.n * (self.total - self.n)
+            sys.stderr.write(f"\rreed dynamics: {self.n}/{self.total} ({reed}, {label}); {took:.0f} s, "
+                             f"about {left:.0f} s left   ")
             sys.stderr.flush()
 
     def done(self) -> None:
@@ -487,9 +579,11 @@ def render(study: dict) -> str:
              f"{ANGLE_TOL_DEG:g} deg timing):"]
     for s in study["reeds"]:
         need = f"more than {MODES[-1]}" if s["modes_needed"] is None else str(s["modes_needed"])
-        lines.append(f"  {s['reed']} ({s['why']}; reference {s['reference']}): eq 3.21 "
-                     f"{_fmt(s['one_mode_worst_delivery_pct'], '.3f')} % / {_fmt(s['one_mode_worst_angle_deg'], '.2f')} deg -> "
-                     f"{'enough' if s['one_mode_enough'] else 'not enough'}; modes needed: {need}")
+        lines.append(f"  {s['reed']} ({s['why']}; reference {s['reference']}): eq 3.21 (one mode, the whole face "
+                     f"loaded) {_fmt(s['one_mode_worst_delivery_pct'], '.3f')} % / "
+                     f"{_fmt(s['one_mode_worst_angle_deg'], '.2f')} deg: "
+                     f"{'enough' if s['one_mode_enough'] else 'not enough'}; the modal reed (its port's load) needs "
+                     f"{need} mode{'' if need == '1' else 's'}")
     for n in study.get("numerics", []):
         lines.append(f"  numerics ({n['reed']}, {n['case']}, {n['model']}): fast vs reference stepper "
                      f"{n['fast_vs_reference_pct']:+.4f} % / {n['fast_vs_reference_deg']:.3f} deg")

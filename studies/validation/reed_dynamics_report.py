@@ -134,10 +134,12 @@ def markdown(study: dict, modes: tuple) -> str:
     t = study["tolerances"]
     steppers = ("every model on the reference stepper" if t["method"] == "reference" else
                 f"the fast stepper at rtol {t['fast_rtol']:g}, the FE reed on the reference stepper")
+    numerics = ("the six-mode reed at the first point, fast stepper "
+                f"({study['numerics'][0]['fast_stepper']}) against the reference" if study["numerics"] else
+                "not run (the quick study)")
     out = [f"Against each reed's reference, over {study['reeds'][0]['cases']} operating point(s) of Table 5.6 "
            f"({steppers}); largest |delivery difference| [%] / largest valve timing difference [deg]; the "
-           "numerics column: the six-mode reed at the first point, fast stepper "
-           f"({study['numerics'][0]['fast_stepper'] if study['numerics'] else '-'}) against the reference:", ""]
+           f"numerics column: {numerics}:", ""]
     out += _summary_table(study, modes)
     for s in study["reeds"]:
         port = "" if not s["port"] else " Port: " + ", ".join(f"{k} {v * 1e3:.2f} mm" for k, v in s["port"].items()) + "."

@@ -93,32 +93,45 @@ def _nsga2(spec: DesignSpec, ev: Evaluator, progress: bool):
 
 def _de(spec: DesignSpec, ev: Evaluator, progress: bool):
     """Differential evolution (scipy, vectorised over the population, no polishing): ([the best vector],
-    iterations)."""
+    generations run).
+
+    Runs the spec's ``run.generations``: the initial population and ``generations - 1`` evolved ones (scipy's
+    convergence test is off, ``tol = atol = 0``: a population whose objectives agree within 1 % would otherwise
+    stop it after one evolution, a run that asked for four reporting one)."""
     from scipy.optimize import NonlinearConstraint, differential_evolution
 
     r = spec.run_dict
     d = len(spec.variables)
     bounds = [v.opt_bounds() for v in spec.variables]
     bar = _bar(progress, r["generations"])
+    populations = []
 
     def f(Z):
         F, _ = ev.evaluate(np.asarray(Z).T)
         return F[:, 0]
 
     def g(Z):
-        _, G = ev.evaluate(np.asarray(Z).T)
-        _tick(bar, ev)
+        Z = np.asarray(Z)
+        if Z.ndim == 1 and tuple(float(x) for x in Z) not in ev.cache:
+            # scipy asks once, before the first population, how many constraints there are: answered from the
+            # count (a run of its own would be one more sweep folder and generation than the spec asked for)
+            return np.zeros(ev.n_g)
+        _, G = ev.evaluate(Z.T)
+        if Z.ndim == 2:              # a population (the initial one, then each evolved one)
+            populations.append(Z.shape[1])
+            _tick(bar, ev)
         return G.T
 
     kw = {"rng" if "rng" in inspect.signature(differential_evolution).parameters else "seed": r["seed"]}
     try:
         res = differential_evolution(f, bounds, popsize=max(1, math.ceil(r["population"] / d)),
                                      maxiter=max(0, r["generations"] - 1), vectorized=True, updating="deferred",
-                                     polish=False, constraints=NonlinearConstraint(g, -np.inf, 0.0), **kw)
+                                     polish=False, tol=0.0, atol=0.0,
+                                     constraints=NonlinearConstraint(g, -np.inf, 0.0), **kw)
     finally:
         if bar is not None:
             bar.close()
-    return [tuple(float(x) for x in res.x)], int(res.nit)
+    return [tuple(float(x) for x in res.x)], len(populations)
 
 
 def _bar(progress: bool, total: int):
@@ -247,6 +260,8 @@ def run_optimize(spec: DesignSpec, out, *, scheduler: str | None = None, workers
     t_start = time.perf_counter()
     out = Path(out)
     model = _check(spec, out, force)
+    if progress:
+        _announce(spec, run)
     stages: dict = {}
     with _reed_cache(out), runner.open_study(spec, out, model, run, SUBFOLDERS) as ctx:
         ctx, ev, front, generations = _loop(ctx, batch_size, stages)
@@ -268,6 +283,34 @@ def run_optimize(spec: DesignSpec, out, *, scheduler: str | None = None, workers
     return _jsonable(result)
 
 
+def _announce(spec: DesignSpec, run: runner.StudyRun) -> None:
+    """Say what the optimisation runs and, for the pump model, about how long (studies.costs): the loop's
+    evaluations on the cluster, then the best design (DE) or the front (NSGA-II, at most ``recheck.max_designs``)
+    and the baseline on the reference integrator."""
+    from studies import costs
+    from studies.outputs import announce
+    from studies.sweeps.cluster import default_workers
+
+    r = spec.run_dict
+    npts, d = len(spec.points), len(spec.variables)
+    pop = math.ceil(r["population"] / d) * d if r["algorithm"] == "de" else r["population"]   # as _de sizes it
+    n_loop = pop * r["generations"] * npts
+    front = 1 if r["algorithm"] == "de" else min(pop, spec.recheck_dict.get("max_designs") or pop)
+    algorithm = {"de": "differential evolution", "nsga2": "NSGA-II"}.get(r["algorithm"], r["algorithm"])
+    what = (f"{algorithm}: {r['generations']} generations of {pop} designs x {npts} operating "
+            f"point{'s' if npts > 1 else ''} = {n_loop} runs in the loop, then "
+            f"{'the best design' if front == 1 else f'up to {front} designs of the front'} and the baseline re-checked "
+            "on the reference integrator" + (" (reed valves by the solid FEA too)" if study.needs_stress(spec) else ""))
+    if spec.model_kind != "pump":
+        announce("optimize", what + "; no measured cost for this model")
+        return
+    workers = run.workers or (2 if run.scheduler or run.client is not None else default_workers())
+    seconds = (0.0 if run.client is not None else costs.SECONDS["cluster"]) + costs.estimate(
+        generation=r["generations"], pump__reference=(front + 1) * npts) + costs.estimate(pump__evaluation=n_loop) / workers
+    announce("optimize", what, seconds, "measured per-run costs; the solid FEA and stress calibration not counted"
+             if study.needs_stress(spec) else "measured per-run costs")
+
+
 def _report(ctx: Study, ev: Evaluator, designs: list, base: dict | None) -> dict:
     """The Pareto table, the front plot (every feasible design evaluated) and the parallel-coordinates plot."""
     from studies.sweeps.design import report
@@ -278,7 +321,8 @@ def _report(ctx: Study, ev: Evaluator, designs: list, base: dict | None) -> dict
     files.update(report.write_pareto(out, rows, cols))
     feas = _feasible_f(ev)
     files["front_plot"] = str(report.plot_front(out / "front.png", spec.objectives, ctx.catalogue,
-                                                feas * signs(spec.objectives) if len(feas) else None, designs, base))
+                                                feas * signs(spec.objectives) if len(feas) else None, designs, base,
+                                                ev.records))
     if designs:
         files["parallel_plot"] = str(report.plot_parallel(out / "parallel.png", spec.variables, spec.objectives,
                                                           ctx.catalogue, designs, base))

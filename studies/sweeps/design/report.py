@@ -181,7 +181,8 @@ def plot_indices(indices, analyses, output, method, path: Path, conf: int) -> Pa
 
 
 # --------------------------------------------------------------------------- optimisation
-def plot_front(path: Path, objectives, catalogue, all_f: np.ndarray | None, front: list[dict], baseline: dict | None):
+def plot_front(path: Path, objectives, catalogue, all_f: np.ndarray | None, front: list[dict], baseline: dict | None,
+               records: list[dict] | None = None):
     """Draw the objective space: every feasible design evaluated, the front (fast and re-checked), the baseline.
 
     Parameters
@@ -196,24 +197,22 @@ def plot_front(path: Path, objectives, catalogue, all_f: np.ndarray | None, fron
     front : list of dict
         The design entries (:func:`studies.sweeps.design.entries.finish`).
     baseline : dict or None
+    records : list of dict, optional
+        Every design evaluated, with its ``generation_folder`` (one objective: drawn per generation).
 
     Returns
     -------
     pathlib.Path
-        ``path``; with one objective, the front's values against the design's index.
+        ``path``; with one objective there is no front to draw: :func:`plot_generations`.
     """
+    if len(objectives) == 1:
+        return plot_generations(path, objectives[0], catalogue, records or [], front, baseline)
     plt = _plt()
     m = len(objectives)
-    pairs = [(i, j) for i in range(m) for j in range(i + 1, m)] or [(0, 0)]
-    fig, axes = plt.subplots(1, len(pairs), squeeze=False, figsize=(5.4 * len(pairs), 4.6))
+    pairs = [(i, j) for i in range(m) for j in range(i + 1, m)]
+    fig, axes = plt.subplots(1, len(pairs), squeeze=False, figsize=(5.4 * len(pairs) + 2.6, 4.6))
     for ax, (i, j) in zip(axes[0], pairs):
         oi, oj = objectives[i], objectives[j]
-        if m == 1:
-            vals = [d["objectives"][oi.output] for d in front]
-            ax.plot(range(len(vals)), vals, "o")
-            ax.set_xlabel("design [-]")
-            ax.set_ylabel(f"{oi.aggregate} {catalogue[oi.output].axis_label}")
-            continue
         if all_f is not None and len(all_f):
             ax.plot(all_f[:, i], all_f[:, j], ".", color="0.75", ms=3, label="feasible designs (fast, in the loop)")
         fx = [d["objectives_fast"][oi.output] for d in front]
@@ -235,6 +234,61 @@ def plot_front(path: Path, objectives, catalogue, all_f: np.ndarray | None, fron
         ax.set_ylabel(f"{oj.aggregate} {catalogue[oj.output].axis_label} ({oj.sense})")
         ax.grid(alpha=0.3)
         legend_outside(ax, fontsize=7)
+    fig.tight_layout()
+    _save(fig, path)
+    return path
+
+
+def plot_generations(path: Path, objective, catalogue, records: list[dict], front: list[dict],
+                     baseline: dict | None) -> Path:
+    """Draw a single-objective optimisation: the objective of every design against its generation.
+
+    Each generation's feasible designs (fast integrator, in the loop), the best feasible design so far,
+    the best design re-checked by the reference integrator and the baseline.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The PNG file.
+    objective : Objective
+    catalogue : dict
+        The outputs (the unit of the axis).
+    records : list of dict
+        Every design evaluated (:attr:`studies.sweeps.design.evaluator.Evaluator.records`): ``generation_folder``
+        (``gen-NNNN``), ``G`` (feasible when every entry <= 0) and ``objectives``.
+    front : list of dict
+        The best design's entry (:func:`studies.sweeps.design.entries.finish`).
+    baseline : dict or None
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+    """
+    plt = _plt()
+    name = objective.output
+    feasible = [(int(r["generation_folder"].split("-")[-1]), r["objectives"][name]) for r in records
+                if "generation_folder" in r and all(x <= 0 for x in r["G"]) and r["objectives"].get(name) is not None]
+    fig, ax = plt.subplots(figsize=(8.4, 4.4))
+    if feasible:
+        g, v = np.array(feasible, dtype=float).T
+        ax.plot(g, v, ".", color="0.6", ms=5, label="designs of the generation (fast, feasible)")
+        gens = np.unique(g)
+        pick = np.max if objective.sense == "max" else np.min
+        best = [pick(v[g <= k]) for k in gens]
+        ax.step(gens, best, where="post", color="C0", lw=1.5, label=f"best so far ({objective.sense})")
+    for d in front:
+        if d.get("rechecked", True) and feasible:
+            ax.plot(gens[-1], d["objectives"][name], "x", ms=9, mew=2, color="C1",
+                    label=f"{d['name']} re-checked (reference integrator)")
+    if baseline is not None and baseline["objectives"].get(name) is not None:
+        ax.axhline(baseline["objectives"][name], color="C2", ls="--", label=f"baseline ({baseline['name']})")
+    ax.set_xlabel("generation [-]")
+    ax.set_ylabel(f"{objective.aggregate} {catalogue[name].axis_label}")
+    ax.xaxis.get_major_locator().set_params(integer=True)
+    ax.set_title(f"{objective.sense} {objective.aggregate} {catalogue[name].label}: one objective, no front")
+    ax.grid(alpha=0.3)
+    legend_outside(ax, fontsize=7)
     fig.tight_layout()
     _save(fig, path)
     return path
