@@ -23,7 +23,8 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from studies.discrepancy.workflow import Outcome  # noqa: E402
-from studies.discrepancy.gap import fold, predict, summary, window_sentences  # noqa: E402
+from studies.discrepancy.gap import fold, predict, summary  # noqa: E402
+from studies.discrepancy.words import window_sentences  # noqa: E402
 from studies.discrepancy.validation import sentence  # noqa: E402
 from studies.outputs import prepare_output_dir  # noqa: E402
 
