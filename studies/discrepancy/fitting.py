@@ -23,6 +23,11 @@ from studies.discrepancy.gap import Nuisance
 from studies.discrepancy.records import with_value
 
 
+#: the plausibility rule's tolerance: within this fraction of a range from a bound or an edge is "at" it
+#: (lumped.model.effects.Parameter.plausibility's default)
+BOUND_TOL = 0.01
+
+
 @dataclass(frozen=True, eq=False)
 class FitOptions:
     """How :func:`fit` searches.
@@ -35,7 +40,8 @@ class FitOptions:
     parameters), not refined: the screening. ``jacobian``: the nuisance Jacobian to start from (the round's,
     taken at the base) instead of one taken at the candidate's start; it is taken again at the best coarse
     point either way. ``dense``: a coarse grid of Settings.n_grid_dense points for an effect declared
-    ``tight_tolerance`` (its cost may be low only in a needle).
+    ``tight_tolerance`` (its cost may be low only in a needle). ``plausible_only``: a ``narrow`` refit kept
+    strictly inside the plausible range (:func:`acceptable_units`): the refit of an effect already added.
     """
 
     start: dict | None = None
@@ -45,6 +51,7 @@ class FitOptions:
     coarse_only: bool = False
     jacobian: np.ndarray | None = None
     dense: bool = False
+    plausible_only: bool = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -152,7 +159,8 @@ def _line_search(ob: Objective, opts: FitOptions, reject_above, stage: str) -> t
         grid = np.linspace(lo, hi, n) if hi > lo else np.linspace(0.0, 1.0, n)
     else:
         u0 = p.to_unit(opts.start[p.name])
-        grid = np.unique(np.clip(np.array([u0 - opts.narrow, u0, u0 + opts.narrow]), 0.0, 1.0))
+        lo, hi = _narrow_box(p, opts)
+        grid = np.unique(np.clip(np.array([u0 - opts.narrow, u0, u0 + opts.narrow]), lo, hi))
     pb.sims.stage = f"{stage}/{'narrow' if opts.narrow is not None else 'grid'}"
     ob.simulate([[u] for u in grid])
     costs = [ob.cost(ob.model_of([u])) for u in grid]
@@ -169,6 +177,15 @@ def _line_search(ob: Objective, opts: FitOptions, reject_above, stage: str) -> t
         if res.fun < best_c:
             best_u, best_c = float(res.x), float(res.fun)
     return [best_u], rejected
+
+
+def _narrow_box(p, opts: FitOptions) -> tuple[float, float]:
+    """The unit coordinates a narrow refit of ``p`` may take: the search bounds, or strictly inside the
+    acceptable zone with ``opts.plausible_only``."""
+    if not opts.plausible_only:
+        return 0.0, 1.0
+    a, b = acceptable_units(p)
+    return a + 1e-6, b - 1e-6
 
 
 def _fine_grid(ob: Objective, grid, costs: list, reject_above, coarse_only: bool, stage: str):
@@ -235,8 +252,10 @@ def box_search(pb, params, x0: np.ndarray, ob, opts: FitOptions = FitOptions(), 
     offsets = np.array([o for o in itertools.product((-1, 0, 1), repeat=k) if any(o)], float)
     seen: dict = {}
 
+    box = np.array([_narrow_box(p, opts) for p in params]) if opts.narrow is not None else np.array([[0.0, 1.0]] * k)
+
     def costs(points):
-        points = [tuple(np.round(np.clip(u, 0.0, 1.0), 12)) for u in points]
+        points = [tuple(np.round(np.clip(u, box[:, 0], box[:, 1]), 12)) for u in points]
         new = [u for u in dict.fromkeys(points) if u not in seen]
         ob.simulate(new)          # each stage in one batch (parallel), then evaluated from the cache
         for u in new:
@@ -264,7 +283,7 @@ def box_search(pb, params, x0: np.ndarray, ob, opts: FitOptions = FitOptions(), 
 def refine(pb, model: tuple, skip: frozenset = frozenset()) -> tuple:
     """Refit the added effects one at a time with the others fixed (one pass, narrow brackets);
     the effects named in ``skip`` (with a nuisance: the candidate and the nuisances, which
-    :func:`polish` refits jointly) are left as they are."""
+    :func:`polish` refits jointly) are left as they are; each refit stays inside the effect's plausible range."""
     model = list(model)
     for i, a in enumerate(model):
         if a.name in skip:
@@ -273,21 +292,49 @@ def refine(pb, model: tuple, skip: frozenset = frozenset()) -> tuple:
         eff = pb.library[a.name]
         if not eff.parameters_for(pb.context, a.target):
             continue
-        vals = fit(pb, others, eff, a.target, FitOptions(start=a.value_dict, narrow=0.1)).values
+        vals = fit(pb, others, eff, a.target, FitOptions(start=a.value_dict, narrow=0.1, plausible_only=True)).values
         model[i] = Applied.of(a.name, a.target, vals)
     return tuple(model)
 
 
-def polish(pb, model: tuple, names: set) -> tuple:
-    """Joint least-squares refit of the parameters of the applied effects named in ``names`` (the
-    others fixed), from their current values; ``model`` itself if that does not lower the fit cost.
+def acceptable_units(p, tol: float = BOUND_TOL) -> tuple[float, float]:
+    """The unit coordinates (of the search bounds, :meth:`Parameter.to_unit`) a fitted value must lie strictly
+    between to be plausible (lumped.model.effects.Parameter.plausibility): off the search bounds, inside the
+    plausible range and off its edges."""
+    ulo, uhi = (p.to_unit(x) for x in p.plausible)
+    edge = tol * (uhi - ulo)
+    lo = max(tol, ulo + edge if ulo > tol else ulo)
+    hi = min(1.0 - tol, uhi - edge if uhi < 1.0 - tol else uhi)
+    return lo, hi
+
+
+def _polish_bounds(pb, model: tuple, idx: list, free: frozenset) -> tuple[np.ndarray, np.ndarray]:
+    """Unit-coordinate bounds of a polish: the search bounds for the nuisances and the effects in ``free`` (a
+    candidate being judged: a fit at its plausible edge is evidence, edge.py), strictly inside the acceptable
+    zone for an effect already added (every refit keeps the model plausible)."""
+    lo, hi = np.zeros(len(idx)), np.ones(len(idx))
+    for k, (i, p) in enumerate(idx):
+        if model[i].name in pb.nuisance_effects or model[i].name in free:
+            continue
+        a, b = acceptable_units(p)
+        lo[k], hi[k] = a + 1e-6, b - 1e-6
+    return lo, hi
+
+
+def polish(pb, model: tuple, names: set, fixed: frozenset = frozenset(), least: int = 2,
+           free: frozenset = frozenset()) -> tuple:
+    """Joint least-squares refit of the parameters of the applied effects named in ``names`` (the others and
+    the (index, parameter) pairs in ``fixed`` held), from their current values, each added effect kept inside
+    its plausible range and the effects in ``free`` within their search bounds (:func:`_polish_bounds`);
+    ``model`` itself if that does not lower the fit cost, or if fewer than ``least`` parameters are free (one
+    alone is better fitted by :func:`fit`'s grids).
 
     One-at-a-time refits zigzag along a valley where two parameters trade (a stiffer seat and a
     lower Cd both restore the delivery a soft seat loses); Gauss-Newton steps follow it.
     """
     idx = [(i, p) for i, a in enumerate(model) if a.name in names
-           for p in pb.eff(a.name).parameters_for(pb.context, a.target)]
-    if len(idx) < 2:
+           for p in pb.eff(a.name).parameters_for(pb.context, a.target) if (i, p.name) not in fixed]
+    if len(idx) < least or not idx:
         return model
 
     def model_of(u) -> tuple:
@@ -299,13 +346,15 @@ def polish(pb, model: tuple, names: set) -> tuple:
     r0 = pb.residual_vector(model)
     if r0 is None:
         return model
-    x0 = np.clip([p.to_unit(model[i].value_dict[p.name]) for i, p in idx], 1e-6, 1 - 1e-6)
+    lo, hi = _polish_bounds(pb, model, idx, free)
+    x0 = np.clip([p.to_unit(model[i].value_dict[p.name]) for i, p in idx], np.maximum(lo, 1e-6),
+                 np.minimum(hi, 1 - 1e-6))
 
     def fun(u):
         r = pb.residual_vector(model_of(u))
         return np.full(r0.size, 1e3) if r is None else r
 
-    res = least_squares(fun, x0, bounds=(0.0, 1.0), diff_step=0.01, x_scale=0.1,
+    res = least_squares(fun, x0, bounds=(lo, hi), diff_step=0.01, x_scale=0.1,
                         max_nfev=pb.settings.polish_nfev * len(idx), method="trf")
     out = model_of(res.x)
     return out if pb.fit_objective(out)[0] < float(r0 @ r0) else model

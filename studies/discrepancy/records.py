@@ -62,8 +62,10 @@ class CandidateFit:
     base_fit_parts: dict | None = None
     rejected: bool = False             # hopeless: no point of its coarse grid lowers the fit cost
     screened_out: str | None = None    # left at its coarse grid: far less promising than the best candidate
-    pair_why: str | None = None        # a pair (search.pair_candidate) one of whose two adds too little
-    joint_with: str | None = None      # fitted jointly with this added effect (search.joint_candidate)
+    pair_why: str | None = None        # a pair (joint.pair_candidate) one of whose two adds too little
+    joint_with: str | None = None      # fitted jointly with this added effect (joint.joint_candidate)
+    pulled_inside: str | None = None   # a fit at its plausible edge judged inside it (edge.pull_inside) ...
+    pulled: tuple = ()                 # ... the parameters pulled: held where they are by later refits
 
     @property
     def key(self) -> str:
@@ -116,7 +118,7 @@ class CandidateFit:
             "fit_parts": self.fit_parts, "fit_parts_before": self.base_fit_parts,
             "gap_change_by_kind": self.parts_change(), "why_not_added": self.why_not_added,
             "hopeless": self.rejected, "screened_out": self.screened_out is not None,
-            "fitted_jointly_with": self.joint_with,
+            "fitted_jointly_with": self.joint_with, "pulled_inside": self.pulled_inside,
         })
 
 
@@ -171,6 +173,7 @@ class Outcome:
     unexplained: dict = field(default_factory=dict)      # what the final model leaves (leftover.unexplained)
     cost: dict = field(default_factory=dict)             # simulations and seconds per stage and candidate
     backward: list = field(default_factory=list)         # every removal tried by the backward step (rows)
+    indistinguishable: list = field(default_factory=list)  # candidates the data cannot tell from one named
 
     def as_contract(self) -> dict:
         """The contract's JSON keys plus the details behind them."""
@@ -207,6 +210,7 @@ class Outcome:
             "effects_dropped": [{k: r[k] for k in ("round", "effect", "target", "parameters", "why_dropped")}
                                 for r in self.backward if r["dropped"]],
             "backward": self.backward,
+            "indistinguishable": json_safe(self.indistinguishable),
             "validation": json_safe(self.validation),
             "unexplained": self.unexplained,
             "cost": json_safe(self.cost),

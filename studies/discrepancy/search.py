@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from tqdm import tqdm
 
 from lumped.model.effects import Applied, Effect
-from studies.discrepancy import fitting, joint
+from studies.discrepancy import fitting, indistinct, joint
 from studies.discrepancy import profile as prof
 from studies.discrepancy.backward import backward
 from studies.discrepancy.records import CandidateFit, Evaluation, rank_key
@@ -27,7 +27,8 @@ from studies.discrepancy.selection import Base, Trial, judge, significant
 @dataclass
 class State:
     """Where the search stands: the model (effects and nuisances) and its evaluation, the baseline's evaluation,
-    the ranking rows and candidates of every round, the backward step's rows and the effects it dropped."""
+    the ranking rows and candidates of every round, the backward step's rows and the effects it dropped, and
+    the candidates each round's winner could not be told from."""
 
     current: tuple
     cur: Evaluation
@@ -36,6 +37,12 @@ class State:
     rounds: list = field(default_factory=list)
     backward: list = field(default_factory=list)
     dropped: set = field(default_factory=set)
+    indistinguishable: list = field(default_factory=list)
+
+    def undecided(self, pb) -> list:
+        """The groups of indistinguishable candidates (indistinct.group) none of which is in the final model."""
+        keys = {a.key for a in self.current if a.name not in pb.nuisance_effects}
+        return [d for d in self.indistinguishable if not keys & set(d["effects"])]
 
 
 @dataclass(frozen=True)
@@ -91,7 +98,7 @@ def search(pb, state: State, cands: list) -> None:
 def add(pb, state: State, winner: CandidateFit, rnd: int) -> None:
     """The winner's model (the augmented model as judged) becomes the current one, every added effect and the
     nuisances refitted jointly (Settings.round_polish: effects fitted one at a time stop short of a valley's
-    floor where they trade), evaluated, then the backward step."""
+    floor where they trade; each inside its plausible range), evaluated, then the backward step."""
     st = pb.settings
     pb.log(f"round {rnd}: adding {winner.key} {winner.reported} "
            f"(held-out gap -{100 * (winner.held_improvement or winner.fit_improvement):.0f} %)")
@@ -115,13 +122,35 @@ def one_round(pb, state: State, todo: list, rnd: int) -> CandidateFit | None:
     fits = round_fits(pb, base, todo, rnd)
     order, winner = _decide(pb, fits)
     cur = state.cur
-    if winner is None and st.joint_search and pb.large(cur) and cur.fit_cost + (cur.held_cost or 0.0) > \
+    if winner is not None:
+        winner = _identified(pb, state, order, winner, rnd)
+    elif st.joint_search and pb.large(cur) and cur.fit_cost + (cur.held_cost or 0.0) > \
             st.joint_fraction * (state.before.fit_cost + (state.before.held_cost or 0.0)):
         pb.log(f"round {rnd}: a large gap is left; candidates fitted jointly with others")
-        order, winner = _decide(pb, fits + joint.joint_fits(pb, base, todo, fits, rnd))
+        order, winner = _decide(pb, fits + joint.joint_fits(pb, base, todo, fits, rnd, state.rounds))
+        if winner is not None:
+            winner = _identified(pb, state, order, winner, rnd)
     state.ranking += [f.row(i + 1, rnd) for i, f in enumerate(order)]
     state.rounds.append(order)
     return winner
+
+
+def _identified(pb, state: State, order: list, winner: CandidateFit, rnd: int) -> CandidateFit | None:
+    """The winner, unless another effect that passed the rule explains the data about equally
+    (studies.discrepancy.indistinct): then the data do not say which of them is there, none is named, the
+    group goes to ``state.indistinguishable`` with the evidence that would separate them, and the search
+    stops (a next round would see the same candidates)."""
+    group = indistinct.group(pb, state.current, order, winner, rnd)
+    if group is None:
+        return winner
+    winner.accepted = False
+    winner.why_not_added = f"indistinguishable from {', '.join(group['effects'][1:])} (the data cannot tell which)"
+    for f in order:
+        if f.key in group["effects"][1:] and f.why_not_added is None:
+            f.why_not_added = f"indistinguishable from {winner.key} (the data cannot tell which)"
+    state.indistinguishable.append(group)
+    pb.log(f"round {rnd}: {group['sentence']}")
+    return None
 
 
 def _decide(pb, fits: list) -> tuple[list, CandidateFit | None]:

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 from geometry.errors import ModelFailure
 from lumped.model.effects import Effect
-from studies.discrepancy import fitting
+from studies.discrepancy import edge, fitting
 from studies.discrepancy.records import CandidateFit, Evaluation, delta_bic
 from studies.discrepancy.settings import Settings
 
@@ -67,7 +67,7 @@ def _refitted(pb, base: Base, t: Trial, how: How) -> tuple[tuple, float, object]
             model = fitting.refine(pb, model, skip=frozenset({t.eff.name, *pb.nuisance_effects}))
             if cost < t.base_fit - pb.min_gain_units:
                 pb.sims.stage = f"{t.stage}/polish"
-                model = fitting.polish(pb, model, {t.eff.name, *pb.nuisance_effects})
+                model = fitting.polish(pb, model, {t.eff.name, *pb.nuisance_effects}, free=frozenset({t.eff.name}))
         else:
             model = fitting.refine(pb, model)
         cost, nuis = pb.fit_objective(model)
@@ -105,6 +105,12 @@ def judge(pb, base: Base, t: Trial, how: How = How()) -> CandidateFit:
     vt = pb.context
     eff, target = t.eff, t.target
     model, cost, nuis = _refitted(pb, base, t, how)
+    pulled, held = None, ()
+    if eff.plausibility(model[-1].value_dict, vt, target) is not None:
+        pb.sims.stage = f"{t.stage}/edge"
+        pulled = edge.pull_inside(pb, model, len(model) - 1, t.base_fit, cost)
+        if pulled is not None:
+            model, cost, nuis, pulled, held = pulled
     vals = model[-1].value_dict
     pb.sims.stage = f"{t.stage}/evaluate"
     try:
@@ -123,7 +129,7 @@ def judge(pb, base: Base, t: Trial, how: How = How()) -> CandidateFit:
     return CandidateFit(eff.name, target, vals, eff.report(vals, vt, target), cost, ev.held_cost, dbic, why,
                         pb.sims.count - t.n0, base_fit, base_ev.held_cost, nuisance=nuis, model=model,
                         held_parts=ev.held_parts, base_held_parts=kind_ev.held_parts, fit_parts=ev.fit_parts,
-                        base_fit_parts=kind_ev.fit_parts)
+                        base_fit_parts=kind_ev.fit_parts, pulled_inside=pulled, pulled=held)
 
 
 def significant(f: CandidateFit, settings: Settings, floor: float) -> bool:
@@ -137,23 +143,33 @@ def verdict(f: CandidateFit, settings: Settings, floor: float) -> str | None:
     not pay for, a kind of evidence it makes worse by more than Settings.max_worse_units and
     Settings.worse_fraction of its whole gain (an effect that removes most of a large gap may leave a
     kind a little worse where no model is the truth; one that trades one kind for another may not), or
-    a held-out gain (the fit gain without held-out runs) below the relative threshold and the absolute
-    ``floor`` [gap units] (lowered to Settings.decisive_abs_improvement where the fit gain is decisive,
-    Settings.decisive_fit_improvement, unless the user set the floor)."""
-    st = settings
-    why = _disqualified(f, st)
+    a gain below the floors (:func:`gain_reason`)."""
+    why = _disqualified(f, settings)
     if why is not None:
         return why
+    held = None
     if f.held_cost is not None and f.base_held_cost is not None:
-        gain, base, where = f.base_held_cost - f.held_cost, f.base_held_cost, "held-out"
+        held = (f.base_held_cost, f.held_cost)
+    return gain_reason(settings, floor, (f.base_fit_cost, f.fit_cost), held)
+
+
+def gain_reason(settings: Settings, floor: float, fit: tuple, held: tuple | None) -> str | None:
+    """None if going from a base to a model gains enough, else why not: the held-out gain (the fit gain
+    without held-out runs) below the relative threshold or the absolute ``floor`` [gap units], the floor
+    lowered to Settings.decisive_abs_improvement where the fit gain is decisive
+    (Settings.decisive_fit_improvement), unless the user set it. ``fit``, ``held``: (base cost, cost)."""
+    st = settings
+    fit_improvement = 1.0 - fit[1] / fit[0] if fit[0] else 0.0
+    if held is not None:
+        gain, base, where = held[0] - held[1], held[0], "held-out"
     else:
-        gain, base, where = f.base_fit_cost - f.fit_cost, f.base_fit_cost, "fit"   # no held-out runs
+        gain, base, where = fit[0] - fit[1], fit[0], "fit"   # no held-out runs
     # the gap is the mean square above the noise, which scatters about 0 where nothing is missing: a base
     # below the floor is judged as the floor, so that a relative gain on nothing never counts
     if gain < st.min_rel_improvement * max(base, floor):
         return (f"{where} gap shrinks by {100 * gain / base if base > 0 else 0:.0f} % < "
                 f"{100 * st.min_rel_improvement:.0f} %")
-    if where == "held-out" and f.fit_improvement >= st.decisive_fit_improvement \
+    if where == "held-out" and fit_improvement >= st.decisive_fit_improvement \
             and st.min_abs_improvement is None:
         floor = min(floor, st.decisive_abs_improvement)     # a floor the user set applies as set
     if gain < floor:

@@ -24,7 +24,8 @@ _SETTINGS_NUMBERS = {"min_rel_improvement": (0.0, 0.999, True), "min_abs_improve
                      "decisive_fit_improvement": (0.0, 0.999, False), "decisive_abs_improvement": (0.0, 1e6, False),
                      "max_worse_units": (0.0, 1e6, False), "max_bic_increase": (-1e12, 1e12, False),
                      "brent_xatol": (0.0, 0.5, True), "nuisance_range": (0.0, 0.9, True),
-                     "nuisance_step": (0.0, 1.0, True), "nuisance_prior_sd": (0.0, 10.0, True)}
+                     "nuisance_step": (0.0, 1.0, True), "nuisance_prior_sd": (0.0, 10.0, True),
+                     "edge_pull": (0.0, 0.5, False)}
 _SETTINGS_OPTIONAL = ("min_abs_improvement",)
 
 
@@ -41,6 +42,8 @@ class Settings:
     max_worse_units: float = 1.0             # no kind of evidence may get worse by more than this ...
     worse_fraction: float = 0.05             # ... nor by more than this fraction of the candidate's whole gain
     max_bic_increase: float = 0.0            # an effect must not raise the fit BIC by more than this
+    edge_pull: float = 0.05                  # a fit at its plausible edge is tried this far inside (of the
+                                             # range's width); implausible only if that costs (edge.py); 0: off
     # -- the search
     hopeless_units: float = 0.25             # a candidate whose coarse grid gains less than this is not refined
     pair_top: int = 2                        # pairs of this many best candidates (a first round adding nothing)

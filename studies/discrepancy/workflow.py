@@ -155,8 +155,10 @@ class Workflow:
             validation["beyond_after"] = val.beyond(validation["after"])
         model = tuple(a for a in current if a.name not in pb.nuisance_effects)
         unexplained = leftover.unexplained(pb, before, after, validation, state.rounds, nuisances, fa)
+        undecided = state.undecided(pb)
+        unexplained["sentences"] += [g["sentence"] for g in undecided]
         pb.sims.__exit__()
         return Outcome(model, pb.library, before, after, pb.fit_runs, pb.held_runs, state.ranking,
                        describe(fb, n_runs), describe(fa, n_runs), fb, pb.sims.count, time.perf_counter() - t0,
                        excluded, pb.notes, pb.context, nuisances, widths, validation, unexplained,
-                       leftover.cost_report(pb.sims), state.backward)
+                       leftover.cost_report(pb.sims), state.backward, undecided)
