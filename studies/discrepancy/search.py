@@ -89,16 +89,21 @@ def search(pb, state: State, cands: list) -> None:
         if winner is None:
             pb.log(f"round {rnd}: no candidate shrinks the held-out gap significantly; stop")
             break
-        add(pb, state, winner, rnd)
+        if not add(pb, state, winner, rnd):
+            pb.log(f"round {rnd}: {winner.key} did not survive the backward step; stop")
+            break
     if st.backward and rnd:
         # at the end every effect once more, the last added too (the earlier ones' removals are cached)
         state.current, state.cur = backward(pb, state.current, state.cur, rnd, state.backward, state.dropped, None)
 
 
-def add(pb, state: State, winner: CandidateFit, rnd: int) -> None:
+def add(pb, state: State, winner: CandidateFit, rnd: int) -> bool:
     """The winner's model (the augmented model as judged) becomes the current one, every added effect and the
     nuisances refitted jointly (Settings.round_polish: effects fitted one at a time stop short of a valley's
-    floor where they trade; each inside its plausible range), evaluated, then the backward step."""
+    floor where they trade; each inside its plausible range), evaluated, then the backward step over every
+    added effect, the winner too (as at the end of the search). False when the winner itself is dropped:
+    the round's best did not hold up beside the others refitted, and a next round would see the same
+    candidates."""
     st = pb.settings
     pb.log(f"round {rnd}: adding {winner.key} {winner.reported} "
            f"(held-out gap -{100 * (winner.held_improvement or winner.fit_improvement):.0f} %)")
@@ -109,8 +114,8 @@ def add(pb, state: State, winner: CandidateFit, rnd: int) -> None:
     pb.sims.stage = f"round {rnd}/evaluate"
     state.current, state.cur = current, pb.evaluate(current)
     if st.backward:
-        state.current, state.cur = backward(pb, state.current, state.cur, rnd, state.backward, state.dropped,
-                                            winner.key)
+        state.current, state.cur = backward(pb, state.current, state.cur, rnd, state.backward, state.dropped, None)
+    return any(a.key == winner.key for a in state.current)
 
 
 def one_round(pb, state: State, todo: list, rnd: int) -> CandidateFit | None:

@@ -115,7 +115,20 @@ class Workflow:
         return verdict(f, self.problem.settings, self.problem.min_gain_units)
 
     def run(self) -> Outcome:
-        """The whole search (the module docstring): what is added, what is left, what it cost."""
+        """The whole search (the module docstring): what is added, what is left, what it cost.
+
+        With one BLAS thread: the search's linear algebra is on vectors of tens of thousands of residuals,
+        where threaded BLAS on a shared machine costs more in its threads' hand-offs than it saves (a dot
+        product of 60,000: 20 ms with two threads at a load of 13, 0.07 ms with one; the workflow's CPU
+        seconds 8.0 -> 6.3 and 12.4 -> 9.4 on two datasets), and its sums then do not depend on the machine's
+        thread count."""
+        from threadpoolctl import threadpool_limits
+
+        with threadpool_limits(limits=1, user_api="blas"):
+            return self._run()
+
+    def _run(self) -> Outcome:
+        """:meth:`run`'s body."""
         t0 = time.perf_counter()
         pb = self.problem
         cands, excluded = pb.library.candidates(pb.context, pb.runs)
