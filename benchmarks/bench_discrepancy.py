@@ -74,8 +74,7 @@ def confusion_datasets(valves, seeds: int, set_: str, workers: int, progress: bo
             if cases is not None and case not in cases:
                 continue
             for seed in range(1, seeds + 1):
-                r = confusion.run_case(case, spec, valve, seed, sim.simulate, sim.library, Settings(workers=workers),
-                                       context=sim.context)
+                r = confusion.run_case(case, spec, valve, seed, sim, Settings(workers=workers))
                 rows.append({"valve": valve, "case": case, "seed": seed, "workflow_seconds": r["workflow_seconds"],
                              "workflow_cpu_seconds": r["workflow_cpu_seconds"], "simulations": r["simulations"],
                              "found": r["found"], "correct": r["correct"], "load_average": r["load_average"]})

@@ -8,12 +8,16 @@ stopping logic in a fraction of a second per simulation.
 import json
 import math
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 import standin
 from lumped.model.effects import Applied, Effect, Library, Parameter
+from studies.discrepancy.backward import backward
+from studies.discrepancy.fitting import box_search
+from studies.discrepancy.selection import verdict
 from studies.discrepancy.workflow import CandidateFit, Settings, Workflow, conditions, split
 from studies.discrepancy.synth import Condition, Noise, synthesize
 
@@ -59,7 +63,6 @@ def test_several_parameter_fit_is_not_stalled_by_a_rippled_cost():
     # oil-column length did); the grid over the plausible box and the pattern search must reach it
     runs, _ = synthesize(standin.simulate, "disc", THESIS_DISC, (), Noise(), seed=0)
     wf = Workflow(runs, standin.simulate, standin.LIB, Settings(), progress=False)
-    wf.sims.many = lambda jobs: []            # the cost below needs no simulation
     params = [Parameter("a", "-", 1.0, (1e-2, 1e2), (1e-1, 1e1), "test"),
               Parameter("b", "-", 1.0, (1e-2, 1e2), (1e-1, 1e1), "test")]
     best = (0.41, 0.63)                        # units: inside the plausible box (0.25-0.75)
@@ -70,7 +73,10 @@ def test_several_parameter_fit_is_not_stalled_by_a_rippled_cost():
         return 60.0 + 20.0 * (u[0] - best[0]) ** 2 + 1700.0 * (u[1] - best[1]) ** 2 + ripple
 
     calls = []
-    u = wf._box_search(params, np.array([0.5, 0.5]), lambda x: (tuple(x),), lambda m: calls.append(m) or cost(m))
+    ob = SimpleNamespace(model_of=lambda x: (tuple(x),), cost=lambda m: calls.append(m) or cost(m),
+                         relinearize=lambda u, stage: False, simulate=lambda points: None)  # no simulation needed
+    u, hopeless = box_search(wf.problem, params, np.array([0.5, 0.5]), ob)
+    assert not hopeless
     assert abs(u[1] - best[1]) < 0.03 and abs(u[0] - best[0]) < 0.2   # least squares from (0.5, 0.5): 0.038
     assert cost((tuple(u),)) < 62.0
     assert len(calls) <= 1 + 25 + 3 * 8                               # grid, then three pattern levels
@@ -131,7 +137,9 @@ def test_a_new_effect_is_one_entry(monkeypatch):
     out = find((Applied.of("entrained_air", "pump", {"R": 0.01}),), seed=7, library=standin.LIB, max_rounds=1)
     names = {row["effect"] for row in out["ranking"]}
     assert "air_twin" in names
-    assert out["effects_added"][0] in ("entrained_air", "air_twin")
+    # the same model under two names: the data cannot say which, so neither is named and both are reported
+    assert out["effects_added"] == []
+    assert [sorted(g["effects"]) for g in out["indistinguishable"]] == [["air_twin", "entrained_air"]]
 
 
 def test_implausible_fit_is_never_added():
@@ -182,8 +190,8 @@ def test_confusion_tool_synthesises_and_fits_with_the_valves_asked_for(monkeypat
 
     seen = []
 
-    def fake_run_case(case, spec, valve, seed, simulate, library, settings, **kw):
-        seen.append((valve, simulate.model.label))
+    def fake_run_case(case, spec, valve, seed, sim, settings, **kw):
+        seen.append((valve, sim.simulate.model.label))
         return {"case": case, "seed": seed, "found": [], "expected": [], "correct": True}
 
     monkeypatch.setattr(confusion, "run_case", fake_run_case)
@@ -208,13 +216,9 @@ def test_decisive_fit_evidence_lowers_the_held_out_floor(fit_after, held_after, 
     """A held-out gain of 0.63 units (1.93 -> 1.30) is below the 1.5-unit floor a Cd nuisance sets, yet
     with the fit 5 % better or more (Settings.decisive_fit_improvement) it is enough; the relative
     threshold (30 %) holds in every case, and a floor the user set applies as set."""
-    wf = Workflow.__new__(Workflow)
-    wf.settings = Settings()
-    wf.nuisance_effects = {"discharge_scale": None}
-    why = wf.verdict(_candidate(fit_after, 1.93, held_after))
+    why = verdict(_candidate(fit_after, 1.93, held_after), Settings(), 1.5)     # 1.5: the floor with a Cd nuisance
     assert (why is None) == added, why
-    wf.settings = Settings(min_abs_improvement=1.5)
-    assert wf.verdict(_candidate(fit_after, 1.93, held_after)) is not None
+    assert verdict(_candidate(fit_after, 1.93, held_after), Settings(min_abs_improvement=1.5), 1.5) is not None
 
 
 @pytest.mark.parametrize("target", ["delivery", "both"])
@@ -246,14 +250,11 @@ def test_a_kind_of_evidence_may_get_a_little_worse_for_a_large_gain(gain, worse,
     """The squeeze film of the issue removed ~13,800 units and left the delivery 2.16 units worse: accepted
     (no model is the truth); a candidate that gains 100 units and costs 7 of delivery trades one kind of
     evidence for another (a leak standing in for a Cd error); a small gain may not worsen a kind by a unit."""
-    wf = Workflow.__new__(Workflow)
-    wf.settings = Settings()
-    wf.nuisance_effects = {"discharge_scale": None}
     f = _candidate(100.0 - 0.06 * gain, 100.0, 1.0)
     f.base_fit_parts = {"position": gain, "delivery": 0.0, "pressure": 0.0}
     f.fit_parts = {"position": 0.0, "delivery": worse, "pressure": 0.0}
     f.base_held_parts = f.held_parts = {"position": 1.0, "delivery": 0.0, "pressure": 0.0}
-    why = wf.verdict(f)
+    why = verdict(f, Settings(), 1.5)
     assert (why is None) == added, why
 
 
@@ -328,13 +329,13 @@ def test_the_backward_step_drops_an_effect_the_others_made_redundant():
     # both hidden effects in the model: neither is dropped (each loses the held-out gap when taken out)
     rows, dropped = [], set()
     model = (cd, truth[0], truth[1])
-    current, _ = wf._backward(model, wf.evaluate(model), 2, rows, dropped, keep=None)
+    current, _ = backward(wf.problem, model, wf.evaluate(model), 2, rows, dropped, None)
     assert sorted(a.name for a in current) == ["discharge_scale", "piston_leakage", "seat_compliance"]
     assert not dropped and len(rows) == 2 and not any(r["dropped"] for r in rows)
     # a closing lag added before them (it stands in for nothing here): dropped, the two kept
     rows, dropped = [], set()
     model = (cd, Applied.of("closing_lag", "both", {"lag_deg": 0.5}), truth[0], truth[1])
-    current, ev = wf._backward(model, wf.evaluate(model), 3, rows, dropped, keep="piston_leakage")
+    current, ev = backward(wf.problem, model, wf.evaluate(model), 3, rows, dropped, "piston_leakage")
     assert sorted(a.name for a in current) == ["discharge_scale", "piston_leakage", "seat_compliance"]
     assert dropped == {"closing_lag"}
     gone = [r for r in rows if r["dropped"]]

@@ -22,8 +22,9 @@ import pytest
 
 from lumped.model.effects import Applied
 from studies.discrepancy.confusion import CASES, MISMATCH, case_truth, run_case
+from studies.discrepancy.model_choice import choose
 from studies.discrepancy.workflow import RunCondition, Settings
-from studies.discrepancy.pump_sim import LIBRARY, for_valve_type, model_for, simulate
+from studies.discrepancy.pump_sim import for_valve_type, model_for, simulate
 
 SETTINGS = Settings(workers=2)
 
@@ -140,9 +141,8 @@ def test_compliant_seat_sinks_by_the_pressure_force_over_k():
 @pytest.mark.slow  # the same story runs in the default suite as docs/examples/ex05_oring_story.py
 def test_thesis_oring_story():
     """Section 5.4.5: the delivery valve's O-ring compliance, found from the traces (k_seat 1.5e6 N/m)."""
-    sim = for_valve_type("disc")
     r = run_case("oring", [("seat_compliance", "delivery", {"k_seat": (1.5e6, 1.5e6)})], "disc", 0,
-                 sim, LIBRARY, SETTINGS, context=sim.model)
+                 choose(valve_type="disc"), SETTINGS)
     check_found(r, "disc")
     assert r["targets"] == {"seat_compliance": "delivery"}
     assert r["gap_after"]["position_rms_m"] < 0.3 * r["gap_before"]["position_rms_m"]
@@ -152,8 +152,7 @@ def test_thesis_oring_story():
 @pytest.mark.parametrize("valve,case", [("disc", "none"), ("disc", "cd-3%"), ("reed", "piston_leakage"),
                                        ("reed", "fluid_damping (strong)")])
 def test_representative_cases(valve, case):
-    sim = for_valve_type(valve)
-    check_found(run_case(case, CASES[valve][case], valve, 1, sim, LIBRARY, SETTINGS, context=sim.model), valve)
+    check_found(run_case(case, CASES[valve][case], valve, 1, choose(valve_type=valve), SETTINGS), valve)
 
 
 def test_squeeze_film_model_is_smooth_in_its_coefficient():
@@ -197,15 +196,13 @@ def _known(valve: str, case: str, seed: int, *values):
 @pytest.mark.slow
 @pytest.mark.parametrize("case,seed", [_known("disc", c, s, c, s) for s in (1, 2, 3) for c in CASES["disc"]])
 def test_hidden_effect_named_disc(case, seed):
-    sim = for_valve_type("disc")
-    check_found(run_case(case, CASES["disc"][case], "disc", seed, sim, LIBRARY, SETTINGS, context=sim.model), "disc")
+    check_found(run_case(case, CASES["disc"][case], "disc", seed, choose(valve_type="disc"), SETTINGS), "disc")
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("case", [_known("reed", c, 1, c) for c in CASES["reed"]])
 def test_hidden_effect_named_reed(case):
-    sim = for_valve_type("reed")
-    check_found(run_case(case, CASES["reed"][case], "reed", 1, sim, LIBRARY, SETTINGS, context=sim.model), "reed")
+    check_found(run_case(case, CASES["reed"][case], "reed", 1, choose(valve_type="reed"), SETTINGS), "reed")
 
 
 @pytest.mark.slow
@@ -214,8 +211,7 @@ def test_hidden_effect_named_in_data_of_another_model_form(valve, case):
     """Data made with a model form the library lacks (studies/discrepancy/mismatch.py), seed 1: the hidden effect
     named (nothing where nothing is hidden), its parameter within 20 % (a leak's effective clearance), the
     held-out gap shrunk by 70 %, and what is left said when it is large."""
-    sim = for_valve_type(valve)
-    check_found(run_case(case, MISMATCH[valve][case], valve, 1, sim, LIBRARY, SETTINGS, context=sim.model), valve)
+    check_found(run_case(case, MISMATCH[valve][case], valve, 1, choose(valve_type=valve), SETTINGS), valve)
 
 
 @pytest.mark.slow
@@ -227,9 +223,6 @@ def test_hidden_effect_named_on_another_pump(model, case):
     the reed pump with a 20 % thicker reed, at three conditions around their operating points."""
     from pathlib import Path
 
-    from studies.discrepancy.model_choice import choose
-
     sim = choose(model=str(Path(__file__).resolve().parents[1] / "docs" / "examples" / f"{model}.toml"))
     kind = sim.context.label
-    check_found(run_case(case, CASES[kind][case], kind, 1, sim.simulate, sim.library, SETTINGS, context=sim.context),
-                kind)
+    check_found(run_case(case, CASES[kind][case], kind, 1, sim, SETTINGS), kind)

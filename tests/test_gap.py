@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from studies.discrepancy.gap import (
-    CycleTrace, GapScales, Nuisance, describe, findings, fit_nuisance, fold, noise_std, run_gap, valve_events,
-    wrap_deg,
+    CycleTrace, GapScales, Nuisance, fit_nuisance, fold, noise_std, run_gap, valve_events, wrap_deg,
 )
+from studies.discrepancy.words import describe, findings
 from studies.discrepancy.measured import Run, Trace
 from studies.tables.thesis import experiments
 

@@ -143,6 +143,8 @@ def render(r: dict) -> str:
             lines.append(f"added {name} ({r['targets'][name]}): {vals}")
     else:
         lines.append("no effect added: no candidate shrinks the held-out gap significantly")
+    for d in r.get("indistinguishable") or []:
+        lines.append(f"indistinguishable: {d['sentence']}")
     lines.append(f"gap before: {gap(r['gap_before'])}")
     lines.append(f"gap after:  {gap(r['gap_after'])}")
     if r["held_out"]:

@@ -3,7 +3,10 @@
 - :mod:`~studies.discrepancy.measured`: the measured-data format (run folders, traces);
 - :mod:`~studies.discrepancy.synth`: synthetic data from a model with hidden effects;
 - :mod:`~studies.discrepancy.gap`: gap metrics between a trace and a simulated cycle;
-- :mod:`~studies.discrepancy.workflow`: the search over candidate effects (:class:`~studies.discrepancy.workflow.Workflow`);
+  :mod:`~studies.discrepancy.words`: the disagreements in words;
+- :mod:`~studies.discrepancy.workflow`: the search over candidate effects (:class:`~studies.discrepancy.workflow.Workflow`),
+  a facade over its parts: ``settings``, ``problem``, ``profile``, ``fitting``, ``selection``, ``search``,
+  ``joint``, ``backward``, ``leftover``, ``records``, ``holdout``, ``simulations``;
 - :mod:`~studies.discrepancy.pump_sim`, :mod:`~studies.discrepancy.model_choice`: the model
   the workflow simulates; :mod:`~studies.discrepancy.report`: the report folder;
 - :mod:`~studies.discrepancy.confusion`: confusion matrices over seeds

@@ -12,9 +12,9 @@ error [m], delivery error [%] (modelled - measured, the thesis's sign, Tables 5.
 5.6), and, where the run has a cylinder-pressure trace, its RMS gap [Pa] and excess over
 the transducer noise: the pressure is what a piston leak changes (it lowers the pressure
 while both valves are shut, in proportion to the pressure difference and the time) and
-what a discharge coefficient does not mimic (it moves the pressure with the flow). :func:`findings` turns them into sentences a hydraulic engineer reads
+what a discharge coefficient does not mimic (it moves the pressure with the flow). The sentences a hydraulic engineer reads
 ("delivery valve sits 0.30 mm below its modelled seat position during the suction
-stroke (crank 12-171 deg)").
+stroke (crank 12-171 deg)"): :mod:`studies.discrepancy.words`.
 """
 
 from __future__ import annotations
@@ -155,6 +155,45 @@ def predict(sim: CycleTrace, valve: str, theta: np.ndarray, speed_rpm: float, nu
 # --------------------------------------------------------------------------- nuisances
 
 
+def _sensor_traces(runs: list[Run], folded: dict, sims: dict) -> list[tuple]:
+    """(valve, measured crank [deg], measured position [m], model crank table, model positions, crank rate
+    [deg/s], weight 1/N) of every measured position trace of ``runs``."""
+    traces = []
+    for r in runs:
+        if r.trace is None:
+            continue
+        f, s = folded[r.name], sims[r.name]
+        for valve, th in f.crank_deg.items():
+            c, v = _periodic_table(s.crank_deg, s.positions[valve])
+            m = f.position[valve]
+            traces.append((valve, th, m, c, v, r.speed_rpm * 6.0, 1.0 / m.size))
+    return traces
+
+
+def _sensor_cost(traces: list[tuple], offsets: np.ndarray, scale_bounds) -> tuple[np.ndarray, dict]:
+    """(position cost per time offset, best sensor scale per valve per offset): for a given offset the best
+    scale of each valve is linear least squares (closed form), clipped to ``scale_bounds``."""
+    k = offsets.size
+    pm = {v: np.zeros(k) for v in VALVES}
+    pp = {v: np.zeros(k) for v in VALVES}
+    mm = 0.0
+    for valve, th, m, c, v, omega, w in traces:
+        x = np.mod(th[None, :] - offsets[:, None] * omega, 360.0)
+        p = np.interp(x.ravel(), c, v).reshape(k, th.size)
+        pm[valve] += w * (p @ m)
+        pp[valve] += w * np.einsum("ij,ij->i", p, p)
+        mm += w * float(m @ m)
+    cost = np.full(k, mm)
+    scale = {}
+    for valve in VALVES:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            sv = np.where(pp[valve] > 0, pm[valve] / pp[valve], 1.0)
+        sv = np.clip(sv, *scale_bounds)
+        cost += -2.0 * sv * pm[valve] + sv**2 * pp[valve]
+        scale[valve] = sv
+    return cost, scale
+
+
 def fit_nuisance(
     runs: list[Run], folded: dict, sims: dict, *, scale_bounds=(0.95, 1.05), offset_bounds_s=(-1e-3, 1e-3),
     n_grid: int = 21,
@@ -167,48 +206,17 @@ def fit_nuisance(
     ``folded``/``sims`` map run name -> :class:`Folded` / :class:`CycleTrace`.
     Each trace weighs 1/N (its mean square), like the fit objective.
     """
-    traces = []
-    for r in runs:
-        if r.trace is None:
-            continue
-        f, s = folded[r.name], sims[r.name]
-        for valve, th in f.crank_deg.items():
-            c, v = _periodic_table(s.crank_deg, s.positions[valve])
-            m = f.position[valve]
-            traces.append((valve, th, m, c, v, r.speed_rpm * 6.0, 1.0 / m.size))
+    traces = _sensor_traces(runs, folded, sims)
     if not traces:
         return Nuisance()
-
-    def solve(offsets: np.ndarray):
-        """(cost per offset, scale per valve per offset)."""
-        k = offsets.size
-        pm = {v: np.zeros(k) for v in VALVES}
-        pp = {v: np.zeros(k) for v in VALVES}
-        mm = 0.0
-        for valve, th, m, c, v, omega, w in traces:
-            x = np.mod(th[None, :] - offsets[:, None] * omega, 360.0)
-            p = np.interp(x.ravel(), c, v).reshape(k, th.size)
-            pm[valve] += w * (p @ m)
-            pp[valve] += w * np.einsum("ij,ij->i", p, p)
-            mm += w * float(m @ m)
-        cost = np.full(k, mm)
-        scale = {}
-        for valve in VALVES:
-            with np.errstate(invalid="ignore", divide="ignore"):
-                sv = np.where(pp[valve] > 0, pm[valve] / pp[valve], 1.0)
-            sv = np.clip(sv, *scale_bounds)
-            cost += -2.0 * sv * pm[valve] + sv**2 * pp[valve]
-            scale[valve] = sv
-        return cost, scale
-
     lo, hi = offset_bounds_s
     grid = np.linspace(lo, hi, n_grid)
     for _ in range(2):   # coarse grid, then a fine grid around its best point
-        cost, _ = solve(grid)
+        cost, _ = _sensor_cost(traces, grid, scale_bounds)
         i = int(np.argmin(cost))
         step = grid[1] - grid[0]
         grid = np.linspace(max(lo, grid[i] - step), min(hi, grid[i] + step), 11)
-    cost, _ = solve(grid)
+    cost, _ = _sensor_cost(traces, grid, scale_bounds)
     i = int(np.argmin(cost))
     best = float(grid[i])
     if 0 < i < grid.size - 1:   # parabola through the best point and its neighbours
@@ -216,14 +224,14 @@ def fit_nuisance(
         den = c0 - 2 * c1 + c2
         if den > 0:
             best += 0.5 * (c0 - c2) / den * (grid[1] - grid[0])
-    _, scale = solve(np.array([best]))
+    _, scale = _sensor_cost(traces, np.array([best]), scale_bounds)
     return Nuisance(scale={v: float(scale[v][0]) for v in VALVES}, offset_s=best)
 
 
 # --------------------------------------------------------------------------- events
 
 
-def _smooth(theta: np.ndarray, x: np.ndarray, width_deg: float) -> np.ndarray:
+def smooth(theta: np.ndarray, x: np.ndarray, width_deg: float) -> np.ndarray:
     """Circular moving average over ``width_deg`` of a signal sampled at sorted crank angles."""
     n = x.size
     if n < 3 or width_deg <= 0:
@@ -252,7 +260,7 @@ def valve_events(theta: np.ndarray, x: np.ndarray, threshold_m: float, smooth_de
 
     ``theta`` sorted in [0, 360). Crossings are interpolated between samples.
     """
-    xs = _smooth(theta, np.asarray(x, float), smooth_deg)
+    xs = smooth(theta, np.asarray(x, float), smooth_deg)
     is_open = xs > threshold_m
     peak = float(np.max(xs))
     if is_open.all() or not is_open.any():
@@ -459,58 +467,12 @@ def pressure_gap(folded: Folded, sim: CycleTrace, scales: "GapScales | None" = N
     return PressureGap(float(np.sqrt(np.mean(t**2))), noise, r, folded.pressure_crank_deg)
 
 
-def pressure_windows(gap: RunGap, scales: GapScales) -> list[tuple]:
-    """Crank windows (start, end, largest residual [Pa]) where the smoothed cylinder-pressure residual of a run
-    exceeds twice the pressure tolerance and three noise deviations of the 3-deg average; [] without a trace."""
-    if gap.pressure is None:
-        return []
-    pg = gap.pressure
-    rs = _smooth(pg.crank_deg, pg.residual_pa, 3.0)
-    n = max(1, int(round(3.0 / (360.0 / max(pg.crank_deg.size, 1)))))
-    return _windows(pg.crank_deg, rs, max(2.0 * scales.pressure_pa, 3.0 * pg.noise_pa / math.sqrt(n)))
+def _ang(d: float) -> float:
+    """An angle difference wrapped into [0, 360) [deg]."""
+    return float(np.mod(d, 360.0))
 
 
-def summary(gaps: list[RunGap]) -> dict:
-    """Dataset gap: position RMS pooled over runs [m] (also its excess over the measurement noise,
-    the part a model can explain), RMS of the runs' delivery errors [%]."""
-    pos = [g.position_rms_m for g in gaps if g.position_rms_m is not None]
-    exc = [v.excess_rms_m for g in gaps for v in g.valves]
-    dele = [g.delivery_error_pct for g in gaps if g.delivery_error_pct is not None]
-    pres = [g.pressure.excess_rms_pa for g in gaps if g.pressure is not None]
-    return {
-        "position_rms_m": float(np.sqrt(np.mean(np.square(pos)))) if pos else None,
-        "position_excess_rms_m": float(np.sqrt(np.mean(np.square(exc)))) if exc else None,
-        "delivery_error_pct": float(np.sqrt(np.mean(np.square(dele)))) if dele else None,
-        "pressure_excess_rms_pa": float(np.sqrt(np.mean(np.square(pres)))) if pres else None,
-        "runs": len(gaps),
-    }
-
-
-# --------------------------------------------------------------------------- words
-
-
-def stroke(theta_deg: float) -> str:
-    """Which stroke a crank angle is in (0 deg = TDC)."""
-    t = np.mod(theta_deg, 360.0)
-    if t < 10 or t > 350:
-        return "around top dead centre"
-    if 170 < t < 190:
-        return "around bottom dead centre"
-    return "suction stroke" if t < 180 else "delivery stroke"
-
-
-@dataclass(frozen=True)
-class Finding:
-    """One localised disagreement of one valve in one run (values measured - modelled)."""
-
-    run: str
-    valve: str          # inlet, delivery or pump
-    kind: str           # seated, opening, closing, peak, window, delivery
-    value: float        # m, deg or %
-    window: tuple | None = None  # crank deg (start, end)
-
-
-def _windows(theta: np.ndarray, r: np.ndarray, thr: float, merge_deg=5.0, min_deg=3.0) -> list[tuple]:
+def crank_windows(theta: np.ndarray, r: np.ndarray, thr: float, merge_deg=5.0, min_deg=3.0) -> list[tuple]:
     """Crank windows (start, end, largest residual) where |r| exceeds ``thr``.
 
     Circular; windows closer than ``merge_deg`` are merged, shorter than ``min_deg`` dropped.
@@ -544,111 +506,28 @@ def _windows(theta: np.ndarray, r: np.ndarray, thr: float, merge_deg=5.0, min_de
     return wins
 
 
-def _ang(d: float) -> float:
-    return float(np.mod(d, 360.0))
+def pressure_windows(gap: RunGap, scales: GapScales) -> list[tuple]:
+    """Crank windows (start, end, largest residual [Pa]) where the smoothed cylinder-pressure residual of a run
+    exceeds twice the pressure tolerance and three noise deviations of the 3-deg average; [] without a trace."""
+    if gap.pressure is None:
+        return []
+    pg = gap.pressure
+    rs = smooth(pg.crank_deg, pg.residual_pa, 3.0)
+    n = max(1, int(round(3.0 / (360.0 / max(pg.crank_deg.size, 1)))))
+    return crank_windows(pg.crank_deg, rs, max(2.0 * scales.pressure_pa, 3.0 * pg.noise_pa / math.sqrt(n)))
 
 
-def findings(gap: RunGap, scales: GapScales, timing_tol_deg: float = 2.0) -> list[Finding]:
-    """Localised disagreements of one run beyond the tolerances (position, timing, delivery)."""
-    out = []
-    for v in gap.valves:
-        ptol = max(scales.position_m, 5.0 * v.noise_m / np.sqrt(8.0))
-        if v.seated_error_m is not None and abs(v.seated_error_m) > ptol:
-            win = closed_window(v.crank_deg, v.measured)
-            th = v.crank_deg[win]
-            out.append(Finding(gap.run, v.valve, "seated", v.seated_error_m, _span(th)))
-        for kind, err in (("opening", v.opening_error_deg), ("closing", v.closing_error_deg)):
-            if err is not None and abs(err) > timing_tol_deg:
-                at = v.measured.opening_deg if kind == "opening" else v.measured.closing_deg
-                out.append(Finding(gap.run, v.valve, kind, err, (at - err, at)))
-        if abs(v.peak_error_m) > ptol:
-            out.append(Finding(gap.run, v.valve, "peak", v.peak_error_m, None))
-        rs = _smooth(v.crank_deg, v.residual_m, 3.0)
-        for a, e, peak in _windows(v.crank_deg, rs, max(ptol, 3.0 * v.noise_m / np.sqrt(8.0))):
-            out.append(Finding(gap.run, v.valve, "window", peak, (a, e)))
-    if gap.delivery_error_pct is not None and abs(gap.delivery_error_pct) > 100.0 * scales.delivery_frac:
-        out.append(Finding(gap.run, "pump", "delivery", -gap.delivery_error_pct, None))
-    return out
-
-
-def _span(theta: np.ndarray) -> tuple | None:
-    """Smallest circular crank window holding all of ``theta`` (deg)."""
-    if theta.size == 0:
-        return None
-    t = np.sort(np.mod(theta, 360.0))
-    gaps = np.diff(np.concatenate([t, [t[0] + 360.0]]))
-    k = int(np.argmax(gaps))
-    return (float(t[(k + 1) % t.size]), float(t[k]))
-
-
-def _fmt_window(w) -> str:
-    a, e = w
-    return f"crank {a:.0f}-{e:.0f} deg" if e >= a else f"crank {a:.0f}-{e + 360:.0f} deg"
-
-
-def _mid(w) -> float:
-    a, e = w
-    if e < a:
-        e += 360.0
-    return (a + e) / 2.0
-
-
-def describe(found: list[Finding], n_runs: dict) -> list[str]:
-    """Sentences summarising findings over runs, largest first.
-
-    ``n_runs`` maps a valve (and "pump") to the number of runs in which it was
-    measured, so a sentence says in how many of them the disagreement appears; a
-    disagreement seen in fewer than half of them is not systematic and not said.
-    """
-    groups: dict = {}
-    for f in found:
-        if f.kind == "window":
-            continue  # windows are reported per run; the kinds below say them in words
-        key = (f.valve, f.kind, np.sign(f.value))
-        groups.setdefault(key, []).append(f)
-    scored = []
-    for (valve, kind, sign), fs in groups.items():
-        if len(fs) < math.ceil(n_runs.get(valve, len(fs)) / 2):
-            continue   # not systematic: in fewer than half the runs (the report lists every run)
-        vals = np.array([f.value for f in fs])
-        mean = float(np.mean(vals))
-        cnt = f"{len(fs)} of {n_runs.get(valve, len(fs))} runs"
-        unit, mul = {"seated": (" mm", 1e3), "peak": (" mm", 1e3), "delivery": (" %", 1.0)}.get(kind, (" deg", 1.0))
-        rng = "" if len(fs) == 1 else (
-            f", {np.min(np.abs(vals)) * mul:.2f}-{np.max(np.abs(vals)) * mul:.2f}{unit}")
-        wins = [f.window for f in fs if f.window is not None]
-        if kind == "seated":
-            w = _fmt_window(wins[0]) if wins else ""
-            where = stroke(_mid(wins[0])) if wins else "closed phase"
-            s = (f"{valve} valve sits {abs(mean) * 1e3:.2f} mm {'below' if sign < 0 else 'above'} its modelled "
-                 f"seated position during the {where} ({w}; {cnt}{rng})")
-            weight = abs(mean) / 2e-5
-        elif kind in ("opening", "closing"):
-            verb = "opens" if kind == "opening" else "closes"
-            at = wins[0][1] if wins else 0.0
-            s = (f"{valve} valve {verb} {abs(mean):.1f} deg {'late' if sign > 0 else 'early'} "
-                 f"(measured near crank {at:.0f} deg, {stroke(at)}; {cnt}{rng})")
-            weight = abs(mean) / 2.0
-        elif kind == "peak":
-            s = (f"{valve} valve opens {abs(mean) * 1e3:.2f} mm {'wider' if sign > 0 else 'less'} than modelled "
-                 f"at its peak ({cnt}{rng})")
-            weight = abs(mean) / 2e-5
-        else:  # delivery
-            s = (f"the pump delivers {abs(mean):.2f} % {'more' if sign > 0 else 'less'} than modelled "
-                 f"({cnt}{rng})")
-            weight = abs(mean) / 0.5
-        scored.append((weight * len(fs), s))
-    return [s for _, s in sorted(scored, key=lambda t: -t[0])]
-
-
-def window_sentences(found: list[Finding]) -> list[str]:
-    """Per-run residual windows in words (for the report)."""
-    out = []
-    for f in found:
-        if f.kind != "window":
-            continue
-        out.append(
-            f"{f.run}: {f.valve} valve reads up to {abs(f.value) * 1e3:.3f} mm "
-            f"{'above' if f.value > 0 else 'below'} the model at {_fmt_window(f.window)} ({stroke(_mid(f.window))})"
-        )
-    return out
+def summary(gaps: list[RunGap]) -> dict:
+    """Dataset gap: position RMS pooled over runs [m] (also its excess over the measurement noise,
+    the part a model can explain), RMS of the runs' delivery errors [%]."""
+    pos = [g.position_rms_m for g in gaps if g.position_rms_m is not None]
+    exc = [v.excess_rms_m for g in gaps for v in g.valves]
+    dele = [g.delivery_error_pct for g in gaps if g.delivery_error_pct is not None]
+    pres = [g.pressure.excess_rms_pa for g in gaps if g.pressure is not None]
+    return {
+        "position_rms_m": float(np.sqrt(np.mean(np.square(pos)))) if pos else None,
+        "position_excess_rms_m": float(np.sqrt(np.mean(np.square(exc)))) if exc else None,
+        "delivery_error_pct": float(np.sqrt(np.mean(np.square(dele)))) if dele else None,
+        "pressure_excess_rms_pa": float(np.sqrt(np.mean(np.square(pres)))) if pres else None,
+        "runs": len(gaps),
+    }

@@ -207,9 +207,8 @@ def _check_header(text: str, where: str) -> None:
                                                   + ", ".join(TRACE_COLUMNS))
 
 
-def read_trace(path: Path, measured_valve: str | None, speed_rpm: float) -> tuple[Trace, str]:
-    """Validated trace.csv; returns the trace and the measured valve(s) it holds."""
-    where = str(path)
+def _read_table(path: Path, where: str) -> pd.DataFrame:
+    """trace.csv as a table of strings with stripped column names and a time_s column (InputError otherwise)."""
     _check_header(validate.read_text(path, where), where)
     try:
         df = pd.read_csv(path, dtype=str, skipinitialspace=True, keep_default_na=False)
@@ -222,7 +221,12 @@ def read_trace(path: Path, measured_valve: str | None, speed_rpm: float) -> tupl
         raise InputError(where, "no data rows below the header")
     if "time_s" not in df.columns:
         raise InputError(f"{where}: time_s", f"missing column; found columns {', '.join(df.columns)}")
+    return df
 
+
+def _position_columns(df: pd.DataFrame, path: Path, measured_valve: str | None) -> list[str]:
+    """The position columns run.toml's ``measured_valve`` asks for, present in the table."""
+    where = str(path)
     if measured_valve == "both":
         needed = list(POSITION_COLUMNS.values())
     elif measured_valve in POSITION_COLUMNS:
@@ -237,29 +241,33 @@ def read_trace(path: Path, measured_valve: str | None, speed_rpm: float) -> tupl
     for col in needed:
         if col not in df.columns:
             raise InputError(f"{where}: {col}", f"missing column; found columns {', '.join(df.columns)}")
+    return needed
 
-    def column(name: str) -> np.ndarray:
-        raw = df[name]
-        vals = pd.to_numeric(raw, errors="coerce").to_numpy(dtype=float)
-        bad = np.flatnonzero(~np.isfinite(vals))
-        if bad.size:
-            i = bad[0]
-            text = raw.iloc[i]
-            what = "empty" if text.strip() == "" else f"{text!r} is not a finite number"
-            raise InputError(f"{where}, line {_csv_line(i)}, {name}", what)
-        return vals
 
-    t = column("time_s")
+def _column(df: pd.DataFrame, name: str, where: str) -> np.ndarray:
+    """A numeric column; InputError naming the line of the first empty or non-numeric cell."""
+    raw = df[name]
+    vals = pd.to_numeric(raw, errors="coerce").to_numpy(dtype=float)
+    bad = np.flatnonzero(~np.isfinite(vals))
+    if bad.size:
+        i = bad[0]
+        text = raw.iloc[i]
+        what = "empty" if text.strip() == "" else f"{text!r} is not a finite number"
+        raise InputError(f"{where}, line {_csv_line(i)}, {name}", what)
+    return vals
+
+
+def _check_time(t: np.ndarray, where: str, speed_rpm: float) -> None:
+    """Time increasing, uniformly sampled from top dead centre, at least MIN_SAMPLES_PER_REV per revolution, and
+    whole revolutions at ``speed_rpm``."""
     if t.size < 3:
         raise InputError(f"{where}: time_s", f"only {t.size} rows; expected at least one revolution of samples")
     dt = np.diff(t)
     nonmono = np.flatnonzero(dt <= 0)
     if nonmono.size:
         i = nonmono[0] + 1
-        raise InputError(
-            f"{where}, line {_csv_line(i)}, time_s",
-            f"time {t[i]:.9g} s does not increase (previous row {t[i - 1]:.9g} s)",
-        )
+        raise InputError(f"{where}, line {_csv_line(i)}, time_s",
+                         f"time {t[i]:.9g} s does not increase (previous row {t[i - 1]:.9g} s)")
     step = float(np.median(dt))
     if abs(t[0]) > 1.5 * step:
         raise InputError(f"{where}, line 2, time_s",
@@ -268,72 +276,71 @@ def read_trace(path: Path, measured_valve: str | None, speed_rpm: float) -> tupl
     irregular = np.flatnonzero(np.abs(dt - step) > UNIFORM_DT_TOLERANCE * step)
     if irregular.size:
         i = irregular[0] + 1
-        raise InputError(
-            f"{where}, line {_csv_line(i)}, time_s",
-            f"non-uniform sampling: step {dt[i - 1]:.6g} s where the median step is {step:.6g} s "
-            "(resample to a uniform rate)",
-        )
+        raise InputError(f"{where}, line {_csv_line(i)}, time_s",
+                         f"non-uniform sampling: step {dt[i - 1]:.6g} s where the median step is {step:.6g} s "
+                         "(resample to a uniform rate)")
     period = 60.0 / speed_rpm
     per_rev = period / step
     if per_rev < MIN_SAMPLES_PER_REV:
-        raise InputError(
-            f"{where}: time_s",
-            f"{per_rev:.0f} samples per revolution at {speed_rpm:g} rpm; expected at least {MIN_SAMPLES_PER_REV}",
-        )
+        raise InputError(f"{where}: time_s", f"{per_rev:.0f} samples per revolution at {speed_rpm:g} rpm; expected "
+                                             f"at least {MIN_SAMPLES_PER_REV}")
     revs = (t.size * step) / period
     revs_closed = (t[-1] - t[0]) / period  # a file may repeat the first crank angle at its end
     whole = min(abs(revs - round(revs)), abs(revs_closed - round(revs_closed)))
     if round(revs) < 1 or whole > WHOLE_REV_TOLERANCE + 1.0 / per_rev:
-        raise InputError(
-            f"{where}: time_s",
-            f"covers {revs:.3f} revolutions at {speed_rpm:g} rpm; expected whole revolutions of cyclic "
-            "steady state (is speed_rpm right?)",
-        )
+        raise InputError(f"{where}: time_s",
+                         f"covers {revs:.3f} revolutions at {speed_rpm:g} rpm; expected whole revolutions of cyclic "
+                         "steady state (is speed_rpm right?)")
 
-    positions: dict[str, np.ndarray] = {}
+
+def _position(df: pd.DataFrame, col: str, where: str) -> np.ndarray:
+    """A valve position column [m], refusing a value beyond MAX_POSITION_M (millimetres written as metres)."""
+    x = _column(df, col, where)
+    big = np.flatnonzero(np.abs(x) > MAX_POSITION_M)
+    if big.size:
+        i = big[0]
+        hint = " (is it in mm?)" if abs(x[i]) < 50.0 else ""
+        raise InputError(f"{where}, line {_csv_line(i)}, {col}",
+                         f"{x[i]:g} m is not a valve position; expected |x| < {MAX_POSITION_M * 1e3:g} mm{hint}")
+    return x
+
+
+def _pressure(df: pd.DataFrame, col: str, where: str) -> np.ndarray | None:
+    """An absolute pressure column [Pa] (None if absent), refusing MPa or bar written as Pa, a value beyond
+    MAX_PRESSURE_TRACE_PA and a gauge pressure (below vacuum by more than sensor noise)."""
+    if col not in df.columns:
+        return None
+    p = _column(df, col, where)
+    big = np.flatnonzero(np.abs(p) > MAX_PRESSURE_TRACE_PA)
+    if big.size:
+        i = big[0]
+        raise InputError(f"{where}, line {_csv_line(i)}, {col}",
+                         f"{p[i]:g} Pa is above {MAX_PRESSURE_TRACE_PA:g} Pa; expected a pressure in Pa")
+    i = int(np.argmax(np.abs(p)))
+    if abs(p[i]) < MIN_PRESSURE_PEAK_PA:
+        raise InputError(f"{where}, line {_csv_line(i)}, {col}",
+                         f"the largest pressure is {p[i]:g} Pa; a pump pressure in Pa is ~1e6 (is it in MPa or bar?)")
+    neg = np.flatnonzero(p < -MAX_NOISE_BELOW_VACUUM_PA)
+    if neg.size:
+        i = neg[0]
+        raise InputError(f"{where}, line {_csv_line(i)}, {col}",
+                         f"{p[i]:g} Pa is below vacuum by more than sensor noise; expected an absolute pressure in "
+                         "Pa (a gauge pressure? add the atmospheric pressure)")
+    return p
+
+
+def read_trace(path: Path, measured_valve: str | None, speed_rpm: float) -> tuple[Trace, str]:
+    """Validated trace.csv; returns the trace and the measured valve(s) it holds."""
+    where = str(path)
+    df = _read_table(path, where)
+    needed = _position_columns(df, path, measured_valve)
+    t = _column(df, "time_s", where)
+    _check_time(t, where, speed_rpm)
     valves = ("inlet", "delivery") if measured_valve == "both" else (measured_valve,)
-    for valve, col in zip(valves, needed):
-        x = column(col)
-        big = np.flatnonzero(np.abs(x) > MAX_POSITION_M)
-        if big.size:
-            i = big[0]
-            hint = " (is it in mm?)" if abs(x[i]) < 50.0 else ""
-            raise InputError(
-                f"{where}, line {_csv_line(i)}, {col}",
-                f"{x[i]:g} m is not a valve position; expected |x| < {MAX_POSITION_M * 1e3:g} mm{hint}",
-            )
-        positions[valve] = x
-
-    pressures = {}
-    for col in ("cylinder_pressure_pa", "load_pressure_pa"):
-        if col not in df.columns:
-            pressures[col] = None
-            continue
-        p = column(col)
-        big = np.flatnonzero(np.abs(p) > MAX_PRESSURE_TRACE_PA)
-        if big.size:
-            i = big[0]
-            raise InputError(
-                f"{where}, line {_csv_line(i)}, {col}",
-                f"{p[i]:g} Pa is above {MAX_PRESSURE_TRACE_PA:g} Pa; expected a pressure in Pa",
-            )
-        i = int(np.argmax(np.abs(p)))
-        if abs(p[i]) < MIN_PRESSURE_PEAK_PA:
-            raise InputError(
-                f"{where}, line {_csv_line(i)}, {col}",
-                f"the largest pressure is {p[i]:g} Pa; a pump pressure in Pa is ~1e6 (is it in MPa or bar?)",
-            )
-        neg = np.flatnonzero(p < -MAX_NOISE_BELOW_VACUUM_PA)
-        if neg.size:
-            i = neg[0]
-            raise InputError(
-                f"{where}, line {_csv_line(i)}, {col}",
-                f"{p[i]:g} Pa is below vacuum by more than sensor noise; expected an absolute pressure in Pa "
-                "(a gauge pressure? add the atmospheric pressure)",
-            )
-        pressures[col] = p
-    return Trace.measured(t, positions, pressures["cylinder_pressure_pa"], pressures["load_pressure_pa"],
-                         speed_rpm), measured_valve
+    positions = {valve: _position(df, col, where) for valve, col in zip(valves, needed)}
+    cyl = _pressure(df, "cylinder_pressure_pa", where)
+    load = _pressure(df, "load_pressure_pa", where)
+    return Trace.measured(t, positions, cyl, load, speed_rpm), measured_valve
 
 
 def read_run(folder: str | Path) -> Run:

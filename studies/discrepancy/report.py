@@ -23,7 +23,8 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from studies.discrepancy.workflow import Outcome  # noqa: E402
-from studies.discrepancy.gap import fold, predict, summary, window_sentences  # noqa: E402
+from studies.discrepancy.gap import fold, predict, summary  # noqa: E402
+from studies.discrepancy.words import window_sentences  # noqa: E402
 from studies.discrepancy.validation import sentence  # noqa: E402
 from studies.outputs import prepare_output_dir  # noqa: E402
 
@@ -154,6 +155,7 @@ def write_report(folder, outcome: Outcome, runs, result: dict, force: bool = Fal
     lines += [f"Effect dropped again in round {r['round']}: {r['effect']}"
               f"{'' if r['target'] in ('both', 'pump') else '@' + r['target']} (without it, the others refitted: "
               f"{r['why_dropped']})" for r in outcome.backward if r["dropped"]]
+    lines += [f"Indistinguishable: {d['sentence']}" for d in outcome.indistinguishable]
     lines += [f"Baseline nuisance: {s}" for s in outcome.nuisance_sentences()]
     lines += ["Disagreements left after adding them:"]
     lines += [f"  - {s}" for s in outcome.disagreements_after] or ["  (none beyond the tolerances)"]

@@ -21,12 +21,13 @@ from pathlib import Path
 import numpy as np
 import tomli_w
 
-from geometry.errors import InputError
+from geometry.errors import InputError, ModelFailure
 from lumped.model.effects import Applied
 
-from studies.discrepancy.workflow import ModelFailure, RunCondition, Simulations
 from studies.discrepancy.gap import periodic_interp
 from studies.discrepancy.measured import Run, Trace, write_dataset
+from studies.discrepancy.records import RunCondition
+from studies.discrepancy.simulations import Simulations
 from studies.tables.thesis import experiments
 
 #: relative uncertainty of the position sensor's scale factor (thesis section 5.3.2.2)
@@ -137,40 +138,7 @@ def synthesize(simulator, valve_type: str, conditions: list[Condition], truth: t
     for c, rc, sim in zip(conditions, conds, results):
         if not hasattr(sim, "positions"):
             raise ModelFailure(f"the model failed for {rc.name}: {sim.reason}")
-        period = 60.0 / c.speed_rpm
-        n = int(round(noise.revolutions * period * noise.sample_rate_hz))
-        t = np.arange(n) * (noise.revolutions * period / n)   # uniform, whole revolutions
-        theta = np.mod(t * c.speed_rpm * 6.0, 360.0)
-        shift = offset * c.speed_rpm * 6.0
-        positions = {}
-        valves = ("inlet", "delivery") if c.measured_valve == "both" else (c.measured_valve,)
-        for v in valves:
-            x = periodic_interp(theta - shift, sim.crank_deg, sim.positions[v])
-            positions[v] = (1.0 + scale_err[v]) * x + rng.normal(0.0, noise.position_m, n)
-            if noise.vibration_m > 0.0:
-                positions[v] += noise.vibration_m * np.sin(2 * np.pi * noise.vibration_hz * t + rng.uniform(0, 2 * np.pi))
-            if noise.drift_m > 0.0:
-                positions[v] += noise.drift_m * rng.choice((-1.0, 1.0)) * (t / t[-1] - 0.5)
-        pcyl = None
-        if sim.cylinder_pressure_pa is not None:
-            pcyl = ((1.0 + noise.pressure_gain_error) * periodic_interp(theta, sim.crank_deg, sim.cylinder_pressure_pa)
-                    + rng.normal(0.0, noise.pressure_pa, n))
-            # an absolute transducer reads no lower than the bottom of its range: the noise is cut
-            # at the oil's vapour pressure, below which the liquid's pressure cannot fall
-            pcyl = np.maximum(pcyl, floor)
-        pload = c.load_pressure_pa + rng.normal(0.0, noise.pressure_pa, n)
-        delivery = sim.delivery_m3_per_rev * (1.0 + rng.normal(0.0, noise.delivery_frac))
-        stated = {}
-        if noise.stated_uncertainties:
-            # what the experimenter knows of the instruments: the meter's scatter and the sensor's scale
-            stated = {"delivery_uncertainty_cc": float(noise.delivery_frac * delivery * 1e6),
-                      "position_uncertainty_rel": LTS_SCALE_UNCERTAINTY}
-        runs.append(Run(
-            name=rc.name, valve_type=valve_type, speed_rpm=float(c.speed_rpm),
-            load_pressure_pa=float(c.load_pressure_pa), measured_valve=c.measured_valve,
-            delivery_cc_per_rev=float(delivery * 1e6), air_content=c.air_content,
-            trace=Trace.measured(t, positions, pcyl, pload, c.speed_rpm), **stated,
-        ))
+        runs.append(_measured(c, rc.name, valve_type, sim, noise, rng, (scale_err, offset, floor)))
     truth_doc = {
         "seed": int(seed),
         "valve_type": valve_type,
@@ -187,6 +155,46 @@ def synthesize(simulator, valve_type: str, conditions: list[Condition], truth: t
     if callable(form):
         truth_doc["model_form"] = form()        # a model-form mismatch (studies.discrepancy.mismatch)
     return runs, truth_doc
+
+
+def _measured(c: Condition, name: str, valve_type: str, sim, noise: Noise, rng, sensor: tuple) -> Run:
+    """One run as the rig would have measured the simulated revolution ``sim``: sampled at the DAQ rate from
+    TDC, the position sensor's scale error and time offset, white noise, vibration and drift, the pressure
+    transducer's gain error and noise (``sensor``: (scale error per valve, time offset [s], the lowest
+    pressure a transducer reads [Pa])); draws from ``rng`` in a fixed order."""
+    scale_err, offset, floor = sensor
+    period = 60.0 / c.speed_rpm
+    n = int(round(noise.revolutions * period * noise.sample_rate_hz))
+    t = np.arange(n) * (noise.revolutions * period / n)   # uniform, whole revolutions
+    theta = np.mod(t * c.speed_rpm * 6.0, 360.0)
+    shift = offset * c.speed_rpm * 6.0
+    positions = {}
+    valves = ("inlet", "delivery") if c.measured_valve == "both" else (c.measured_valve,)
+    for v in valves:
+        x = periodic_interp(theta - shift, sim.crank_deg, sim.positions[v])
+        positions[v] = (1.0 + scale_err[v]) * x + rng.normal(0.0, noise.position_m, n)
+        if noise.vibration_m > 0.0:
+            positions[v] += noise.vibration_m * np.sin(2 * np.pi * noise.vibration_hz * t + rng.uniform(0, 2 * np.pi))
+        if noise.drift_m > 0.0:
+            positions[v] += noise.drift_m * rng.choice((-1.0, 1.0)) * (t / t[-1] - 0.5)
+    pcyl = None
+    if sim.cylinder_pressure_pa is not None:
+        pcyl = ((1.0 + noise.pressure_gain_error) * periodic_interp(theta, sim.crank_deg, sim.cylinder_pressure_pa)
+                + rng.normal(0.0, noise.pressure_pa, n))
+        # an absolute transducer reads no lower than the bottom of its range: the noise is cut
+        # at the oil's vapour pressure, below which the liquid's pressure cannot fall
+        pcyl = np.maximum(pcyl, floor)
+    pload = c.load_pressure_pa + rng.normal(0.0, noise.pressure_pa, n)
+    delivery = sim.delivery_m3_per_rev * (1.0 + rng.normal(0.0, noise.delivery_frac))
+    stated = {}
+    if noise.stated_uncertainties:
+        # what the experimenter knows of the instruments: the meter's scatter and the sensor's scale
+        stated = {"delivery_uncertainty_cc": float(noise.delivery_frac * delivery * 1e6),
+                  "position_uncertainty_rel": LTS_SCALE_UNCERTAINTY}
+    return Run(name=name, valve_type=valve_type, speed_rpm=float(c.speed_rpm),
+               load_pressure_pa=float(c.load_pressure_pa), measured_valve=c.measured_valve,
+               delivery_cc_per_rev=float(delivery * 1e6), air_content=c.air_content,
+               trace=Trace.measured(t, positions, pcyl, pload, c.speed_rpm), **stated)
 
 
 def pressure_floor(simulator) -> float:

@@ -1,0 +1,174 @@
+"""The rules that decide between candidates, on the stand-in pump (tests/standin.py): a fit at the edge of
+its plausible range, two candidates the data cannot tell apart, and the evidence that would separate them.
+
+Each expectation follows from the stand-in's closed forms (a compliant seat pushes the closed valve
+P A / k below its seat; a closing lag moves the closing angle by lag x speed / 1000 rpm)."""
+
+import math
+
+import numpy as np
+import pytest
+
+import standin
+from lumped.model.effects import Applied, Effect, Library, Parameter
+from studies.discrepancy import edge, indistinct
+from studies.discrepancy.records import CandidateFit
+from studies.discrepancy.synth import Condition, Noise, synthesize
+from studies.discrepancy.workflow import Settings, Workflow
+
+THESIS_DISC = [Condition(593, 2.76e6, "inlet"), Condition(593, 2.79e6, "delivery"),
+               Condition(743, 2.81e6, "inlet"), Condition(743, 2.75e6, "delivery"),
+               Condition(591, 3.67e6, "inlet"), Condition(591, 3.78e6, "delivery")]
+
+
+def _problem(truth, library=standin.LIB, seed=0):
+    runs, _ = synthesize(standin.simulate, "disc", THESIS_DISC, truth, Noise(), seed=seed)
+    return Workflow(runs, standin.simulate, library, Settings(), progress=False).problem
+
+
+def test_the_acceptable_zone_is_the_complement_of_the_plausibility_rule():
+    p = Parameter("theta", "rad", 0.94, (math.radians(5), math.radians(89.5)), (math.radians(20), math.radians(89.5)),
+                  "test", log=False)
+    lo, hi = edge.acceptable_units(p)
+    for u in np.linspace(0.0, 1.0, 2001):
+        if min(abs(u - lo), abs(u - hi)) > 1e-6:
+            assert (p.plausibility(p.from_unit(u)) is None) == (lo < u < hi), u
+    # pulled from the upper search bound by 5 % of the plausible width (69.5 deg): 89.5 - 0.845 - 3.475 deg
+    assert math.degrees(edge.pulled_value(p, math.radians(89.4), 0.05)) == pytest.approx(85.18, abs=0.01)
+
+
+def _jet_library():
+    """The stand-in's library with a toy 'jet' that delays both valves' openings by 10 and 4 (1 - cos^2 theta)
+    deg per 1000 rpm (no other effect does both at once), flat where its angle nears the plausible edge (as a
+    flow force's cos(theta_jet)), and a toy 'lag2' the same as the closing lag: 20 (1 - cos^2 phi) deg."""
+    lib = Library(dict(standin.LIB.effects))
+    angle = dict(unit="rad", prior=0.94, bounds=(math.radians(5), math.radians(89.5)),
+                 plausible=(math.radians(20), math.radians(89.5)), source="toy", log=False)
+    lib.register(Effect(
+        "jet", "a toy jet angle", (Parameter("theta", **angle),),
+        lambda p, v, t: standin.replace(p, lag_inlet=10.0 * (1.0 - math.cos(v["theta"]) ** 2),
+                                        lag_delivery=4.0 * (1.0 - math.cos(v["theta"]) ** 2)), targets=("both",)))
+    lib.register(Effect(
+        "lag2", "a closing lag by another name", (Parameter("phi", **angle),),
+        lambda p, v, t: standin.replace(p, lag_deg=20.0 * (1.0 - math.cos(v["phi"]) ** 2)), targets=("both",)))
+    return lib
+
+
+@pytest.fixture
+def jet(monkeypatch):
+    lib = _jet_library()
+    monkeypatch.setattr(standin, "LIB", lib)
+    return lib
+
+
+def test_a_fit_where_the_valley_is_flat_at_the_edge_is_pulled_inside_and_kept(jet):
+    """The toy jet hidden at 89.3 deg: at the plausible edge, but 85.2 deg moves the openings by 0.07 deg at most
+    (10 (cos^2 85.2 - cos^2 89.3) per 1000 rpm): the candidate is judged there, not refused."""
+    pb = _problem((Applied.of("jet", "both", {"theta": math.radians(89.3)}),), library=jet)
+    cd = Applied.of("discharge_scale", "pump", {"scale": 1.0})
+    model = (cd, Applied.of("jet", "both", {"theta": math.radians(89.3)}))
+    cost = pb.fit_objective(model)[0]
+    base = pb.fit_objective((cd,))[0]
+    out = edge.pull_inside(pb, model, 1, base, cost)
+    assert out is not None, "a flat valley at the edge is no evidence against the effect"
+    moved, new_cost, _, note, pulled = out
+    assert pulled == ("theta",)
+    theta = moved[1].value_dict["theta"]
+    assert math.degrees(theta) == pytest.approx(85.18, abs=0.01)
+    assert jet["jet"].plausibility(moved[1].value_dict) is None
+    assert new_cost - cost <= max(1.0, 0.05 * (base - cost)) and "pulled inside" in note
+
+
+def test_a_fit_the_data_pull_to_the_edge_stays_implausible():
+    """A closing lag of 60 deg hidden (beyond the plausible 30): at the edge, 30 deg, pulling it 5 % of the log
+    width inside (x0.73, to 22 deg) moves the closing by 5-6 deg: the data want the edge, it stays refused."""
+    pb = _problem((Applied.of("closing_lag", "both", {"lag_deg": 60.0}),))
+    cd = Applied.of("discharge_scale", "pump", {"scale": 1.0})
+    model = (cd, Applied.of("closing_lag", "both", {"lag_deg": 29.9}))
+    assert standin.LIB["closing_lag"].plausibility({"lag_deg": 29.9}) is not None
+    out = edge.pull_inside(pb, model, 1, pb.fit_objective((cd,))[0], pb.fit_objective(model)[0])
+    assert out is None
+
+
+def test_the_workflow_names_the_flat_edge_effect_inside_its_range(jet):
+    pb_runs, _ = synthesize(standin.simulate, "disc", THESIS_DISC,
+                            (Applied.of("jet", "both", {"theta": math.radians(89.3)}),), Noise(), seed=1)
+    out = Workflow(pb_runs, standin.simulate, jet, Settings(), progress=False).run().as_contract()
+    assert out["effects_added"] == ["jet"], out["ranking"][:3]
+    assert jet["jet"].plausibility(out["parameters"]["jet"]) is None
+
+
+def _fit(fit, held, base_fit=100.0, base_held=50.0):
+    return CandidateFit("a", "both", {}, {}, fit_cost=fit, held_cost=held, delta_bic=-10.0, plausible_reason=None,
+                        n_sims=0, base_fit_cost=base_fit, base_held_cost=base_held)
+
+
+@pytest.mark.parametrize("b_fit, b_held, alike", [
+    (41.0, 1.2, True),     # 1.0 held-out unit (< the 1.5 floor) and 2.5 % of the fit (< 5 %) apart
+    (41.0, 3.5, False),    # 3.3 held-out units apart: the data tell them apart
+    (44.0, 1.2, False),    # the fit 10 % apart: decisive
+    (400.0, 300.0, False),  # far apart in both
+])
+def test_two_candidates_are_alike_when_they_fit_within_the_noise_of_each_other(b_fit, b_held, alike):
+    """Held-out costs within the absolute gain floor (1.5 units with a Cd factor), fit costs within 5 %."""
+    class P:
+        settings = Settings()
+        min_gain_units = 1.5
+
+    assert indistinct._alike(P, _fit(40.0, 0.2), _fit(b_fit, b_held)) == alike
+    assert indistinct._alike(P, _fit(b_fit, b_held), _fit(40.0, 0.2)) == alike
+
+
+def test_the_evidence_that_separates_two_models_is_where_their_revolutions_differ_most():
+    """Two delivery seat stiffnesses, 1e6 and 2e6 N/m: the stand-in's closed delivery valve sits P A / k below its
+    seat, so the models differ most in the delivery valve's position during the suction stroke of the highest
+    load, by P A (1/1e6 - 1/2e6) = 3.78e6 x 1.77e-4 x 5e-7 = 0.335 mm."""
+    pb = _problem(())
+    cd = Applied.of("discharge_scale", "pump", {"scale": 1.0})
+    a = pb.evaluate((cd, Applied.of("seat_compliance", "delivery", {"k_seat": 1e6})))
+    b = pb.evaluate((cd, Applied.of("seat_compliance", "delivery", {"k_seat": 2e6})))
+    ev = indistinct.separating_evidence(pb, a, b)
+    top = ev[0]
+    assert top["signal"] == "delivery position" and top["load_pressure_pa"] == 3.78e6
+    assert top["difference"] == pytest.approx(-3.78e6 * standin.SEAT_AREA * 5e-7, rel=1e-3)
+    assert 0.0 <= top["crank_deg"][0] < top["crank_deg"][1] <= 240.0      # the closed valve: the suction stroke
+    assert top["measured"] and top["in_gap_scales"] == pytest.approx(abs(top["difference"]) / 2e-5)
+
+
+def test_two_effects_the_data_cannot_tell_apart_are_reported_and_neither_is_named(jet):
+    """A closing lag of 10 deg per 1000 rpm hidden: the closing lag and the toy lag2 (phi = 45 deg) are the same
+    model. The data cannot say which is there: neither is named, both are reported with the costs they leave,
+    and the gap is not silent."""
+    runs, _ = synthesize(standin.simulate, "disc", THESIS_DISC, (Applied.of("closing_lag", "both", {"lag_deg": 10.0}),),
+                         Noise(), seed=2)
+    out = Workflow(runs, standin.simulate, jet, Settings(), progress=False).run().as_contract()
+    assert out["effects_added"] == []
+    groups = out["indistinguishable"]
+    assert [sorted(g["effects"]) for g in groups] == [["closing_lag", "lag2"]], groups
+    g = groups[0]
+    assert "explain the data about equally" in g["sentence"] and "none is named" in g["sentence"]
+    assert max(g["fit_cost"]) < 0.2 * g["base_fit_cost"]            # each explains most of the gap
+    # the same model: their revolutions differ by less than one gap scale anywhere
+    assert all(e["in_gap_scales"] < 1.0 for e in g["separating"][0]["evidence"])
+    assert out["unexplained"]["large"] and out["unexplained"]["sentences"]
+
+
+def test_complements_are_not_substitutes(jet):
+    """Candidates whose costs are alike may explain different parts of the data (a compliant seat and a closing
+    lag, both hidden): those are complements and both may be named; the closing lag and lag2 change the same
+    residuals and are substitutes."""
+    truth = (Applied.of("closing_lag", "both", {"lag_deg": 10.0}),
+             Applied.of("seat_compliance", "delivery", {"k_seat": 1.5e6}))
+    pb = _problem(truth, library=jet)
+    cd = Applied.of("discharge_scale", "pump", {"scale": 1.0})
+
+    def cand(*effects):
+        f = _fit(0.0, 0.0)
+        f.model = (cd, *effects)
+        return f
+
+    lag = cand(Applied.of("closing_lag", "both", {"lag_deg": 10.0}))
+    lag2 = cand(Applied.of("lag2", "both", {"phi": math.pi / 4}))
+    seat = cand(Applied.of("seat_compliance", "delivery", {"k_seat": 1.5e6}))
+    assert indistinct._substitutes(pb, (cd,), lag, lag2)
+    assert not indistinct._substitutes(pb, (cd,), lag, seat)
