@@ -141,6 +141,8 @@ class RunOptions:
         elif not isinstance(solver, SolverOptions):
             raise InputError("solver", f"expected a lumped.run.options.SolverOptions, got {type(solver).__name__}")
         rule = _stop_rule(stop, keywords)
+        if not isinstance(trace, (bool, np.bool_, TraceOptions)):
+            raise InputError("trace", f"expected True, False or a lumped.run.options.TraceOptions, got {trace!r}")
         tr = trace if isinstance(trace, TraceOptions) else None
         if tr is None:
             tr = TraceOptions(**{v: keywords[k] for k, v in _TRACE_KEYS.items() if k in keywords})

@@ -167,18 +167,24 @@ class PumpResult:
         ``path`` the figure is saved there, an existing file only replaced with ``force=True``."""
         import matplotlib
 
+        if self.trace is None:
+            raise InputError("trace", "the result holds no trace: run simulate(..., trace=True) to plot it")
+        if not isinstance(force, bool):
+            raise InputError("force", f"expected True or False, got {force!r}")
         if path is not None:
             from pathlib import Path
 
             if not isinstance(path, (str, Path)) or not str(path):
                 raise InputError("path", f"expected a file path, got {path!r}")
+            if Path(path).suffix.lower() not in PLOT_SUFFIXES:
+                raise InputError("path", f"{Path(path).name}: expected a file ending in {', '.join(PLOT_SUFFIXES)}")
+            if Path(path).is_dir() or not Path(path).parent.is_dir():
+                raise InputError("path", f"{path}: expected a file in an existing folder")
             if Path(path).exists() and not force:
                 raise InputError("path", f"{path} already exists; pass force=True to replace it")
             matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        if self.trace is None:
-            raise ValueError("the result holds no trace; simulate(..., trace=True)")
         fig, (a1, a2) = plt.subplots(2, 1, sharex=True, figsize=(8.5, 5))
         self.trace.plot(a1, ("inlet_position", "delivery_position"))
         self.trace.plot(a2, ("cylinder_pressure", "load_pressure"))
@@ -194,6 +200,8 @@ class PumpResult:
 
 
 # --------------------------------------------------------------------------- inputs
+#: the figure files PumpResult.plot writes (as the command line's --plot)
+PLOT_SUFFIXES = (".png", ".pdf", ".svg")
 _SPEED = Operating.__dataclass_fields__["speed_rpm"].metadata["valvelab"]
 _LOAD = Operating.__dataclass_fields__["load_pressure"].metadata["valvelab"]
 

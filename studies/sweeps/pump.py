@@ -162,6 +162,21 @@ def _base_name(design: dict) -> str:
                               "or in [fixed]")
 
 
+def _model_and_valve(fixed: dict, factors: dict) -> None:
+    """Both a pump model and a valve kind given (``model`` names the base, so ``valve`` is ignored by
+    :func:`_base_name`): refused unless every model has valves of every kind named."""
+    from lumped.model.model_file import load_model
+
+    models = [fixed["model"]] if "model" in fixed else list(factors.get("model", ()))
+    valves = [fixed["valve"]] if "valve" in fixed else list(factors.get("valve", ()))
+    for m in models if valves else ():
+        kinds = set(load_model(str(m), field="model").kinds)
+        for v in valves:
+            if kinds != {v}:
+                raise InputError("valve", f"{v!r} contradicts the model {m!r}, which has "
+                                          f"{' and '.join(sorted(kinds))} valves: the model names the valves; drop valve")
+
+
 def _positive(name, v, integer=False):
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
         raise InputError(name, f"must be a positive number, got {v!r}")
@@ -253,6 +268,7 @@ def check_inputs(fixed: dict, factors: dict) -> None:
     if not bases:
         raise InputError("model", "missing: give the pump model (model = NAME|FILE, or valve = disc|reed) as a "
                                   "factor or in [fixed]")
+    _model_and_valve(fixed, factors)
     seen: dict = {}
     for name in [*fixed, *factors]:      # a first-version name and its key path: one input given twice
         path = translate(name)
