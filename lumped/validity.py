@@ -242,6 +242,15 @@ def pump_warnings(runs: dict, delivery: float, rtol: float, cavitation_angle: fl
     return out
 
 
+def unresolved(outcome, rtol: float) -> ResultWarning:
+    """The ``numerical_accuracy`` warning of a fast run whose reported revolution still moves when integrated
+    tighter (lumped.run.accuracy.Outcome ``outcome``; ``rtol`` the run's): the estimated error, and what to do."""
+    return ResultWarning("numerical_accuracy", f"the fast path's answer is not resolved: integrated at rtol "
+                         f"{outcome.rtol:g} and {outcome.rtol / 10:g} the reported revolution differs in "
+                         f"{outcome.difference.describe()} (limits 0.5 deg, 0.05 %, 1 %); the error may be that "
+                         "large: use method='reference' (--method reference)")
+
+
 # --------------------------------------------------------------------------- before running (model check)
 def compression_pressure(model) -> float:
     """The highest cylinder pressure [Pa] the pump can reach: the oil a full cylinder holds at the tank

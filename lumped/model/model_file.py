@@ -636,10 +636,14 @@ def _set_effect_path(table: dict, model: PumpModel, parts: list, value, where: s
         elif value:
             eff = LIBRARY[name]
             effects.setdefault(name, {})
-            if eff.targets == ("inlet", "delivery"):
-                for t in POSITIONS:
-                    if eff.applies_to(model, t):
-                        effects[name].setdefault(t, {})
+            fits = [t for t in POSITIONS if eff.applies_to(model, t)]
+            if eff.targets != ("pump",) and not fits:
+                raise InputError(where, f"applies to {', '.join(eff.valve_types or ())} valves; this model's are "
+                                        f"{model.label}")
+            # a per-valve effect on a pump with one valve of its kinds: on that valve, not on "both"
+            if eff.targets == ("inlet", "delivery") or (eff.targets != ("pump",) and len(fits) < 2):
+                for t in fits:
+                    effects[name].setdefault(t, {})
         else:
             effects.pop(name, None)
         return

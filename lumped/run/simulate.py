@@ -13,13 +13,14 @@ from __future__ import annotations
 
 import math
 import time as _time
+import dataclasses
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from geometry.declare import check_field, check_value
 from geometry.errors import InputError, ModelFailure
-from lumped.run import postprocess as post
+from lumped.run import accuracy, postprocess as post
 from lumped import validity
 from lumped.solver import switching as sw
 from lumped.solver.layout import CAVITATION_SLOT, N_MODE, POSITIONS, G
@@ -99,6 +100,10 @@ class PumpResult:
     steady_tol: float = math.nan   # the tolerance cycle_change was tested against (the stop rule's, floored at rtol;
                                    # one revolution: SINGLE_FRACTION of it)
     tdc_state: object = field(default=None, compare=False, repr=False)   # lumped.run.revolutions.TdcState: the next start
+    # the fast path's accuracy check (lumped.run.accuracy): the tightening of the reported revolution (0: the run's
+    # own), its rtol, whether resolved, the extra steps and the last difference found (angle [rad], delivery and
+    # peak [-]); None: not checked (reference path, complete circuit, accuracy_check=False)
+    accuracy: dict | None = field(default=None, compare=False)
 
     @property
     def valves(self) -> dict:
@@ -301,11 +306,19 @@ def _run(m: PumpModel, speed: float, load: float, opts: RunOptions) -> PumpResul
     done = run(problem, stepper, y, mode, opts.stop, physics, rtol=rtol,
                keep=opts.trace.revolutions if opts.trace else 0, progress=opts.progress,
                label=f"{m.name} {speed:.0f} rpm ({kind})", warm=warm)
+    tdc = tdc_state(problem, done, physics.load_mass, stepper)
+    checked = None
+    if kind == "fast" and opts.solver.accuracy_check and not problem.complete:
+        # the reported revolution again, tighter (lumped.run.accuracy); a tuned needle valve changes between
+        # revolutions: the complete circuit is not re-integrated
+        checked = accuracy.check(problem, done, STEPPERS[opts.solver.method], physics, rtol, atol,
+                                 {"contact_atol": opts.solver.contact_atol, "max_steps": opts.solver.max_steps})
+        done.n_steps += checked.extra_steps
+    rt_modes = post.rates(done.last.span, problem, physics)
     cpu = _time.process_time() - cpu0
     info = _RunInfo(opts.solver.method, rtol, atol, cpu, opts.trace.points if opts.trace else 0,
-                    "warm" if warm else "cold", done.tol if done.tol else opts.stop.tolerance(rtol),
-                    tdc_state(problem, done, physics.load_mass, stepper))
-    res = _result(m, problem, done, physics, info)
+                    "warm" if warm else "cold", done.tol if done.tol else opts.stop.tolerance(rtol), tdc, checked)
+    res = _result(m, problem, done, physics, info, rt_modes)
     if opts.check:
         check_invariants(res, problem.model)
     return res
@@ -342,14 +355,16 @@ class _RunInfo:
     start: str
     steady_tol: float
     tdc: object
+    accuracy: object = None           # lumped.run.accuracy.Outcome (None: not checked)
 
 
-def _result(m: PumpModel, problem: PumpProblem, done, physics, info: _RunInfo) -> "PumpResult":
-    """The :class:`PumpResult` of a finished run: the last revolution post-processed."""
+def _result(m: PumpModel, problem: PumpProblem, done, physics, info: _RunInfo, rt_modes) -> "PumpResult":
+    """The :class:`PumpResult` of a finished run: the last revolution post-processed (``rt_modes``: its rates
+    table and modes, lumped.run.postprocess.rates)."""
     last = done.last
     span = last.span
     resolved = problem.model
-    rt, modes = post.rates(span, problem, physics)
+    rt, modes = rt_modes
     losses = post.losses(rt, problem, problem.period / post.ENERGY_SAMPLES)
     cav = float(np.mean(modes[:, CAVITATION_SLOT] > 0.5)) * 2.0 * math.pi
     valves = _valve_results(problem, span, last, losses)
@@ -357,6 +372,8 @@ def _result(m: PumpModel, problem: PumpProblem, done, physics, info: _RunInfo) -
     vapour = float(np.max(rt[:, post.COL["vapour_volume"]] / rt[:, post.COL["volume"]]))
     warns = [w for pos in POSITIONS for w in validity.valve_warnings(resolved.valve(pos), runs[pos], resolved.oil)]
     warns += validity.pump_warnings(runs, last.delivery, info.rtol, cav, vapour)
+    if info.accuracy is not None and not info.accuracy.resolved:
+        warns.append(validity.unresolved(info.accuracy, info.rtol))
     tr = post.trace(done.kept, problem, info.trace_points, physics) if info.trace_points else None
     p_cyl = rt[:, post.COL["p_cyl"]]
     method = info.method
@@ -373,7 +390,11 @@ def _result(m: PumpModel, problem: PumpProblem, done, physics, info: _RunInfo) -
         cavitation_angle=cav, rhs_evaluations=int(done.n_rhs), steps=int(done.n_steps), events=int(done.n_events),
         method="fast" if method == "fast" else ("reference" if method == "reference" else method),
         rtol=info.rtol, atol=info.atol, trace=tr, dynamics=_dynamics(resolved), warnings=tuple(warns),
-        start=info.start, steady_tol=info.steady_tol, tdc_state=info.tdc)
+        start=info.start, steady_tol=info.steady_tol, tdc_state=info.tdc,
+        accuracy=None if info.accuracy is None else {
+            "level": info.accuracy.level, "rtol": info.accuracy.rtol, "resolved": info.accuracy.resolved,
+            "extra_steps": info.accuracy.extra_steps,
+            "difference": {k: float(v) for k, v in dataclasses.asdict(info.accuracy.difference).items()}})
 
 
 def _valve_results(problem: PumpProblem, span, last, losses) -> dict:

@@ -293,8 +293,11 @@ KIND = register(ValveKind(
     name="ball", default_model="thesis-ball", params=BallValve, acceleration=ball_acceleration, block=BALL,
     # the fast path's tolerances (docs/models.md, "The fast path's tolerances"): a stiff steel seat and a
     # housing stop like the disc's, its lift-off decided by the net force; in free flight the ball floats on
-    # the flow between seat and stop, and its velocity decides its timing
-    contact_velocity_atol=100.0,
+    # the flow between seat and stop, and its velocity decides its timing. On its seat the velocity is the
+    # reference's (1, not the disc's 100): pressed a tenth of a micrometre into a steel seat, the ball creeps out
+    # of it at ~1e-5 m/s as the cylinder pressure decays, and a looser velocity let the creep lag and the inlet
+    # open up to 14 deg late (6 of 320 random designs, benchmarks/fast_accuracy_study.py; +15-20 % steps)
+    contact_velocity_atol=1.0,
     contact_position_atol=1000.0,
     free_velocity_atol=3.0,
     # designs the fast path is checked on (lumped.model.random_designs)

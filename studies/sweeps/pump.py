@@ -94,7 +94,8 @@ ON_WARNING = ("flag", "exclude")
 MAIN_RESPONSES = ("delivery_m3_per_rev", "volumetric_efficiency", "delivery_peak_opening_m")
 REQUIRED = ()
 OPERATING = ("model", "valve", "speed_rpm", "load_pressure", "air_content", "revolutions", "max_revolutions",
-             "steady_tol", "warm_start", "one_revolution", "method", "rtol", "atol", "circuit", "on_warning")
+             "steady_tol", "warm_start", "one_revolution", "method", "rtol", "atol", "circuit", "on_warning",
+             "accuracy_check")
 #: the most revolutions a design runs to reach cyclic steady state (unless ``max_revolutions``)
 MAX_REVOLUTIONS = 10
 #: the steady-state test's tolerance (floored at the integrator's rtol) unless ``steady_tol``: lumped's
@@ -218,7 +219,7 @@ def check(name: str, value) -> None:
         _positive(name, value, integer=True)
         if not 2 <= value <= 100_000:
             raise InputError(name, f"must be from 2 (cyclic steady state compares two) to 100000, got {value!r}")
-    elif name in ("warm_start", "one_revolution"):
+    elif name in ("warm_start", "one_revolution", "accuracy_check"):
         if not isinstance(value, bool):
             raise InputError(name, f"must be true or false, got {value!r}")
     elif name in ("steady_tol", "rtol", "atol"):
@@ -434,6 +435,9 @@ def simulate_design(model, design: dict, warm=None):
     from lumped.run.simulate import simulate
 
     kw = {k: design[k] for k in ("rtol", "atol") if k in design}
+    # the fast path's a-posteriori check (lumped.run.accuracy) costs a revolution at a tenth of the tolerances, more
+    # than a warm-started design's own: a sweep asks for it (accuracy_check = true); docs/performance.md
+    kw["accuracy_check"] = bool(design.get("accuracy_check", False))
     res = simulate(model, design.get("speed_rpm"), design.get("load_pressure"),
                    air_content=design.get("air_content"), stop=stop_rule(design),
                    circuit=design.get("circuit"), method=design.get("method", "fast"),
