@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -123,6 +124,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--cache", default="out/fast_accuracy_ref.json", help="reference results (reused when present)")
     ap.add_argument("--reference-only", action="store_true", help="only fill the cache of reference results")
+    ap.add_argument("--save", action="store_true", help="also write benchmarks/results_fast_accuracy.json")
     args = ap.parse_args(argv)
     cache = Path(args.cache)
     refs = {r["i"]: r for r in json.loads(cache.read_text())} if cache.is_file() else {}
@@ -133,6 +135,7 @@ def main(argv=None) -> dict:
         cache.write_text(json.dumps(sorted(refs.values(), key=lambda r: r["i"])))
     if args.reference_only:
         return {"reference_cached": len(refs)}
+    load_before = os.getloadavg()[0]
     fasts = _map(fast, list(range(args.designs)), args.workers, "fast")
     rows, misses, silent, flagged, cost = [], [], [], 0, {"checked": [0.0, 0], "unchecked": [0.0, 0]}
     for f in fasts:
@@ -169,8 +172,16 @@ def main(argv=None) -> dict:
         "cpu_s": {k: v[0] for k, v in cost.items()}, "steps": {k: v[1] for k, v in cost.items()},
         "cost_ratio_cpu": cost["checked"][0] / cost["unchecked"][0] if cost["unchecked"][0] else None,
         "cost_ratio_steps": cost["checked"][1] / cost["unchecked"][1] if cost["unchecked"][1] else None,
-        "labels": sorted({r["label"] for r in compared}),
+        "valve_designs": sorted({r["label"].split(" + ")[0] for r in compared}),
+        "effects": {e: sum(1 for r in compared if r["label"].endswith(f" + {e}")) for e in
+                    sorted({r["label"].split(" + ")[1] for r in compared if " + " in r["label"]})},
+        "bare": sum(1 for r in compared if " + " not in r["label"]),
+        "workers": args.workers, "load_average_before_after": [load_before, os.getloadavg()[0]],
+        "unchecked_misses": [r for r in compared if r["unchecked_angle_dev_deg"] > ANGLE_TOL_DEG
+                             or r["unchecked_delivery_dev"] > DELIVERY_TOL],
     }
+    if args.save:
+        (Path(__file__).parent / "results_fast_accuracy.json").write_text(json.dumps(result, indent=1) + "\n")
     print(json.dumps(result, indent=1))
     return result
 

@@ -80,17 +80,30 @@ class FlowPoint:
         return {**d, "u_num": dict(self.u_num), **self.extra}
 
 
-def check_reynolds(reynolds: float, field: str = "--reynolds") -> float:
+def check_valve(valve, field: str = "valve") -> "FluidValve":
+    """``valve`` if it is a :class:`FluidValve` (or ``MODEL[:POSITION]``, loaded), else InputError naming ``field``."""
+    if isinstance(valve, str):
+        return load_fluid_valve(valve, field)
+    if not isinstance(valve, FluidValve):
+        raise InputError(field, f"expected a fea.fluid.FluidValve (load_fluid_valve('thesis-disc:inlet')) or "
+                                f"'MODEL[:POSITION]', got {type(valve).__name__} {valve!r}")
+    return valve
+
+
+def check_reynolds(reynolds: float, field: str = "reynolds") -> float:
     """Re if finite and > 0, else InputError naming ``field``."""
-    if not (isinstance(reynolds, (int, float)) and math.isfinite(reynolds) and reynolds > 0):
+    if isinstance(reynolds, bool) or not (isinstance(reynolds, (int, float)) and math.isfinite(reynolds)
+                                          and reynolds > 0):
         raise InputError(field, f"the Reynolds number must be a positive number, got {reynolds!r}")
     return float(reynolds)
 
 
-def check_lift(valve: FluidValve, lift: float, field: str = "--lift-mm") -> float:
+def check_lift(valve: FluidValve, lift: float, field: str = "lift") -> float:
     """The lift [m] if 0 < lift <= the valve's stop gap, else InputError naming ``field``."""
-    stop = valve.params.stop_gap
-    if not (isinstance(lift, (int, float)) and math.isfinite(lift) and 0.0 < lift <= stop * (1 + 1e-9)):
+    stop = check_valve(valve).params.stop_gap
+    if isinstance(lift, bool) or not isinstance(lift, (int, float)):
+        raise InputError(field, f"expected a lift in m (a number), got {lift!r}")
+    if not (math.isfinite(lift) and 0.0 < lift <= stop * (1 + 1e-9)):
         raise InputError(field, f"the lift must lie in (0, {stop * 1e3:.4g}] mm (the stop of the "
                          f"{valve.position} valve), got {lift * 1e3:.4g} mm")
     return float(lift)

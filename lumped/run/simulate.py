@@ -311,8 +311,11 @@ def _run(m: PumpModel, speed: float, load: float, opts: RunOptions) -> PumpResul
     if kind == "fast" and opts.solver.accuracy_check and not problem.complete:
         # the reported revolution again, tighter (lumped.run.accuracy); a tuned needle valve changes between
         # revolutions: the complete circuit is not re-integrated
+        # the run's own method and order (a tighter rtol would pick Rodas5P for a flow force: another kernel to
+        # compile), so the tighter levels differ from the run by their tolerances only
         checked = accuracy.check(problem, done, STEPPERS[opts.solver.method], physics, rtol, atol,
-                                 {"contact_atol": opts.solver.contact_atol, "max_steps": opts.solver.max_steps})
+                                 {"contact_atol": opts.solver.contact_atol, "max_steps": opts.solver.max_steps,
+                                  "order": stepper.order})
         done.n_steps += checked.extra_steps
     rt_modes = post.rates(done.last.span, problem, physics)
     cpu = _time.process_time() - cpu0
