@@ -329,6 +329,8 @@ def _gci_inputs(values, sizes, cells, dim, order) -> tuple[tuple, tuple]:
         validate.number(order, "order", positive=True)
         if len(f) == 3:
             raise InputError("order", "applies to two solutions; three give the observed order")
+    elif len(f) == 2:
+        raise InputError("order", "two solutions need the method's formal order (order > 0), e.g. order=2")
     return f, h
 
 

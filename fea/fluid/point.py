@@ -11,6 +11,7 @@ mapping of the fidelity's settings. The keys of :class:`FlowPoint` are those of 
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field, fields
 
 from geometry.errors import InputError
@@ -109,7 +110,7 @@ def check_lift(valve: FluidValve, lift: float, field: str = "lift") -> float:
     return float(lift)
 
 
-def parse_valve(spec: str, field: str = "VALVE") -> tuple[str, str]:
+def parse_valve(spec: str, field: str = "spec") -> tuple[str, str]:
     """(model, position) of ``MODEL[:POSITION]`` (position inlet by default)."""
     model, sep, position = str(spec).rpartition(":")
     if not sep:
@@ -119,13 +120,15 @@ def parse_valve(spec: str, field: str = "VALVE") -> tuple[str, str]:
     return model, position
 
 
-def load_fluid_valve(spec, field: str = "VALVE") -> FluidValve:
+def load_fluid_valve(spec, field: str = "spec") -> FluidValve:
     """The valve ``MODEL[:POSITION]`` (a shipped model name or a model file) with its model's oil."""
     from lumped import load_model
     from lumped.valves.kind import kind_of
 
     if isinstance(spec, FluidValve):
         return spec
+    if not isinstance(spec, (str, os.PathLike)) or not str(spec).strip():
+        raise InputError(field, f"expected 'MODEL[:POSITION]' (a shipped model or a model file), got {spec!r}")
     model_spec, position = parse_valve(spec, field)
     model = load_model(model_spec, field=field)
     params = model.valve(position)
