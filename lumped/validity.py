@@ -246,7 +246,7 @@ def unresolved(outcome, rtol: float) -> ResultWarning:
     """The ``numerical_accuracy`` warning of a fast run whose reported revolution still moves when integrated
     tighter (lumped.run.accuracy.Outcome ``outcome``; ``rtol`` the run's): the estimated error, and what to do."""
     return ResultWarning("numerical_accuracy", f"the fast path's answer is not resolved: integrated at rtol "
-                         f"{outcome.rtol:g} and {outcome.rtol / 10:g} the reported revolution differs in "
+                         f"{outcome.rtol * 10:.3g} and {outcome.rtol:.3g} the reported revolution differs in "
                          f"{outcome.difference.describe()} (limits 0.5 deg, 0.05 %, 1 %); the error may be that "
                          "large: use method='reference' (--method reference)")
 

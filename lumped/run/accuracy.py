@@ -21,8 +21,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
-
 #: tolerances divided by this for each tighter level
 TIGHTEN = 10.0
 #: the most levels tried beyond the run's own (rtol 1e-3 -> 1e-4 -> 1e-5)

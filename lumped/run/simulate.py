@@ -11,9 +11,9 @@ that breaks its own invariants is an :class:`InvariantError`, not an output.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time as _time
-import dataclasses
 from dataclasses import dataclass, field, replace
 
 import numpy as np
