@@ -117,6 +117,7 @@ def dataset(tmp_path_factory):
 def _cases(tmp: Path, data: dict) -> list[tuple]:
     """(name, argv, the field named, strings the line must not hold)."""
     (tmp / "other.toml").write_text(UNIFORM + "\n[other]\nx = 1\n")
+    (tmp / "preset.toml").write_text(re.sub(r"(?m)^\[preset\][^\n]*", "[preset]\nfoo = 2", UNIFORM, count=1))
     (tmp / "low.toml").write_text('base = "thesis-disc"\n[operating]\nload_pressure = 0.05e6\n')
     (tmp / "modal.toml").write_text('base = "thesis-reed"\n[valves.delivery]\ngeometry = "prototype"\n'
                                     'dynamics = "modal"\nmodes = 2\nmesh_size = 1.0\n')
@@ -134,6 +135,7 @@ def _cases(tmp: Path, data: dict) -> list[tuple]:
     pump = ["--speed-rpm", "593", "--load-pressure-mpa", "2.76"]
     return [
         ("a reed file's unknown table", ["reed", str(tmp / "other.toml")], "other", ()),
+        ("a reed file's unknown [preset] key", ["reed", str(tmp / "preset.toml")], "preset.foo", ()),
         ("model check: a load below the tank pressure", ["model", "check", str(tmp / "low.toml"), "--no-fea"],
          "operating.load_pressure", ()),
         ("sensitivity: a load below the tank pressure", ["sensitivity", str(tmp / "sens_low.toml"), "--out",
@@ -171,7 +173,7 @@ def _cases(tmp: Path, data: dict) -> list[tuple]:
     ]
 
 
-N_CASES = 20
+N_CASES = 21
 
 
 def test_the_third_round_has_its_cases(tmp_path, dataset):
