@@ -25,10 +25,11 @@ from dataclasses import dataclass
 TIGHTEN = 10.0
 #: the most levels tried beyond the run's own (rtol 1e-3 -> 1e-4 -> 1e-5)
 MAX_LEVELS = 2
-#: the limits a reported answer must meet: event angles [rad], delivery [-, relative], peak openings [-, relative
-#: to the valve's stop gap]
+#: the limits a reported answer must meet: an opening or closing angle [rad]
 ANGLE_LIMIT = math.radians(0.5)
+#: ... the delivery [-, relative to it]
 DELIVERY_LIMIT = 5e-4
+#: ... a valve's peak opening [-, relative to its stop gap]
 PEAK_LIMIT = 0.01
 #: a delivery below this fraction of the swept volume is compared on it instead (lumped.run.postprocess.MASS_FLOOR)
 DELIVERY_FLOOR = 1e-2
