@@ -6,15 +6,7 @@ import sys
 from pathlib import Path
 
 from geometry.errors import InputError
-
 from studies.cli import flags
-from studies.discrepancy.workflow import Settings, Workflow
-from studies.discrepancy.report import write_report
-from studies.discrepancy.validation import sentence as validation_sentence
-from studies.discrepancy.gap import GapScales
-from studies.discrepancy.measured import read_dataset
-from studies.discrepancy.model_choice import choose
-from studies.outputs import check_output_dir
 
 HELP = "name the effects the baseline model misses in a measured dataset, fit them, report the gap"
 
@@ -69,6 +61,7 @@ def demo_dataset(folder, seed: int, workers: int, force: bool):
     force : bool
         Write into a folder valvelab did not create.
     """
+    from studies.discrepancy.model_choice import choose
     from studies.discrepancy.synth import Noise, synthesize, thesis_conditions, write_synthetic
 
     sim = choose(model="thesis-disc")
@@ -82,6 +75,14 @@ def demo_dataset(folder, seed: int, workers: int, force: bool):
 def run(args) -> dict:
     """Run ``valvelab discrepancy``: name the effects the baseline model misses in a measured dataset, fit them, report
     the gap (the JSON of ``--json``; :mod:`studies.cli`)."""
+    # the machinery loads here, not with the parser: ``valvelab discrepancy --help`` imports no model
+    from studies.discrepancy.gap import GapScales
+    from studies.discrepancy.measured import read_dataset
+    from studies.discrepancy.model_choice import choose
+    from studies.discrepancy.report import write_report
+    from studies.discrepancy.workflow import Settings, Workflow
+    from studies.outputs import check_output_dir
+
     scales = GapScales(args.position_tolerance_um * 1e-6, args.delivery_tolerance_pct / 100.0)
     rel = args.min_improvement_pct / 100.0
     gain = args.min_gain_units
@@ -125,6 +126,8 @@ def run(args) -> dict:
 
 def render(r: dict) -> str:
     """The result of ``valvelab discrepancy`` as readable text."""
+    from studies.discrepancy.validation import sentence as validation_sentence
+
     def gap(g):
         p = "-" if g["position_rms_m"] is None else f"{g['position_rms_m'] * 1e3:.3f} mm"
         d = "-" if g["delivery_error_pct"] is None else f"{g['delivery_error_pct']:.2f} %"
