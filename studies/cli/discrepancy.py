@@ -142,16 +142,23 @@ def render(r: dict) -> str:
     lines += [f"  - {s}" for s in r["disagreements"]] or ["  none beyond the tolerances"]
     if r["effects_added"]:
         for name in r["effects_added"]:
-            vals = ", ".join(f"{k} = {v:.4g}" for k, v in r["parameters"][name].items())
+            units = r.get("parameter_units", {}).get(name, {})
+            vals = ", ".join(f"{k} = {v:.4g} {units.get(k, '')}".rstrip() for k, v in r["parameters"][name].items())
             lines.append(f"added {name} ({r['targets'][name]}): {vals}")
     else:
         lines.append("no effect added: no candidate shrinks the held-out gap significantly")
     for d in r.get("indistinguishable") or []:
         lines.append(f"indistinguishable: {d['sentence']}")
-    lines.append(f"gap before: {gap(r['gap_before'])}")
-    lines.append(f"gap after:  {gap(r['gap_after'])}")
+    # the same three groups as the report's gap_bars.png: every run, the fitted ones, the held-out ones
+    lines.append(f"gap before, all {len(r['runs'])} runs: {gap(r['gap_before'])}")
+    lines.append(f"gap after,  all {len(r['runs'])} runs: {gap(r['gap_after'])}")
+    fitted = r.get("fitted")
+    if fitted and r["held_out"]:
+        lines.append(f"fitted ({len(fitted['runs'])} runs): before {gap(fitted['gap_before'])}; "
+                     f"after {gap(fitted['gap_after'])}")
     if r["held_out"]:
-        lines.append(f"held out ({', '.join(r['held_out']['runs'])}): before {gap(r['held_out']['gap_before'])}; "
+        held = r["held_out"]["runs"]
+        lines.append(f"held out ({len(held)} runs: {', '.join(held)}): before {gap(r['held_out']['gap_before'])}; "
                      f"after {gap(r['held_out']['gap_after'])}")
     for s in (r.get("unexplained") or {}).get("sentences", []):
         lines.append(f"left unexplained: {s}")

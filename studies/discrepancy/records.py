@@ -177,17 +177,19 @@ class Outcome:
 
     def as_contract(self) -> dict:
         """The contract's JSON keys plus the details behind them."""
-        names, params, targets = [], {}, {}
+        names, params, units, targets = [], {}, {}, {}
         for a in self.model:
             eff = self.library[a.name]
             names.append(a.name)
             params[a.name] = eff.report(a.value_dict, self.valve_type, a.target)
+            units[a.name] = eff.units(self.valve_type, a.target)
             targets[a.name] = a.target
         fit_names = [r.name for r in self.fit_runs]
         held_names = [r.name for r in self.held_runs]
         return {
             "effects_added": names,
             "parameters": params,
+            "parameter_units": units,
             "targets": targets,
             "gap_before": gap_of(self.before, fit_names + held_names),
             "gap_after": gap_of(self.after, fit_names + held_names),
