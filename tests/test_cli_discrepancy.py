@@ -132,7 +132,11 @@ def test_report_figures_show_the_printed_gaps(tmp_path, monkeypatch, capsys):
     capsys.readouterr()
     with figure_checks.capture() as saved:
         assert main(["discrepancy", "ds", "--workers", "1", *MODEL, "--json"]) == 0
-    res = json.loads(capsys.readouterr().out)
+    printed = capsys.readouterr()
+    res = json.loads(printed.out)
+    # progress in words and units, not Python's reprs
+    assert "adding seat_compliance@delivery k_seat = " in printed.err and " N/m, c_seat = " in printed.err
+    assert "{'" not in printed.err, printed.err
     found = [p for path, fig in saved for p in figure_checks.problems(fig, path.rsplit("/", 1)[-1])]
     assert not found, "\n".join(found)
     (fig,) = [f for path, f in saved if path.endswith("gap_bars.png")]
