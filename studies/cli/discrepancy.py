@@ -72,6 +72,18 @@ def demo_dataset(folder, seed: int, workers: int, force: bool):
     write_synthetic(folder, runs, truth_doc, force=force)
 
 
+def _announce(args, runs, model: str) -> None:
+    """Say what the search runs and about how long, from the measured cost per run of the shipped pump models
+    (no estimate for a ``--simulator`` of the user's)."""
+    from studies import costs
+    from studies.outputs import announce
+
+    seconds = costs.estimate(discrepancy__run=len(runs)) if args.simulator is None else None
+    announce("discrepancy", f"{len(runs)} runs against {model}, at most {args.max_rounds} rounds over the candidate "
+                            f"effects on {args.workers} worker{'s' if args.workers > 1 else ''}", seconds,
+             basis="the median of 99 measured datasets; up to 4x where two effects trade")
+
+
 def run(args) -> dict:
     """Run ``valvelab discrepancy``: name the effects the baseline model misses in a measured dataset, fit them, report
     the gap (the JSON of ``--json``; :mod:`studies.cli`)."""
@@ -105,6 +117,7 @@ def run(args) -> dict:
         demo_dataset(args.dataset, args.seed, args.workers, args.force)
     runs = read_dataset(args.dataset)
     sim = choose(args.model, args.simulator, runs)
+    _announce(args, runs, sim.name)
     settings = Settings(scales=scales, min_rel_improvement=rel, min_abs_improvement=gain,
                         max_rounds=args.max_rounds, holdout=tuple(args.holdout) if args.holdout else None,
                         workers=args.workers)
@@ -126,6 +139,7 @@ def run(args) -> dict:
 
 def render(r: dict) -> str:
     """The result of ``valvelab discrepancy`` as readable text."""
+    from studies.discrepancy.records import values_text
     from studies.discrepancy.validation import sentence as validation_sentence
 
     def gap(g):
@@ -142,8 +156,7 @@ def render(r: dict) -> str:
     lines += [f"  - {s}" for s in r["disagreements"]] or ["  none beyond the tolerances"]
     if r["effects_added"]:
         for name in r["effects_added"]:
-            units = r.get("parameter_units", {}).get(name, {})
-            vals = ", ".join(f"{k} = {v:.4g} {units.get(k, '')}".rstrip() for k, v in r["parameters"][name].items())
+            vals = values_text(r["parameters"][name], r.get("parameter_units", {}).get(name, {}))
             lines.append(f"added {name} ({r['targets'][name]}): {vals}")
     else:
         lines.append("no effect added: no candidate shrinks the held-out gap significantly")

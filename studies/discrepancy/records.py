@@ -262,6 +262,28 @@ class Outcome:
         return out
 
 
+def values_text(values: dict, units: dict) -> str:
+    """Fitted values as a user reads them, each with its unit (none for a ratio, ``-``).
+
+    Parameters
+    ----------
+    values : dict
+        {name: value} in SI.
+    units : dict
+        {name: unit} (:meth:`lumped.model.effects.Effect.units`); a name without one is printed bare.
+
+    Returns
+    -------
+    str
+
+    >>> values_text({"k_seat": 1503314.78, "c_seat": 153.1395, "scale": 0.99941}, {"k_seat": "N/m", "c_seat": "N s/m",
+    ...             "scale": "-"})
+    'k_seat = 1.503e+06 N/m, c_seat = 153.1 N s/m, scale = 0.9994'
+    """
+    return ", ".join(f"{k} = {v:.4g} {units.get(k, '') if units.get(k) != '-' else ''}".rstrip()
+                     for k, v in values.items())
+
+
 def gap_of(ev: Evaluation, runs) -> dict:
     """The contract's gap object of an evaluated model on the runs named ``runs``."""
     s = summary([g for g in ev.gaps if g.run in runs])

@@ -25,6 +25,7 @@ import pandas as pd  # noqa: E402
 
 from studies.discrepancy.workflow import Outcome  # noqa: E402
 from studies.discrepancy.gap import fold, predict, summary  # noqa: E402
+from studies.discrepancy.records import values_text  # noqa: E402
 from studies.discrepancy.words import window_sentences  # noqa: E402
 from studies.discrepancy.validation import sentence  # noqa: E402
 from studies.outputs import prepare_output_dir  # noqa: E402
@@ -35,7 +36,7 @@ def _ranking_frame(ranking: list[dict], outcome: Outcome) -> pd.DataFrame:
     for r in ranking:
         row = {k: v for k, v in r.items() if k != "parameters"}
         units = _units(outcome, r["effect"], r["target"])
-        row["parameters"] = ", ".join(f"{k} = {v:.4g} {units.get(k, '')}".rstrip() for k, v in r["parameters"].items())
+        row["parameters"] = values_text(r["parameters"], units)
         rows.append(row)
     cols = ["round", "rank", "effect", "target", "parameters", "held_out_improvement_pct", "fit_improvement_pct",
             "delta_bic", "plausible", "accepted", "held_out_cost", "fit_cost", "simulations", "why_not_plausible",

@@ -20,6 +20,7 @@ from lumped.model.effects import Applied, Effect
 from studies.discrepancy import fitting, indistinct, joint
 from studies.discrepancy import profile as prof
 from studies.discrepancy.backward import backward
+from studies.discrepancy import records
 from studies.discrepancy.records import CandidateFit, Evaluation, rank_key
 from studies.discrepancy.selection import Base, Trial, judge, significant
 
@@ -78,8 +79,7 @@ def start(pb) -> State:
 
 def values_text(eff: Effect, values: dict, context, target: str) -> str:
     """An effect's values as a user reads them: ``k_seat = 1.503e+06 N/m, c_seat = 153.1 N s/m``."""
-    units = eff.units(context, target)
-    return ", ".join(f"{k} = {v:.4g} {units.get(k, '')}".rstrip() for k, v in values.items())
+    return records.values_text(values, eff.units(context, target))
 
 
 def search(pb, state: State, cands: list) -> None:
