@@ -129,6 +129,9 @@ def test_every_tour_line_states_the_wall_time_measured():
         assert measured[line]["exit"] == 0, line
         assert wall / 1.5 <= t <= wall * 1.5, f"{line!r}: README says {t:g} s, measured {wall:g} s"
     full = json.loads((ROOT / "benchmarks" / "results_validation.json").read_text())["validate_full"]["wall_seconds"]
-    m = re.search(r"takes about (\d+) min on two cores", README)
+    m = re.search(r"takes\s+about\s+(\d+)\s+min\s+on\s+two\s+cores", README)
     assert m, "the opening command's time"
     assert full / 1.5 <= float(m.group(1)) * 60.0 <= full * 1.5
+    tests = re.search(r"the\s+default\s+run:\s+(\d+)\s+min\s+on\s+two\s+cores", README)
+    assert tests and "pytest" in measured, "the opening test command's time"
+    assert measured["pytest"]["wall_s"] / 1.5 <= float(tests.group(1)) * 60.0 <= measured["pytest"]["wall_s"] * 1.5

@@ -73,8 +73,15 @@ def start(pb) -> State:
         cur = pb.evaluate(current)
         pb.log("baseline nuisances: " + ", ".join(
             f"{a.key} {values_text(pb.eff(a.name), a.value_dict, pb.context, a.target)}" for a in current)
-            + f" (held-out gap {before.held_cost:.4g} -> {cur.held_cost:.4g} gap units)")
+            + _held_change(before, cur))
     return State(current, cur, before)
+
+
+def _held_change(before: Evaluation, after: Evaluation) -> str:
+    """`` (held-out gap 347.1 -> 251.1 gap units)``, or nothing for a dataset with no held-out run."""
+    if before.held_cost is None or after.held_cost is None:
+        return ""
+    return f" (held-out gap {before.held_cost:.4g} -> {after.held_cost:.4g} gap units)"
 
 
 def values_text(eff: Effect, values: dict, context, target: str) -> str:
