@@ -3,7 +3,7 @@
 :func:`problems` inspects a drawn matplotlib figure and lists what is wrong, in words:
 
 - a legend whose window covers data: a drawn line passing through it (the segments between
-  its points, not only its vertices), a marker or a scatter point inside it;
+  its points, not only its vertices), a marker or a scatter point inside it, a bar it overlaps;
 - an axis showing numbers whose label has no unit in brackets (``[mm]``, ``[-]`` for a ratio
   or a count). An axis without tick labels (shared, hidden) or labelled by names (categories,
   variable names) needs none.
@@ -67,6 +67,28 @@ def _data_paths(ax):
             yield coll.get_label(), np.asarray(xy, dtype=float), False, box
 
 
+def _bars(ax):
+    """(label, display box) of every drawn bar of an axes (``ax.bar``, ``ax.barh``), clipped to its window."""
+    from matplotlib.transforms import Bbox
+
+    box = ax.get_window_extent()
+    for container in ax.containers:
+        for rect in getattr(container, "patches", ()):
+            if rect.get_visible() and rect.get_width() and rect.get_height():
+                clipped = Bbox.intersection(rect.get_window_extent(), box)
+                if clipped is not None and clipped.width > 1 and clipped.height > 1:
+                    yield container.get_label(), clipped
+
+
+def _overlaps(bbox, bar) -> bool:
+    """Whether a legend's window (shrunk by a pixel at each side) overlaps a bar's box."""
+    from matplotlib.transforms import Bbox
+
+    inner = Bbox.from_extents(bbox.x0 + 1, bbox.y0 + 1, bbox.x1 - 1, bbox.y1 - 1)
+    both = Bbox.intersection(inner, bar)
+    return both is not None and both.width > 0 and both.height > 0
+
+
 def _is_guide(line) -> bool:
     """An axhline/axvline: two points in axes coordinates along one direction."""
     x, y = line.get_data(orig=False)
@@ -122,6 +144,9 @@ def problems(fig, name: str = "figure") -> list[str]:
                 if _covers(bbox, xy, joined, clip):
                     title = ax.get_title() or ax.get_ylabel() or "an axes"
                     found.append(f"{name}: the legend covers {label!r} on {title!r}")
+            for label in dict.fromkeys(label for label, bar in _bars(ax) if _overlaps(bbox, bar)):
+                title = ax.get_title() or ax.get_ylabel() or "an axes"
+                found.append(f"{name}: the legend covers the bars {label!r} on {title!r}")
     for ax in fig.axes:
         if not ax.get_visible() or not ax.axison or ax.name != "rectilinear":
             continue

@@ -41,7 +41,8 @@ def _set_seat(p, v, t):
 LIBRARY = LIB = Library()
 LIB.register(Effect(
     "seat_compliance", "compliant seat", (Parameter("k_seat", "N/m", 3.0e9, (1e5, 1e10), (1e5, 3.1e9), "FEA"),),
-    _set_seat, targets=PER_VALVE, derived=lambda v, vt: {"c_seat": 2 * math.sqrt(v["k_seat"] * 3.9e-3)}))
+    _set_seat, targets=PER_VALVE, derived=lambda v, vt: {"c_seat": 2 * math.sqrt(v["k_seat"] * 3.9e-3)},
+    derived_units={"c_seat": "N s/m"}))
 LIB.register(Effect(
     "closing_lag", "inertia-like closing lag", (Parameter("lag_deg", "deg", 1.0, (0.05, 100.0), (0.05, 30.0), "toy"),),
     lambda p, v, t: replace(p, lag_deg=v["lag_deg"]), targets=BOTH_VALVES))

@@ -115,3 +115,46 @@ def test_a_hidden_effect_of_a_ball_valve_pump_is_named(cli, effect, name, target
     assert res["parameters"][name][param] == pytest.approx(value, rel=0.2)
     c0, c1 = res["held_out"]["cost_before"], res["held_out"]["cost_after"]
     assert c1 <= 0.3 * c0
+
+
+def test_report_figures_show_the_printed_gaps(tmp_path, monkeypatch, capsys):
+    """gap_bars.png's first group is the gap the command prints (every run, before and after), each group
+    says how many runs it pools, each bar carries its value; every report figure passes the figure checks;
+    the fitted parameters are printed with their units."""
+    import figure_checks
+    from studies.cli import main
+    from studies.cli.discrepancy import render
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    assert main(["synth", "ds", "--effect", "seat_compliance@delivery:k_seat=1.5e6", "--air-content", "0.013",
+                 "--seed", "3", *MODEL]) == 0
+    capsys.readouterr()
+    with figure_checks.capture() as saved:
+        assert main(["discrepancy", "ds", "--workers", "1", *MODEL, "--json"]) == 0
+    printed = capsys.readouterr()
+    res = json.loads(printed.out)
+    # progress in words and units, not Python's reprs
+    assert "adding seat_compliance@delivery k_seat = " in printed.err and " N/m, c_seat = " in printed.err
+    assert "{'" not in printed.err, printed.err
+    found = [p for path, fig in saved for p in figure_checks.problems(fig, path.rsplit("/", 1)[-1])]
+    assert not found, "\n".join(found)
+    (fig,) = [f for path, f in saved if path.endswith("gap_bars.png")]
+    pos, dele = fig.axes[:2]
+    n = len(res["runs"])
+    assert [t.get_text() for t in pos.get_xticklabels()] == [
+        f"all {n} runs", f"fitted ({len(res['fitted']['runs'])})", f"held out ({len(res['held_out']['runs'])})"]
+    for ax, key, scale in ((pos, "position_rms_m", 1e3), (dele, "delivery_error_pct", 1.0)):
+        before, after = ax.containers[0], ax.containers[1]
+        assert before.patches[0].get_height() == pytest.approx(res["gap_before"][key] * scale, rel=1e-12)
+        assert after.patches[0].get_height() == pytest.approx(res["gap_after"][key] * scale, rel=1e-12)
+        assert before.patches[1].get_height() == pytest.approx(res["fitted"]["gap_before"][key] * scale, rel=1e-12)
+        assert before.patches[2].get_height() == pytest.approx(res["held_out"]["gap_before"][key] * scale, rel=1e-12)
+    # the number printed for the gap before is the number written on its bar
+    drawn = [t.get_text() for t in pos.texts]
+    printed = f"{res['gap_before']['position_rms_m'] * 1e3:.3f}"
+    assert printed in drawn
+    text = render(res)
+    assert f"gap before, all {n} runs: position RMS {printed} mm" in text
+    assert res["parameter_units"]["seat_compliance"] == {"k_seat": "N/m", "c_seat": "N s/m"}
+    assert " N/m, c_seat = " in text and text.split("c_seat = ", 1)[1].split(" ", 2)[1] == "N"

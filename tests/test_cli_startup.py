@@ -18,8 +18,6 @@ from studies.cli import COMMANDS
 
 ROOT = Path(__file__).resolve().parents[1]
 HEAVY = ("numba", "scipy", "matplotlib", "dask", "distributed", "skfem", "gmsh", "pandas", "lumped", "fea")
-#: commands whose modules other work is making lazy: an XPASS (strict) says they are done
-PENDING = {"discrepancy", "synth"}
 
 PROBE = """
 import sys
@@ -48,9 +46,7 @@ def test_top_level_help_imports_no_command_module():
     assert "%%" not in out
 
 
-@pytest.mark.parametrize("command", [pytest.param(c, marks=pytest.mark.xfail(
-    reason="its module imports the discrepancy machinery at the top", strict=True)) if c in PENDING else c
-    for c in COMMANDS])
+@pytest.mark.parametrize("command", list(COMMANDS))
 def test_command_help_imports_nothing_heavy(command):
     heavy, out = _imported(command, "--help")
     assert heavy == [], f"valvelab {command} --help imported {heavy}"
@@ -64,8 +60,6 @@ def test_help_line_reads_every_command_literal():
     from studies.cli import help_line
 
     for name, modname in COMMANDS.items():
-        if name in PENDING:
-            continue
         assert help_line(modname) == importlib.import_module(modname).HELP
 
 

@@ -141,3 +141,25 @@ def test_discharge_scale_scales_cd_everywhere():
         a = discharge_coefficient(math.sqrt(re), m0.inlet.cd_inf, m0.inlet.cd_a, m0.inlet.cd_b, m0.inlet.cd_c)
         b = discharge_coefficient(math.sqrt(re), m.inlet.cd_inf, m.inlet.cd_a, m.inlet.cd_b, m.inlet.cd_c)
         assert b == pytest.approx(1.03 * a, rel=1e-9)
+
+
+@pytest.mark.parametrize("kind", ["disc", "reed", "ball"])
+def test_every_reported_value_has_the_unit_of_the_field_it_sets(kind):
+    """Effect.units names a unit for every value report() gives (the discrepancy output prints them beside the
+    numbers); a derived seat damping carries the unit the valve declares for seat.damping."""
+    from geometry.declare import spec_of
+
+    model = load_model(f"thesis-{kind}")
+    for name in LIBRARY.names():
+        eff = LIBRARY[name]
+        for target in eff.targets:
+            if not eff.applies_to(model, target):
+                continue
+            values = eff.prior_values(model, target)
+            units = eff.units(model, target)
+            assert set(units) == set(eff.report(values, model, target)), (name, target)
+            assert all(units.values()), (name, target, units)
+            if name == "seat_compliance":
+                valve = getattr(model, target)
+                assert units["k_seat"] == spec_of(valve, "seat_stiffness").unit
+                assert units["c_seat"] == spec_of(valve, "seat_damping").unit

@@ -180,6 +180,16 @@ def test_the_checks_can_fail(tmp_path):
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     assert any("two points" in p for p in figure_checks.problems(cross))
+    # a legend over a bar is found; beside it, not
+    bars = Figure()
+    ax = bars.subplots()
+    ax.bar([0, 1], [1.0, 0.2], label="baseline")
+    ax.set_xticks([0, 1], ["fitted", "held out"])
+    ax.legend(loc="upper left")
+    ax.set_ylabel("position RMS [mm]")
+    assert any("the bars 'baseline'" in p for p in figure_checks.problems(bars))
+    ax.legend(loc="upper right")
+    assert figure_checks.problems(bars) == []
 
 
 @pytest.mark.parametrize("name", list(FIGURES))

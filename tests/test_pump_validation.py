@@ -6,6 +6,8 @@ the default suite checks one representative case of each finding.
 
 import math
 
+import re
+
 import pytest
 
 from lumped.run.simulate import simulate
@@ -104,6 +106,15 @@ def test_validate_full_run(cli, tmp_path):
     out = tmp_path / "out"
     rc, stdout, err, obj = cli("validate", "--out", out, "--json", timeout=3600)
     assert rc == 0, err
+    # what a user reads on stderr: the plan and its estimate first, the Monte Carlo's bar total known from the start
+    # and equal to the runs announced, no warning of a library, the files counted as written
+    first = err.splitlines()[0]
+    assert first.startswith("valvelab validate: 12 pump cases") and "; about " in first
+    runs = int(re.search(r"\((\d+) fast runs\)", first).group(1))
+    totals = {int(t) for t in re.findall(r"input uncertainty:[^|]*\|[^|]*\| *\d+/(\d+)", err)}
+    assert totals == {runs}, totals
+    assert "Warning" not in err and "already in use" not in err
+    assert obj["files"] == sorted(p.name for p in out.iterdir() if p.name != ".valvelab-output")
     figs = sorted(p.name for p in out.glob("fig_5_*.png"))
     assert len(figs) == 12
     assert obj["steps"]["pump_cases"]["all_cyclic_steady"]

@@ -94,3 +94,44 @@ def test_python_example_runs(tmp_path, monkeypatch):
     monkeypatch.setenv("MPLBACKEND", "Agg")
     (code,) = [b for lang, b in BLOCKS if lang == "python"]
     exec(compile(code, "README.md", "exec"), {})
+
+
+#: a wall time at the end of a command line's comment: ``# ... 25 s`` or ``# ... 1.5 min``
+STATED = re.compile(r"#.*?(\d+(?:\.\d+)?) (s|min)\)?\s*$")
+
+
+def _stated_times() -> dict:
+    """{command line (comment removed): the wall time its comment states [s]} for the README's command lines."""
+    out = {}
+    for lang, body in BLOCKS:
+        if lang:
+            continue
+        for raw in body.splitlines():
+            line = re.sub(r"\s+#.*$", "", raw).strip()
+            if line.startswith("valvelab "):
+                m = STATED.search(raw)
+                out[line] = None if m is None else float(m.group(1)) * (60.0 if m.group(2) == "min" else 1.0)
+    return out
+
+
+def test_every_tour_line_states_the_wall_time_measured():
+    """Each ``valvelab`` line of the tour says how long it takes, within 1.5x of the wall time
+    benchmarks/bench_tour.py measured (benchmarks/results_tour.json, with its load average), and the
+    opening command's validation time within 1.5x of benchmarks/results_validation.json's."""
+    import json
+
+    measured = json.loads((ROOT / "benchmarks" / "results_tour.json").read_text())["command_lines"]
+    stated = _stated_times()
+    assert [line for line, t in stated.items() if t is None] == [], "tour lines without a time"
+    for line, t in stated.items():
+        assert line in measured, f"{line!r} not in results_tour.json: python benchmarks/bench_tour.py --only ... --save"
+        wall = measured[line]["wall_s"]
+        assert measured[line]["exit"] == 0, line
+        assert wall / 1.5 <= t <= wall * 1.5, f"{line!r}: README says {t:g} s, measured {wall:g} s"
+    full = json.loads((ROOT / "benchmarks" / "results_validation.json").read_text())["validate_full"]["wall_seconds"]
+    m = re.search(r"takes\s+about\s+(\d+)\s+min\s+on\s+two\s+cores", README)
+    assert m, "the opening command's time"
+    assert full / 1.5 <= float(m.group(1)) * 60.0 <= full * 1.5
+    tests = re.search(r"the\s+default\s+run:\s+(\d+)\s+min\s+on\s+two\s+cores", README)
+    assert tests and "pytest" in measured, "the opening test command's time"
+    assert measured["pytest"]["wall_s"] / 1.5 <= float(tests.group(1)) * 60.0 <= measured["pytest"]["wall_s"] * 1.5

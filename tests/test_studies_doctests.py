@@ -15,7 +15,8 @@ import studies.tables
 
 
 def _modules() -> list[str]:
-    names = ["studies.outputs", "studies.plots", "studies.cli.flags", "studies.validation.reed_check"]
+    names = ["studies.outputs", "studies.plots", "studies.cli.flags", "studies.validation.reed_check", "studies.costs",
+             "studies.discrepancy.records"]
     for pkg in (studies.sweeps, studies.tables, instruments):
         names += [m.name for m in pkgutil.walk_packages(pkg.__path__, prefix=f"{pkg.__name__}.")]
     return sorted(names)

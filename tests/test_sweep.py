@@ -395,3 +395,26 @@ def test_cli_sweep_on_an_existing_scheduler(client, tmp_path):
     bad = subprocess.run([*args[:6], str(tmp_path / "o2"), "--scheduler", "tcp://127.0.0.1:9", "--json"],
                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
     assert bad.returncode == 2 and "--scheduler" in bad.stderr
+
+
+def test_own_cluster_is_quiet_when_another_holds_the_dashboard_port(recwarn):
+    """A second valvelab cluster on the machine (another sweep, another user) must not print distributed's
+    "Port 8787 is already in use" warning on the user's terminal: the scheduler's HTTP server takes a free port."""
+    import socket
+
+    from studies.sweeps.cluster import Cluster
+
+    held = socket.socket()
+    try:
+        held.bind(("127.0.0.1", 8787))
+        held.listen()
+    except OSError:
+        pass                     # someone else holds it already: the situation under test
+    c = Cluster(workers=1)
+    try:
+        c.get()
+        assert c.workers == 1
+    finally:
+        c.close()
+        held.close()
+    assert not [w for w in recwarn if "already in use" in str(w.message)]

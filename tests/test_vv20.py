@@ -113,6 +113,20 @@ def test_vv20_row_by_hand():
     assert m["words"] == "model-form error between 0.04536 and 0.1146 cc/rev"
 
 
+def test_markdown_table_prints_a_column_of_one_output_to_the_same_decimals():
+    """S = 1.726 beside 1.70637 is printed 1.72600, not 1.726 (its digits are as known as its neighbour's); the
+    measured D likewise; another output's column keeps its own decimals."""
+    from studies.validation.vv20 import ValidationTable
+
+    rows = (vv20_row("a", "delivery_cc_per_rev", "cc/rev", 1.726, 1.72, 1e-6, 0.06, 0.03),
+            vv20_row("b", "delivery_cc_per_rev", "cc/rev", 1.70637, 1.684, 1e-6, 0.06, 0.03),
+            vv20_row("c", "closing_angle_deg", "deg", 12.5, 13.25, 0.01, 0.5, 0.2))
+    cells = {line.split(" | ")[0].lstrip("| "): line.split(" | ")[2:4]
+             for line in ValidationTable("t", rows).to_markdown().splitlines() if line.startswith("| ") and
+             " [" in line and not line.startswith("| case")}
+    assert cells == {"a": ["1.72600", "1.720"], "b": ["1.70637", "1.684"], "c": ["12.5", "13.25"]}
+
+
 def test_welch_satterthwaite_gum_example():
     """GUM (JCGM 100:2008) G.4.1: relative uncertainties 0.25, 0.57, 0.82 % from 10, 5 and 15 observations
     (nu = 9, 4, 14) combine to 1.03 % with nu_eff = 19.0; t_95(19) = 2.09, U_95 = 0.0215 y."""

@@ -119,6 +119,7 @@ register(Effect(
         source="the disc's O-ring (1.5e6 N/m) over the disc face (lumped/data/effect_priors.toml); "
                "the Delrin seat lands are E/h = 2.1e12 Pa/m"),)},
     apply=_apply_seat, targets=PER_VALVE, derived=_seat_damping,
+    derived_units={"c_seat": {None: "N s/m", "reed": "Pa s/m"}},     # the reed's contact is per unit area
 ))
 
 
@@ -260,7 +261,7 @@ register(Effect(
         source="radial clearance of a lapped piston (lumped/data/effect_priors.toml); a few to tens of "
                "micrometres"),),
     apply=lambda m, v, t: set_fields(m, "pump", **{"pump.leakage_clearance": v["clearance"]}),
-    targets=PUMP, derived=_leak_conductance,
+    targets=PUMP, derived=_leak_conductance, derived_units={"conductance": "m^3/(s Pa)"},
 ))
 
 

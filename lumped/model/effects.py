@@ -113,7 +113,8 @@ class Effect:
     valve type whose model states the effect differently (the reed's seat stiffness is
     a pressure per metre, the disc's a force per metre). ``derived(values, context[, target])``
     gives reported quantities that follow from the fitted ones (e.g. the critical seat
-    damping from the seat stiffness). ``candidate=False`` marks a model error the
+    damping from the seat stiffness), in the units of ``derived_units`` ({name: unit}, or {name: {kind: unit,
+    None: the other kinds' unit}} where a variant states the effect per unit area). ``candidate=False`` marks a model error the
     synthetic-data generator can inject but the workflow never searches (e.g. a
     discharge coefficient a few percent off). ``applicable(runs)`` returns None, or why
     the effect is not a candidate for a dataset (e.g. entrained air when run.toml
@@ -131,6 +132,7 @@ class Effect:
     valve_types: tuple[str, ...] | None = None
     targets: tuple[str, ...] = BOTH_VALVES
     derived: Callable[[dict, str], dict] | None = None
+    derived_units: dict = field(default_factory=dict)
     candidate: bool = True
     applicable: Callable[[list], str | None] | None = None
     variants: dict = field(default_factory=dict)
@@ -184,6 +186,18 @@ class Effect:
             if why:
                 return why
         return None
+
+    def units(self, context=None, target: str | None = None) -> dict:
+        """The unit of every value :meth:`report` gives for a context (kind name or model): the parameters'
+        declared units, then the derived quantities' (``derived_units``), e.g. ``{"k_seat": "N/m", "c_seat":
+        "N s/m"}``."""
+        out = {p.name: p.unit for p in self.parameters_for(context, target)}
+        if self.derived_units:
+            target = target or self.targets[0]
+            kind = context if (context is None or isinstance(context, str)) else self._kind(context, target)
+            for name, unit in self.derived_units.items():
+                out[name] = unit.get(kind, unit[None]) if isinstance(unit, dict) else unit
+        return out
 
     def report(self, values: dict, context=None, target: str | None = None) -> dict:
         """Fitted and derived values as reported in JSON."""

@@ -6,15 +6,7 @@ import sys
 from pathlib import Path
 
 from geometry.errors import InputError
-
 from studies.cli import flags
-from studies.discrepancy.workflow import Settings, Workflow
-from studies.discrepancy.report import write_report
-from studies.discrepancy.validation import sentence as validation_sentence
-from studies.discrepancy.gap import GapScales
-from studies.discrepancy.measured import implausible, read_dataset
-from studies.discrepancy.model_choice import check_demo_model, choose
-from studies.outputs import check_output_dir
 
 HELP = "name the effects the baseline model misses in a measured dataset, fit them, report the gap"
 
@@ -69,6 +61,7 @@ def demo_dataset(folder, seed: int, workers: int, force: bool):
     force : bool
         Write into a folder valvelab did not create.
     """
+    from studies.discrepancy.model_choice import choose
     from studies.discrepancy.synth import Noise, synthesize, thesis_conditions, write_synthetic
 
     sim = choose(model="thesis-disc")
@@ -79,9 +72,29 @@ def demo_dataset(folder, seed: int, workers: int, force: bool):
     write_synthetic(folder, runs, truth_doc, force=force)
 
 
+def _announce(args, runs, model: str) -> None:
+    """Say what the search runs and about how long, from the measured cost per run of the shipped pump models
+    (no estimate for a ``--simulator`` of the user's)."""
+    from studies import costs
+    from studies.outputs import announce
+
+    seconds = costs.estimate(discrepancy__run=len(runs)) if args.simulator is None else None
+    announce("discrepancy", f"{len(runs)} runs against {model}, at most {args.max_rounds} rounds over the candidate "
+                            f"effects on {args.workers} worker{'s' if args.workers > 1 else ''}", seconds,
+             basis="the median of 99 measured datasets; up to 4x where two effects trade")
+
+
 def run(args) -> dict:
     """Run ``valvelab discrepancy``: name the effects the baseline model misses in a measured dataset, fit them, report
     the gap (the JSON of ``--json``; :mod:`studies.cli`)."""
+    # the machinery loads here, not with the parser: ``valvelab discrepancy --help`` imports no model
+    from studies.discrepancy.gap import GapScales
+    from studies.discrepancy.measured import implausible, read_dataset
+    from studies.discrepancy.model_choice import check_demo_model, choose
+    from studies.discrepancy.report import write_report
+    from studies.discrepancy.workflow import Settings, Workflow
+    from studies.outputs import check_output_dir
+
     scales = GapScales(args.position_tolerance_um * 1e-6, args.delivery_tolerance_pct / 100.0)
     rel = args.min_improvement_pct / 100.0
     gain = args.min_gain_units
@@ -107,6 +120,7 @@ def run(args) -> dict:
         demo_dataset(args.dataset, args.seed, args.workers, args.force)
     runs = read_dataset(args.dataset)
     sim = choose(args.model, args.simulator, runs)
+    _announce(args, runs, sim.name)
     settings = Settings(scales=scales, min_rel_improvement=rel, min_abs_improvement=gain,
                         max_rounds=args.max_rounds, holdout=tuple(args.holdout) if args.holdout else None,
                         workers=args.workers)
@@ -119,7 +133,8 @@ def run(args) -> dict:
     from studies.cli._warnings import at_conditions
 
     # the validity envelope of the model found (its effects and fitted nuisances) at each run's condition
-    result["warnings"] = implausible(runs) + at_conditions(sim.simulate, runs, tuple(outcome.model) + tuple(outcome.nuisances))
+    result["warnings"] = implausible(runs) + at_conditions(sim.simulate, runs,
+                                                           tuple(outcome.model) + tuple(outcome.nuisances))
     if report is not None:
         result["report"] = str(report)
         write_report(report, outcome, runs, result, force=args.force)
@@ -128,6 +143,9 @@ def run(args) -> dict:
 
 def render(r: dict) -> str:
     """The result of ``valvelab discrepancy`` as readable text."""
+    from studies.discrepancy.records import values_text
+    from studies.discrepancy.validation import sentence as validation_sentence
+
     def gap(g):
         p = "-" if g["position_rms_m"] is None else f"{g['position_rms_m'] * 1e3:.3f} mm"
         d = "-" if g["delivery_error_pct"] is None else f"{g['delivery_error_pct']:.2f} %"
@@ -142,16 +160,22 @@ def render(r: dict) -> str:
     lines += [f"  - {s}" for s in r["disagreements"]] or ["  none beyond the tolerances"]
     if r["effects_added"]:
         for name in r["effects_added"]:
-            vals = ", ".join(f"{k} = {v:.4g}" for k, v in r["parameters"][name].items())
+            vals = values_text(r["parameters"][name], r.get("parameter_units", {}).get(name, {}))
             lines.append(f"added {name} ({r['targets'][name]}): {vals}")
     else:
         lines.append("no effect added: no candidate shrinks the held-out gap significantly")
     for d in r.get("indistinguishable") or []:
         lines.append(f"indistinguishable: {d['sentence']}")
-    lines.append(f"gap before: {gap(r['gap_before'])}")
-    lines.append(f"gap after:  {gap(r['gap_after'])}")
+    # the same three groups as the report's gap_bars.png: every run, the fitted ones, the held-out ones
+    lines.append(f"gap before, all {len(r['runs'])} runs: {gap(r['gap_before'])}")
+    lines.append(f"gap after,  all {len(r['runs'])} runs: {gap(r['gap_after'])}")
+    fitted = r.get("fitted")
+    if fitted and r["held_out"]:
+        lines.append(f"fitted ({len(fitted['runs'])} runs): before {gap(fitted['gap_before'])}; "
+                     f"after {gap(fitted['gap_after'])}")
     if r["held_out"]:
-        lines.append(f"held out ({', '.join(r['held_out']['runs'])}): before {gap(r['held_out']['gap_before'])}; "
+        held = r["held_out"]["runs"]
+        lines.append(f"held out ({len(held)} runs: {', '.join(held)}): before {gap(r['held_out']['gap_before'])}; "
                      f"after {gap(r['held_out']['gap_after'])}")
     for s in (r.get("unexplained") or {}).get("sentences", []):
         lines.append(f"left unexplained: {s}")

@@ -4,18 +4,15 @@ from __future__ import annotations
 
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from geometry import validate
 from geometry.errors import InputError
-from lumped.model.effects import Applied
-from lumped.model.pump_model import LOAD_MPA, SPEED
-from lumped.valves.kind import kind_names
 from studies.cli import flags
-from studies.cli.pump import AIR_BOUNDS
-from studies.discrepancy.measured import MEASURED_VALVES
-from studies.discrepancy.model_choice import choose
-from studies.discrepancy.synth import (MAX_SAMPLES_PER_RUN, Condition, Noise, check_rerun, synthesize,
-                                       thesis_conditions, write_synthetic)
+from studies.cli.pump import SHIPPED_KINDS, air_bounds, kind_names
+
+if TYPE_CHECKING:     # the model layers and the discrepancy machinery load when the command runs, not for --help
+    from lumped.model.effects import Applied
+    from studies.discrepancy.synth import Condition
 
 HELP = "write a synthetic measured dataset from the model with chosen effects hidden in it"
 
@@ -23,15 +20,16 @@ HELP = "write a synthetic measured dataset from the model with chosen effects hi
 def configure(p):
     """Add the arguments of ``valvelab synth`` to its parser (the command protocol: :mod:`studies.cli`)."""
     p.add_argument("out", help="dataset folder to write (refused if it holds files valvelab did not write)")
-    p.add_argument("--valve", default=None, choices=kind_names(), help="valve kind (default disc): the shipped model of "
-                                                                      "that kind when no --model")
+    p.add_argument("--valve", default=None, type=flags.choice(kind_names, "a valve kind:"), metavar="KIND",
+                   help=f"valve kind ({', '.join(SHIPPED_KINDS)} or one an extension registers; default disc): the "
+                        "shipped model of that kind when no --model")
     p.add_argument("--effect", action="append", default=[], metavar="NAME[@TARGET][:PARAM=VALUE,...]",
                    help="effect to hide, e.g. seat_compliance@delivery:k_seat=1.5e6 (repeatable; parameters "
                         "default to the effect's prior; TARGET inlet/delivery for one-valve effects)")
     p.add_argument("--condition", action="append", default=[], metavar="RPM:MPA[:VALVE]",
                    help="operating condition (speed rpm, load pressure MPa, measured valve inlet/delivery/both); "
                         "repeatable; default: the thesis's six runs for the valve type (Tables 5.3, 5.5)")
-    p.add_argument("--air-content", type=flags.number("-", AIR_BOUNDS), default=None,
+    p.add_argument("--air-content", type=flags.number("-", air_bounds), default=None,
                    help="air content R stated in every run.toml (default: not stated)")
     p.add_argument("--noise-um", type=flags.number("um", (0.0, 1e4)), default=10.0, help="white position noise [um] (default 10)")
     p.add_argument("--pressure-noise-kpa", type=flags.number("kPa", (0.0, 1e4)), default=10.0, help="white pressure noise [kPa] (default 10)")
@@ -69,6 +67,8 @@ def parse_effect(spec: str, library, valve_type) -> Applied:
     Applied
         Unset parameters at their prior.
     """
+    from lumped.model.effects import Applied
+
     head, _, tail = spec.partition(":")
     name, _, target = head.partition("@")
     if name not in library:
@@ -116,6 +116,10 @@ def parse_condition(spec: str, air: float | None) -> Condition:
     Condition
         Speed [rpm], load pressure [Pa], the measured valve.
     """
+    from lumped.model.pump_model import LOAD_MPA, SPEED
+    from studies.discrepancy.measured import MEASURED_VALVES
+    from studies.discrepancy.synth import Condition
+
     parts = spec.split(":")
     if len(parts) not in (2, 3):
         raise InputError("--condition", f"expected RPM:MPA[:VALVE], got {spec!r}")
@@ -130,6 +134,10 @@ def parse_condition(spec: str, air: float | None) -> Condition:
 def run(args) -> dict:
     """Run ``valvelab synth``: write a synthetic measured dataset from the model with chosen effects hidden in it (the
     JSON of ``--json``; :mod:`studies.cli`)."""
+    from geometry import validate
+    from studies.discrepancy.model_choice import choose
+    from studies.discrepancy.synth import (MAX_SAMPLES_PER_RUN, Noise, check_rerun, synthesize, thesis_conditions,
+                                           write_synthetic)
     from studies.outputs import check_output_dir
 
     check_output_dir(args.out, "OUT", args.force, kind="dataset")          # before any simulation

@@ -73,6 +73,36 @@ class _Done:
         return self.value
 
 
+def plan_words(args, n_cases: int) -> str:
+    """What a run of ``valvelab validate`` with these arguments computes, with its counts (said before it starts)."""
+    from studies.validation.pump_vv20 import PER_SCRAMBLE, PER_SCRAMBLE_QUICK
+
+    tables = {"disc": "Table 5.4", "reed": "Table 5.6"}.get(args.valve, "Tables 5.4 and 5.6")
+    parts = [f"{n_cases} pump cases of {tables} to cyclic steady state"]
+    if args.valve != "disc":
+        parts.append("the reed in the pump by model (7 runs)")
+        if not args.skip_reed_chain:
+            parts.append("the prototype reed's parameters by FEA fidelity")
+    if not args.no_uncertainty:
+        per = (PER_SCRAMBLE_QUICK if args.quick else PER_SCRAMBLE) * 8
+        parts.append(f"u_num ladders and u_input from {per} joint draws per rig ({per * n_cases} fast runs)")
+    if args.valve != "reed":
+        parts.append("the fluid references")
+    return ", ".join(parts) + (" (quick: cheaper and coarser)" if args.quick else "")
+
+
+def _announce(args, n_cases: int) -> None:
+    """Say what the run computes and about how long it takes (the whole run measured; a part of it, less)."""
+    from studies.costs import SECONDS, compile_note
+    from studies.outputs import announce
+
+    whole = not (args.valve or args.skip_reed_chain or args.no_uncertainty)
+    seconds = SECONDS["validate:quick" if args.quick else "validate"]
+    basis = "a measured whole run" if whole else "a measured whole run; this part takes less"
+    notes = compile_note(one_dof=True) or compile_note(one_dof=False)
+    announce("validate", plan_words(args, n_cases) + notes, seconds, basis=basis, always=True)
+
+
 def run(args) -> dict:
     from concurrent.futures import ProcessPoolExecutor
 
@@ -83,6 +113,7 @@ def run(args) -> dict:
 
     jobs = V.default_jobs() if args.jobs is None else args.jobs
     out = prepare_output_dir(args.out, "--out", args.force, kind="validate")
+    _announce(args, len(V.cases(valve=args.valve)))
     # the pump cases, the reed chain (its FEA) and the plots share one pool of processes
     pool = ProcessPoolExecutor(max_workers=jobs) if jobs > 1 else None
     try:

@@ -177,17 +177,19 @@ class Outcome:
 
     def as_contract(self) -> dict:
         """The contract's JSON keys plus the details behind them."""
-        names, params, targets = [], {}, {}
+        names, params, units, targets = [], {}, {}, {}
         for a in self.model:
             eff = self.library[a.name]
             names.append(a.name)
             params[a.name] = eff.report(a.value_dict, self.valve_type, a.target)
+            units[a.name] = eff.units(self.valve_type, a.target)
             targets[a.name] = a.target
         fit_names = [r.name for r in self.fit_runs]
         held_names = [r.name for r in self.held_runs]
         return {
             "effects_added": names,
             "parameters": params,
+            "parameter_units": units,
             "targets": targets,
             "gap_before": gap_of(self.before, fit_names + held_names),
             "gap_after": gap_of(self.after, fit_names + held_names),
@@ -258,6 +260,28 @@ class Outcome:
             out.append(f"{name} ({d['target']}): {vals} (fitted as a baseline nuisance, not an effect; "
                        f"+- is the change that raises the fit cost by one gap unit)")
         return out
+
+
+def values_text(values: dict, units: dict) -> str:
+    """Fitted values as a user reads them, each with its unit (none for a ratio, ``-``).
+
+    Parameters
+    ----------
+    values : dict
+        {name: value} in SI.
+    units : dict
+        {name: unit} (:meth:`lumped.model.effects.Effect.units`); a name without one is printed bare.
+
+    Returns
+    -------
+    str
+
+    >>> values_text({"k_seat": 1503314.78, "c_seat": 153.1395, "scale": 0.99941}, {"k_seat": "N/m", "c_seat": "N s/m",
+    ...             "scale": "-"})
+    'k_seat = 1.503e+06 N/m, c_seat = 153.1 N s/m, scale = 0.9994'
+    """
+    return ", ".join(f"{k} = {v:.4g} {units.get(k, '') if units.get(k) != '-' else ''}".rstrip()
+                     for k, v in values.items())
 
 
 def gap_of(ev: Evaluation, runs) -> dict:

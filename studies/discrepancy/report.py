@@ -7,7 +7,8 @@ the final model leaves unexplained), ``validation.csv``/``validation.md`` (the b
 per run and output), ``traces_<run>.png`` (measured vs baseline vs augmented
 position over crank angle, with the residuals below), ``residuals.png`` (all runs'
 residuals vs crank angle before and after) and ``gap_bars.png`` (position RMS and
-delivery error before/after, on fitted and held-out runs).
+delivery error before/after, pooled over every run as the command prints them, over the fitted and over the
+held-out runs, each bar with its value).
 """
 
 from __future__ import annotations
@@ -24,21 +25,31 @@ import pandas as pd  # noqa: E402
 
 from studies.discrepancy.workflow import Outcome  # noqa: E402
 from studies.discrepancy.gap import fold, predict, summary  # noqa: E402
+from studies.discrepancy.records import values_text  # noqa: E402
 from studies.discrepancy.words import window_sentences  # noqa: E402
 from studies.discrepancy.validation import sentence  # noqa: E402
 from studies.outputs import prepare_output_dir  # noqa: E402
 
 
-def _ranking_frame(ranking: list[dict]) -> pd.DataFrame:
+def _ranking_frame(ranking: list[dict], outcome: Outcome) -> pd.DataFrame:
     rows = []
     for r in ranking:
         row = {k: v for k, v in r.items() if k != "parameters"}
-        row["parameters"] = ", ".join(f"{k}={v:.4g}" for k, v in r["parameters"].items())
+        units = _units(outcome, r["effect"], r["target"])
+        row["parameters"] = values_text(r["parameters"], units)
         rows.append(row)
     cols = ["round", "rank", "effect", "target", "parameters", "held_out_improvement_pct", "fit_improvement_pct",
             "delta_bic", "plausible", "accepted", "held_out_cost", "fit_cost", "simulations", "why_not_plausible",
             "failed"]
     return pd.DataFrame(rows, columns=cols)
+
+
+def _units(outcome: Outcome, effect: str, target: str) -> dict:
+    """The units of an effect's reported values in the outcome's context ({} for a name the library lacks)."""
+    try:
+        return outcome.library[effect].units(outcome.valve_type, target)
+    except KeyError:
+        return {}
 
 
 def _markdown(df: pd.DataFrame) -> str:
@@ -58,8 +69,8 @@ def _markdown(df: pd.DataFrame) -> str:
 def _trace_plot(path: Path, run, outcome: Outcome):
     f = fold(run)
     valves = list(f.position)
-    fig, axes = plt.subplots(2, len(valves), figsize=(6.5 * len(valves), 6), sharex=True, squeeze=False,
-                             gridspec_kw={"height_ratios": [3, 1.4]})
+    fig, axes = plt.subplots(2, len(valves), figsize=(6.5 * len(valves) + 2.0, 6), sharex=True, squeeze=False,
+                             gridspec_kw={"height_ratios": [3, 1.4]}, layout="constrained")
     for j, valve in enumerate(valves):
         th, m = f.crank_deg[valve], f.position[valve]
         base = predict(outcome.before.sims[run.name], valve, th, run.speed_rpm, outcome.before.nuisance)
@@ -72,7 +83,6 @@ def _trace_plot(path: Path, run, outcome: Outcome):
         ax.set_ylabel(f"{valve} valve position [mm]")
         ax.set_title(f"{run.name}: {valve} valve")
         ax.axhline(0.0, color="k", lw=0.5)
-        ax.legend(loc="upper right", fontsize=8)
         ax2 = axes[1, j]
         ax2.plot(th, (m - base) * 1e3, "-", lw=0.8, color="tab:red", label="measured - baseline")
         if outcome.model:
@@ -82,15 +92,16 @@ def _trace_plot(path: Path, run, outcome: Outcome):
         ax2.set_ylabel("residual [mm]")
         ax2.set_xlim(0, 360)
         ax2.set_xticks(range(0, 361, 45))
-        ax2.legend(loc="upper right", fontsize=7)
-    fig.tight_layout()
+    # legends beside the panels, off the traces (one for the positions, one for the residuals)
+    fig.legend(*axes[0, 0].get_legend_handles_labels(), loc="outside right upper", fontsize=8)
+    fig.legend(*axes[1, 0].get_legend_handles_labels(), loc="outside right lower", fontsize=7)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
 def _residual_plot(path: Path, runs, outcome: Outcome):
-    fig, axes = plt.subplots(1, 2 if outcome.model else 1, figsize=(12 if outcome.model else 7, 4), squeeze=False,
-                             sharey=True)
+    fig, axes = plt.subplots(1, 2 if outcome.model else 1, figsize=(14.5 if outcome.model else 9.5, 4), squeeze=False,
+                             sharey=True, layout="constrained")
     panels = [("baseline", outcome.before)] + ([("augmented", outcome.after)] if outcome.model else [])
     for ax, (label, ev) in zip(axes[0], panels):
         for g in ev.gaps:
@@ -102,32 +113,42 @@ def _residual_plot(path: Path, runs, outcome: Outcome):
         ax.set_xlim(0, 360)
         ax.set_xticks(range(0, 361, 45))
     axes[0, 0].set_ylabel("position residual [mm]")
-    axes[0, -1].legend(fontsize=6, loc="best")
-    fig.tight_layout()
+    fig.legend(*axes[0, -1].get_legend_handles_labels(), loc="outside right upper", fontsize=6)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
+def _bar_groups(outcome: Outcome) -> list[tuple[str, list[str]]]:
+    """(label, run names) of the gap bars: every run (the gap the command prints as before/after), the fitted
+    runs and the held-out runs, each label with its number of runs."""
+    fit = [r.name for r in outcome.fit_runs]
+    held = [r.name for r in outcome.held_runs]
+    groups = [(f"all {len(fit) + len(held)} runs", fit + held)] if held else []
+    groups.append((f"fitted ({len(fit)})", fit))
+    if held:
+        groups.append((f"held out ({len(held)})", held))
+    return groups
+
+
 def _bars(path: Path, outcome: Outcome):
-    groups = [("fitted", [r.name for r in outcome.fit_runs])]
-    if outcome.held_runs:
-        groups.append(("held out", [r.name for r in outcome.held_runs]))
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.6))
+    """The gap before and after, pooled over every run (as printed), over the fitted and over the held-out runs;
+    each bar labelled with its value."""
+    groups = _bar_groups(outcome)
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), layout="constrained")
     x = np.arange(len(groups))
-    for ax, key, scale, unit in ((axes[0], "position_rms_m", 1e3, "position RMS [mm]"),
-                                 (axes[1], "delivery_error_pct", 1.0, "delivery error RMS [%]")):
-        b = [summary([g for g in outcome.before.gaps if g.run in names])[key] for _, names in groups]
-        a = [summary([g for g in outcome.after.gaps if g.run in names])[key] for _, names in groups]
-        b = [np.nan if v is None else v * scale for v in b]
-        a = [np.nan if v is None else v * scale for v in a]
-        ax.bar(x - 0.2, b, 0.4, color="tab:red", label="baseline")
-        ax.bar(x + 0.2, a, 0.4, color="tab:blue", label="augmented")
+    for ax, key, scale, unit, fmt in ((axes[0], "position_rms_m", 1e3, "position RMS [mm]", "%.3f"),
+                                      (axes[1], "delivery_error_pct", 1.0, "delivery error RMS [%]", "%.2f")):
+        for dx, ev, colour, label in ((-0.2, outcome.before, "tab:red", "baseline"),
+                                      (0.2, outcome.after, "tab:blue", "augmented")):
+            v = [summary([g for g in ev.gaps if g.run in names])[key] for _, names in groups]
+            bars = ax.bar(x + dx, [np.nan if y is None else y * scale for y in v], 0.4, color=colour, label=label)
+            ax.bar_label(bars, fmt=fmt, fontsize=7, padding=1)
         ax.set_xticks(x, [g for g, _ in groups])
         ax.set_ylabel(unit)
-    axes[0].legend(fontsize=8)
+        ax.margins(y=0.12)                          # room for the value above the tallest bar
     added = ", ".join(a.key for a in outcome.model) or "nothing added"
     fig.suptitle(f"gap before and after ({added})", fontsize=10)
-    fig.tight_layout()
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside upper right", ncol=2, fontsize=8)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
@@ -136,7 +157,7 @@ def write_report(folder, outcome: Outcome, runs, result: dict, force: bool = Fal
     """Write the report folder for a workflow outcome; returns its path."""
     out = prepare_output_dir(folder, "--report", force=force, kind="report")
     (out / "summary.json").write_text(json.dumps(result, indent=2, allow_nan=False) + "\n")
-    df = _ranking_frame(outcome.ranking)
+    df = _ranking_frame(outcome.ranking, outcome)
     df.to_csv(out / "ranking.csv", index=False)
     text = "# Candidate effects, every round\n\n" + _markdown(df)
     if outcome.backward:

@@ -20,6 +20,7 @@ from lumped.model.effects import Applied, Effect
 from studies.discrepancy import fitting, indistinct, joint
 from studies.discrepancy import profile as prof
 from studies.discrepancy.backward import backward
+from studies.discrepancy import records
 from studies.discrepancy.records import CandidateFit, Evaluation, rank_key
 from studies.discrepancy.selection import Base, Trial, judge, significant
 
@@ -70,9 +71,22 @@ def start(pb) -> State:
             res = fitting.fit(pb, current, eff, target, fitting.FitOptions(start=eff.prior_values(pb.context, target)))
             current += (Applied.of(name, target, res.values),)
         cur = pb.evaluate(current)
-        pb.log("baseline nuisances: " + ", ".join(f"{a.key} {a.value_dict}" for a in current)
-               + f" (held-out gap {before.held_cost} -> {cur.held_cost})")
+        pb.log("baseline nuisances: " + ", ".join(
+            f"{a.key} {values_text(pb.eff(a.name), a.value_dict, pb.context, a.target)}" for a in current)
+            + _held_change(before, cur))
     return State(current, cur, before)
+
+
+def _held_change(before: Evaluation, after: Evaluation) -> str:
+    """`` (held-out gap 347.1 -> 251.1 gap units)``, or nothing for a dataset with no held-out run."""
+    if before.held_cost is None or after.held_cost is None:
+        return ""
+    return f" (held-out gap {before.held_cost:.4g} -> {after.held_cost:.4g} gap units)"
+
+
+def values_text(eff: Effect, values: dict, context, target: str) -> str:
+    """An effect's values as a user reads them: ``k_seat = 1.503e+06 N/m, c_seat = 153.1 N s/m``."""
+    return records.values_text(values, eff.units(context, target))
 
 
 def search(pb, state: State, cands: list) -> None:
@@ -105,7 +119,8 @@ def add(pb, state: State, winner: CandidateFit, rnd: int) -> bool:
     the round's best did not hold up beside the others refitted, and a next round would see the same
     candidates."""
     st = pb.settings
-    pb.log(f"round {rnd}: adding {winner.key} {winner.reported} "
+    pb.log(f"round {rnd}: adding {winner.key} "
+           f"{values_text(pb.eff(winner.effect), winner.reported, pb.context, winner.target)} "
            f"(held-out gap -{100 * (winner.held_improvement or winner.fit_improvement):.0f} %)")
     current = winner.model if pb.nuisance_effects else fitting.refine(pb, winner.model)
     if pb.nuisance_effects and st.round_polish:

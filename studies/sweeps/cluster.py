@@ -85,8 +85,10 @@ class Cluster:
                 except OSError as exc:
                     raise InputError("--scheduler", f"cannot connect to {self.scheduler} ({exc})") from None
             else:
+                # ":0": the scheduler's HTTP server on a free port (None still tries 8787 and, when another
+                # cluster holds it, warns "Port 8787 is already in use" on the user's terminal)
                 self._own = LocalCluster(n_workers=self.n_workers or default_workers(), threads_per_worker=1,
-                                         processes=True, dashboard_address=None, silence_logs=40)
+                                         processes=True, dashboard_address=":0", silence_logs=40)
                 self.client = Client(self._own)
         return self.client
 

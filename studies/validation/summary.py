@@ -248,7 +248,8 @@ def _case_lines(s: dict) -> list[str]:
            f"{pc['cases']} cases, all cyclic steady: {pc['all_cyclic_steady']}, max mass-balance error "
            f"{pc['max_mass_balance_error']:.1e}; CPU s per simulated s on the {pc['stepper']} stepper: "
            + ", ".join(f"{k} {v}" for k, v in pc["cpu_seconds_per_simulated_second"].items())
-           + " (the thesis: 23 with Adams-Bashforth at 0.5 us; the fast path: benchmarks/bench_pump.py).", "",
+           + " (it gives S; the thesis: 23 with Adams-Bashforth at 0.5 us; the fast path, which runs the draws and "
+             "the sweeps: README 'Measured', benchmarks/bench_pump.py).", "",
            "| table | mean abs error [%] | max abs error [%] | thesis mean [%] | thesis max [%] | max diff from thesis model [%] |",
            "|---|---|---|---|---|---|"]
     for t, e in s["tables"].items():
@@ -274,7 +275,9 @@ def console_lines(s: dict) -> list[str]:
         out.append(f"  {s['reed_dynamics']['verdict']}")
     pc = s["steps"]["pump_cases"]
     out.append(f"  {pc['cases']} pump cases, all cyclic steady: {pc['all_cyclic_steady']}, CPU s per simulated s on the "
-               f"{pc['stepper']} stepper: " + ", ".join(f"{k} {v:.2f}" for k, v in pc["cpu_seconds_per_simulated_second"].items()))
+               f"{pc['stepper']} stepper: " + ", ".join(f"{k} {v:.2f}" for k, v in pc["cpu_seconds_per_simulated_second"].items())
+               + " (it gives S; the fast path, which runs the draws and the sweeps: README 'Measured', "
+                 "benchmarks/bench_pump.py)")
     for t, e in s["tables"].items():
         out.append(f"  Table {t}: mean |error| {e['mean_abs_error_pct']} % (thesis {e['thesis_mean_abs_error_pct']} %), "
                    f"max diff from the thesis's model {e['max_abs_diff_from_thesis_model_pct']} %")

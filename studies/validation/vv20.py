@@ -77,6 +77,20 @@ def vv20_row(case: str, output: str, unit: str, S: float, D: float, u_num: float
     return row
 
 
+def _same_decimals(rows, keys) -> dict:
+    """{key: the cells of that column}, the rows of one output to the same decimals (a value never shown to fewer
+    digits than its neighbours: 1.72600 beside 1.70637, not 1.726; :func:`studies.outputs.format_column`)."""
+    from studies.outputs import format_column
+
+    out = {k: [""] * len(rows) for k in keys}
+    for output in dict.fromkeys(r["output"] for r in rows):
+        idx = [i for i, r in enumerate(rows) if r["output"] == output]
+        for k in keys:
+            for i, cell in zip(idx, format_column([float(rows[i][k]) for i in idx])):
+                out[k][i] = cell
+    return out
+
+
 def _fmt(x: float) -> str:
     return f"{x:.4g}"
 
@@ -162,13 +176,14 @@ class ValidationTable:
                  "| case | output [unit] | S | D | E | u_num | u_input | se(u_input) | u_D | u_val | dof | k (interval) | "
                  "U_val | verdict | detectable (80 %) | largest input contributors |",
                  "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
-        for r in self.rows:
+        same = _same_decimals(self.rows, ("S", "D"))
+        for i, r in enumerate(self.rows):
             unit = r.get("unit") or "-"
             contrib = ", ".join(f"{a} ({b:.2g} {unit})" for a, b in r["contributors"]) or "-"
             se = r.get("u_input_se")
             det = r.get("detectable_pct")
             dof = r.get("dof")
-            lines.append(f"| {r['case']} | {r['output']} [{unit}] | {r['S']:.6g} | {r['D']:.6g} | {r['E']:+.4g} | "
+            lines.append(f"| {r['case']} | {r['output']} [{unit}] | {same['S'][i]} | {same['D'][i]} | {r['E']:+.4g} | "
                          f"{r['u_num']:.2g} | {r['u_input']:.3g} | {'-' if se is None else f'{se:.2g}'} | "
                          f"{r['u_D']:.3g} | {r['u_val']:.3g} | {'inf' if dof is None else f'{dof:.3g}'} | "
                          f"{r['k']:.3g} ({r.get('interval', 'welch')}) | {r['U_val']:.3g} | {r['words']} | "
