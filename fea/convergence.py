@@ -281,21 +281,57 @@ def gci(values, sizes=None, cells=None, dim: int | None = None, order: float | N
     >>> round(g.order, 2), round(g.gci_fine_pct, 2)                             # p 1.53, GCI21 2.17 %
     (1.53, 2.17)
     """
-    f = tuple(float(v) for v in values)
-    if len(f) not in (2, 3):
-        raise ValueError("the GCI needs two or three solutions")
-    if sizes is None:
-        if cells is None or dim is None:
-            raise ValueError("give sizes, or cells and dim")
-        sizes = representative_sizes(cells, dim)
-    h = tuple(float(x) for x in sizes)
-    if len(h) != len(f) or not all(0.0 < a < b for a, b in zip(h, h[1:])) or h[0] <= 0.0:
-        raise ValueError("sizes must be positive and increase from the finest to the coarsest solution")
+    f, h = _gci_inputs(values, sizes, cells, dim, order)
     ratios = tuple(b / a for a, b in zip(h, h[1:]))
     ea = tuple(_pct(b - a, a) for a, b in zip(f, f[1:]))
-    if len(f) == 2:
-        return _gci_two(h, f, ratios, ea, order)
-    return _gci_three(h, f, ratios, ea)
+    g = _gci_two(h, f, ratios, ea, order) if len(f) == 2 else _gci_three(h, f, ratios, ea)
+    numbers = [x for x in (g.order, g.extrapolated, g.gci_fine_pct, g.gci_coarse_pct, g.u_fine, g.u_coarse,
+                           g.asymptotic_ratio, g.extrapolated_error_pct, *g.approx_error_pct) if x is not None]
+    if not all(math.isfinite(x) for x in numbers):
+        # e.g. 1e308, -1e308: their differences overflow a float; a user's numbers, not a failed model
+        from geometry.errors import InputError
+        raise InputError("values", f"the differences between {', '.join(f'{v:g}' for v in f)} overflow a floating "
+                                   "point number; give the solutions in a unit that keeps them below ~1e300")
+    return g
+
+
+def _gci_inputs(values, sizes, cells, dim, order) -> tuple[tuple, tuple]:
+    """The solutions and representative sizes of :func:`gci` as floats; InputError naming ``values``, ``sizes``,
+    ``cells``, ``dim`` or ``order`` for anything else (strings, NaN, neither sizes nor cells, wrong lengths)."""
+    from geometry import validate
+    from geometry.errors import InputError
+
+    def seq(x, name, **kw):
+        if isinstance(x, (str, bytes)) or not hasattr(x, "__len__"):
+            raise InputError(name, f"expected a sequence of numbers, got {x!r}")
+        return tuple(float(validate.number(v, f"{name}[{i}]", **kw)) for i, v in enumerate(x))
+
+    f = seq(values, "values")
+    if len(f) not in (2, 3):
+        raise InputError("values", f"expected two or three solutions (fine to coarse), got {len(f)}")
+    if (sizes is None) == (cells is None):
+        raise InputError("sizes", "give the meshes as sizes (increasing) or as cells (decreasing) with dim, one of them")
+    if sizes is None:
+        n = seq(cells, "cells", positive=True, integer=True)
+        if dim not in (1, 2, 3) or isinstance(dim, bool):
+            raise InputError("dim", f"expected 1, 2 or 3 with cells, got {dim!r}")
+        if not all(a > b for a, b in zip(n, n[1:])):
+            raise InputError("cells", f"expected counts decreasing from the finest mesh to the coarsest, got {n}")
+        h = representative_sizes(n, dim)
+    else:
+        h = seq(sizes, "sizes", positive=True)
+        if not all(a < b for a, b in zip(h, h[1:])):
+            raise InputError("sizes", f"expected sizes increasing from the finest mesh to the coarsest, got {h}")
+    if len(h) != len(f):
+        raise InputError("sizes" if cells is None else "cells", f"expected {len(f)} meshes (one per solution), "
+                                                                f"got {len(h)}")
+    if order is not None:
+        validate.number(order, "order", positive=True)
+        if len(f) == 3:
+            raise InputError("order", "applies to two solutions; three give the observed order")
+    elif len(f) == 2:
+        raise InputError("order", "two solutions need the method's formal order (order > 0), e.g. order=2")
+    return f, h
 
 
 def _gci_two(h: tuple, f: tuple, ratios: tuple, ea: tuple, order: float | None) -> GCI:

@@ -50,7 +50,9 @@ class Spec:
     documented assumption); ``bounds``: inclusive plausible range (None: any finite
     number); ``positive``: strictly greater than zero; ``packed``: the numerical model
     reads it from the flat parameter array; ``choices``: allowed strings; ``effect``:
-    the candidate effect that sets it (None for a baseline parameter); ``doc``: one line.
+    the candidate effect that sets it (None for a baseline parameter); ``doc``: one line;
+    ``typical``: the range real designs fall in (inclusive; None: within :data:`TYPICAL_FACTOR` of the
+    shipped value): a value inside ``bounds`` but outside it is accepted with a warning (:func:`atypical`).
     """
 
     key: str | None
@@ -63,6 +65,7 @@ class Spec:
     effect: str | None = None
     doc: str = ""
     optional: bool = False
+    typical: tuple[float, float] | None = None
 
 
 def param(key: str | None, unit: str, source: str, *, default: Any = MISSING, **spec):
@@ -91,11 +94,13 @@ def param(key: str | None, unit: str, source: str, *, default: Any = MISSING, **
     unknown = set(spec) - {f.name for f in dataclasses.fields(Spec)} or {"key", "unit", "source"} & set(spec)
     if unknown:
         raise TypeError(f"param() got an unexpected keyword argument {sorted(unknown)[0]!r}")
-    bounds, choices = spec.pop("bounds", None), spec.pop("choices", None)
+    bounds, choices, typical = spec.pop("bounds", None), spec.pop("choices", None), spec.pop("typical", None)
     if bounds is not None:
         bounds = (float(bounds[0]), float(bounds[1]))
+    if typical is not None:
+        typical = (float(typical[0]), float(typical[1]))
     made = Spec(key=key, unit=unit, source=source, bounds=bounds, choices=None if choices is None else tuple(choices),
-                **spec)
+                typical=typical, **spec)
     if made.optional and default is MISSING:
         default = None
     return dataclasses.field(default=default, metadata={META: made})
@@ -163,6 +168,60 @@ def check_value(value, spec: Spec, where: str, kind: str = "float"):
         return value
     return _v.number(value, where, unit=spec.unit, bounds=spec.bounds, positive=spec.positive,
                      integer=kind == "int")
+
+
+#: a declared number without a ``typical`` range is atypical more than this factor away from its shipped value
+TYPICAL_FACTOR = 100.0
+
+
+def atypical(obj, where: str, reference=None) -> list[tuple[str, str]]:
+    """The declared numbers of ``obj`` outside the range real designs fall in: accepted (they are inside the
+    declared ``bounds``) but likely a unit slip or a typo, so each is reported for a warning.
+
+    A field's range is its ``typical`` declaration, else a factor of :data:`TYPICAL_FACTOR` either side of the
+    same field of ``reference`` (the shipped component of its kind; nothing without one, or where it is 0).
+
+    Parameters
+    ----------
+    obj : dataclass instance
+        A component (pump, oil, a valve, a reed).
+    where : str
+        Its key prefix in messages (``valves.delivery``).
+    reference : dataclass instance, optional
+        The shipped component of the same class.
+
+    Returns
+    -------
+    list of (str, str)
+        (the field's key path, a message with the value, its unit and the range).
+
+    Examples
+    --------
+    >>> @dataclass(frozen=True)
+    ... class Oil:
+    ...     density: float = param("density", "kg/m^3", "Table 5.1", bounds=(100, 3000), typical=(600, 1300))
+    >>> atypical(Oil(150.0), "oil")
+    [('oil.density', '150 kg/m^3 is outside the 600-1300 kg/m^3 of real designs (a unit slip?)')]
+    """
+    out = []
+    for name, s in specs(obj):
+        v = getattr(obj, name)
+        if s.key is None or isinstance(v, bool) or not isinstance(v, (int, float)):
+            continue
+        u = "" if s.unit == "-" else f" {s.unit}"
+        lo_hi = s.typical
+        ref = getattr(reference, name, None) if reference is not None and type(reference) is type(obj) else None
+        if lo_hi is None and isinstance(ref, (int, float)) and not isinstance(ref, bool) and ref > 0 and v > 0:
+            lo_hi = (ref / TYPICAL_FACTOR, ref * TYPICAL_FACTOR)
+            if lo_hi[0] <= v <= lo_hi[1]:
+                continue
+            out.append((f"{where}.{s.key}", f"{v:g}{u} is {max(v / ref, ref / v):.3g} times the shipped "
+                                            f"{ref:g}{u} (a unit slip?)"))
+            continue
+        if lo_hi is not None and not lo_hi[0] <= v <= lo_hi[1]:
+            out.append((f"{where}.{s.key}", f"{v:g}{u} is outside the {lo_hi[0]:g}-{lo_hi[1]:g}{u} of "
+                                            "real designs (a unit slip?)"))
+    return out
 
 
 def check_field(obj_or_cls, name: str, value, where: str):

@@ -334,7 +334,8 @@ class Reed:
     :meth:`pieces`, :meth:`width`, :meth:`thickness_profile` and :meth:`section`.
     """
 
-    length: float = param("length", "m", "drawing (Table 3.1: 1 in)", bounds=_LEN, positive=True)
+    length: float = param("length", "m", "drawing (Table 3.1: 1 in)", bounds=_LEN, positive=True,
+                          typical=(1e-3, 0.2))
     thickness: float = param("thickness", "m", "drawing (Table 3.1: 1.35 mm)", bounds=_THICK, positive=True)
     width_root: float = param("width_root", "m", "drawing (Table 3.1)", bounds=_WIDTH, positive=True)
     width_tip: float = param("width_tip", "m", "drawing (Table 3.1)", bounds=_WIDTH, positive=True)

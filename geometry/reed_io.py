@@ -166,6 +166,12 @@ def parse_reed(data: dict, source: str = "custom") -> Reed:
     """
     if "reed" not in data:
         raise InputError("reed", "missing [reed] table")
+    for k in data:                 # every table of the file: a misspelt or stray one is never ignored
+        if k not in ("reed", "preset"):
+            raise InputError(k, "unknown table or key of a reed file; expected [reed] (and [preset] in a "
+                                "packaged preset)")
+    if "preset" in data:
+        validate.keys(data["preset"], ("order", "thesis"), "preset")
     r = data["reed"]
     _check_keys(r, _REED_KEYS, "reed")
     length = _read(Reed, r, "length", "reed")

@@ -56,8 +56,10 @@ class LtsSetup:
     n_air: float = param("n_air", "-", _SRC, bounds=(1.0, 4.0), doc="n_a")
     n_window: float = param("n_window", "-", "Table B.2", bounds=(1.0, 4.0), doc="n_p (PMMA)")
     n_fluid: float = param("n_fluid", "-", "Table B.2", bounds=(1.0, 4.0), doc="n_o (oil)")
-    air_gap: float = param("air_gap", "m", _SRC, bounds=(0.0, 10.0), doc="t_a, sensor face to window")
-    window_thickness: float = param("window_thickness", "m", _SRC, bounds=(0.0, 1.0), doc="t_p")
+    air_gap: float = param("air_gap", "m", _SRC, bounds=(0.0, 10.0), doc="t_a, sensor face to window",
+                           typical=(1e-3, 1.0))
+    window_thickness: float = param("window_thickness", "m", _SRC, bounds=(0.0, 1.0), doc="t_p",
+                                    typical=(5e-4, 0.1))
 
 
 @dataclass(frozen=True)

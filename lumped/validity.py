@@ -242,6 +242,15 @@ def pump_warnings(runs: dict, delivery: float, rtol: float, cavitation_angle: fl
     return out
 
 
+def unresolved(outcome, rtol: float) -> ResultWarning:
+    """The ``numerical_accuracy`` warning of a fast run whose reported revolution still moves when integrated
+    tighter (lumped.run.accuracy.Outcome ``outcome``; ``rtol`` the run's): the estimated error, and what to do."""
+    return ResultWarning("numerical_accuracy", f"the fast path's answer is not resolved: integrated at rtol "
+                         f"{outcome.rtol * 10:.3g} and {outcome.rtol:.3g} the reported revolution differs in "
+                         f"{outcome.difference.describe()} (limits 0.5 deg, 0.05 %, 1 %); the error may be that "
+                         "large: use method='reference' (--method reference)")
+
+
 # --------------------------------------------------------------------------- before running (model check)
 def compression_pressure(model) -> float:
     """The highest cylinder pressure [Pa] the pump can reach: the oil a full cylinder holds at the tank
@@ -289,7 +298,29 @@ def check_model(model, load_pressure: float | None = None) -> None:
         raise InputError("pump.dead_volume", f"the pump cannot deliver against any load: {why}, not above the tank "
                                              f"pressure plus the delivery valve's {_mpa(crack)} cracking pressure")
     load = m.operating.load_pressure if load_pressure is None else load_pressure
+    if load is not None and load < pt:       # absolute pressures: the pump would be fed from above its outlet
+        raise InputError("operating.load_pressure", f"{_mpa(load)} is below the tank pressure {_mpa(pt)} "
+                                                    "(absolute): a pump delivers into a load above its inlet")
     if load is not None and top <= load + crack:
         raise InputError("operating.load_pressure", f"the pump cannot deliver against {_mpa(load)}: {why}, not above "
                                                     f"the load plus the delivery valve's {_mpa(crack)} cracking "
                                                     f"pressure (it can pump against {_mpa(top - crack)} at most)")
+
+
+# --------------------------------------------------------------------------- before running (implausible inputs)
+#: a reed wider than this times its length is a plate, not the beam of eq 3.8 (the analytic and beam fidelities)
+BEAM_WIDTH_TO_LENGTH = 1.0
+
+
+def beam_warnings(reed, fidelity: str | None, where: str = "reed") -> list[tuple[str, str]]:
+    """(key, message) when a reed wider than :data:`BEAM_WIDTH_TO_LENGTH` times its length is modelled as a
+    beam (``fidelity`` analytic or beam: eq 3.8, plane sections across the width): a plate's anticlastic
+    stiffening and its modes across the width are missing; the plate or solid fidelity models them."""
+    if (fidelity or "analytic") not in ("analytic", "beam"):
+        return []
+    ratio = reed.max_width / reed.length
+    if ratio <= BEAM_WIDTH_TO_LENGTH:
+        return []
+    return [(f"{where}.width_root", f"the reed is {ratio:.3g} times as wide as long ({reed.max_width * 1e3:.3g} mm by "
+                                    f"{reed.length * 1e3:.3g} mm): beam theory (eq 3.8, fidelity "
+                                    f"{fidelity or 'analytic'}) does not hold; use fidelity = \"plate\" or \"solid\"")]

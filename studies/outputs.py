@@ -278,6 +278,8 @@ def check_output_dir(path: str | Path, field: str, force: bool = False, kind: st
     if not str(path).strip():
         raise InputError(field, "expected a folder name, got an empty one")
     p = Path(path)
+    if kind != "run":
+        _outside_data(p, field)
     if p.exists():
         if not p.is_dir():
             raise InputError(field, f"{p} exists and is not a folder")
@@ -302,6 +304,19 @@ def check_output_dir(path: str | Path, field: str, force: bool = False, kind: st
     if why is not None:
         raise InputError(field, f"{p} cannot be created: nothing can be written in {anc} ({why})")
     return p
+
+
+#: output kinds that are a user's data: no other output goes inside them
+DATA_KINDS = ("dataset", "run")
+
+
+def _outside_data(p: Path, field: str) -> None:
+    """Refuse an output folder inside a dataset or a run folder (a valvelab marker of a data kind, or a run.toml
+    beside it): the output would mix with the measurements, even with ``--force``."""
+    for anc in _resolved(p).parents:
+        if output_kind(anc) in DATA_KINDS or (anc / "run.toml").is_file():
+            raise InputError(field, f"{p} lies inside the dataset or run folder {anc}; outputs never go into a "
+                                    "user's data: choose a folder outside it")
 
 
 def prepare_output_dir(path: str | Path, field: str, force: bool = False, kind: str | None = None) -> Path:

@@ -305,7 +305,8 @@ def test_a_reed_preset_is_one_file(tmp_path):
     """A preset: one data file; PRESETS, load_reed, a reed valve's geometry and every command's help pick it up."""
     copy = _copy(tmp_path, "geometry")
     text = (ROOT / "geometry" / "data" / "reed_uniform.toml").read_text()
-    text = text.replace('name = "uniform"', 'name = "narrow"').replace("[preset]", "[unused]")
+    # no [preset] table: not one of the thesis's reeds, listed after the ordered presets (an unknown table is refused)
+    text = re.sub(r"(?ms)^\[preset\].*?(?=^\[reed\])", "", text.replace('name = "uniform"', 'name = "narrow"'))
     (copy / "geometry" / "data" / "reed_narrow.toml").write_text(text.replace("width_tip = 15.875e-3",
                                                                               "width_tip = 10.0e-3"))
     assert _changed(copy) == ["geometry/data/reed_narrow.toml"]

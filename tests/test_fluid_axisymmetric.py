@@ -120,16 +120,17 @@ def test_a_point_has_every_contract_key(valve):
 
 
 @pytest.mark.parametrize("fid", ["orifice", "thin_film", "axisymmetric"])
-@pytest.mark.parametrize("lift, re, field", [(1.5e-3, 10.0, "--lift-mm"), (0.0, 10.0, "--lift-mm"),
-                                             (0.5e-3, 0.0, "--reynolds"), (0.5e-3, -3.0, "--reynolds")])
+@pytest.mark.parametrize("lift, re, field", [(1.5e-3, 10.0, "lift"), (0.0, 10.0, "lift"), ("1e-3", 10.0, "lift"),
+                                             (0.5e-3, 0.0, "reynolds"), (0.5e-3, -3.0, "reynolds")])
 def test_bad_points_name_the_field(valve, fid, lift, re, field):
+    """The Python functions name their arguments (the command line its flags: tests/test_fluid_cli.py)."""
     with pytest.raises(InputError) as err:
         fluid.get(fid, "disc").point(valve, lift, re, {})
     assert err.value.field == field
 
 
 def test_unknown_or_unavailable_fidelity_is_an_input_error():
-    with pytest.raises(InputError, match="--fidelity"):
+    with pytest.raises(InputError, match="name"):
         fluid.get("cfd")
     with pytest.raises(InputError, match="not available|does not model"):
         fluid.get("3d", "disc")

@@ -65,7 +65,7 @@ def register(fidelity: FluidFidelity) -> None:
     FIDELITIES[fidelity.name] = fidelity
 
 
-def get(name: str, kind: str | None = None, field: str = "--fidelity") -> FluidFidelity:
+def get(name: str, kind: str | None = None, field: str = "name") -> FluidFidelity:
     """The fidelity ``name`` (for a valve of ``kind`` if given); InputError naming ``field`` otherwise."""
     if name not in FIDELITIES:
         extra = " (not available: its module is not installed)" if name in KNOWN else ""

@@ -39,7 +39,7 @@ from geometry.errors import InputError
 
 from ..convergence import GCI_STANDARD_FACTOR, gci
 from .navier_stokes import FlowBCs, FlowSolution, solve_flow
-from .point import FlowPoint, FluidValve, check_lift, check_reynolds
+from .point import FlowPoint, FluidValve, check_lift, check_reynolds, check_valve
 from .valve_mesh import DEFAULT_RESOLUTION, DiscDomain, disc_domain, valve_mesh
 
 #: disc speed of the moving-wall solves [m/s] (the order of the pump's disc speeds: a 1 mm stroke
@@ -169,8 +169,9 @@ def ladder_u(outs: list[dict], resolutions: list[float], names) -> dict:
 
 def axisymmetric_point(valve: FluidValve, lift: float, reynolds: float, options=None) -> FlowPoint:
     """The ``axisymmetric`` fidelity at (lift [m], Re) of a disc valve (module docstring)."""
+    valve = check_valve(valve)
     if valve.kind != "disc":
-        raise InputError("--fidelity", f"the axisymmetric model is the disc valve's; the {valve.kind} valve "
+        raise InputError("valve", f"the axisymmetric model is the disc valve's; the {valve.kind} valve "
                          "is not axisymmetric")
     opts = AxiOptions.of(options)
     lift, reynolds = check_lift(valve, lift), check_reynolds(reynolds)

@@ -193,11 +193,12 @@ def thin_film_point(valve, lift: float, reynolds: float, options=None):
     divisions/2, divisions, 2 divisions gives ``u_num``), ``squeeze`` and ``displacement`` (add
     ``film`` {C1, C2, F4} and ``displacement`` {f1, f2, A_Q_closing, A_Q_opening, c_visc}).
     """
-    from .point import FlowPoint, check_lift, check_reynolds
+    from .point import FlowPoint, check_lift, check_reynolds, check_valve
 
     opts = dict(options or {})
+    valve = check_valve(valve)
     if valve.kind != "disc":
-        raise InputError("--fidelity", f"this thin_film fidelity models the disc's conical film; the "
+        raise InputError("valve", f"this thin_film fidelity models the disc's conical film; the "
                          f"{valve.kind} valve's film is meshed by its own module")
     lift, reynolds = check_lift(valve, lift), check_reynolds(reynolds)
     v = valve.params

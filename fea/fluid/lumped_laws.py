@@ -13,7 +13,7 @@ import math
 
 from lumped.fluid.orifice import discharge_coefficient
 
-from .point import FlowPoint, FluidValve, check_lift, check_reynolds
+from .point import FlowPoint, FluidValve, check_lift, check_reynolds, check_valve
 
 
 def orifice_point(valve: FluidValve, lift: float, reynolds: float, options=None) -> FlowPoint:
@@ -28,10 +28,11 @@ def orifice_point(valve: FluidValve, lift: float, reynolds: float, options=None)
     >>> print(f"Cd = {p.cd:.3f}, force coefficient {p.force_coefficient:.3f}")
     Cd = 0.461, force coefficient 1.000
     """
+    valve = check_valve(valve)
     if valve.kind != "disc":
         from geometry.errors import InputError
 
-        raise InputError("--fidelity", f"the orifice laws here are the disc's; the {valve.kind} valve has its own")
+        raise InputError("valve", f"the orifice laws here are the disc's; the {valve.kind} valve has its own")
     lift = check_lift(valve, lift)
     reynolds = check_reynolds(reynolds)
     v = valve.params

@@ -11,6 +11,7 @@ mapping of the fidelity's settings. The keys of :class:`FlowPoint` are those of 
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field, fields
 
 from geometry.errors import InputError
@@ -80,23 +81,36 @@ class FlowPoint:
         return {**d, "u_num": dict(self.u_num), **self.extra}
 
 
-def check_reynolds(reynolds: float, field: str = "--reynolds") -> float:
+def check_valve(valve, field: str = "valve") -> "FluidValve":
+    """``valve`` if it is a :class:`FluidValve` (or ``MODEL[:POSITION]``, loaded), else InputError naming ``field``."""
+    if isinstance(valve, str):
+        return load_fluid_valve(valve, field)
+    if not isinstance(valve, FluidValve):
+        raise InputError(field, f"expected a fea.fluid.FluidValve (load_fluid_valve('thesis-disc:inlet')) or "
+                                f"'MODEL[:POSITION]', got {type(valve).__name__} {valve!r}")
+    return valve
+
+
+def check_reynolds(reynolds: float, field: str = "reynolds") -> float:
     """Re if finite and > 0, else InputError naming ``field``."""
-    if not (isinstance(reynolds, (int, float)) and math.isfinite(reynolds) and reynolds > 0):
+    if isinstance(reynolds, bool) or not (isinstance(reynolds, (int, float)) and math.isfinite(reynolds)
+                                          and reynolds > 0):
         raise InputError(field, f"the Reynolds number must be a positive number, got {reynolds!r}")
     return float(reynolds)
 
 
-def check_lift(valve: FluidValve, lift: float, field: str = "--lift-mm") -> float:
+def check_lift(valve: FluidValve, lift: float, field: str = "lift") -> float:
     """The lift [m] if 0 < lift <= the valve's stop gap, else InputError naming ``field``."""
-    stop = valve.params.stop_gap
-    if not (isinstance(lift, (int, float)) and math.isfinite(lift) and 0.0 < lift <= stop * (1 + 1e-9)):
+    stop = check_valve(valve).params.stop_gap
+    if isinstance(lift, bool) or not isinstance(lift, (int, float)):
+        raise InputError(field, f"expected a lift in m (a number), got {lift!r}")
+    if not (math.isfinite(lift) and 0.0 < lift <= stop * (1 + 1e-9)):
         raise InputError(field, f"the lift must lie in (0, {stop * 1e3:.4g}] mm (the stop of the "
                          f"{valve.position} valve), got {lift * 1e3:.4g} mm")
     return float(lift)
 
 
-def parse_valve(spec: str, field: str = "VALVE") -> tuple[str, str]:
+def parse_valve(spec: str, field: str = "spec") -> tuple[str, str]:
     """(model, position) of ``MODEL[:POSITION]`` (position inlet by default)."""
     model, sep, position = str(spec).rpartition(":")
     if not sep:
@@ -106,13 +120,15 @@ def parse_valve(spec: str, field: str = "VALVE") -> tuple[str, str]:
     return model, position
 
 
-def load_fluid_valve(spec, field: str = "VALVE") -> FluidValve:
+def load_fluid_valve(spec, field: str = "spec") -> FluidValve:
     """The valve ``MODEL[:POSITION]`` (a shipped model name or a model file) with its model's oil."""
     from lumped import load_model
     from lumped.valves.kind import kind_of
 
     if isinstance(spec, FluidValve):
         return spec
+    if not isinstance(spec, (str, os.PathLike)) or not str(spec).strip():
+        raise InputError(field, f"expected 'MODEL[:POSITION]' (a shipped model or a model file), got {spec!r}")
     model_spec, position = parse_valve(spec, field)
     model = load_model(model_spec, field=field)
     params = model.valve(position)

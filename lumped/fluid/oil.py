@@ -352,7 +352,8 @@ class Oil:
     discrepancy workflow's baseline sets it to 0 unless a run states it).
     """
 
-    density: float = param("density", "kg/m^3", "rho_0 at P_0 (Table 5.1)", bounds=(100.0, 3000.0), positive=True, packed=True)
+    density: float = param("density", "kg/m^3", "rho_0 at P_0 (Table 5.1)", bounds=(100.0, 3000.0), positive=True, packed=True,
+                           typical=(600.0, 1300.0))
     bulk_modulus: float = param("bulk_modulus", "Pa", "beta of air-free oil at P_0 (Table 5.1)",
                                 bounds=(1e6, 1e11), positive=True, packed=True)
     polytropic_exponent: float = param("polytropic_exponent", "-", "gamma of the air in eq 4.9 (Table 5.1: 1.4)",

@@ -78,9 +78,18 @@ def _thesis(kind: str):
 
 
 def _valve_of(model, target: str, kind: str):
-    """The target valve of ``model`` (the inlet for "both"), or the thesis valve of that kind."""
+    """The target valve of ``model`` (for "both": the first of ``kind``, the inlet's first), or the thesis valve of
+    that kind (no model, or none of its valves is of that kind: a prior is then the thesis's)."""
+    from lumped.valves.kind import kind_of
+
     m = model if model is not None else _thesis(kind)
-    return m.valve("inlet" if target in ("both", "pump") else target), m
+    positions = ("inlet", "delivery") if target in ("both", "pump") else (target,)
+    for pos in positions:
+        if kind_of(m.valve(pos)).name == kind:
+            return m.valve(pos), m
+    if model is None:
+        return m.valve(positions[0]), m
+    return _valve_of(None, target, kind)
 
 
 # --------------------------------------------------------------------------- seat_compliance

@@ -63,7 +63,7 @@ COMPONENTS = {"pump": Pump, "oil": Oil, "circuit": Circuit, "operating": Operati
 
 
 # --------------------------------------------------------------------------- reading
-def load_model(spec, field: str = "--model") -> PumpModel:
+def load_model(spec, field: str | None = None) -> PumpModel:
     """A model from a shipped name (``thesis-disc``, ``thesis-reed``), a model file, or a PumpModel.
 
     The legacy valve names ``disc`` and ``reed`` stand for the thesis models.
@@ -72,8 +72,9 @@ def load_model(spec, field: str = "--model") -> PumpModel:
     ----------
     spec : str, Path or PumpModel
         A shipped name, a model TOML file (CONTRACT.md, "Model file"), or a model (returned as is).
-    field : str
-        The name a bad ``spec`` is reported under (InputError, exit 2 at the command line).
+    field : str, optional
+        The name a bad ``spec`` is reported under (InputError, exit 2 at the command line; the command line
+        gives its flag, ``--model``); default ``spec``.
 
     Returns
     -------
@@ -92,8 +93,9 @@ def load_model(spec, field: str = "--model") -> PumpModel:
     """
     if isinstance(spec, PumpModel):
         return spec
+    field = "spec" if field is None else field
     if not isinstance(spec, (str, Path)) or not str(spec).strip():
-        raise InputError("spec" if field == "--model" else field,
+        raise InputError(field,
                          f"expected a shipped model name ({', '.join(SHIPPED)}), a model file path or a PumpModel, "
                          f"got {spec!r}")
     name = str(spec)
@@ -177,6 +179,8 @@ def parse_model(data: dict, source: str = "", base_dir: Path | None = None, name
     name = data.get("name", name)
     if not isinstance(name, str):
         raise InputError("name", f"expected a string, got {name!r}")
+    if not isinstance(data.get("description", ""), str):
+        raise InputError("description", f"expected a string, got {data['description']!r}")
     base_name = data.get("base")
     if base_name is not None:
         if not isinstance(base_name, str):
@@ -198,6 +202,7 @@ def parse_model(data: dict, source: str = "", base_dir: Path | None = None, name
 
     valves_tbl = _table(data, "valves", "")
     shared = {k: v for k, v in valves_tbl.items() if k not in POSITIONS}
+    _check_shared(shared)
     valves = {}
     for pos in POSITIONS:
         own = valves_tbl.get(pos, {})
@@ -228,6 +233,19 @@ def model_ref(name: str, folder: Path | None) -> str:
         return name
     path = Path(name)
     return str(folder / path if folder is not None and not path.is_absolute() else path)
+
+
+def _check_shared(shared: dict) -> None:
+    """InputError naming ``valves.<name>`` for a key of ``[valves]`` that is neither a position nor a key some
+    kind declares (``[valves.middle]`` is a misplaced valve, not a key shared by both valves)."""
+    from geometry.declare import specs
+
+    known = {"kind", "geometry"} | {s.key.split(".")[0] for kind in KINDS.values()
+                                    for _, s in specs(kind.params) if s.key is not None}
+    for k in shared:
+        if k not in known:
+            raise InputError(f"valves.{k}", f"unknown valve position or shared key; expected [valves.inlet], "
+                                            f"[valves.delivery] or keys both valves share ({', '.join(sorted(known))})")
 
 
 def _load_valve(user: dict, pos: str, base: PumpModel | None, defaults: dict, base_dir: Path | None,
@@ -553,6 +571,9 @@ def with_values(model: PumpModel, values: dict, field_prefix: str = "") -> PumpM
 
 def _set_path(table: dict, model: PumpModel, path: str, value, prefix: str) -> None:
     """Set ``path`` to ``value`` in a model table (:func:`model_table`); InputError naming ``prefix + path``."""
+    if not path.strip():
+        raise InputError(f"{prefix}values", "holds an empty key path; expected pump.*, oil.*, circuit.*, operating.*, "
+                                            "valves.<inlet|delivery>.* or effects.<name>[.<target>].*")
     parts = path.split(".")
     if len(parts) < 2 or parts[0] not in ("pump", "oil", "circuit", "operating", "valves", "effects"):
         raise InputError(prefix + path, "not a model key path; expected pump.*, oil.*, circuit.*, operating.*, "
@@ -585,6 +606,11 @@ def _set_valve_path(table: dict, model: PumpModel, parts: list, value, where: st
                 vt["geometry"] = geo
             _set_nested(geo, rest[1:], value)
             continue
+        if rest == ["kind"] and isinstance(value, str) and value in KINDS and value != kind_of(v).name:
+            # another kind: its own keys, from its shipped model (as a model file's kind = ... does)
+            vt.clear()
+            vt.update(model_table(load_model(kind_default_model(value), field=where))["valves"][pos])
+            continue
         if rest == ["geometry"] or rest == ["kind"]:
             for k in kind_of(v).params.FROM_GEOMETRY:
                 _del_nested(vt, k.split("."))
@@ -610,10 +636,14 @@ def _set_effect_path(table: dict, model: PumpModel, parts: list, value, where: s
         elif value:
             eff = LIBRARY[name]
             effects.setdefault(name, {})
-            if eff.targets == ("inlet", "delivery"):
-                for t in POSITIONS:
-                    if eff.applies_to(model, t):
-                        effects[name].setdefault(t, {})
+            fits = [t for t in POSITIONS if eff.applies_to(model, t)]
+            if eff.targets != ("pump",) and not fits:
+                raise InputError(where, f"applies to {', '.join(eff.valve_types or ())} valves; this model's are "
+                                        f"{model.label}")
+            # a per-valve effect on a pump with one valve of its kinds: on that valve, not on "both"
+            if eff.targets == ("inlet", "delivery") or (eff.targets != ("pump",) and len(fits) < 2):
+                for t in fits:
+                    effects[name].setdefault(t, {})
         else:
             effects.pop(name, None)
         return

@@ -43,7 +43,9 @@ class SolverOptions:
     ``LSODA`` also accepted); ``rtol``, ``atol`` [-]: the integrator's tolerances, atol in units of each
     state's scale (None: :data:`lumped.solver.steppers.DEFAULT_TOLERANCES` of the method); ``contact_atol``
     [-]: fast path, velocity tolerance of a valve on its seat or stop in units of atol x 1 m/s (None: each
-    kind's own); ``max_steps``: steps allowed per revolution (None: the stepper's default).
+    kind's own); ``max_steps``: steps allowed per revolution (None: the stepper's default); ``accuracy_check``:
+    fast path, integrate the reported revolution again tighter and tighten or warn where the answer moves
+    (lumped.run.accuracy; default True).
     """
 
     method: str = "fast"
@@ -51,8 +53,11 @@ class SolverOptions:
     atol: float | None = None
     contact_atol: float | None = None
     max_steps: int | None = None
+    accuracy_check: bool = True
 
     def __post_init__(self):
+        if not isinstance(self.accuracy_check, (bool, np.bool_)):
+            raise InputError("accuracy_check", f"expected True or False, got {self.accuracy_check!r}")
         if self.method not in METHODS:
             raise InputError("method", f"expected one of {', '.join(METHODS)}, got {self.method!r}")
         if self.contact_atol is not None:
@@ -102,7 +107,7 @@ class Overrides:
 
 
 #: simulate's flat keywords, by the option object each belongs to
-_SOLVER_KEYS = ("rtol", "atol", "contact_atol", "max_steps")
+_SOLVER_KEYS = ("rtol", "atol", "contact_atol", "max_steps", "accuracy_check")
 _STOP_KEYS = ("revolutions", "max_revolutions", "steady_tol")
 _TRACE_KEYS = {"trace_revolutions": "revolutions", "trace_points": "points"}
 _OVERRIDE_KEYS = ("air_content", "circuit", "needle_area")
@@ -141,6 +146,8 @@ class RunOptions:
         elif not isinstance(solver, SolverOptions):
             raise InputError("solver", f"expected a lumped.run.options.SolverOptions, got {type(solver).__name__}")
         rule = _stop_rule(stop, keywords)
+        if not isinstance(trace, (bool, np.bool_, TraceOptions)):
+            raise InputError("trace", f"expected True, False or a lumped.run.options.TraceOptions, got {trace!r}")
         tr = trace if isinstance(trace, TraceOptions) else None
         if tr is None:
             tr = TraceOptions(**{v: keywords[k] for k, v in _TRACE_KEYS.items() if k in keywords})

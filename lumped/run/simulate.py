@@ -11,6 +11,7 @@ that breaks its own invariants is an :class:`InvariantError`, not an output.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time as _time
 from dataclasses import dataclass, field, replace
@@ -19,7 +20,7 @@ import numpy as np
 
 from geometry.declare import check_field, check_value
 from geometry.errors import InputError, ModelFailure
-from lumped.run import postprocess as post
+from lumped.run import accuracy, postprocess as post
 from lumped import validity
 from lumped.solver import switching as sw
 from lumped.solver.layout import CAVITATION_SLOT, N_MODE, POSITIONS, G
@@ -99,6 +100,10 @@ class PumpResult:
     steady_tol: float = math.nan   # the tolerance cycle_change was tested against (the stop rule's, floored at rtol;
                                    # one revolution: SINGLE_FRACTION of it)
     tdc_state: object = field(default=None, compare=False, repr=False)   # lumped.run.revolutions.TdcState: the next start
+    # the fast path's accuracy check (lumped.run.accuracy): the tightening of the reported revolution (0: the run's
+    # own), its rtol, whether resolved, the extra steps and the last difference found (angle [rad], delivery and
+    # peak [-]); None: not checked (reference path, complete circuit, accuracy_check=False)
+    accuracy: dict | None = field(default=None, compare=False)
 
     @property
     def valves(self) -> dict:
@@ -167,18 +172,24 @@ class PumpResult:
         ``path`` the figure is saved there, an existing file only replaced with ``force=True``."""
         import matplotlib
 
+        if self.trace is None:
+            raise InputError("trace", "the result holds no trace: run simulate(..., trace=True) to plot it")
+        if not isinstance(force, bool):
+            raise InputError("force", f"expected True or False, got {force!r}")
         if path is not None:
             from pathlib import Path
 
             if not isinstance(path, (str, Path)) or not str(path):
                 raise InputError("path", f"expected a file path, got {path!r}")
+            if Path(path).suffix.lower() not in PLOT_SUFFIXES:
+                raise InputError("path", f"{Path(path).name}: expected a file ending in {', '.join(PLOT_SUFFIXES)}")
+            if Path(path).is_dir() or not Path(path).parent.is_dir():
+                raise InputError("path", f"{path}: expected a file in an existing folder")
             if Path(path).exists() and not force:
                 raise InputError("path", f"{path} already exists; pass force=True to replace it")
             matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        if self.trace is None:
-            raise ValueError("the result holds no trace; simulate(..., trace=True)")
         fig, (a1, a2) = plt.subplots(2, 1, sharex=True, figsize=(8.5, 5))
         self.trace.plot(a1, ("inlet_position", "delivery_position"))
         self.trace.plot(a2, ("cylinder_pressure", "load_pressure"))
@@ -194,6 +205,8 @@ class PumpResult:
 
 
 # --------------------------------------------------------------------------- inputs
+#: the figure files PumpResult.plot writes (as the command line's --plot)
+PLOT_SUFFIXES = (".png", ".pdf", ".svg")
 _SPEED = Operating.__dataclass_fields__["speed_rpm"].metadata["valvelab"]
 _LOAD = Operating.__dataclass_fields__["load_pressure"].metadata["valvelab"]
 
@@ -293,11 +306,22 @@ def _run(m: PumpModel, speed: float, load: float, opts: RunOptions) -> PumpResul
     done = run(problem, stepper, y, mode, opts.stop, physics, rtol=rtol,
                keep=opts.trace.revolutions if opts.trace else 0, progress=opts.progress,
                label=f"{m.name} {speed:.0f} rpm ({kind})", warm=warm)
+    tdc = tdc_state(problem, done, physics.load_mass, stepper)
+    checked = None
+    if kind == "fast" and opts.solver.accuracy_check and not problem.complete:
+        # the reported revolution again, tighter (lumped.run.accuracy); a tuned needle valve changes between
+        # revolutions: the complete circuit is not re-integrated
+        # the run's own method and order (a tighter rtol would pick Rodas5P for a flow force: another kernel to
+        # compile), so the tighter levels differ from the run by their tolerances only
+        checked = accuracy.check(problem, done, STEPPERS[opts.solver.method], physics, rtol, atol,
+                                 {"contact_atol": opts.solver.contact_atol, "max_steps": opts.solver.max_steps,
+                                  "order": stepper.order})
+        done.n_steps += checked.extra_steps
+    rt_modes = post.rates(done.last.span, problem, physics)
     cpu = _time.process_time() - cpu0
     info = _RunInfo(opts.solver.method, rtol, atol, cpu, opts.trace.points if opts.trace else 0,
-                    "warm" if warm else "cold", done.tol if done.tol else opts.stop.tolerance(rtol),
-                    tdc_state(problem, done, physics.load_mass, stepper))
-    res = _result(m, problem, done, physics, info)
+                    "warm" if warm else "cold", done.tol if done.tol else opts.stop.tolerance(rtol), tdc, checked)
+    res = _result(m, problem, done, physics, info, rt_modes)
     if opts.check:
         check_invariants(res, problem.model)
     return res
@@ -334,14 +358,16 @@ class _RunInfo:
     start: str
     steady_tol: float
     tdc: object
+    accuracy: object = None           # lumped.run.accuracy.Outcome (None: not checked)
 
 
-def _result(m: PumpModel, problem: PumpProblem, done, physics, info: _RunInfo) -> "PumpResult":
-    """The :class:`PumpResult` of a finished run: the last revolution post-processed."""
+def _result(m: PumpModel, problem: PumpProblem, done, physics, info: _RunInfo, rt_modes) -> "PumpResult":
+    """The :class:`PumpResult` of a finished run: the last revolution post-processed (``rt_modes``: its rates
+    table and modes, lumped.run.postprocess.rates)."""
     last = done.last
     span = last.span
     resolved = problem.model
-    rt, modes = post.rates(span, problem, physics)
+    rt, modes = rt_modes
     losses = post.losses(rt, problem, problem.period / post.ENERGY_SAMPLES)
     cav = float(np.mean(modes[:, CAVITATION_SLOT] > 0.5)) * 2.0 * math.pi
     valves = _valve_results(problem, span, last, losses)
@@ -349,6 +375,8 @@ def _result(m: PumpModel, problem: PumpProblem, done, physics, info: _RunInfo) -
     vapour = float(np.max(rt[:, post.COL["vapour_volume"]] / rt[:, post.COL["volume"]]))
     warns = [w for pos in POSITIONS for w in validity.valve_warnings(resolved.valve(pos), runs[pos], resolved.oil)]
     warns += validity.pump_warnings(runs, last.delivery, info.rtol, cav, vapour)
+    if info.accuracy is not None and not info.accuracy.resolved:
+        warns.append(validity.unresolved(info.accuracy, info.rtol))
     tr = post.trace(done.kept, problem, info.trace_points, physics) if info.trace_points else None
     p_cyl = rt[:, post.COL["p_cyl"]]
     method = info.method
@@ -365,7 +393,11 @@ def _result(m: PumpModel, problem: PumpProblem, done, physics, info: _RunInfo) -
         cavitation_angle=cav, rhs_evaluations=int(done.n_rhs), steps=int(done.n_steps), events=int(done.n_events),
         method="fast" if method == "fast" else ("reference" if method == "reference" else method),
         rtol=info.rtol, atol=info.atol, trace=tr, dynamics=_dynamics(resolved), warnings=tuple(warns),
-        start=info.start, steady_tol=info.steady_tol, tdc_state=info.tdc)
+        start=info.start, steady_tol=info.steady_tol, tdc_state=info.tdc,
+        accuracy=None if info.accuracy is None else {
+            "level": info.accuracy.level, "rtol": info.accuracy.rtol, "resolved": info.accuracy.resolved,
+            "extra_steps": info.accuracy.extra_steps,
+            "difference": {k: float(v) for k, v in dataclasses.asdict(info.accuracy.difference).items()}})
 
 
 def _valve_results(problem: PumpProblem, span, last, losses) -> dict:

@@ -173,7 +173,7 @@ class DiscValve(ValveParams):
     orifice_density: str = param("flow.orifice_density", "-", "density in the orifice equation (section 4.3.5)",
                                  choices=("average", "cylinder"))
     cd_inf: float = param("discharge.cd_inf", "-", "Cd(Re) of eq 2.47, fit of eq 2.48", bounds=(1e-3, 2.0),
-                          positive=True)
+                          positive=True, typical=(0.05, 1.0))
     cd_a: float = param("discharge.a", "-", "eq 2.48", bounds=(-100.0, 100.0))
     cd_b: float = param("discharge.b", "-", "eq 2.48", bounds=(0.0, 100.0), positive=True)
     cd_c: float = param("discharge.c", "-", "eq 2.48", bounds=(0.0, 100.0), positive=True)
@@ -208,7 +208,8 @@ class DiscValve(ValveParams):
     port_length: float = param("port.length", "m", "L, control-volume length of eq 2.31 (Table 2.3)",
                                bounds=(0.0, 1.0), optional=True, packed=True)
     stop_gap: float = param("stop.gap", "m", "x_stop, maximum opening set by the housing (Table 2.3)",
-                            bounds=(1e-7, 0.1), positive=True, optional=True)
+                            bounds=(1e-7, 0.1), positive=True, optional=True,
+                            typical=(1e-5, 0.01))
     spring_preload: float = param("spring.preload", "m", "x_pre, spring compression when seated (Table 2.3)",
                                   bounds=(-0.1, 1.0), optional=True, packed=True)
     seat_damping: float = param("seat.damping", "N s/m", "c_seat; " + EQ_2_23, bounds=(0.0, 1e9), optional=True)

@@ -72,7 +72,8 @@ class ReedValve(ValveParams):
                            bounds=(-0.1, 0.1), packed=True)
     seat_stiffness: float = param("seat.stiffness", "Pa/m", "seat contact per unit area (valvelab's contact "
                                   "model: E/h of the reed, thesis-reed.toml)", bounds=(1.0, 1e16), positive=True)
-    stop_gap: float = param("stop.gap", "m", "x_stop (section 3.8.5)", bounds=(1e-7, 0.1), positive=True)
+    stop_gap: float = param("stop.gap", "m", "x_stop (section 3.8.5)", bounds=(1e-7, 0.1), positive=True,
+                            typical=(1e-5, 0.01))
     stop_stiffness: float = param("stop.stiffness", "Pa/m", "stop contact per unit area", bounds=(1.0, 1e16),
                                   positive=True)
     orifice_length: float = param("flow.orifice_length", "m", "l_o, orifice area per tip opening (eq 3.25)",
@@ -92,7 +93,8 @@ class ReedValve(ValveParams):
     multiplier_d2: float = param("pressure_multiplier.d2", "m", "eq 3.83 denominator", bounds=(-1e9, 1e9), packed=True)
     multiplier_d1: float = param("pressure_multiplier.d1", "m^2", "eq 3.83", bounds=(-1e9, 1e9), packed=True)
     multiplier_d0: float = param("pressure_multiplier.d0", "m^3", "eq 3.83", bounds=(-1e9, 1e9), packed=True)
-    cd_inf: float = param("discharge.cd_inf", "-", "C_d(Re) of eq 3.89", bounds=(1e-3, 2.0), positive=True)
+    cd_inf: float = param("discharge.cd_inf", "-", "C_d(Re) of eq 3.89", bounds=(1e-3, 2.0), positive=True,
+                          typical=(0.05, 1.0))
     cd_a: float = param("discharge.a", "-", "eq 3.89", bounds=(-100.0, 100.0))
     cd_b: float = param("discharge.b", "-", "eq 3.89", bounds=(0.0, 100.0), positive=True)
     cd_c: float = param("discharge.c", "-", "eq 3.89", bounds=(0.0, 100.0), positive=True)
@@ -106,7 +108,8 @@ class ReedValve(ValveParams):
     effective_thickness: float = param("structure.effective_thickness", "m", "h_eff (eq 3.62); " + DERIVED,
                                        bounds=(1e-8, 1.0), positive=True, optional=True)
     stiffness: float = param("structure.stiffness", "Pa/m", "kappa (Table 3.10 plucked-reed mean); " + DERIVED,
-                             bounds=(1e-3, 1e16), positive=True, optional=True, packed=True)
+                             bounds=(1e-3, 1e16), positive=True, optional=True, packed=True,
+                             typical=(1e4, 1e10))
     gamma1: float = param("structure.gamma1", "-", "Table 3.8 (stepped #2, load); " + DERIVED, bounds=(0.01, 100.0),
                           positive=True, optional=True, packed=True)
     gamma2: float = param("structure.gamma2", "-", "Table 3.8; " + DERIVED, bounds=(0.0, 100.0), optional=True)
@@ -231,6 +234,10 @@ class ReedValve(ValveParams):
             missing = ("s_start", "s_end", "width")[[v is None for v in port_keys[:3]].index(True)]
             raise InputError(f"{where}.port.{missing}", "missing; a port is a rectangle s_start..s_end [m] from the "
                              "clamp, width [m] across, centred at y_center [m] (default 0)")
+        if self.mesh_size is not None and self.mesh_size > self.reed.length / 4:
+            # the fidelity's FE model needs at least 4 elements along the reed (fea.mesh.check_size)
+            raise InputError(f"{where}.mesh_size", f"{self.mesh_size:g} m is too coarse for the {self.reed.length:g} m "
+                                                   "reed: at most a quarter of its length")
         structure(self, 1.0)          # the basis or FE reed exists: modes, fidelity and port checked here
 
     @property

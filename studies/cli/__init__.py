@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import ast
+import errno
 import importlib
 import importlib.util
 import json
@@ -59,8 +60,10 @@ COMMANDS: dict[str, str] = _discover()
 
 
 #: a negative number as users type it, exponent form and -inf/-nan included (argparse's own pattern knows only
-#: plain decimals, so ``--mesh-size -1e-4`` would be taken for a flag and refused as "expected one argument")
-NEGATIVE_NUMBER = re.compile(r"^-(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?$|^-(?:inf|infinity|nan)$", re.IGNORECASE)
+#: plain decimals, so ``--mesh-size -1e-4`` would be taken for a flag and refused as "expected one argument"); so
+#: is a comma-separated list that starts with one (``gci ... --cells -18000,-8000,-4500`` reaches its range check)
+_NUMBER = r"(?:(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|inf|infinity|nan)"
+NEGATIVE_NUMBER = re.compile(rf"^-{_NUMBER}(?:\s*,\s*[-+]?{_NUMBER})*$", re.IGNORECASE)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -86,6 +89,9 @@ def _finite(obj, path="result"):
         for i, v in enumerate(obj):
             _finite(v, f"{path}[{i}]")
 
+
+#: operating-system errors that say the disk refused a write (exit 1 with one line, not an internal error)
+DISK_ERRORS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EIO, errno.EFBIG})
 
 #: where users report a failure that is not their mistake
 REPORT_URL = "https://github.com/valvelab/valvelab/issues"
@@ -213,6 +219,14 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         sys.stderr.write("valvelab: interrupted\n")
         return 130
+    except OSError as exc:
+        if exc.errno not in DISK_ERRORS:
+            return _internal_error(args.command, exc)
+        # the machine's, not the user's mistake nor ours: a full or read-only disk, a quota, a failing device
+        where = f" {exc.filename}" if exc.filename else ""
+        sys.stderr.write(f"valvelab {args.command}: could not write{where}: {os.strerror(exc.errno)} "
+                         f"({errno.errorcode.get(exc.errno, exc.errno)}); free space or choose another path\n")
+        return 1
     except Exception as exc:  # noqa: BLE001 - the boundary: anything else is our failure, said in one line
         return _internal_error(args.command, exc)
     # a result outside its model's validity envelope (lumped.validity): one line each, on stderr

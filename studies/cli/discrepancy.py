@@ -89,8 +89,8 @@ def run(args) -> dict:
     the gap (the JSON of ``--json``; :mod:`studies.cli`)."""
     # the machinery loads here, not with the parser: ``valvelab discrepancy --help`` imports no model
     from studies.discrepancy.gap import GapScales
-    from studies.discrepancy.measured import read_dataset
-    from studies.discrepancy.model_choice import choose
+    from studies.discrepancy.measured import implausible, read_dataset
+    from studies.discrepancy.model_choice import check_demo_model, choose
     from studies.discrepancy.report import write_report
     from studies.discrepancy.workflow import Settings, Workflow
     from studies.outputs import check_output_dir
@@ -104,14 +104,17 @@ def run(args) -> dict:
         from studies.discrepancy.synth import check_rerun
 
         check_rerun(args.dataset, "DATASET", args.force, {"--model": args.model})
+        check_demo_model(args.model, args.simulator)        # before the demo dataset is written
     elif args.dataset is None:
         raise InputError("DATASET", "missing; give a dataset folder (or --demo)")
     report = None
+    if args.no_report and args.report is not None:
+        raise InputError("--report", "and --no-report contradict each other; give one")
     if not args.no_report:       # refuse an unusable report folder before minutes of search
         report = Path(args.report) if args.report else Path(f"{Path(args.dataset).resolve().name}_discrepancy")
-        if report.resolve() == Path(args.dataset).resolve():
-            raise InputError("--report", f"{report} is the dataset folder DATASET; the report would mix with its "
-                                         "runs: choose another folder")
+        if Path(args.dataset).resolve() in (report.resolve(), *report.resolve().parents):
+            raise InputError("--report", f"{report} is or lies inside the dataset folder DATASET; the report would "
+                                         "mix with its runs: choose another folder")
         check_output_dir(report, "--report", args.force, kind="report")
     if args.demo:
         demo_dataset(args.dataset, args.seed, args.workers, args.force)
@@ -130,7 +133,8 @@ def run(args) -> dict:
     from studies.cli._warnings import at_conditions
 
     # the validity envelope of the model found (its effects and fitted nuisances) at each run's condition
-    result["warnings"] = at_conditions(sim.simulate, runs, tuple(outcome.model) + tuple(outcome.nuisances))
+    result["warnings"] = implausible(runs) + at_conditions(sim.simulate, runs,
+                                                           tuple(outcome.model) + tuple(outcome.nuisances))
     if report is not None:
         result["report"] = str(report)
         write_report(report, outcome, runs, result, force=args.force)

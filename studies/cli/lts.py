@@ -283,6 +283,21 @@ def plot(path: Path, results: list[dict], setups: dict) -> None:
 
 # ----------------------------------------------------------------------- run
 
+def _implausible(args, chosen) -> list[dict]:
+    """``implausible_input`` warnings: a setup's value outside what real setups use (a value in m given to a flag in
+    mm: ``--air-gap-mm 0.09067``), naming the flag that set it, else the setup's key."""
+    from geometry.declare import atypical
+
+    flag_of = {name: "--" + flag.replace("_", "-") for flag, (name, _) in _OVERRIDES.items()
+               if getattr(args, flag, None) is not None}
+    out = []
+    for setup_name, setup, _ in chosen:
+        for key, msg in atypical(setup, "lts"):
+            field = key.split(".", 1)[1]
+            out.append({"code": "implausible_input", "message": f"{setup_name}: {flag_of.get(field, key)}: {msg}"})
+    return out
+
+
 def run(args) -> dict:
     """Run ``valvelab lts``: laser triangulation scale factor through air, PMMA and oil (section 5.3); voltage ->
     position (the JSON of ``--json``; :mod:`studies.cli`)."""
@@ -302,7 +317,7 @@ def run(args) -> dict:
     for i, (name, setup, deltas) in enumerate(chosen):
         sys.stderr.write(f"valvelab lts: {name} ({i + 1}/{len(chosen)})\n")
         results.append({"setup": name, **lts.analyse(setup, deltas, x_max, args.points)})
-    out = {"setups": results}
+    out = {"setups": results, "warnings": _implausible(args, chosen)}
     if args.voltages:
         name, setup, _ = chosen[0]
         out["conversion"] = convert(args, out_path, name, setup, results[0]["scale_factor_m_per_v"],

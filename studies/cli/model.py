@@ -37,6 +37,9 @@ def run(args) -> dict:
 
     check_reach(model)              # every draw of a declared uncertainty inside its key's range
     out = describe(model)
+    from lumped.model.plausible import input_warnings
+
+    out["warnings"] = [w.to_dict() for w in input_warnings(model)]      # possible, but likely a slip
     out["uncertainties"] = [dict(key=u.key, **u.as_table()) for u in model.uncertainties]
     out["valid"] = True
     if not args.no_fea:

@@ -178,10 +178,14 @@ def run(args) -> dict:
         flag = "--load-pressure-mpa" if args.load_pressure_mpa is not None else "operating.load_pressure"
         raise InputError(flag, f"{load / 1e6:g} MPa is below the tank pressure {model.pump.tank_pressure / 1e6:g} MPa "
                                "(absolute): a pump delivers into a load above its inlet")
+    from lumped.model.plausible import input_warnings
+
+    implausible = [w.to_dict() for w in input_warnings(model)]     # with the run's own (JSON and stderr)
     res = simulate(model, speed, load, air_content=args.air_content, revolutions=args.revolutions,
                    max_revolutions=args.max_revolutions, circuit=args.circuit, rtol=args.rtol, atol=args.atol,
                    trace=bool(outputs), progress=True, method=args.method)
     out = res.to_dict()
+    out["warnings"] = implausible + list(out.get("warnings") or [])
     from lumped.model.model_file import SHIPPED
 
     out["model"] = model.name if model.name in SHIPPED and model.source.startswith("lumped/") else model.source

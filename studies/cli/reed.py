@@ -72,6 +72,12 @@ def run(args) -> dict:
         out["mode_kinds"] = kinds
     if plot is not None:
         out["plot"] = str(_plot(plot, reed, args.fidelity, props, args.mesh_size))
+    from geometry.declare import atypical
+    from lumped.validity import beam_warnings
+
+    # possible but likely a slip (a 2 m reed), or beyond the fidelity's theory (a wide reed as a beam)
+    out["warnings"] = [{"code": "implausible_input", "message": f"{k}: {m}"}
+                       for k, m in atypical(reed, "reed") + beam_warnings(reed, args.fidelity)]
     return out
 
 

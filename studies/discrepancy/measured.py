@@ -14,6 +14,7 @@ written by valvelab carries), so both valves' positions can be used where measur
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field, replace
 from functools import cache
 from pathlib import Path
@@ -47,6 +48,14 @@ MIN_PRESSURE_PEAK_PA = 1.0e3   # a pump pressure trace peaking below 1 kPa is no
 MAX_NOISE_BELOW_VACUUM_PA = 5.0e4   # a cavitating cylinder reads ~0 Pa absolute plus sensor noise;
                                     # a gauge trace would read down to -1e5 Pa
 SPEED_RANGE_RPM = (10.0, 20000.0)
+#: a stated standard uncertainty of the delivery at least this fraction of it says nothing (and is likely a slip)
+MAX_DELIVERY_UNCERTAINTY_REL = 0.5
+#: a pressure trace whose peak is below this fraction of the run's load pressure is in another unit (kPa, bar):
+#: the cylinder reaches the load to deliver, the load line holds it
+MIN_PEAK_TO_LOAD = 0.1
+#: a measured valve whose largest |position| stays below this barely moves (possible: a valve that never
+#: opens), or its positions are in km or 1000 times too small: a warning
+MIN_POSITION_PEAK_M = 1e-5
 MIN_SAMPLES_PER_REV = 90       # coarser than 4 crank degrees cannot time valve events
 WHOLE_REV_TOLERANCE = 0.02     # fraction of a revolution (plus one sample)
 UNIFORM_DT_TOLERANCE = 0.01    # relative deviation of a time step from the median
@@ -169,6 +178,11 @@ def parse_run_toml(data: dict, where: str) -> dict:
             raise InputError(f"{where}: {key}", f"expected a standard uncertainty {what}, got {u:g}"
                              + (" (is it in percent?)" if u >= hi else ""))
         out[key] = u
+    u, d = out["delivery_uncertainty_cc"], out["delivery_cc_per_rev"]
+    if u is not None and d is not None and not u < MAX_DELIVERY_UNCERTAINTY_REL * d:
+        raise InputError(f"{where}: delivery_uncertainty_cc", f"{u:g} cc/rev is {u / d:.3g} times the measured "
+                         f"delivery {d:g} cc/rev; a standard uncertainty is below {MAX_DELIVERY_UNCERTAINTY_REL:g} of "
+                         "it (as for position_uncertainty_rel)")
     out["extra"] = {}
     return out
 
@@ -329,8 +343,11 @@ def _pressure(df: pd.DataFrame, col: str, where: str) -> np.ndarray | None:
     return p
 
 
-def read_trace(path: Path, measured_valve: str | None, speed_rpm: float) -> tuple[Trace, str]:
-    """Validated trace.csv; returns the trace and the measured valve(s) it holds."""
+def read_trace(path: Path, measured_valve: str | None, speed_rpm: float,
+               load_pressure_pa: float | None = None) -> tuple[Trace, str]:
+    """Validated trace.csv; returns the trace and the measured valve(s) it holds. With the run's
+    ``load_pressure_pa`` [Pa], a pressure column peaking below :data:`MIN_PEAK_TO_LOAD` of it is refused (kPa
+    or bar)."""
     where = str(path)
     df = _read_table(path, where)
     needed = _position_columns(df, path, measured_valve)
@@ -340,12 +357,17 @@ def read_trace(path: Path, measured_valve: str | None, speed_rpm: float) -> tupl
     positions = {valve: _position(df, col, where) for valve, col in zip(valves, needed)}
     cyl = _pressure(df, "cylinder_pressure_pa", where)
     load = _pressure(df, "load_pressure_pa", where)
+    for col, p in (("cylinder_pressure_pa", cyl), ("load_pressure_pa", load)):
+        if p is not None and load_pressure_pa is not None and np.max(p) < MIN_PEAK_TO_LOAD * load_pressure_pa:
+            raise InputError(f"{where}: {col}", f"peaks at {np.max(p):g} Pa, {load_pressure_pa / np.max(p):.3g} "
+                             f"times below the run's load pressure {load_pressure_pa:g} Pa (run.toml): a pump "
+                             "pressure in Pa reaches the load (is it in kPa or bar?)")
     return Trace.measured(t, positions, cyl, load, speed_rpm), measured_valve
 
 
 def read_run(folder: str | Path) -> Run:
     """One run folder (run.toml, optional trace.csv), validated."""
-    folder = Path(folder)
+    folder = validate.path(folder, "folder")
     toml_path = folder / "run.toml"
     if not toml_path.is_file():
         raise InputError(str(folder), "not a run folder: no run.toml")
@@ -353,9 +375,28 @@ def read_run(folder: str | Path) -> Run:
     fields = parse_run_toml(data, str(toml_path))
     trace = None
     csv = folder / "trace.csv"
+    if os.path.lexists(csv) and not csv.exists():      # a link to nothing, or a loop: not "no trace"
+        raise InputError(str(csv), "a symbolic link that leads to no file (dangling, or a loop); point it at the "
+                                   "trace or remove it")
     if csv.exists():
-        trace, _ = read_trace(csv, fields["measured_valve"], fields["speed_rpm"])
+        trace, _ = read_trace(csv, fields["measured_valve"], fields["speed_rpm"], fields["load_pressure_pa"])
     return Run(name=folder.name, trace=trace, path=folder, **fields)
+
+
+def implausible(runs: list[Run]) -> list[dict]:
+    """``implausible_input`` warnings ({"code", "message"}, lumped.validity) for measured data that is possible
+    but likely a slip: a measured valve whose largest |position| stays below :data:`MIN_POSITION_PEAK_M` (a valve
+    that never opens, or positions 1000 times too small)."""
+    out = []
+    for r in runs:
+        for valve, x in (r.trace.positions.items() if r.trace is not None else ()):
+            peak = float(np.max(np.abs(x))) if len(x) else 0.0
+            if peak < MIN_POSITION_PEAK_M:
+                out.append({"code": "implausible_input",
+                            "message": f"{r.name}/trace.csv: the {valve} valve moves at most {peak * 1e6:.3g} um "
+                                       f"(below {MIN_POSITION_PEAK_M * 1e6:g} um): it never opens, or the positions "
+                                       "are not in m"})
+    return out
 
 
 def read_dataset(path: str | Path) -> list[Run]:

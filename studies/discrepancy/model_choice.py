@@ -82,6 +82,25 @@ def choose(model: str | None = None, simulator: str | None = None, runs: list | 
     return _checked(Simulator(PumpSimulator(pm), LIBRARY, pm, pm.name), runs, "--model")
 
 
+#: the valves of the --demo dataset (the thesis's disc rig with its O-ring, studies/cli/discrepancy.py)
+DEMO_VALVES = "disc"
+
+
+def check_demo_model(model: str | None, simulator: str | None) -> None:
+    """InputError naming ``--model`` when the model given with ``--demo`` has other valves than the demo dataset's
+    disc valves (decided before the dataset is written, not after)."""
+    if model is None or simulator is not None:
+        return
+    if not _is_model(model) and "/" not in model and not model.endswith(".toml"):
+        return                                  # a module (the old --model MODULE), checked when it runs
+    from lumped.model.model_file import load_model
+
+    pm = load_model(model, field="--model")
+    if pm.label != DEMO_VALVES:
+        raise InputError("--model", f"the model {pm.name!r} has {pm.label} valves; the --demo dataset is measured "
+                                    f"on the thesis's {DEMO_VALVES} valves: give a {DEMO_VALVES} model or leave --model out")
+
+
 def _checked(sim: Simulator, runs, field: str) -> Simulator:
     """A pump model must have the valves the runs were measured on, and deliver what they measured."""
     from studies.discrepancy.measured import check_delivery

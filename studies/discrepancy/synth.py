@@ -81,6 +81,9 @@ def check_synthesis(simulator, valve_type, conditions, truth, noise, seed, worke
         raise InputError("simulator", f"expected a callable (run condition, effects) -> CycleTrace, got {simulator!r}")
     if not isinstance(valve_type, str) or not valve_type:
         raise InputError("valve_type", f"expected a valve type such as 'disc' or 'reed', got {valve_type!r}")
+    from studies.discrepancy.measured import valve_types
+
+    validate.choice(valve_type, "valve_type", valve_types())      # 'Disc': did you mean disc?
     if not isinstance(conditions, (list, tuple)) or not conditions:
         raise InputError("conditions", f"expected a non-empty list of Condition, got {conditions!r}")
     for i, c in enumerate(conditions):

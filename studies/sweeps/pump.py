@@ -94,7 +94,8 @@ ON_WARNING = ("flag", "exclude")
 MAIN_RESPONSES = ("delivery_m3_per_rev", "volumetric_efficiency", "delivery_peak_opening_m")
 REQUIRED = ()
 OPERATING = ("model", "valve", "speed_rpm", "load_pressure", "air_content", "revolutions", "max_revolutions",
-             "steady_tol", "warm_start", "one_revolution", "method", "rtol", "atol", "circuit", "on_warning")
+             "steady_tol", "warm_start", "one_revolution", "method", "rtol", "atol", "circuit", "on_warning",
+             "accuracy_check")
 #: the most revolutions a design runs to reach cyclic steady state (unless ``max_revolutions``)
 MAX_REVOLUTIONS = 10
 #: the steady-state test's tolerance (floored at the integrator's rtol) unless ``steady_tol``: lumped's
@@ -162,6 +163,21 @@ def _base_name(design: dict) -> str:
                               "or in [fixed]")
 
 
+def _model_and_valve(fixed: dict, factors: dict) -> None:
+    """Both a pump model and a valve kind given (``model`` names the base, so ``valve`` is ignored by
+    :func:`_base_name`): refused unless every model has valves of every kind named."""
+    from lumped.model.model_file import load_model
+
+    models = [fixed["model"]] if "model" in fixed else list(factors.get("model", ()))
+    valves = [fixed["valve"]] if "valve" in fixed else list(factors.get("valve", ()))
+    for m in models if valves else ():
+        kinds = set(load_model(str(m), field="model").kinds)
+        for v in valves:
+            if kinds != {v}:
+                raise InputError("valve", f"{v!r} contradicts the model {m!r}, which has "
+                                          f"{' and '.join(sorted(kinds))} valves: the model names the valves; drop valve")
+
+
 def _positive(name, v, integer=False):
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
         raise InputError(name, f"must be a positive number, got {v!r}")
@@ -203,7 +219,7 @@ def check(name: str, value) -> None:
         _positive(name, value, integer=True)
         if not 2 <= value <= 100_000:
             raise InputError(name, f"must be from 2 (cyclic steady state compares two) to 100000, got {value!r}")
-    elif name in ("warm_start", "one_revolution"):
+    elif name in ("warm_start", "one_revolution", "accuracy_check"):
         if not isinstance(value, bool):
             raise InputError(name, f"must be true or false, got {value!r}")
     elif name in ("steady_tol", "rtol", "atol"):
@@ -253,6 +269,7 @@ def check_inputs(fixed: dict, factors: dict) -> None:
     if not bases:
         raise InputError("model", "missing: give the pump model (model = NAME|FILE, or valve = disc|reed) as a "
                                   "factor or in [fixed]")
+    _model_and_valve(fixed, factors)
     seen: dict = {}
     for name in [*fixed, *factors]:      # a first-version name and its key path: one input given twice
         path = translate(name)
@@ -418,6 +435,9 @@ def simulate_design(model, design: dict, warm=None):
     from lumped.run.simulate import simulate
 
     kw = {k: design[k] for k in ("rtol", "atol") if k in design}
+    # the fast path's a-posteriori check (lumped.run.accuracy) costs a revolution at a tenth of the tolerances, more
+    # than a warm-started design's own: a sweep asks for it (accuracy_check = true); docs/performance.md
+    kw["accuracy_check"] = bool(design.get("accuracy_check", False))
     res = simulate(model, design.get("speed_rpm"), design.get("load_pressure"),
                    air_content=design.get("air_content"), stop=stop_rule(design),
                    circuit=design.get("circuit"), method=design.get("method", "fast"),

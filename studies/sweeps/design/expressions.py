@@ -15,8 +15,15 @@ import math
 from geometry.errors import InputError
 
 _FUNCS = {"min": min, "max": max, "sqrt": math.sqrt, "exp": math.exp, "log": math.log, "abs": abs}
+# floats only, math.pow for powers: every operation is one floating-point operation, so an expression's work is
+# bounded by its length ("9 ** 9 ** 9 ** 9" in integers would compute a number of 10^8 digits; in floats it
+# overflows at once), and a negative base to a fractional power is a ValueError, not a complex number
 _BINOPS = {ast.Add: lambda a, b: a + b, ast.Sub: lambda a, b: a - b, ast.Mult: lambda a, b: a * b,
-           ast.Div: lambda a, b: a / b, ast.Pow: lambda a, b: a ** b}
+           ast.Div: lambda a, b: a / b, ast.Pow: math.pow}
+#: the longest expression accepted [characters] (Python's parser recurses on nesting)
+MAX_LENGTH = 2000
+#: how many arguments each function takes (min, max: at least two)
+_ARITY = {"min": (2, None), "max": (2, None), "sqrt": (1, 1), "exp": (1, 1), "log": (1, 1), "abs": (1, 1)}
 
 
 def _dotted(node) -> str | None:
@@ -57,10 +64,16 @@ def expression_names(text: str, where: str) -> list[str]:
     >>> expression_names("step_length / valves.geometry.length", "derived.x")
     ['step_length', 'valves.geometry.length']
     """
+    if not isinstance(text, str):
+        raise InputError(where, f"expected an arithmetic expression as a string, got {text!r}")
+    if len(text) > MAX_LENGTH:
+        raise InputError(where, f"an expression of {len(text)} characters; at most {MAX_LENGTH}")
     try:
         tree = ast.parse(text, mode="eval")
     except SyntaxError as exc:
         raise InputError(where, f"not an arithmetic expression ({exc.msg})") from None
+    except (RecursionError, MemoryError):
+        raise InputError(where, "nested too deeply to be an arithmetic expression") from None
     names = []
 
     def visit(n):
@@ -80,13 +93,21 @@ def expression_names(text: str, where: str) -> list[str]:
         if isinstance(n, ast.UnaryOp) and isinstance(n.op, (ast.USub, ast.UAdd)):
             return visit(n.operand)
         if isinstance(n, ast.Call) and isinstance(n.func, ast.Name) and n.func.id in _FUNCS and not n.keywords:
+            lo, hi = _ARITY[n.func.id]
+            if len(n.args) < lo or (hi is not None and len(n.args) > hi) or \
+                    any(isinstance(a, ast.Starred) for a in n.args):
+                raise InputError(where, f"{n.func.id}() takes {lo if hi == lo else f'{lo} or more'} argument"
+                                        f"{'s' if lo > 1 else ''}")
             for a in n.args:
                 visit(a)
             return
         raise InputError(where, f"unsupported element {type(n).__name__}: use numbers, variable names, "
                                 "+ - * / **, min, max, sqrt, exp, log, abs")
 
-    visit(tree)
+    try:
+        visit(tree)
+    except RecursionError:
+        raise InputError(where, "nested too deeply to be an arithmetic expression") from None
     return names
 
 
@@ -103,6 +124,8 @@ def evaluate_expression(text: str, values: dict) -> float:
     Returns
     -------
     float
+        Finite; OverflowError, ValueError or ZeroDivisionError otherwise (a power too large, the root or log of
+        a negative number, a division by zero).
 
     Examples
     --------
@@ -116,7 +139,7 @@ def evaluate_expression(text: str, values: dict) -> float:
         if isinstance(n, ast.Expression):
             return ev(n.body)
         if isinstance(n, ast.Constant):
-            return n.value
+            return float(n.value)
         if isinstance(n, (ast.Name, ast.Attribute)):
             return values[_dotted(n)]
         if isinstance(n, ast.BinOp):
@@ -126,4 +149,7 @@ def evaluate_expression(text: str, values: dict) -> float:
             return -v if isinstance(n.op, ast.USub) else v
         return _FUNCS[n.func.id](*[ev(a) for a in n.args])
 
-    return float(ev(tree))
+    out = float(ev(tree))
+    if not math.isfinite(out):
+        raise OverflowError(f"the value is {out}")
+    return out

@@ -423,8 +423,19 @@ def _parse_operating(op, model_name: str, kind: str, var_names: set) -> tuple:
             if dv is None:
                 raise InputError(f"operating.{k}", f"missing, and the model {model.name!r} has no [operating] {attr}")
             lists[k] = [dv * scale]
+    for i, p in enumerate(lists["load_pressure_mpa"] or ()):
+        _above_tank(p, model, f"operating.load_pressure_mpa[{i}]")
     return tuple({**({} if s is None else {"speed_rpm": s}), **({} if p is None else {"load_pressure": p * 1e6})}
                  for s in lists["speed_rpm"] or [None] for p in lists["load_pressure_mpa"] or [None])
+
+
+def _above_tank(load_mpa: float, model, where: str) -> None:
+    """InputError naming ``where`` for a load [MPa, absolute] below the model's tank pressure: every evaluation
+    would be refused (lumped.simulate), so the study is refused before any."""
+    tank = model.pump.tank_pressure
+    if load_mpa * 1e6 < tank:
+        raise InputError(where, f"{load_mpa:g} MPa is below the tank pressure {tank / 1e6:g} MPa (absolute): a "
+                                "pump delivers into a load above its inlet")
 
 
 def _unit_of(model, path: str) -> str:

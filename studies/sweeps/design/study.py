@@ -200,6 +200,8 @@ def _check_centre(spec: DesignSpec, model, centre: dict) -> None:
     try:
         apply_design(model, spec, centre)
     except InputError as exc:
+        if exc.field.startswith("derived."):     # the expression itself, not a key path: it names itself
+            raise InputError(exc.field, f"at the centre of the ranges: {exc.message}") from None
         # each key path on its own (at its centre value): an unknown key names its variable. Only when the
         # centre design fails: alone, a key may break a constraint its [derived] partners restore.
         for v in spec.variables:
@@ -227,6 +229,9 @@ def _check_ends(spec: DesignSpec, model, v, centre: dict) -> None:
                                             else "")
         if v.role == "operating":
             check_value(float(x), SPEED if v.name == "speed_rpm" else LOAD_MPA, where)
+            if v.name == "load_pressure_mpa" and hasattr(model, "pump"):
+                from studies.sweeps.design.spec import _above_tank
+                _above_tank(float(x), model, where)
             continue
         try:
             apply_design(model, spec, dict(centre, **{v.name: x}))
