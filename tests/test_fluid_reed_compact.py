@@ -51,3 +51,80 @@ def test_multiplier_table_finds_the_zero():
     table = reed_compact.multiplier_table(rows, 0.835)
     assert table["X"][0] == 0.835 and table["opening"][0] == 0.0
     assert table["zero_opening"] == pytest.approx(1.6e-3, rel=1e-12)     # 0.8 - 500 x = 0
+
+
+# ------------------------------------------------------------------------------ the run and its log
+def _fake_solvers(monkeypatch, fail_at=None):
+    """pressure_sweep / displacement_sweep / reed_film replaced by closed forms (Q = G x^3 dP), counting calls;
+    the pressure sweep at opening ``fail_at`` [m] raises (an interrupted run) after logging its first point."""
+    from dataclasses import dataclass
+
+    calls = {"pressure": [], "moving": []}
+
+    @dataclass
+    class P:
+        opening: float
+        dp: float
+        flow: float
+        multiplier: float
+
+    @dataclass
+    class M:
+        opening: float
+        speed: float
+        fraction: float
+
+    @dataclass
+    class F:
+        multiplier: float = 0.8356
+        base_fraction: float = 0.824
+
+    def pressure(valve, x, reynolds, progress=True, on_point=None, dp_max=None):
+        calls["pressure"].append(x)
+        out = []
+        for dp in (1.0, 1e3):
+            out.append(P(x, dp, 1e-3 * x**3 * dp, 0.8))
+            on_point(out[-1])
+            if fail_at is not None and abs(x - fail_at) < 1e-12:
+                raise KeyboardInterrupt
+        return out
+
+    def moving(valve, x, speeds, progress=True):
+        calls["moving"].append(x)
+        return [M(x, u, 0.23) for u in (0.0, *speeds)]
+
+    monkeypatch.setattr(reed_compact, "pressure_sweep", pressure)
+    monkeypatch.setattr(reed_compact, "displacement_sweep", moving)
+    monkeypatch.setattr(reed_compact, "reed_film", lambda valve, x: F())
+    return calls
+
+
+def test_an_interrupted_characterisation_resumes_from_its_log(valve, tmp_path, monkeypatch):
+    log = tmp_path / "points.jsonl"
+    stop = valve.seat.stop_gap
+    third = reed_compact.OPENING_FRACTIONS[2] * stop
+    calls = _fake_solvers(monkeypatch, fail_at=third)
+    with pytest.raises(KeyboardInterrupt):
+        reed_compact.characterise(valve, progress=False, log=log)
+    assert len(calls["pressure"]) == 3                  # two sweeps finished, the third cut after one point
+    calls = _fake_solvers(monkeypatch)
+    raw = reed_compact.characterise(valve, progress=False, log=log)
+    # the two finished sweeps are read, the cut one and the rest are solved whole
+    assert calls["pressure"] == pytest.approx([f * stop for f in reed_compact.OPENING_FRACTIONS[2:]])
+    assert len(calls["moving"]) == len(reed_compact.DISPLACEMENT_FRACTIONS)
+    assert len(raw["rows"]) == 2 * len(reed_compact.OPENING_FRACTIONS)
+    assert sorted(r["opening"] for r in raw["rows"]) == pytest.approx(
+        sorted(2 * [f * stop for f in reed_compact.OPENING_FRACTIONS]))
+    # a third run solves nothing
+    calls = _fake_solvers(monkeypatch)
+    again = reed_compact.characterise(valve, progress=False, log=log)
+    assert calls == {"pressure": [], "moving": []} and again["rows"] == raw["rows"]
+
+
+def test_the_cost_estimate_counts_the_solves():
+    c = reed_compact.cost_estimate()
+    n_open, n_re = len(reed_compact.OPENING_FRACTIONS), len(reed_compact.REYNOLDS)
+    n_move = len(reed_compact.DISPLACEMENT_FRACTIONS)
+    assert c["stokes"] == n_open + n_move and c["newton"] == n_open * n_re + 2 * n_move
+    lo, hi = c["wall_seconds"]
+    assert 0 < lo < hi and c["cpu_seconds"] > 0
