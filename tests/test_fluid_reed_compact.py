@@ -128,3 +128,44 @@ def test_the_cost_estimate_counts_the_solves():
     assert c["stokes"] == n_open + n_move and c["newton"] == n_open * n_re + 2 * n_move
     lo, hi = c["wall_seconds"]
     assert 0 < lo < hi and c["cpu_seconds"] > 0
+
+
+def test_the_pump_warns_beyond_the_computed_range():
+    """fluid = "predicted" sets the range the forms were computed on; a run beyond it is warned."""
+    from dataclasses import replace
+
+    from lumped import load_model
+    from lumped.validity import ValveRun, valve_warnings
+
+    m = load_model("thesis-reed")
+    run = ValveRun(position="delivery", kind="reed", opened=True, peak_opening=1.0e-3, min_opening=0.0,
+                   seat_penetration=0.0, stop_penetration=0.0, max_reynolds=80.0, max_dp=1e5,
+                   forward_volume=2e-6, backward_volume=1e-7, energy_loss=0.1)
+    assert not [w for w in valve_warnings(m.delivery, run, m.oil) if w.code == "fluid_range"]   # empirical
+    v = replace(m.delivery, fluid_opening_max=0.8e-3, fluid_reynolds_max=62.0)
+    texts = [w.message for w in valve_warnings(v, run, m.oil) if w.code == "fluid_range"]
+    assert len(texts) == 2 and "0.8 mm" in texts[0] and "62" in texts[1]
+    inside = replace(run, peak_opening=0.5e-3, max_reynolds=30.0)
+    assert not [w for w in valve_warnings(v, inside, m.oil) if w.code == "fluid_range"]
+
+
+def test_eq_3_83_form_recovers_the_thesis_fit():
+    """A table sampled from eq 3.83 itself (thesis coefficients, openings 0.1-1.2 mm) is fitted back within
+    0.5 % of X with its zero at the thesis's 1.369 mm (within 3 %), no pole before it."""
+    from lumped.valves.reed import pressure_load_multiplier
+
+    c = (-52.28, 0.07158, 0.8145, -50.23, 0.08292)
+    xs = np.linspace(0.1e-3, 1.2e-3, 12)
+    X = [pressure_load_multiplier(x, 0.835, *c, 0.07158 / 52.28) for x in xs]
+    fit = reed_compact.fit_multiplier({"opening": [0.0, *xs], "X": [0.835, *X]}, 0.835)
+    assert fit["pole"] is None and fit["max_abs"] < 0.005
+    assert fit["zero_opening"] == pytest.approx(0.07158 / 52.28, rel=0.03)
+
+
+def test_eq_3_83_form_keeps_the_zero_beyond_the_computed_openings():
+    """X that stays near 0.8 up to the largest opening: the fitted zero lies beyond it (the pump would
+    otherwise take X = 0 where the flow gives 0.8)."""
+    xs = [0.1e-3, 0.3e-3, 0.6e-3, 1.0e-3, 1.3e-3, 1.7e-3]
+    X = [0.836, 0.833, 0.825, 0.80, 0.785, 0.772]
+    fit = reed_compact.fit_multiplier({"opening": [0.0, *xs], "X": [0.8356, *X]}, 0.8356)
+    assert fit["zero_opening"] > 1.7e-3 and fit["pole"] is None and fit["max_abs"] < 0.01

@@ -307,27 +307,51 @@ def compact_forms(valve: ReedValveFlow, recompute: bool = False, progress: bool 
 
 
 # ------------------------------------------------------------------------------ the pump's use
+#: the scale of eq 3.83's linear denominator term [m^2] (the thesis's d1 = -50.23): the cubic and
+#: quadratic terms are below 1e-6 of it at the valve's openings, so the form is c (x_z - x) / (x_p - x)
+MULTIPLIER_SCALE = 50.0
+
+
 def fit_multiplier(table: dict, plateau: float) -> dict:
-    """eq 3.83's coefficients (x in m) fitted to the X(x) table by least squares, eq 3.83's own
-    values as the start; the plateau is the film's. The fit's zero -n0/n1 beyond the table's last
-    opening is an extrapolation (the pump warns when an opening leaves the computed range)."""
+    """eq 3.83's coefficients (x in m) fitted to the X(x) table by least squares, with the film's plateau.
+
+    Eq 3.83 is, at the valve's openings, X = c (x_z - x) / (x_p - x): its cubic and quadratic
+    denominator terms are below 1e-6 of the linear one (the thesis's zero x_z = 1.37 mm, pole
+    x_p = 1.65 mm). The fit keeps that form with d2 = 0, d1 = -k, d0 = k x_p, n1 = -c k,
+    n0 = c k x_z (k = :data:`MULTIPLIER_SCALE`; the x^3 term kept exactly), and x_p > x_z >= x_max,
+    the table's largest opening: the pump model takes X = 0 from x_z on (lumped.valves.reed), so a
+    zero inside the computed range would drop X to 0 where the flow says otherwise. Returns the
+    coefficients, ``zero_opening`` x_z, ``pole`` (a denominator root in (0, x_z], None if none),
+    ``max_abs`` (the largest residual over the table).
+    """
     from scipy.optimize import least_squares
 
     x = np.asarray(table["opening"][1:], float)
     X = np.asarray(table["X"][1:], float)
+    x_max, k = float(x.max()), MULTIPLIER_SCALE
 
-    def rational(p, xx):
-        n1, n0, d2, d1, d0 = p
-        return (n1 * xx + n0) / (xx**3 + d2 * xx**2 + d1 * xx + d0)
+    def coefficients(p):
+        c, tz, tp = p
+        xz = x_max + np.exp(tz)
+        xp = xz + np.exp(tp)
+        return -c * k, c * k * xz, 0.0, -k, k * xp
 
     def res(p):
-        return np.minimum(rational(p, x), plateau) - X
+        n1, n0, d2, d1, d0 = coefficients(p)
+        return np.minimum((n1 * x + n0) / (x**3 + d2 * x**2 + d1 * x + d0), plateau) - X
 
-    sol = least_squares(res, [-52.28, 0.07158, 0.8145, -50.23, 0.08292], x_scale="jac")
-    r = res(sol.x)
+    sol = least_squares(res, [float(X[0]), np.log(0.5 * x_max), np.log(0.5 * x_max)], x_scale="jac")
+    c = coefficients(sol.x)
+    zero = float(-c[1] / c[0])
+    roots = np.roots([1.0, c[2], c[3], c[4]])
+    real = sorted(float(r.real) for r in roots if abs(r.imag) < 1e-9 * max(1.0, abs(r)) and 0.0 < r.real <= zero)
     names = ("n1", "n0", "d2", "d1", "d0")
-    return {**dict(zip(names, map(float, sol.x))), "poiseuille": float(plateau),
-            "max_abs": float(np.abs(r).max()), "zero_opening": float(-sol.x[1] / sol.x[0])}
+    return {**dict(zip(names, map(float, c))), "poiseuille": float(plateau),
+            "max_abs": float(np.abs(res(sol.x)).max()), "zero_opening": zero, "pole": real[0] if real else None}
+
+
+#: the largest residual of eq 3.83's form fitted to the computed X(x) table that the pump accepts
+MULTIPLIER_FIT_TOL = 0.02
 
 
 def operating_cd(data: dict, valve: ReedValveFlow, preload: float) -> dict | None:
@@ -369,9 +393,10 @@ def predicted_values(valve, oil) -> dict:
     except InputError as exc:
         raise InputError(exc.field, f"the predicted Cd(Re) is not a usable correlation ({exc.message})") from None
     X = fit_multiplier(forms["multiplier"], forms["multiplier_poiseuille"])
-    if not X["zero_opening"] > 0.0:
-        raise InputError(f"{where}.fluid", "the predicted X(x) does not fall to 0 at a positive opening in eq "
-                         "3.83's form; use \"empirical\"")
+    if X["pole"] is not None or X["max_abs"] > MULTIPLIER_FIT_TOL:
+        raise InputError(f"{where}.fluid", "the predicted X(x) has no form of eq 3.83 without a pole before its zero "
+                         f"within {MULTIPLIER_FIT_TOL:g} of the computed table (largest residual "
+                         f"{X['max_abs']:.3g}); use \"empirical\"")
     return {"cd_inf": cd["cd_inf"], "cd_a": cd["a"], "cd_b": cd["b"], "cd_c": cd["c"],
             "multiplier_poiseuille": X["poiseuille"], "multiplier_n1": X["n1"], "multiplier_n0": X["n0"],
             "multiplier_d2": X["d2"], "multiplier_d1": X["d1"], "multiplier_d0": X["d0"],
