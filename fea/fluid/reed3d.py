@@ -213,6 +213,8 @@ def pressure_sweep(valve: ReedValveFlow, opening: float, reynolds=(), progress: 
         if dp is None:
             dp = _next_dp(out, re)
             if dp_max is not None and dp >= dp_max:
+                if out[-1].dp >= CAP_NEAR * dp_max:
+                    break                        # the last point is at the cap already
                 dp, capped = dp_max, True
         ok, factor = _continue_to(system, valve, opening, unit, dp, history, out, factor, progress, on_point)
         if not ok or capped:
@@ -222,6 +224,8 @@ def pressure_sweep(valve: ReedValveFlow, opening: float, reynolds=(), progress: 
     return out
 
 
+#: a sweep whose last point is within this fraction of its pressure cap stops there
+CAP_NEAR = 0.9
 #: halvings (in log dP) of a continuation step whose Newton solve failed, before a sweep ends
 MAX_HALVINGS = 2
 #: Newton's tolerance in a sweep (relative velocity update; the outputs settle to ~1e-9 below it)
