@@ -85,8 +85,9 @@ PARTS = ("pressure", "moving")
 def read_log(log) -> dict:
     """The completed sweeps of a characterisation log: {(part, opening fraction): [rows]}.
 
-    A sweep's rows are those between its start line ``{"start": part, "fraction": f}`` and its end
-    line ``{"done": part, "fraction": f}``; without the end line they do not count (a sweep
+    Each line names its sweep by ``part`` and ``at`` (the opening as a fraction of the stop); a
+    sweep's rows are those between its start line ``{"start": part, "at": f}`` and its end line
+    ``{"done": part, "at": f}``; without the end line they do not count (a sweep
     interrupted halfway is run again whole: its points continue from each other).
     """
     done, pending = {}, {}
@@ -100,13 +101,14 @@ def read_log(log) -> dict:
         except ValueError:
             continue                                  # a line cut by the interruption
         if "start" in row:
-            pending[(row["start"], float(row["fraction"]))] = []
+            pending[(row["start"], float(row["at"]))] = []
         elif "done" in row:
-            k = (row["done"], float(row["fraction"]))
-            done[k] = pending.pop(k, [])
+            k = (row["done"], float(row["at"]))
+            if k in pending:                          # (a repeated end line adds nothing)
+                done[k] = pending.pop(k)
         elif "part" in row:
-            pending.setdefault((row["part"], float(row["fraction"])), []).append(
-                {k: v for k, v in row.items() if k not in ("part", "fraction")})
+            pending.setdefault((row["part"], float(row["at"])), []).append(
+                {k: v for k, v in row.items() if k not in ("part", "at")})
     return done
 
 
@@ -132,13 +134,13 @@ def characterise(valve: ReedValveFlow, progress: bool = True, log=None, parts=PA
             _say(progress, f"fluid: {part} sweep at {fraction:g} x_stop read from {log}")
             return done[(part, fraction)]
         rows = []
-        write({"start": part, "fraction": fraction})
+        write({"start": part, "at": fraction})
 
         def keep(point) -> None:                 # each point logged as soon as it is solved
             rows.append({k: float(v) for k, v in asdict(point).items()})
-            write({"part": part, "fraction": fraction, **rows[-1]})
+            write({"part": part, "at": fraction, **rows[-1]})
         run(fraction * stop, keep)
-        write({"done": part, "fraction": fraction})
+        write({"done": part, "at": fraction})
         return rows
 
     rows, moving = [], []
@@ -269,6 +271,33 @@ def _shipped(key: str) -> dict | None:
     return None
 
 
+def _data(valve: ReedValveFlow, raw: dict, key: str) -> dict:
+    """The stored record: forms, points and provenance."""
+    return {"key": key, "reed": valve.reed.name, "forms": fit_forms(raw, valve),
+            "points": {"pressure": raw["rows"], "moving": raw["moving"], "film": raw["film"]},
+            "provenance": {"version": FORMS_VERSION, "mesh": repr(valve.mesh), "openings": OPENING_FRACTIONS,
+                           "reynolds": REYNOLDS, "tip_speed": TIP_SPEED, "wall_seconds": raw["wall_seconds"],
+                           "cpu_seconds": raw["cpu_seconds"],
+                           "solve_seconds": sum(r["seconds"] for r in raw["rows"] + raw["moving"]),
+                           "density": valve.fluid.rho, "viscosity": valve.fluid.mu,
+                           "stiffness": valve.stiffness}}
+
+
+def forms_from_log(valve: ReedValveFlow, log) -> dict:
+    """The record of :func:`compact_forms` from the finished sweeps of a characterisation log alone
+    (:func:`read_log`; the film is solved, it takes seconds; no 3-D solve): the forms of a run that
+    was stopped, over the points it has (``provenance["sweeps"]`` lists them)."""
+    done = read_log(log)
+    stop = valve.seat.stop_gap
+    rows = [r for f in OPENING_FRACTIONS for r in done.get(("pressure", f), [])]
+    moving = [r for f in DISPLACEMENT_FRACTIONS for r in done.get(("moving", f), [])]
+    film = reed_film(valve, OPENING_FRACTIONS[0] * stop / 5)
+    raw = {"rows": rows, "moving": moving, "film": asdict(film), "wall_seconds": None, "cpu_seconds": None}
+    data = _data(valve, raw, reed_key(valve))
+    data["provenance"]["sweeps"] = sorted([p, f] for p, f in done)
+    return data
+
+
 def compact_forms(valve: ReedValveFlow, recompute: bool = False, progress: bool = True, log=None) -> dict:
     """The reed valve's compact forms: shipped (``fea/fluid/data``), cached, or computed and cached.
     ``{"key", "forms", "points", "provenance"}``.
@@ -294,14 +323,7 @@ def compact_forms(valve: ReedValveFlow, recompute: bool = False, progress: bool 
                    f"minutes, {lo / 60:.0f}-{hi / 60:.0f} min wall on 2 cores (idle to loaded; measured per "
                    f"solve), 2.5 GB; cached afterwards in {cache_dir()}")
     raw = characterise(valve, progress=progress, log=log)
-    data = {"key": key, "reed": valve.reed.name, "forms": fit_forms(raw, valve),
-            "points": {"pressure": raw["rows"], "moving": raw["moving"], "film": raw["film"]},
-            "provenance": {"version": FORMS_VERSION, "mesh": repr(valve.mesh), "openings": OPENING_FRACTIONS,
-                           "reynolds": REYNOLDS, "tip_speed": TIP_SPEED, "wall_seconds": raw["wall_seconds"],
-                           "cpu_seconds": raw["cpu_seconds"],
-                           "solve_seconds": sum(r["seconds"] for r in raw["rows"] + raw["moving"]),
-                           "density": valve.fluid.rho, "viscosity": valve.fluid.mu,
-                           "stiffness": valve.stiffness}}
+    data = _data(valve, raw, key)
     store(data, path)
     return data
 
