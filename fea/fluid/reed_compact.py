@@ -376,24 +376,15 @@ def fit_multiplier(table: dict, plateau: float) -> dict:
 MULTIPLIER_FIT_TOL = 0.02
 
 
-def operating_cd(data: dict, valve: ReedValveFlow, preload: float) -> dict | None:
-    """Cd(Re) in eq 3.88's form fitted on the static operating line kappa (x - x_0) = X dP of a valve
-    with rest opening ``preload`` x_0 [m] (:func:`equilibrium_points` over the stored points; no solve),
-    None with fewer than 4 points on the line."""
-    line = equilibrium_points(data["points"]["pressure"], valve, preload)
-    if len(line) < 4:
-        return None
-    return {**fit_cd([p["reynolds"] for p in line], [1.0] * len(line), [p["cd"] for p in line], False, p0=CD_START),
-            "points": len(line)}
-
-
 def predicted_values(valve, oil) -> dict:
     """The reed's predicted fluid parameters {ReedValve field: value} for ``fluid = "predicted"`` (the
-    entry point of lumped.valves.fluid_forms): Cd(Re) in eq 3.88's form on this valve's operating line
-    (its own x_0), X(x) in eq 3.83's form with the film's plateau, f1 and f2 of eq 3.26, from the
-    compact forms of the reed the valve names (``geometry`` or ``flow.geometry``), the valve's l_o,
-    p_o, A_1, A_2 and kappa and ``oil`` (shipped for the thesis reed; else computed once, cached);
-    and the range they were computed on (the pump warns beyond it)."""
+    entry point of lumped.valves.fluid_forms): Cd(Re) in eq 3.88's form at the effective Reynolds
+    number Re (x / x_stop)^k fitted to every computed point (``discharge.lift_exponent`` k: off the
+    bench's operating line Cd depends on the opening as well), X(x) in eq 3.83's form with the
+    film's plateau, f1 and f2 of eq 3.26, from the compact forms of the reed the valve names
+    (``geometry`` or ``flow.geometry``), the valve's l_o, p_o, A_1, A_2 and kappa and ``oil``
+    (shipped for the thesis reed; else computed once, cached); and the range they were computed
+    on (the pump warns beyond it)."""
     from geometry.errors import InputError
     from lumped.valves.kind import check_discharge
 
@@ -404,12 +395,8 @@ def predicted_values(valve, oil) -> dict:
     flow = valve_flow(valve.fluid_reed(where), fluid=ns3d.Fluid(oil.density, oil.viscosity),
                       stiffness=valve.stiffness,
                       definitions=(valve.orifice_length, valve.orifice_perimeter, valve.area_min, valve.area_max))
-    data = compact_forms(flow)
-    forms = data["forms"]
-    cd = operating_cd(data, flow, valve.preload)
-    if cd is None:
-        raise InputError(f"{where}.fluid", "the compact forms have fewer than 4 points on the valve's operating "
-                         "line kappa (x - x_0) = X dP: no Cd(Re) to predict; use \"empirical\"")
+    forms = compact_forms(flow)["forms"]
+    cd = forms["cd_lift"]
     try:
         check_discharge(cd["cd_inf"], cd["a"], cd["b"], cd["c"], f"{where}.fluid")
     except InputError as exc:
@@ -419,7 +406,11 @@ def predicted_values(valve, oil) -> dict:
         raise InputError(f"{where}.fluid", "the predicted X(x) has no form of eq 3.83 without a pole before its zero "
                          f"within {MULTIPLIER_FIT_TOL:g} of the computed table (largest residual "
                          f"{X['max_abs']:.3g}); use \"empirical\"")
+    if forms["f1"] is None or forms["f2"] is None:
+        raise InputError(f"{where}.fluid", "the compact forms have no moving-wall solve: no f1, f2 to predict; "
+                         "use \"empirical\"")
     return {"cd_inf": cd["cd_inf"], "cd_a": cd["a"], "cd_b": cd["b"], "cd_c": cd["c"],
+            "cd_lift_exponent": cd["lift_exponent"],
             "multiplier_poiseuille": X["poiseuille"], "multiplier_n1": X["n1"], "multiplier_n0": X["n0"],
             "multiplier_d2": X["d2"], "multiplier_d1": X["d1"], "multiplier_d0": X["d0"],
             "f1": float(np.clip(forms["f1"], 0.0, 1.0)), "f2": float(np.clip(forms["f2"], 0.0, 1.0)),

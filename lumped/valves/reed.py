@@ -96,6 +96,10 @@ class ReedValve(ValveParams):
     cd_a: float = param("discharge.a", "-", "eq 3.89", bounds=(-100.0, 100.0))
     cd_b: float = param("discharge.b", "-", "eq 3.89", bounds=(0.0, 100.0), positive=True)
     cd_c: float = param("discharge.c", "-", "eq 3.89", bounds=(0.0, 100.0), positive=True)
+    cd_lift_exponent: float = param("discharge.lift_exponent", "-", "k: Cd(Re) of eq 3.88 taken at the effective "
+                                    "Reynolds number Re (x / x_stop)^k (0: eq 3.89, Cd independent of the opening; "
+                                    "fluid = \"predicted\" fits it, docs/fluid.md)", bounds=(-3.0, 3.0), default=0.0,
+                                    optional=True)
     # geometry and fidelity, or the structural parameters directly
     geometry: str = param("geometry", "-", f"reed geometry: preset ({', '.join(PRESETS)}), reed TOML file, or an "
                           "inline table of the reed-file schema", optional=True)
@@ -326,7 +330,8 @@ class ReedValve(ValveParams):
             seat_k=self.seat_stiffness, seat_c=self.seat_damping_value, stop_k=self.stop_stiffness,
             stop_c=self.stop_damping_value, area_1=self.area_min, area_2=self.area_max, f_closing=self.f1,
             f_opening=self.f2, cd_inf=self.cd_inf, cd_a=self.cd_a, cd_b=self.cd_b, cd_c=self.cd_c,
-            perimeter=self.orifice_perimeter, average_density=self.orifice_density == "average",
+            cd_lift_exponent=self.cd_lift_exponent or 0.0, perimeter=self.orifice_perimeter,
+            average_density=self.orifice_density == "average",
             area_per_opening=self.orifice_length,                                      # eq 3.25: A_o / x
             regime_opening=None,           # no pressure-regime switch: X(x) covers both regimes
             contact_area=1.0)              # eq 3.21 is per unit area

@@ -116,8 +116,6 @@ def parameter_rows(model: str = "thesis-disc", progress: bool = True) -> list[di
 
 #: the pump's warnings that say an opening or a Reynolds number left the range the fluid forms hold on
 RANGE_WARNINGS = ("fluid_range", "multiplier_range")
-#: Reynolds numbers (eq 3.87) of the reed's Cd rows: the pump's range (it peaks near 62)
-REED_CD_REYNOLDS = (3.0, 10.0, 30.0, 60.0)
 #: tip openings [m] of the reed's X rows (eq 3.83 was fitted to the bench from 0.2 to 1.2 mm and beyond)
 REED_X_OPENINGS = (0.2e-3, 0.5e-3, 0.8e-3, 1.2e-3)
 #: relative standard numerical uncertainties of the reed's 3-D Cd and X on the default mesh: the change
@@ -129,14 +127,13 @@ REED_U_NUM = {"cd": 1.0e-3, "X": 4.0e-4}
 def reed_parameter_rows(model: str = "thesis-reed", progress: bool = True) -> list[dict]:
     """The fluid parameters of both reed valves of ``model``: the thesis's (eq 3.89's Cd and eq 3.83's
     X, bench fits; X's plateau from an assumed F4; f1, f2 tuned to the pump) against the 3-D flow's
-    and the film's (:mod:`fea.fluid.reed_compact`, shipped for the thesis reed). Cd on each valve's
-    operating line and X by V&V 20 against the bench fits (u_D: the 2.5 % the model declares for Cd,
+    and the film's (:mod:`fea.fluid.reed_compact`, shipped for the thesis reed). Cd at the computed
+    points of each valve's operating line (where the bench measured) and X by V&V 20 against the bench fits (u_D: the 2.5 % the model declares for Cd,
     the same assumed for X, whose scatter the thesis does not print)."""
     import fea.fluid  # noqa: F401  (registers the predicted forms)
     from fea.fluid.point import load_fluid_valve
     from fea.fluid.reed3d import point_flow
-    from fea.fluid.reed_compact import compact_forms, fit_multiplier, operating_cd
-    from fea.fluid.compact import wu
+    from fea.fluid.reed_compact import compact_forms, equilibrium_points, fit_multiplier
     from lumped.fluid.orifice import discharge_coefficient
     from lumped.valves.reed import pressure_load_multiplier
     from studies.validation.vv20 import vv20_row
@@ -150,18 +147,16 @@ def reed_parameter_rows(model: str = "thesis-reed", progress: bool = True) -> li
         flow = point_flow(valve)
         data = compact_forms(flow, progress=progress)
         f = data["forms"]
-        cd = operating_cd(data, flow, v.preload)
-        re_max = f["reynolds_range"][1]
-        for re in REED_CD_REYNOLDS if cd is not None else ():
+        for pt in equilibrium_points(data["points"]["pressure"], flow, v.preload):
+            re, x = pt["reynolds"], pt["opening"]
             bench = float(discharge_coefficient(math.sqrt(re), v.cd_inf, v.cd_a, v.cd_b, v.cd_c))
-            S = float(wu(re, 1.0, cd["cd_inf"], cd["a"], cd["b"], cd["c"]))
-            vv = vv20_row(f"{name} Re {re:g}", "cd", "-", S, bench, REED_U_NUM["cd"] * S, 0.0, BENCH_CD_REL * bench)
-            rows.append(_row(name, f"Cd(Re = {re:g})", "-", (bench, S, REED_U_NUM["cd"] * S), vv["verdict"],
-                             "measured: eq 3.89 (flow bench, section 3.8.6)",
-                             f"eq 3.88 fitted to the 3-D points on the operating line kappa (x - x_0) = X dP "
-                             f"({cd['points']} points); E = {vv['E']:+.4f} ({100 * vv['E'] / bench:+.1f} %), "
-                             f"U_val = {vv['U_val']:.4f}" + ("" if re <= re_max else
-                                                             f"; beyond the computed Re ({re_max:.3g})")))
+            S = float(pt["cd"])
+            vv = vv20_row(f"{name} x {x * 1e3:.3g} mm", "cd", "-", S, bench, REED_U_NUM["cd"] * S, 0.0,
+                          BENCH_CD_REL * bench)
+            rows.append(_row(name, f"Cd(x = {x * 1e3:.3g} mm, Re = {re:.3g})", "-", (bench, S, REED_U_NUM["cd"] * S),
+                             vv["verdict"], "measured: eq 3.89 (flow bench, section 3.8.6)",
+                             f"3-D on the operating line kappa (x - x_0) = X dP (dP = {pt['dp'] / 1e3:.3g} kPa); "
+                             f"E = {vv['E']:+.4f} ({100 * vv['E'] / bench:+.1f} %), U_val = {vv['U_val']:.4f}"))
         table = f["multiplier"]
         for x in REED_X_OPENINGS:
             emp = pressure_load_multiplier(x, v.multiplier_poiseuille, v.multiplier_n1, v.multiplier_n0,
