@@ -241,11 +241,12 @@ def fit_forms(raw: dict, valve: ReedValveFlow, preload: float = 0.0) -> dict:
     }
 
 
-#: measured cost of one solve of the default mesh (144,312 DOFs) on the 2-core machine, wall seconds
-#: (low, high: idle to loaded by other work) and CPU seconds: a Stokes solve (mesh, assembly, one
-#: factorization) and a Navier-Stokes point (2-7 Newton steps); docs/fluid.md, "Cost"
-STOKES_SECONDS = {"wall": (25.0, 110.0), "cpu": 45.0}
-NEWTON_SECONDS = {"wall": (40.0, 960.0), "cpu": 120.0}
+#: measured cost of one solve of the default mesh (144,312 DOFs, 2.5-2.7 GB) on the 2-core machine:
+#: wall seconds (low: the machine to itself, where wall ~ CPU; high: shared at load 10-17) and CPU
+#: seconds: a Stokes solve (mesh, assembly, one factorization) and a Navier-Stokes point (2-8 Newton
+#: steps, failed attempts included); the prototype's characterisation, docs/fluid.md "Cost"
+STOKES_SECONDS = {"wall": (25.0, 110.0), "cpu": 20.0}
+NEWTON_SECONDS = {"wall": (40.0, 600.0), "cpu": 40.0}
 #: shipped forms (the thesis reed's valves), looked up before the cache
 DATA = Path(__file__).parent / "data"
 
