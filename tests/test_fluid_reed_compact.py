@@ -169,3 +169,26 @@ def test_eq_3_83_form_keeps_the_zero_beyond_the_computed_openings():
     X = [0.836, 0.833, 0.825, 0.80, 0.785, 0.772]
     fit = reed_compact.fit_multiplier({"opening": [0.0, *xs], "X": [0.8356, *X]}, 0.8356)
     assert fit["zero_opening"] > 1.7e-3 and fit["pole"] is None and fit["max_abs"] < 0.01
+
+
+def test_the_thesis_reeds_forms_are_shipped(tmp_path, monkeypatch):
+    """fluid = "predicted" on thesis-reed reads fea/fluid/data (an empty cache, no solve allowed): the
+    forms replace Cd, X and f1, f2, and the range they were computed on comes with them."""
+    import fea.fluid  # noqa: F401  (registers the predicted forms)
+    from lumped import load_model
+    from lumped.model.model_file import with_values
+
+    monkeypatch.setenv("VALVELAB_CACHE_DIR", str(tmp_path))
+
+    def no_solve(*a, **k):
+        raise AssertionError("the shipped forms must be used, nothing computed")
+    monkeypatch.setattr(reed_compact, "characterise", no_solve)
+    monkeypatch.setattr(reed_compact, "reed_film", no_solve)
+    m = with_values(load_model("thesis-reed"), {"valves.inlet.fluid": "predicted", "valves.delivery.fluid": "predicted"})
+    for v in (m.inlet, m.delivery):
+        assert v.fluid == "predicted" and 0.0 < v.f1 < 1.0 and 0.0 < v.f2 < 1.0
+        assert (v.f1, v.f2) != (0.22, 0.35) and v.cd_lift_exponent != 0.0
+        assert v.fluid_opening_max > 1e-3 and v.fluid_reynolds_max > 1.0
+        assert v.multiplier_poiseuille == pytest.approx(0.8356, abs=1e-3)   # the film's plateau, F4 computed
+        assert v.multiplier_zero > v.fluid_opening_max                     # the fit keeps X's zero beyond
+    assert list(tmp_path.iterdir()) == []

@@ -176,7 +176,7 @@ def reed_parameter_rows(model: str = "thesis-reed", progress: bool = True) -> li
             _row(name, "X = 0 at opening", "mm", (v.multiplier_zero * 1e3,
                  None if table["zero_opening"] is None else table["zero_opening"] * 1e3, None), "replaces_estimate",
                  "measured: eq 3.83's zero (flow bench)",
-                 "None: X stays above 0 up to the largest computed opening "
+                 "not reached: X stays above 0 up to the largest computed opening "
                  f"({table['opening'][-1] * 1e3:.3g} mm); eq 3.83's form fitted to the table falls to 0 at "
                  f"{fitted['zero_opening'] * 1e3:.3g} mm" if table["zero_opening"] is None else "3-D table"),
             _row(name, "f1", "-", (v.f1, f["f1"], None), "replaces_estimate", "tuned to the pump (section 5.5.3)",
