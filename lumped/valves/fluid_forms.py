@@ -25,12 +25,34 @@ _loaded = {"entry_points": False}
 
 
 def register(kind: str, func: Callable) -> None:
-    """Add (or replace) the predicted-parameter function of a valve kind."""
+    """Add (or replace) the predicted-parameter function of a valve kind.
+
+    Parameters
+    ----------
+    kind : str
+        The registered valve kind's name (``"disc"``, ``"reed"``).
+    func : callable
+        ``func(valve, oil) -> {field name: value}``: the kind's fluid parameters in SI (Cd(Re)
+        coefficients of eqs 2.47/3.88 [-], f1, f2 of eqs 2.42/3.26 [-], ...) for the valve's geometry.
+    """
     FORMS[kind] = func
 
 
 def forms_for(kind: str, field: str) -> Callable:
-    """The function of ``kind``; InputError naming ``field`` when no installed package offers it."""
+    """The function of ``kind``; InputError naming ``field`` when no installed package offers it.
+
+    Parameters
+    ----------
+    kind : str
+        The valve kind's name.
+    field : str
+        The model-file key an error names (``valves.<position>.fluid``).
+
+    Returns
+    -------
+    callable
+        ``f(valve, oil) -> {field name: value}`` (registered, else from the entry points of the group ``valvelab.fluid_forms``).
+    """
     if kind not in FORMS and not _loaded["entry_points"]:
         _loaded["entry_points"] = True
         for name, func in plugins.entry_points(GROUP).items():
@@ -42,14 +64,40 @@ def forms_for(kind: str, field: str) -> Callable:
 
 
 def predicted(valve, oil, where: str):
-    """``valve`` with its fluid parameters replaced by the compact forms for its geometry and ``oil``."""
+    """``valve`` with its fluid parameters replaced by the compact forms for its geometry and ``oil``.
+
+    Parameters
+    ----------
+    valve : ValveParams
+        A valve of any kind that offers predicted parameters.
+    oil : lumped.fluid.oil.Oil
+        The oil (density [kg/m^3], viscosity [Pa s]) the forms are evaluated for.
+    where : str
+        The valve's model-file table (``valves.inlet``), named in errors.
+
+    Returns
+    -------
+    ValveParams
+        A copy with the predicted values (SI) in place of the empirical ones.
+    """
     kind = kind_of(valve).name
     values = forms_for(kind, f"{where}.fluid")(valve, oil)
     return replace(valve, **values)
 
 
 def apply(model):
-    """The model with every ``fluid = "predicted"`` valve's fluid parameters predicted (the rest as is)."""
+    """The model with every ``fluid = "predicted"`` valve's fluid parameters predicted (the rest as is).
+
+    Parameters
+    ----------
+    model : lumped.model.pump_model.PumpModel
+        A pump model whose valves may say ``fluid = "predicted"``.
+
+    Returns
+    -------
+    PumpModel
+        ``model`` itself when no valve asks for predicted parameters, else a copy with them.
+    """
     changed = {}
     for pos in ("inlet", "delivery"):
         valve = model.valve(pos)

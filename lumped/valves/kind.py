@@ -53,20 +53,14 @@ FLUID_CHOICES = ("empirical", "predicted")
 
 
 def fluid_param():
-    """The declaration of a valve's ``fluid`` key, shared by the kinds that offer predicted fluid parameters."""
-    return param("fluid", "-", 'the valve\'s fluid parameters: "empirical" (the thesis\'s correlations and '
-                 'estimates, as given) or "predicted" (the compact forms the fluid references compute for this '
-                 'geometry and oil, lumped.valves.fluid_forms; docs/fluid.md)', choices=FLUID_CHOICES,
-                 default="empirical")
+    """The declaration of a valve's ``fluid`` key, shared by the kinds that offer predicted fluid parameters.
 
-
-
-#: the choices of a valve's ``fluid`` key (lumped.valves.fluid_forms)
-FLUID_CHOICES = ("empirical", "predicted")
-
-
-def fluid_param():
-    """The declaration of a valve's ``fluid`` key, shared by the kinds that offer predicted fluid parameters."""
+    Returns
+    -------
+    dataclasses.Field
+        The :func:`geometry.declare.param` field ``fluid`` [-]: ``"empirical"`` (default, the thesis's
+        correlations: eqs 2.48, 3.83, 3.89 and the estimated f1, f2) or ``"predicted"``.
+    """
     return param("fluid", "-", 'the valve\'s fluid parameters: "empirical" (the thesis\'s correlations and '
                  'estimates, as given) or "predicted" (the compact forms the fluid references compute for this '
                  'geometry and oil, lumped.valves.fluid_forms; docs/fluid.md)', choices=FLUID_CHOICES,
