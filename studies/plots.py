@@ -244,10 +244,12 @@ def plot_mode_shapes(path, reed, s, y, w, omega, labels, title: str | None = Non
     return Path(path)
 
 
-def plot_flow(path, points: list, cd_reference, title: str, solution=None) -> Path:
+def plot_flow(path, points: list, cd_reference, title: str, solution=None,
+              equations: tuple[str, str, str] = ("2.48", "2.46", "2.44")) -> Path:
     """The ``valvelab flow`` figure: Cd(Re) of the points (one line per lift) against a reference
     correlation ``cd_reference(re)`` (eq 2.48), and with a ``solution`` (fea.fluid FlowSolution) its
-    pressure [kPa] and velocity magnitude [m/s] over the (r, z) plane [mm]."""
+    pressure [kPa] and velocity magnitude [m/s] over the (r, z) plane [mm]. ``equations``: the
+    numbers of the reference correlation, Re and Cd definitions (a reed's: 3.89, 3.87, 3.84)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -260,13 +262,13 @@ def plot_flow(path, points: list, cd_reference, title: str, solution=None) -> Pa
     ax = axes[0][-1]
     re_all = sorted({pt["reynolds"] for pt in points})
     grid = np.geomspace(max(min(re_all) / 2, 0.1), max(re_all) * 1.5, 200)
-    ax.semilogx(grid, [cd_reference(r) for r in grid], "k-", lw=1, label="eq 2.48 (bench fit)")
+    ax.semilogx(grid, [cd_reference(r) for r in grid], "k-", lw=1, label=f"eq {equations[0]} (bench fit)")
     for lift in sorted({pt["lift"] for pt in points}):
         sel = sorted((pt for pt in points if pt["lift"] == lift), key=lambda q: q["reynolds"])
         ax.semilogx([q["reynolds"] for q in sel], [q["cd"] for q in sel], "o--", ms=4,
                     label=f"x = {lift * 1e3:.3g} mm")
-    ax.set_xlabel("Reynolds number Re (eq 2.46) [-]")
-    ax.set_ylabel("discharge coefficient Cd (eq 2.44) [-]")
+    ax.set_xlabel(f"Reynolds number Re (eq {equations[1]}) [-]")
+    ax.set_ylabel(f"discharge coefficient Cd (eq {equations[2]}) [-]")
     ax.set_title("Cd(Re)", fontsize=9)
     ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, frameon=False)
     if solution is not None:

@@ -297,6 +297,11 @@ def _line_search(sys_: System, x: np.ndarray, d_full: np.ndarray, rhs: np.ndarra
     return trial, step
 
 
+#: consecutive damped Newton steps after which a solve is abandoned (the iterate wanders: a
+#: smaller continuation step is cheaper than 25 damped steps of a minute each)
+MAX_DAMPED = 4
+
+
 def newton(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max_iter: int = 25,
            factor: Factor | None = None, progress: bool = False) -> tuple[np.ndarray, int, Factor]:
     """Steady Navier-Stokes by (inexact, damped) Newton from x0, which carries the Dirichlet values.
@@ -306,14 +311,16 @@ def newton(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max
     stalls, by a new LU of the current Jacobian; the step is damped by backtracking on the
     residual (``_line_search``). Stops when the largest velocity update is below ``tol``
     of the largest velocity after a full step. Returns (state, steps, the factorization in
-    use). ModelFailure when it does not converge in ``max_iter`` steps (a steady laminar
-    solution may not exist at that Reynolds number, or the mesh does not resolve it).
+    use). ModelFailure (its ``factor``: the factorization in use) when it does not converge
+    in ``max_iter`` steps or after :data:`MAX_DAMPED` damped steps in a row (a steady laminar
+    solution may not exist at that Reynolds number, the mesh does not resolve it, or the
+    start is too far from it).
     """
     x = x0.copy()
     n3 = 3 * sys_.nv
     free = _free_dofs(sys_.ndofs, sys_.fixed)
     vel = np.flatnonzero(free < n3)            # velocity entries of the condensed vector
-    change = np.inf
+    change, damped = np.inf, 0
     for it in range(1, max_iter + 1):
         t0 = time.perf_counter()
         J = _saddle(sys_, _velocity_block(sys_, x[:n3], True))
@@ -328,8 +335,20 @@ def newton(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max
                   f"({time.perf_counter() - t0:.1f} s)", file=sys.stderr)
         if change < tol and step == 1.0:
             return fill_orphans(sys_, x), it, factor
-    raise ModelFailure(f"steady Navier-Stokes did not converge in {max_iter} Newton steps "
-                       f"(last relative velocity update {change:.2e})")
+        damped = damped + 1 if step < 1.0 else 0
+        if damped >= MAX_DAMPED:
+            raise _failure(f"steady Navier-Stokes: {damped} damped Newton steps in a row (last relative "
+                           f"velocity update {change:.2e}); the start is too far from a solution", factor)
+    raise _failure(f"steady Navier-Stokes did not converge in {max_iter} Newton steps "
+                   f"(last relative velocity update {change:.2e})", factor)
+
+
+def _failure(message: str, factor: Factor | None) -> ModelFailure:
+    """A ModelFailure carrying the factorization in use (``.factor``: the caller may precondition a
+    retry with it, and frees it)."""
+    exc = ModelFailure(message)
+    exc.factor = factor
+    return exc
 
 
 def boundary_flux(sys_: System, x: np.ndarray, name: str) -> float:

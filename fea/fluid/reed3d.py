@@ -213,27 +213,54 @@ def pressure_sweep(valve: ReedValveFlow, opening: float, reynolds=(), progress: 
         if dp is None:
             dp = _next_dp(out, re)
             if dp_max is not None and dp >= dp_max:
+                if out[-1].dp >= CAP_NEAR * dp_max:
+                    break                        # the last point is at the cap already
                 dp, capped = dp_max, True
-        t1 = time.perf_counter()
-        try:
-            x, steps, factor = ns3d.newton(system, dp * unit, _guess(history, dp, n3), factor=factor,
-                                           progress=progress)
-        except Exception as exc:   # noqa: BLE001 - a failed point ends the sweep, reported
-            print(f"reed3d x = {opening * 1e3:.3g} mm, dP = {dp:.4g} Pa: {exc}", file=sys.stderr)
-            break
-        history.append((dp, x))
-        out.append(point_outputs(system, x, valve, opening, dp, steps, time.perf_counter() - t1))
-        if on_point is not None:
-            on_point(out[-1])
-        if progress:
-            p = out[-1]
-            print(f"  dP = {dp:.4g} Pa: Re = {p.reynolds:.3g}, Cd = {p.cd:.4f}, X = {p.multiplier:.4f} "
-                  f"({steps} steps, {p.seconds:.0f} s, {p.peak_rss_gb:.1f} GB)", file=sys.stderr)
-        if capped:
+        ok, factor = _continue_to(system, valve, opening, unit, dp, history, out, factor, progress, on_point)
+        if not ok or capped:
             break
     if factor is not None:
         factor.free()
     return out
+
+
+#: a sweep whose last point is within this fraction of its pressure cap stops there
+CAP_NEAR = 0.9
+#: halvings (in log dP) of a continuation step whose Newton solve failed, before a sweep ends
+MAX_HALVINGS = 2
+#: Newton's tolerance in a sweep (relative velocity update; the outputs settle to ~1e-9 below it)
+SWEEP_TOL = 1e-6
+
+
+def _continue_to(system, valve, opening, unit, dp, history, out, factor, progress, on_point):
+    """Solve at ``dp`` [Pa] from the last solutions (``history``, ``out`` extended in place);
+    when Newton fails, solve first at the geometric mean of the last dP and ``dp`` (up to
+    :data:`MAX_HALVINGS` times; those points are kept as outputs too). Returns (reached, factor)."""
+    targets, halvings = [dp], 0
+    while targets:
+        d = targets[-1]
+        t1 = time.perf_counter()
+        try:
+            x, steps, factor = ns3d.newton(system, d * unit, _guess(history, d, 3 * system.nv), tol=SWEEP_TOL,
+                                           factor=factor, progress=progress)
+        except Exception as exc:   # noqa: BLE001 - a failed point is retried closer or ends the sweep
+            factor = getattr(exc, "factor", factor)
+            print(f"reed3d x = {opening * 1e3:.3g} mm, dP = {d:.4g} Pa: {exc}", file=sys.stderr)
+            if halvings >= MAX_HALVINGS:
+                return False, factor
+            halvings += 1
+            targets.append(float(np.sqrt(history[-1][0] * d)))
+            continue
+        targets.pop()
+        history.append((d, x))
+        out.append(point_outputs(system, x, valve, opening, d, steps, time.perf_counter() - t1))
+        if on_point is not None:
+            on_point(out[-1])
+        if progress:
+            p = out[-1]
+            print(f"  dP = {d:.4g} Pa: Re = {p.reynolds:.3g}, Cd = {p.cd:.4f}, X = {p.multiplier:.4f} "
+                  f"({steps} steps, {p.seconds:.0f} s, {p.peak_rss_gb:.1f} GB)", file=sys.stderr)
+    return True, factor
 
 
 @dataclass(frozen=True)
@@ -364,6 +391,8 @@ def prototype_valve(mesh: MeshOptions | None = None) -> ReedValveFlow:
 
 
 # ------------------------------------------------------------------------------ mesh study
+#: tip speed of the ``3d`` point's moving-wall solves [m/s] (as the compact forms')
+DISPLACEMENT_SPEED = 0.1
 #: the three meshes of the GCI (plan sizes and layers refined together; the medium one is the default)
 STUDY_MESHES = (
     MeshOptions(1.0e-3, 3.5e-3, Layers(port=1, gap=2, reed=1, above=1)),
@@ -397,23 +426,88 @@ def mesh_study(valve: ReedValveFlow, opening: float, dps, meshes=STUDY_MESHES, p
     return out
 
 
-def reed_point(valve, lift: float, reynolds: float, options=None):
-    """The ``3d`` fluid fidelity's point (:mod:`fea.fluid`): a reed valve (a
-    :class:`fea.fluid.point.FluidValve` whose model names the reed's geometry) at tip opening
-    ``lift`` [m], aiming at ``reynolds`` (eq 3.87) from the Stokes limit on the default mesh."""
+#: options of the ``3d`` fidelity's point (``valvelab flow`` flags)
+POINT_OPTIONS = ("squeeze", "displacement", "gci", "progress", "keep_solution")
+#: the Reynolds number a point reaches may differ from the aim by this fraction (the sweep aims
+#: by extrapolating Re(dP) from the previous points; the reached value is the point's)
+REYNOLDS_SLACK = 0.15
+
+
+def point_flow(valve) -> ReedValveFlow:
+    """The :class:`ReedValveFlow` of a :class:`fea.fluid.point.FluidValve` of the reed kind: the reed
+    its model names for the fluid references (``fluid_reed``), the model's oil, l_o, p_o, A_1, A_2, kappa.
+    InputError naming the valve's ``geometry`` when the model names no reed."""
+    v = valve.params
+    reed = v.fluid_reed(f"valves.{valve.position}")
+    return valve_flow(reed, fluid=ns3d.Fluid(valve.density, valve.viscosity), stiffness=v.stiffness,
+                      definitions=(v.orifice_length, v.orifice_perimeter, v.area_min, v.area_max))
+
+
+def check_point_options(options) -> dict:
+    """The options the ``3d`` point takes; InputError naming the flag of one it does not."""
     from geometry.errors import InputError
 
+    opts = dict(options or {})
+    for key, val in opts.items():
+        if key not in POINT_OPTIONS and val not in (None, False):
+            flag = "--" + key.replace("_", "-")
+            raise InputError(flag, "the 3d fidelity's mesh is fixed (the default of its mesh study; --gci runs "
+                             "the study's three meshes)" if key in ("resolution", "divisions") else
+                             "not an option of the 3d fidelity")
+    return opts
+
+
+def reed_point(valve, lift: float, reynolds: float, options=None):
+    """The ``3d`` fluid fidelity's point (:mod:`fea.fluid`): a reed valve (a
+    :class:`fea.fluid.point.FluidValve` whose model names the reed's geometry, or ``flow.geometry``)
+    at tip opening ``lift`` [m], aiming at ``reynolds`` (eq 3.87) from the Stokes limit on the default mesh.
+
+    The flow is driven by dP, so the Reynolds number is an output: the point's ``reynolds`` is the
+    one reached (within :data:`REYNOLDS_SLACK` of the aim; ModelFailure otherwise). Options:
+    ``squeeze`` adds ``film`` (the sealing film at ``lift``: ``C1`` = X in the Poiseuille regime,
+    ``F4``, ``C2`` = c_sq x^3 [Pa s m^2] and ``c_squeeze`` [Pa s/m], eq 3.21's units);
+    ``displacement`` adds f1, f2 and A_Q at tip speeds -+:data:`DISPLACEMENT_SPEED`; ``gci`` runs the
+    three meshes of :data:`STUDY_MESHES` at the point's dP and fills ``u_num`` (GCI32 / 1.15).
+    """
+    from geometry.errors import ModelFailure
+
+    from ..convergence import GCI_STANDARD_FACTOR
     from .point import FlowPoint, check_lift, check_reynolds
 
     lift, reynolds = check_lift(valve, lift), check_reynolds(reynolds)
-    v = valve.params
-    if v.reed is None:
-        raise InputError(f"valves.{valve.position}.geometry", "the 3-D flow needs the reed's geometry (a preset, a "
-                         "reed file or an inline table)")
-    flow = valve_flow(v.reed, fluid=ns3d.Fluid(valve.density, valve.viscosity), stiffness=v.stiffness,
-                      definitions=(v.orifice_length, v.orifice_perimeter, v.area_min, v.area_max))
-    p = pressure_sweep(flow, lift, (reynolds,), progress=bool((options or {}).get("progress", True)))[-1]
+    opts = check_point_options(options)
+    flow = point_flow(valve)
+    progress = bool(opts.get("progress", True))
+    t0 = time.process_time()
+    pts = pressure_sweep(flow, lift, (reynolds,), progress=progress)
+    p = pts[-1]
+    if len(pts) < 2 or abs(p.reynolds / reynolds - 1.0) > REYNOLDS_SLACK:
+        raise ModelFailure(f"3-D flow at x = {lift * 1e3:.4g} mm: Newton did not reach Re = {reynolds:g} "
+                           f"(last converged Re = {p.reynolds:.3g}); see the messages above")
+    extra = {"multiplier_pressure": p.multiplier_pressure, "reynolds_aimed": reynolds,
+             "mesh": {"dofs": int(p.dofs), "size": flow.mesh.size_min, "size_max": flow.mesh.size_max},
+             "seconds": p.seconds, "peak_rss_gb": p.peak_rss_gb}
+    if opts.get("squeeze"):
+        from .reed_film import reed_film
+
+        film = reed_film(flow, lift)
+        extra["film"] = {"C1": film.multiplier, "C2": film.squeeze_coefficient * lift**3, "F4": film.base_fraction,
+                         "c_squeeze": film.squeeze_coefficient, "leakage": film.flow}
+    if opts.get("displacement"):
+        moving = displacement_sweep(flow, lift, (-DISPLACEMENT_SPEED, DISPLACEMENT_SPEED), progress=progress)
+        by = {m.speed: m for m in moving}
+        close, open_ = by.get(-DISPLACEMENT_SPEED), by.get(DISPLACEMENT_SPEED)
+        extra["displacement"] = {"f1": close.fraction if close else None, "f2": open_.fraction if open_ else None,
+                                 "A_Q_closing": close.area if close else None,
+                                 "A_Q_opening": open_.area if open_ else None}
+    u_num = {}
+    if opts.get("gci"):
+        study = mesh_study(flow, lift, (p.dp,), progress=progress)
+        band = study.get(p.dp, {})
+        u_num = {"cd" if k == "cd" else ("pressure_load_multiplier" if k == "multiplier" else k):
+                 float(g.u_coarse / GCI_STANDARD_FACTOR) for k, g in band.items()}
+        extra["mesh_study"] = {"dofs": study["dofs"], "seconds": study["seconds"], "peak_rss_gb": study["peak_rss_gb"]}
+    extra["cpu_seconds"] = time.process_time() - t0
     return FlowPoint(lift=lift, reynolds=p.reynolds, flow=p.flow, dp=p.dp, cd=float(p.cd), force=p.force,
-                     force_coefficient=p.force / (p.dp * v.reed.face_area), pressure_load_multiplier=p.multiplier,
-                     extra={"multiplier_pressure": p.multiplier_pressure, "dofs": int(p.dofs),
-                            "seconds": p.seconds, "peak_rss_gb": p.peak_rss_gb})
+                     force_coefficient=p.force / (p.dp * flow.reed.face_area), pressure_load_multiplier=p.multiplier,
+                     u_num=u_num, extra=extra)

@@ -36,6 +36,7 @@ import json
 import sys
 import time
 from dataclasses import asdict
+from pathlib import Path
 
 import numpy as np
 
@@ -65,40 +66,90 @@ def _say(progress: bool, text: str) -> None:
 
 
 def reed_key(valve: ReedValveFlow) -> str:
-    """Hash of what the forms depend on: reed, seat, shape, oil, orifice definitions, mesh, grid, version."""
+    """Hash of what the forms depend on: reed, seat, shape, oil, orifice definitions, kappa (it caps
+    the pressure differences, :func:`fea.fluid.reed3d.pressure_cap`), mesh, grid, version."""
     s, psi = valve.shape
     what = {"reed": repr(valve.reed), "seat": asdict(valve.seat), "fluid": asdict(valve.fluid),
             "shape": [round(float(v), 9) for v in np.interp(np.linspace(0, valve.reed.length, 41), s, psi)],
             "definitions": [valve.orifice_length, valve.orifice_perimeter, valve.area_min, valve.area_max],
+            "stiffness": round(float(valve.stiffness), 3),
             "mesh": repr(valve.mesh), "openings": OPENING_FRACTIONS, "reynolds": REYNOLDS,
             "displacement": [DISPLACEMENT_FRACTIONS, TIP_SPEED], "version": FORMS_VERSION}
     return hashlib.sha256(json.dumps(what, sort_keys=True, default=str).encode()).hexdigest()[:20]
 
 
-def characterise(valve: ReedValveFlow, progress: bool = True, log=None) -> dict:
+#: the sweeps of a characterisation, in the order they run
+PARTS = ("pressure", "moving")
+
+
+def read_log(log) -> dict:
+    """The completed sweeps of a characterisation log: {(part, opening fraction): [rows]}.
+
+    Each line names its sweep by ``part`` and ``at`` (the opening as a fraction of the stop); a
+    sweep's rows are those between its start line ``{"start": part, "at": f}`` and its end line
+    ``{"done": part, "at": f}``; without the end line they do not count (a sweep
+    interrupted halfway is run again whole: its points continue from each other).
+    """
+    done, pending = {}, {}
+    try:
+        lines = open(log).read().splitlines()
+    except OSError:
+        return done
+    for line in lines:
+        try:
+            row = json.loads(line)
+        except ValueError:
+            continue                                  # a line cut by the interruption
+        if "start" in row:
+            pending[(row["start"], float(row["at"]))] = []
+        elif "done" in row:
+            k = (row["done"], float(row["at"]))
+            if k in pending:                          # (a repeated end line adds nothing)
+                done[k] = pending.pop(k)
+        elif "part" in row:
+            pending.setdefault((row["part"], float(row["at"])), []).append(
+                {k: v for k, v in row.items() if k not in ("part", "at")})
+    return done
+
+
+def characterise(valve: ReedValveFlow, progress: bool = True, log=None, parts=PARTS) -> dict:
     """The 3-D and film points of :func:`fit_forms` (module docstring), with wall and CPU seconds.
 
-    ``log``: a path to which every point is appended as a JSON line as soon as it is solved.
+    ``log``: a path to which every point is appended as a JSON line as soon as it is solved,
+    and each finished sweep's end line; sweeps the log already holds finished are read from it,
+    not solved again (a run resumes where an interrupted one stopped). ``parts``: the sweeps
+    to run (:data:`PARTS`; two processes may share the work, each with its own log).
     """
     t0, c0 = time.perf_counter(), time.process_time()
     stop = valve.seat.stop_gap
+    done = read_log(log) if log is not None else {}
 
-    def keep(point) -> dict:
-        row = {k: float(v) for k, v in asdict(point).items()}
+    def write(row: dict) -> None:
         if log is not None:
             with open(log, "a") as fh:
                 fh.write(json.dumps(row) + "\n")
-        return row
 
-    rows = []
-    for f in OPENING_FRACTIONS:
-        x = f * stop
-        rows += [keep(p) for p in pressure_sweep(valve, x, REYNOLDS, progress=progress,
-                                                 dp_max=pressure_cap(valve, x))]
-    moving = []
-    for f in DISPLACEMENT_FRACTIONS:
-        moving += [keep(p) for p in displacement_sweep(valve, f * stop, (-TIP_SPEED, TIP_SPEED),
-                                                       progress=progress)]
+    def sweep(part: str, fraction: float, run) -> list[dict]:
+        if (part, fraction) in done:
+            _say(progress, f"fluid: {part} sweep at {fraction:g} x_stop read from {log}")
+            return done[(part, fraction)]
+        rows = []
+        write({"start": part, "at": fraction})
+
+        def keep(point) -> None:                 # each point logged as soon as it is solved
+            rows.append({k: float(v) for k, v in asdict(point).items()})
+            write({"part": part, "at": fraction, **rows[-1]})
+        run(fraction * stop, keep)
+        write({"done": part, "at": fraction})
+        return rows
+
+    rows, moving = [], []
+    for f in OPENING_FRACTIONS if "pressure" in parts else ():
+        rows += sweep("pressure", f, lambda x, keep: pressure_sweep(
+            valve, x, REYNOLDS, progress=progress, on_point=keep, dp_max=pressure_cap(valve, x)))
+    for f in DISPLACEMENT_FRACTIONS if "moving" in parts else ():
+        moving += sweep("moving", f, lambda x, keep: [keep(p) for p in displacement_sweep(
+            valve, x, (-TIP_SPEED, TIP_SPEED), progress=progress)])
     film = reed_film(valve, OPENING_FRACTIONS[0] * stop / 5)
     return {"rows": rows, "moving": moving, "film": asdict(film), "wall_seconds": time.perf_counter() - t0,
             "cpu_seconds": time.process_time() - c0}
@@ -190,60 +241,151 @@ def fit_forms(raw: dict, valve: ReedValveFlow, preload: float = 0.0) -> dict:
     }
 
 
-def compact_forms(valve: ReedValveFlow, recompute: bool = False, progress: bool = True, log=None) -> dict:
-    """The reed valve's compact forms: cached, or computed and cached. ``{"key", "forms", "points", "provenance"}``.
+#: measured cost of one solve of the default mesh (144,312 DOFs, 2.5-2.7 GB) on the 2-core machine:
+#: wall seconds (low: the machine to itself, where wall ~ CPU; high: shared at load 10-17) and CPU
+#: seconds: a Stokes solve (mesh, assembly, one factorization) and a Navier-Stokes point (2-8 Newton
+#: steps, failed attempts included); the prototype's characterisation, docs/fluid.md "Cost"
+STOKES_SECONDS = {"wall": (25.0, 110.0), "cpu": 20.0}
+NEWTON_SECONDS = {"wall": (40.0, 600.0), "cpu": 40.0}
+#: shipped forms (the thesis reed's valves), looked up before the cache
+DATA = Path(__file__).parent / "data"
 
-    ``log``: a path that receives every solved point as a JSON line (:func:`characterise`).
-    """
-    key = reed_key(valve)
-    path = cache_dir() / f"reed-{key}.json"
-    if not recompute and path.exists():
+
+def cost_estimate() -> dict:
+    """What a characterisation solves and how long that takes, from the measured per-solve costs:
+    {"stokes", "newton" (at most), "wall_seconds" (low, high), "cpu_seconds"}."""
+    stokes = len(OPENING_FRACTIONS) + len(DISPLACEMENT_FRACTIONS)
+    newton = len(OPENING_FRACTIONS) * len(REYNOLDS) + 2 * len(DISPLACEMENT_FRACTIONS)
+    wall = tuple(stokes * a + newton * b for a, b in zip(STOKES_SECONDS["wall"], NEWTON_SECONDS["wall"]))
+    return {"stokes": stokes, "newton": newton, "wall_seconds": wall,
+            "cpu_seconds": stokes * STOKES_SECONDS["cpu"] + newton * NEWTON_SECONDS["cpu"]}
+
+
+def _shipped(key: str) -> dict | None:
+    for path in sorted(DATA.glob("reed-*.json")) if DATA.is_dir() else []:
         try:
-            return json.loads(path.read_text())
+            data = json.loads(path.read_text())
         except (OSError, ValueError):
-            pass
-    _say(progress, f"fluid: characterising the reed valve {valve.reed.name} ({len(OPENING_FRACTIONS)} openings x "
-                   f"{len(REYNOLDS)} Re in 3-D; tens of minutes, cached afterwards in {cache_dir()})")
-    raw = characterise(valve, progress=progress, log=log)
-    data = {"key": key, "reed": valve.reed.name, "forms": fit_forms(raw, valve),
+            continue
+        if data.get("key") == key:
+            return data
+    return None
+
+
+def _data(valve: ReedValveFlow, raw: dict, key: str) -> dict:
+    """The stored record: forms, points and provenance."""
+    return {"key": key, "reed": valve.reed.name, "forms": fit_forms(raw, valve),
             "points": {"pressure": raw["rows"], "moving": raw["moving"], "film": raw["film"]},
             "provenance": {"version": FORMS_VERSION, "mesh": repr(valve.mesh), "openings": OPENING_FRACTIONS,
                            "reynolds": REYNOLDS, "tip_speed": TIP_SPEED, "wall_seconds": raw["wall_seconds"],
-                           "cpu_seconds": raw["cpu_seconds"], "density": valve.fluid.rho,
-                           "viscosity": valve.fluid.mu}}
+                           "cpu_seconds": raw["cpu_seconds"],
+                           "solve_seconds": sum(r["seconds"] for r in raw["rows"] + raw["moving"]),
+                           "density": valve.fluid.rho, "viscosity": valve.fluid.mu,
+                           "stiffness": valve.stiffness}}
+
+
+def forms_from_log(valve: ReedValveFlow, log) -> dict:
+    """The record of :func:`compact_forms` from the finished sweeps of a characterisation log alone
+    (:func:`read_log`; the film is solved, it takes seconds; no 3-D solve): the forms of a run that
+    was stopped, over the points it has (``provenance["sweeps"]`` lists them)."""
+    done = read_log(log)
+    stop = valve.seat.stop_gap
+    rows = [r for f in OPENING_FRACTIONS for r in done.get(("pressure", f), [])]
+    moving = [r for f in DISPLACEMENT_FRACTIONS for r in done.get(("moving", f), [])]
+    film = reed_film(valve, OPENING_FRACTIONS[0] * stop / 5)
+    raw = {"rows": rows, "moving": moving, "film": asdict(film), "wall_seconds": None, "cpu_seconds": None}
+    data = _data(valve, raw, reed_key(valve))
+    data["provenance"]["sweeps"] = sorted([p, f] for p, f in done)
+    return data
+
+
+def compact_forms(valve: ReedValveFlow, recompute: bool = False, progress: bool = True, log=None) -> dict:
+    """The reed valve's compact forms: shipped (``fea/fluid/data``), cached, or computed and cached.
+    ``{"key", "forms", "points", "provenance"}``.
+
+    ``log``: a path that receives every solved point as a JSON line and from which an interrupted
+    run resumes (:func:`characterise`).
+    """
+    key = reed_key(valve)
+    path = cache_dir() / f"reed-{key}.json"
+    if not recompute:
+        found = _shipped(key)
+        if found is None and path.exists():
+            try:
+                found = json.loads(path.read_text())
+            except (OSError, ValueError):
+                found = None
+        if found is not None:
+            return found
+    cost = cost_estimate()
+    lo, hi = cost["wall_seconds"]
+    _say(progress, f"fluid: characterising the reed valve {valve.reed.name} in 3-D: {cost['stokes']} Stokes solves "
+                   f"and up to {cost['newton']} Navier-Stokes points, about {cost['cpu_seconds'] / 60:.0f} CPU "
+                   f"minutes, {lo / 60:.0f}-{hi / 60:.0f} min wall on 2 cores (idle to loaded; measured per "
+                   f"solve), 2.5 GB; cached afterwards in {cache_dir()}")
+    raw = characterise(valve, progress=progress, log=log)
+    data = _data(valve, raw, key)
     store(data, path)
     return data
 
 
 # ------------------------------------------------------------------------------ the pump's use
+#: the scale of eq 3.83's linear denominator term [m^2] (the thesis's d1 = -50.23): the cubic and
+#: quadratic terms are below 1e-6 of it at the valve's openings, so the form is c (x_z - x) / (x_p - x)
+MULTIPLIER_SCALE = 50.0
+
+
 def fit_multiplier(table: dict, plateau: float) -> dict:
-    """eq 3.83's coefficients (x in m) fitted to the X(x) table by least squares, eq 3.83's own
-    values as the start; the plateau is the film's. The fit's zero -n0/n1 beyond the table's last
-    opening is an extrapolation (the pump warns when an opening leaves the computed range)."""
+    """eq 3.83's coefficients (x in m) fitted to the X(x) table by least squares, with the film's plateau.
+
+    Eq 3.83 is, at the valve's openings, X = c (x_z - x) / (x_p - x): its cubic and quadratic
+    denominator terms are below 1e-6 of the linear one (the thesis's zero x_z = 1.37 mm, pole
+    x_p = 1.65 mm). The fit keeps that form with d2 = 0, d1 = -k, d0 = k x_p, n1 = -c k,
+    n0 = c k x_z (k = :data:`MULTIPLIER_SCALE`; the x^3 term kept exactly), and x_p > x_z >= x_max,
+    the table's largest opening: the pump model takes X = 0 from x_z on (lumped.valves.reed), so a
+    zero inside the computed range would drop X to 0 where the flow says otherwise. Returns the
+    coefficients, ``zero_opening`` x_z, ``pole`` (a denominator root in (0, x_z], None if none),
+    ``max_abs`` (the largest residual over the table).
+    """
     from scipy.optimize import least_squares
 
     x = np.asarray(table["opening"][1:], float)
     X = np.asarray(table["X"][1:], float)
+    x_max, k = float(x.max()), MULTIPLIER_SCALE
 
-    def rational(p, xx):
-        n1, n0, d2, d1, d0 = p
-        return (n1 * xx + n0) / (xx**3 + d2 * xx**2 + d1 * xx + d0)
+    def coefficients(p):
+        c, tz, tp = p
+        xz = x_max + np.exp(tz)
+        xp = xz + np.exp(tp)
+        return -c * k, c * k * xz, 0.0, -k, k * xp
 
     def res(p):
-        return np.minimum(rational(p, x), plateau) - X
+        n1, n0, d2, d1, d0 = coefficients(p)
+        return np.minimum((n1 * x + n0) / (x**3 + d2 * x**2 + d1 * x + d0), plateau) - X
 
-    sol = least_squares(res, [-52.28, 0.07158, 0.8145, -50.23, 0.08292], x_scale="jac")
-    r = res(sol.x)
+    sol = least_squares(res, [float(X[0]), np.log(0.5 * x_max), np.log(0.5 * x_max)], x_scale="jac")
+    c = coefficients(sol.x)
+    zero = float(-c[1] / c[0])
+    roots = np.roots([1.0, c[2], c[3], c[4]])
+    real = sorted(float(r.real) for r in roots if abs(r.imag) < 1e-9 * max(1.0, abs(r)) and 0.0 < r.real <= zero)
     names = ("n1", "n0", "d2", "d1", "d0")
-    return {**dict(zip(names, map(float, sol.x))), "poiseuille": float(plateau),
-            "max_abs": float(np.abs(r).max()), "zero_opening": float(-sol.x[1] / sol.x[0])}
+    return {**dict(zip(names, map(float, c))), "poiseuille": float(plateau),
+            "max_abs": float(np.abs(res(sol.x)).max()), "zero_opening": zero, "pole": real[0] if real else None}
+
+
+#: the largest residual of eq 3.83's form fitted to the computed X(x) table that the pump accepts
+MULTIPLIER_FIT_TOL = 0.02
 
 
 def predicted_values(valve, oil) -> dict:
     """The reed's predicted fluid parameters {ReedValve field: value} for ``fluid = "predicted"`` (the
-    entry point of lumped.valves.fluid_forms): Cd(Re) in eq 3.88's form, X(x) in eq 3.83's form with
-    the film's plateau, f1 and f2 of eq 3.26, from the compact forms of this reed's geometry, the
-    valve's l_o, p_o, A_1, A_2 and kappa and ``oil`` (computed once, cached)."""
+    entry point of lumped.valves.fluid_forms): Cd(Re) in eq 3.88's form at the effective Reynolds
+    number Re (x / x_stop)^k fitted to every computed point (``discharge.lift_exponent`` k: off the
+    bench's operating line Cd depends on the opening as well), X(x) in eq 3.83's form with the
+    film's plateau, f1 and f2 of eq 3.26, from the compact forms of the reed the valve names
+    (``geometry`` or ``flow.geometry``), the valve's l_o, p_o, A_1, A_2 and kappa and ``oil``
+    (shipped for the thesis reed; else computed once, cached); and the range they were computed
+    on (the pump warns beyond it)."""
     from geometry.errors import InputError
     from lumped.valves.kind import check_discharge
 
@@ -251,22 +393,27 @@ def predicted_values(valve, oil) -> dict:
     from .reed3d import valve_flow
 
     where = f"valves.{valve.position}"
-    if valve.reed is None:
-        raise InputError(f"{where}.geometry", 'fluid = "predicted" needs the reed\'s geometry (a preset, a reed '
-                         "file or an inline table): the flow is computed around it")
-    flow = valve_flow(valve.reed, fluid=ns3d.Fluid(oil.density, oil.viscosity), stiffness=valve.stiffness,
+    flow = valve_flow(valve.fluid_reed(where), fluid=ns3d.Fluid(oil.density, oil.viscosity),
+                      stiffness=valve.stiffness,
                       definitions=(valve.orifice_length, valve.orifice_perimeter, valve.area_min, valve.area_max))
     forms = compact_forms(flow)["forms"]
-    cd = forms["cd"]
-    if cd is None:
-        raise InputError(f"{where}.fluid", "the compact forms have fewer than 4 points on the valve's operating "
-                         "line kappa (x - x_0) = X dP: no Cd(Re) to predict; use \"empirical\"")
+    cd = forms["cd_lift"]
     try:
         check_discharge(cd["cd_inf"], cd["a"], cd["b"], cd["c"], f"{where}.fluid")
     except InputError as exc:
         raise InputError(exc.field, f"the predicted Cd(Re) is not a usable correlation ({exc.message})") from None
     X = fit_multiplier(forms["multiplier"], forms["multiplier_poiseuille"])
+    if X["pole"] is not None or X["max_abs"] > MULTIPLIER_FIT_TOL:
+        raise InputError(f"{where}.fluid", "the predicted X(x) has no form of eq 3.83 without a pole before its zero "
+                         f"within {MULTIPLIER_FIT_TOL:g} of the computed table (largest residual "
+                         f"{X['max_abs']:.3g}); use \"empirical\"")
+    if forms["f1"] is None or forms["f2"] is None:
+        raise InputError(f"{where}.fluid", "the compact forms have no moving-wall solve: no f1, f2 to predict; "
+                         "use \"empirical\"")
     return {"cd_inf": cd["cd_inf"], "cd_a": cd["a"], "cd_b": cd["b"], "cd_c": cd["c"],
+            "cd_lift_exponent": cd["lift_exponent"],
             "multiplier_poiseuille": X["poiseuille"], "multiplier_n1": X["n1"], "multiplier_n0": X["n0"],
             "multiplier_d2": X["d2"], "multiplier_d1": X["d1"], "multiplier_d0": X["d0"],
-            "f1": float(np.clip(forms["f1"], 0.0, 1.0)), "f2": float(np.clip(forms["f2"], 0.0, 1.0))}
+            "f1": float(np.clip(forms["f1"], 0.0, 1.0)), "f2": float(np.clip(forms["f2"], 0.0, 1.0)),
+            "fluid_opening_max": float(forms["opening_range"][1]),
+            "fluid_reynolds_max": float(forms["reynolds_range"][1])}

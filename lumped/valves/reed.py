@@ -98,6 +98,10 @@ class ReedValve(ValveParams):
     cd_a: float = param("discharge.a", "-", "eq 3.89", bounds=(-100.0, 100.0))
     cd_b: float = param("discharge.b", "-", "eq 3.89", bounds=(0.0, 100.0), positive=True)
     cd_c: float = param("discharge.c", "-", "eq 3.89", bounds=(0.0, 100.0), positive=True)
+    cd_lift_exponent: float = param("discharge.lift_exponent", "-", "k: Cd(Re) of eq 3.88 taken at the effective "
+                                    "Reynolds number Re (x / x_stop)^k (0: eq 3.89, Cd independent of the opening; "
+                                    "fluid = \"predicted\" fits it, docs/fluid.md)", bounds=(-3.0, 3.0), default=0.0,
+                                    optional=True)
     # geometry and fidelity, or the structural parameters directly
     geometry: str = param("geometry", "-", f"reed geometry: preset ({', '.join(PRESETS)}), reed TOML file, or an "
                           "inline table of the reed-file schema", optional=True)
@@ -139,12 +143,22 @@ class ReedValve(ValveParams):
     hydrodynamic_function: float = param(None, "-", "Gamma_f of eq 3.13 (added mass)", bounds=(0.0, 1e3),
                                          default=0.0, effect="added_mass")
     fluid: str = fluid_param()
+    flow_geometry: str = param("flow.geometry", "-", "the reed the fluid references mesh (preset or reed TOML file) "
+                               "when the structural parameters are given directly (left out: the valve's geometry)",
+                               optional=True)
+    # set by fluid = "predicted" (lumped.valves.fluid_forms): the range its compact forms were computed on
+    fluid_opening_max: float = param(None, "m", "largest tip opening the predicted fluid forms were computed at "
+                                     "(0: not predicted)", bounds=(0.0, 10.0), default=0.0)
+    fluid_reynolds_max: float = param(None, "-", "largest Reynolds number (eq 3.87) the predicted fluid forms were "
+                                      "computed at (0: not predicted)", bounds=(0.0, 1e9), default=0.0)
     reed: Reed | None = None         # the parsed geometry (None: parameters given directly)
     source: str = "given"            # where kappa, gammas and h_eff come from
 
     #: keys a geometry supplies (dropped from inherited defaults when a file names a geometry)
-    FROM_GEOMETRY = ("structure.density", "structure.effective_thickness", "structure.stiffness",
-                     "structure.gamma1", "structure.gamma2", "structure.gamma3", "structure.width_tip")
+    STRUCTURE = ("structure.density", "structure.effective_thickness", "structure.stiffness",
+                 "structure.gamma1", "structure.gamma2", "structure.gamma3", "structure.width_tip")
+    #: and the reed the fluid references mesh, when the structure is given directly (flow.geometry)
+    FROM_GEOMETRY = STRUCTURE + ("flow.geometry",)
     #: the reed's own derived packed quantities (:meth:`packed_extra`)
     DERIVED = ("drag_term", "damping_total", "x_zero", "dynamics_code", "n_stations", "drag_half_cd")
 
@@ -156,11 +170,16 @@ class ReedValve(ValveParams):
         geo = table.pop("geometry", None)
         values = read_table(cls, table, where, extra_keys=("kind",), require=True)
         v = cls(position=position, **values)
+        if v.flow_geometry is not None:
+            if geo is not None:
+                raise InputError(f"{where}.flow.geometry", "the valve names a geometry, which the fluid references "
+                                 "mesh; give one or the other")
+            _reed_from(v.flow_geometry, f"{where}.flow.geometry")        # a bad name fails here, not in a solve
         if geo is None:
             if v.fidelity is not None:
                 raise InputError(f"{where}.fidelity", "needs a geometry to derive the reed parameters from")
             by_key = {k: n for n, k in _keys(cls)}
-            for key in cls.FROM_GEOMETRY:
+            for key in cls.STRUCTURE:
                 if getattr(v, by_key[key]) is None:
                     raise InputError(f"{where}.{key}", "missing: give the reed parameters or a geometry")
             return v.checked(where)
@@ -240,6 +259,16 @@ class ReedValve(ValveParams):
                                                    "reed: at most a quarter of its length")
         structure(self, 1.0)          # the basis or FE reed exists: modes, fidelity and port checked here
 
+    def fluid_reed(self, where: str) -> Reed:
+        """The reed the fluid references mesh: the valve's geometry, else ``flow.geometry``; InputError
+        naming ``where``.geometry when the valve has neither."""
+        if self.reed is not None:
+            return self.reed
+        if self.flow_geometry is not None:
+            return _reed_from(self.flow_geometry, f"{where}.flow.geometry")
+        raise InputError(f"{where}.geometry", "the fluid references mesh the reed: give its geometry (a preset, a "
+                         "reed file or an inline table), or flow.geometry when the structural parameters are given")
+
     @property
     def port(self):
         """The port footprint (geometry.reed_port.ReedPort), or None: the whole face (eq 3.21)."""
@@ -308,7 +337,8 @@ class ReedValve(ValveParams):
             seat_k=self.seat_stiffness, seat_c=self.seat_damping_value, stop_k=self.stop_stiffness,
             stop_c=self.stop_damping_value, area_1=self.area_min, area_2=self.area_max, f_closing=self.f1,
             f_opening=self.f2, cd_inf=self.cd_inf, cd_a=self.cd_a, cd_b=self.cd_b, cd_c=self.cd_c,
-            perimeter=self.orifice_perimeter, average_density=self.orifice_density == "average",
+            cd_lift_exponent=self.cd_lift_exponent or 0.0, perimeter=self.orifice_perimeter,
+            average_density=self.orifice_density == "average",
             area_per_opening=self.orifice_length,                                      # eq 3.25: A_o / x
             regime_opening=None,           # no pressure-regime switch: X(x) covers both regimes
             contact_area=1.0)              # eq 3.21 is per unit area
@@ -355,6 +385,14 @@ class ReedValve(ValveParams):
         limits = [Limit("multiplier_range", "peak_opening", self.multiplier_zero,
                         f"the {self.multiplier_zero * 1e3:.3g} mm where X(x) of eq 3.83 falls to 0: beyond the "
                         "openings it was fitted to")]
+        if self.fluid_opening_max > 0.0:
+            limits.append(Limit("fluid_range", "peak_opening", self.fluid_opening_max,
+                                f"the {self.fluid_opening_max * 1e3:.3g} mm its predicted fluid forms were computed "
+                                "up to (fluid = \"predicted\": X(x) and Cd beyond it are extrapolated)"))
+        if self.fluid_reynolds_max > 0.0:
+            limits.append(Limit("fluid_range", "max_reynolds", self.fluid_reynolds_max,
+                                f"the Re = {self.fluid_reynolds_max:.3g} its predicted fluid forms were computed "
+                                "up to (fluid = \"predicted\": Cd(Re) beyond it is extrapolated)"))
         if self.reed is not None:
             length = self.reed.length
             limits.append(Limit("beam_deflection", "deflection", 0.1 * length,

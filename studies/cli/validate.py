@@ -295,14 +295,15 @@ def step_tables(r: Run) -> None:
 
 
 def step_fluid(r: Run) -> None:
-    """The disc's fluid references (:mod:`studies.validation.fluid`): each fluid parameter, empirical against
-    predicted, and Table 5.4 with ``fluid = "predicted"``, written to fluid_validation.{md,csv}."""
-    if r.args.valve == "reed":
-        return
+    """The fluid references (:mod:`studies.validation.fluid`): each fluid parameter of the disc and the reed
+    valves, empirical against predicted, and Tables 5.4 and 5.6 with ``fluid = "predicted"``, written to
+    fluid_validation.{md,csv}."""
     from studies.validation.fluid import fluid_validation
 
-    fl = fluid_validation(r.out, quick=r.args.quick, progress=True)
-    r.summary.update(fluid_validation=fl["fluid_validation"], fluid_pump=fl["fluid_pump"])
+    kinds = (r.args.valve,) if r.args.valve in ("disc", "reed") else ("disc", "reed")
+    fl = fluid_validation(r.out, quick=r.args.quick, progress=True, kinds=kinds)
+    r.summary.update(fluid_validation=fl["fluid_validation"], fluid_pump=fl["fluid_pump"],
+                     fluid_pump_reed=fl["fluid_pump_reed"])
 
 
 def step_summary(r: Run) -> None:
