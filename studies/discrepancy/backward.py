@@ -66,9 +66,10 @@ def _record(tried: list, best, rnd: int, rows: list) -> None:
 def removal(pb, current: tuple, cur: Evaluation, i: int, fit_c: float, n_eff: float,
             rnd: int) -> tuple[CandidateFit, tuple, Evaluation] | None:
     """The added effect ``current[i]`` judged as a candidate on top of the model without it, whose other
-    effects and nuisances are refitted jointly from their values beside it (:func:`fitting.polish`; one at a
-    time, :func:`fitting.refine`, without a nuisance): (its record, the model without it, that model's
-    evaluation), or None when the model without it fails."""
+    effects and nuisances are refitted jointly from their values beside it
+    (:func:`~studies.discrepancy.fitting.polish`; one at a time, :func:`~studies.discrepancy.fitting.refine`,
+    without a nuisance): (its record, the model without it, that model's evaluation), or None when the model
+    without it fails."""
     n0 = pb.sims.count
     vt = pb.context
     a = current[i]

@@ -298,9 +298,9 @@ def refine(pb, model: tuple, skip: frozenset = frozenset()) -> tuple:
 
 
 def acceptable_units(p, tol: float = BOUND_TOL) -> tuple[float, float]:
-    """The unit coordinates (of the search bounds, :meth:`Parameter.to_unit`) a fitted value must lie strictly
-    between to be plausible (lumped.model.effects.Parameter.plausibility): off the search bounds, inside the
-    plausible range and off its edges."""
+    """The unit coordinates (of the search bounds, :meth:`~lumped.model.effects.Parameter.to_unit`) a fitted
+    value must lie strictly between to be plausible (lumped.model.effects.Parameter.plausibility): off the
+    search bounds, inside the plausible range and off its edges."""
     ulo, uhi = (p.to_unit(x) for x in p.plausible)
     edge = tol * (uhi - ulo)
     lo = max(tol, ulo + edge if ulo > tol else ulo)
@@ -325,7 +325,7 @@ def polish(pb, model: tuple, names: set, fixed: frozenset = frozenset(), least: 
            free: frozenset = frozenset()) -> tuple:
     """Joint least-squares refit of the parameters of the applied effects named in ``names`` (the others and
     the (index, parameter) pairs in ``fixed`` held), from their current values, each added effect kept inside
-    its plausible range and the effects in ``free`` within their search bounds (:func:`_polish_bounds`);
+    its plausible range and the effects in ``free`` within their search bounds (``_polish_bounds``);
     ``model`` itself if that does not lower the fit cost, or if fewer than ``least`` parameters are free (one
     alone is better fitted by :func:`fit`'s grids).
 

@@ -10,7 +10,7 @@ How a revolution is computed (measured in docs/discrepancy.md, "Cost"):
 
 - **Warm starts.** A fit simulates the same run condition hundreds of times for neighbouring
   parameter values. The workflow passes the state at top dead centre of the nearest model already
-  solved (:class:`studies.discrepancy.workflow.Simulations`); from a near neighbour's two revolutions
+  solved (:class:`studies.discrepancy.simulations.Simulations`); from a near neighbour's two revolutions
   (WARM_REVOLUTIONS: with one, a fit on the reed read its cost 7.7 units low); from another
   model's (the one it extends, the baseline) two and more, until the delivery and the state at TDC settle
   (REVOLUTIONS). Without one, from the baseline's cycle, not the pump at rest (a squeeze film started cold at

@@ -99,8 +99,8 @@ def _bases(pb, base: Base, model: tuple, base_fit: float, pair: bool) -> tuple[E
 
 
 def judge(pb, base: Base, t: Trial, how: How = How()) -> CandidateFit:
-    """The trial's augmented model refitted with the effects added before (:func:`_refitted`), scored on every
-    run and against its bases (:func:`_bases`): BIC, held-out gain, evidence by kind; the refitted earlier
+    """The trial's augmented model refitted with the effects added before (``_refitted``), scored on every
+    run and against its bases (``_bases``): BIC, held-out gain, evidence by kind; the refitted earlier
     effects must stay plausible too (nuisances are bounded)."""
     vt = pb.context
     eff, target = t.eff, t.target

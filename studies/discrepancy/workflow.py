@@ -21,8 +21,9 @@ effects -> one simulated revolution) and a library of candidate effects
    jointly and drops it when the same rule would not add it back (``backward.py``);
 7. says what is left (``leftover.py``).
 
-:class:`Workflow` is the facade over these parts; its result is an :class:`Outcome`, whose
-:meth:`~Outcome.as_contract` is the contract's JSON; ``studies/discrepancy/report.py`` writes a report folder.
+:class:`Workflow` is the facade over these parts; its result is an
+:class:`~studies.discrepancy.records.Outcome`, whose :meth:`~studies.discrepancy.records.Outcome.as_contract`
+is the contract's JSON; ``studies/discrepancy/report.py`` writes a report folder.
 """
 
 from __future__ import annotations
