@@ -218,8 +218,9 @@ def fit_forms(raw: dict, valve: FluidValve) -> dict:
 
 
 # ------------------------------------------------------------------ cache
-def _shipped(key: str) -> dict | None:
-    for path in sorted(DATA.glob("*.json")) if DATA.is_dir() else []:
+def shipped(key: str, pattern: str = "*.json") -> dict | None:
+    """The shipped record (``fea/fluid/data/<pattern>``) whose ``key`` is ``key``, or None."""
+    for path in sorted(DATA.glob(pattern)) if DATA.is_dir() else []:
         try:
             data = json.loads(path.read_text())
         except (OSError, ValueError):
@@ -237,7 +238,7 @@ def compact_forms(valve: FluidValve, resolution: float = DEFAULT_RESOLUTION, rec
     """
     key = valve_key(valve, resolution)
     if not recompute:
-        found = _shipped(key)
+        found = shipped(key)
         path = cache_dir() / f"fluid-{key}.json"
         if found is None and path.exists():
             try:

@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .compact import cache_dir, fit_cd, store
+from .compact import cache_dir, fit_cd, shipped, store
 from .reed3d import ReedValveFlow, displacement_sweep, pressure_cap, pressure_sweep
 from .reed_film import reed_film
 
@@ -247,8 +247,6 @@ def fit_forms(raw: dict, valve: ReedValveFlow, preload: float = 0.0) -> dict:
 #: steps, failed attempts included); the prototype's characterisation, docs/fluid.md "Cost"
 STOKES_SECONDS = {"wall": (25.0, 110.0), "cpu": 20.0}
 NEWTON_SECONDS = {"wall": (40.0, 600.0), "cpu": 40.0}
-#: shipped forms (the thesis reed's valves), looked up before the cache
-DATA = Path(__file__).parent / "data"
 
 
 def cost_estimate() -> dict:
@@ -259,17 +257,6 @@ def cost_estimate() -> dict:
     wall = tuple(stokes * a + newton * b for a, b in zip(STOKES_SECONDS["wall"], NEWTON_SECONDS["wall"]))
     return {"stokes": stokes, "newton": newton, "wall_seconds": wall,
             "cpu_seconds": stokes * STOKES_SECONDS["cpu"] + newton * NEWTON_SECONDS["cpu"]}
-
-
-def _shipped(key: str) -> dict | None:
-    for path in sorted(DATA.glob("reed-*.json")) if DATA.is_dir() else []:
-        try:
-            data = json.loads(path.read_text())
-        except (OSError, ValueError):
-            continue
-        if data.get("key") == key:
-            return data
-    return None
 
 
 def _data(valve: ReedValveFlow, raw: dict, key: str) -> dict:
@@ -309,7 +296,7 @@ def compact_forms(valve: ReedValveFlow, recompute: bool = False, progress: bool 
     key = reed_key(valve)
     path = cache_dir() / f"reed-{key}.json"
     if not recompute:
-        found = _shipped(key)
+        found = shipped(key, "reed-*.json")
         if found is None and path.exists():
             try:
                 found = json.loads(path.read_text())
