@@ -26,13 +26,18 @@ def outputs_of(pb, ev: Evaluation) -> dict:
     return out
 
 
+def _declarations(pb) -> tuple:
+    """(the pump model or None, the input uncertainties it declares)."""
+    model = pb.context if not isinstance(pb.context, str) else None
+    return model, tuple(getattr(model, "uncertainties", ()) or ())
+
+
 def _perturbed_inputs(pb) -> list:
     """(key, applied INPUT effect) per input uncertainty the pump model declares, moved by one standard
     uncertainty."""
     from lumped.model.uncertainty import numeric_keys, sample_values
 
-    model = pb.context if not isinstance(pb.context, str) else None
-    decls = tuple(getattr(model, "uncertainties", ()) or ())
+    model, decls = _declarations(pb)
     perturbed = []
     if decls:
         keys = numeric_keys(model)
@@ -61,9 +66,8 @@ def validate(pb, ev: Evaluation) -> dict | None:
     jobs += [(pb.conds[r.name], (a,)) for r in pb.runs for _, a in perturbed]
     pb.sims.many(jobs)
     u_del = dataset_uncertainty(pb.runs)
-    model = pb.context if not isinstance(pb.context, str) else None
     # a uniform declaration's samples are not normal: V&V 20's expansion reads the distribution (validation.rows)
-    distributions = {d.key: d.distribution for d in tuple(getattr(model, "uncertainties", ()) or ())}
+    distributions = {d.key: d.distribution for d in _declarations(pb)[1]}
     rows = []
     for r in pb.runs:
         f = pb.folded.get(r.name, Folded({}, {}, {}))
