@@ -110,12 +110,12 @@ register(Effect(
     summary="compliant seat (e.g. an O-ring under an unseated valve housing): linear k_seat, critical c_seat",
     parameters=(Parameter(
         "k_seat", "N/m", prior=priors()["seat_compliance"]["disc"]["k_seat"], bounds=(1.0e5, 1.0e10),
-        plausible=(1.0e5, 1.0e9), field="seat_stiffness",
+        plausible=(1.0e5, 1.0e9), field="seat_stiffness", strong="low",    # a stiff seat is no compliance
         source="O-ring under the unseated delivery housing, measured in the pump (section 2.4.3.2); "
                "a steel seat is 3.02e9 N/m (FEA), anything near it is no compliance"),),
     variants={"reed": (Parameter(
         "k_seat", "Pa/m", prior=priors()["seat_compliance"]["reed"]["k_seat"], bounds=(1.0e8, 1.0e13),
-        plausible=(1.0e8, 5.0e11), field="seat_stiffness",
+        plausible=(1.0e8, 5.0e11), field="seat_stiffness", strong="low",   # a stiff seat is no compliance
         source="the disc's O-ring (1.5e6 N/m) over the disc face (lumped/data/effect_priors.toml); "
                "the Delrin seat lands are E/h = 2.1e12 Pa/m"),)},
     apply=_apply_seat, targets=PER_VALVE, derived=_seat_damping,
@@ -136,7 +136,7 @@ register(Effect(
             "pressure minus the oil's tensile strength (eqs 2.16-2.17 on the film pressure, docs/stiction.md)",
     parameters=(Parameter(
         "C2", "N m^2 s", prior=float("nan"), bounds=(1.0 / 100.0, 100.0), plausible=(1.0 / 10.0, 10.0),
-        field="squeeze_c2", prior_from=_c2_prior, relative=True,
+        field="squeeze_c2", prior_from=_c2_prior, relative=True, strong="high",   # the film force goes with C2
         source="eq 2.15 with the disc geometry and the oil viscosity; a factor 10 either way covers the bevel "
                "angle (sin^4), a film that is not uniform (seat flatness) and the oil's temperature"),),
     apply=lambda m, v, t: set_fields(m, t, squeeze_c2=v["C2"]), valve_types=("disc",), targets=ONE_OR_BOTH,
@@ -165,11 +165,12 @@ register(Effect(
         Parameter("theta_jet", "rad", prior=math.radians(54.0), prior_from=_jet_prior, log=False,
                   bounds=tuple(math.radians(a) for a in _FF["jet_angle_search_deg"]),
                   plausible=tuple(math.radians(a) for a in _FF["jet_angle_plausible_deg"]), field="jet_angle",
+                  strong="low",           # the steady force goes with cos(theta_jet): none at 90 deg (eq 2.36)
                   source="jet leaving along the seat bevel (eq 2.30, Knutson 2016); measured and CFD jet angles "
                          "of poppet and disc valves (lumped/data/effect_priors.toml)"),
         Parameter("L_t", "m", prior=float("nan"), prior_from=_transient_prior, relative=True,
                   bounds=tuple(_FF["transient_length_search"]), plausible=tuple(_FF["transient_length_plausible"]),
-                  field="transient_length",
+                  field="transient_length", strong="high",   # the transient force goes with L_t (eq 2.37)
                   source="the port length L of eq 2.31 (Table 2.3); transient flow forces of CFD differ from the "
                          "control-volume estimate by several times (lumped/data/effect_priors.toml)"),
     ),
@@ -197,16 +198,16 @@ register(Effect(
     summary="added fluid mass on the moving element (eq 2.3 m_f; eq 3.17 for the reed)",
     parameters=(Parameter(
         "m_f", "kg", prior=float("nan"), bounds=(1.0 / 100.0, 100.0), plausible=(1.0 / 4.0, 10.0),
-        field="added_mass", prior_from=_disc_added_mass_prior, relative=True,
+        field="added_mass", prior_from=_disc_added_mass_prior, relative=True, strong="high",
         source="(8/3) rho R_o^3, a disc in unbounded fluid (Lamb); confinement in the housing raises it"),),
     variants={"reed": (Parameter(
         "Gamma_f", "-", prior=priors()["added_mass"]["reed"]["Gamma_f"], bounds=(0.01, 100.0), plausible=(0.2, 10.0),
-        field="hydrodynamic_function",
+        field="hydrodynamic_function", strong="high",
         source="hydrodynamic function of eq 3.13 at kappa_n = 0.9677 (section 3.8.2.2); a wall nearby "
                "raises it"),),
               "ball": (Parameter(
         "m_f", "kg", prior=float("nan"), bounds=(1.0 / 100.0, 100.0), plausible=(1.0 / 4.0, 10.0),
-        field="added_mass", prior_from=_ball_added_mass_prior, relative=True,
+        field="added_mass", prior_from=_ball_added_mass_prior, relative=True, strong="high",
         source="half the displaced fluid, a sphere in unbounded fluid (Lamb 1932); the seat and housing "
                "nearby raise it"),)},
     apply=lambda m, v, t: set_fields(m, t, **({"added_mass": v["m_f"]} if "m_f" in v
@@ -221,7 +222,7 @@ register(Effect(
     summary="viscous fluid damping on the reed (c_f, section 3.8.3)",
     parameters=(Parameter(
         "c_f", "Pa s/m", prior=priors()["fluid_damping"]["c_f"], bounds=(10.0, 1.0e5), plausible=(165.0, 16500.0),
-        field="fluid_damping_coefficient",
+        field="fluid_damping_coefficient", strong="high",
         source="eq 3.80 from the Naik et al. (2003) correlation at R_k = 2250; approximate by the "
                "thesis's own account, a wall nearby raises it"),),
     apply=lambda m, v, t: set_fields(m, t, fluid_damping_coefficient=v["c_f"]),
@@ -236,7 +237,7 @@ register(Effect(
             "leaves it off and uses the linear c_f, Table 3.13)",
     parameters=(Parameter(
         "C_D", "-", prior=priors()["quadratic_drag"]["C_D"], bounds=(0.01, 100.0), plausible=(0.1, 10.0),
-        field="drag_coefficient",
+        field="drag_coefficient", strong="high",
         source="drag coefficient of a plate moving broadside, ~1 unconfined (section 3.8.2.2); confinement between "
                "the seat and the manifold raises it"),),
     apply=lambda m, v, t: set_fields(m, t, drag=True, drag_coefficient=v["C_D"]),
@@ -257,7 +258,7 @@ register(Effect(
     summary="laminar leakage between piston and cylinder, proportional to the pressure difference (eq 4.5)",
     parameters=(Parameter(
         "clearance", "m", prior=priors()["piston_leakage"]["clearance"], bounds=(1.0e-6, 2.0e-4),
-        plausible=(1.0e-6, 5.0e-5), field="leakage_clearance",
+        plausible=(1.0e-6, 5.0e-5), field="leakage_clearance", strong="high",   # the leak goes with c^3 (eq 4.5)
         source="radial clearance of a lapped piston (lumped/data/effect_priors.toml); a few to tens of "
                "micrometres"),),
     apply=lambda m, v, t: set_fields(m, "pump", **{"pump.leakage_clearance": v["clearance"]}),
@@ -285,7 +286,7 @@ def _air_prior_for(kind: str):
     return prior
 
 
-_R = dict(bounds=(1.0e-4, 0.2), plausible=(1.0e-4, 0.1), field="air_content")
+_R = dict(bounds=(1.0e-4, 0.2), plausible=(1.0e-4, 0.1), field="air_content", strong="high")
 register(Effect(
     name="entrained_air",
     summary="air content R in the oil (eq 4.11) where the baseline assumes none",

@@ -32,6 +32,11 @@ class Parameter:
     ``bounds`` the range searched (in log space if ``log``); ``plausible`` the
     range a fitted value must fall in to be believed. A fit that ends on a bound
     or outside ``plausible`` is reported but never added to the model.
+
+    ``strong`` is the end of the range where the effect is strongest ("high" or "low"; the other end is where
+    it fades out): a fit at the plausible edge on the strong side says the data want more of the effect than
+    physics allows, one at the fading side only that the data cannot pin a weak effect's value
+    (``studies/discrepancy/edge.py``). None: not declared, a fit at either edge is implausible.
     """
 
     name: str
@@ -44,8 +49,11 @@ class Parameter:
     field: str | None = None              # the declared component field this parameter sets
     prior_from: Callable | None = None    # prior computed for a model: f(model, target) -> value
     relative: bool = False                # bounds and plausible range are multiples of the prior
+    strong: str | None = None             # "high"/"low": the end where the effect is strongest (None: undeclared)
 
     def __post_init__(self):
+        if self.strong not in (None, "high", "low"):
+            raise ValueError(f"{self.name}: strong must be 'high', 'low' or None, not {self.strong!r}")
         if self.relative:
             return                        # checked once resolved for a model (for_model)
         lo, hi = self.bounds
@@ -64,7 +72,7 @@ class Parameter:
         lo, hi = self.bounds
         plo, phi = self.plausible
         return Parameter(self.name, self.unit, prior, (prior * lo, prior * hi), (prior * plo, prior * phi),
-                         self.source, self.log, self.field)
+                         self.source, self.log, self.field, strong=self.strong)
 
     def to_unit(self, value: float) -> float:
         """Position of ``value`` within the bounds, 0..1 (log or linear)."""
@@ -98,6 +106,17 @@ class Parameter:
             return (f"{self.name} = {value:.4g} {self.unit} sits at the edge of the physically plausible range "
                     f"{lo:.3g}-{hi:.3g}: the fit wants to go beyond it ({self.source})")
         return None
+
+    def edge_side(self, value: float, bound_tol: float = 0.01) -> str | None:
+        """Which end of the range an implausible ``value`` sits at: "strong" (the end :attr:`strong` names,
+        where the effect is largest), "fading" (the other), or None where it is plausible or no end is
+        declared. The nearer end in the search's unit scale counts."""
+        if self.strong is None or self.plausibility(value, bound_tol) is None:
+            return None
+        u = self.to_unit(value)
+        ulo, uhi = self.to_unit(self.plausible[0]), self.to_unit(self.plausible[1])
+        high = abs(u - uhi) < abs(u - ulo)
+        return "strong" if high == (self.strong == "high") else "fading"
 
 
 @dataclass(frozen=True)

@@ -1,14 +1,24 @@
-"""A fit at the edge of its plausible range: do the data want beyond it, or is the valley flat there?
+"""A fit at the edge of its plausible range: does the effect fade out there, or do the data want more of it?
 
 A candidate whose fitted value sits on a search bound or at the edge of its plausible range
-(:meth:`lumped.model.effects.Parameter.plausibility`) is refused as implausible only when the data pull it
-there: the value is moved inside the range by ``Settings.edge_pull`` of the range's width, the candidate's
-other parameters and the nuisances refitted with it held, and the edge counts as evidence only if that costs
-more than a right effect of another form may trade (``Settings.max_worse_units`` or
-``Settings.worse_fraction`` of the candidate's fit gain, the tolerance of the decision rule's evidence by
-kind). Otherwise the candidate is judged at the value inside: its parameter is poorly determined, not
-implausible. A flow force's jet angle is the case: the steady force goes with cos(theta_jet), and at 60-90
-degrees the data of the thesis's pumps move by less than a gap unit (docs/discrepancy.md, "Known limits").
+(:meth:`lumped.model.effects.Parameter.plausibility`) is judged by which end it sits at, as the parameter
+declares once (``Parameter.strong``, :meth:`lumped.model.effects.Parameter.edge_side`):
+
+- at the end where the effect is **strongest** (a jet angle at 5 deg, cos ~ 1; a damping, a mass, a film, a
+  leak at its upper plausible bound; a seat at its softest) the data want more of the effect than physics
+  allows: the signature of a candidate soaking up another effect's form mismatch (a flow force on the inlet
+  valve standing in for the opening a film of another cavitation rule moves). It is refused as implausible;
+- at the end where the effect **fades out** (a jet angle near 90 deg, whose steady force goes with
+  cos(theta_jet) -> 0; a film, a mass or a damping at a tenth of its prior) a flat valley ends at the edge and
+  the data cannot pin the value: it is moved inside the range by ``Settings.edge_pull`` of the range's width,
+  the candidate's other parameters and the nuisances refitted with it held, and the candidate is judged there
+  unless that costs more than a right effect of another form may trade (``Settings.max_worse_units`` or
+  ``Settings.worse_fraction`` of the candidate's fit gain, the tolerance of the decision rule's evidence by
+  kind): then the data pin the fading end, and it stays implausible too.
+
+A parameter that declares no end is implausible at either edge. A value pulled inside is held where it is by
+every later refit of the search once the candidate is added (``Problem.held``, set by ``search.add``, read by
+``fitting.fit``, ``fitting.refine`` and ``fitting.polish``), so no reported value leaves the range.
 """
 
 from __future__ import annotations
@@ -30,17 +40,17 @@ def pulled_value(p: Parameter, value: float, pull: float) -> float:
 
 def pull_inside(pb, model: tuple, i: int, base_fit: float, cost: float):
     """(model, fit cost, sensor nuisances, note, the parameters pulled) with the implausible parameters of the
-    effect ``model[i]``
-    pulled inside their plausible range and the rest of it and the nuisances refitted, when that costs at most
-    the tolerance (module docstring) more than ``cost`` (the fit cost of ``model``; ``base_fit``: that of the
-    model without the effect); None when the data pull the fit to the edge (or nothing can be pulled)."""
+    effect ``model[i]`` pulled inside their plausible range and the rest of it and the nuisances refitted, when
+    every one sits at its fading end and that costs at most the tolerance (module docstring) more than ``cost``
+    (the fit cost of ``model``; ``base_fit``: that of the model without the effect); None when one sits at its
+    strong end, or the data pin the fit to the edge (or nothing can be pulled)."""
     st = pb.settings
     eff = pb.library[model[i].name]
     vals = model[i].value_dict
     params = eff.parameters_for(pb.context, model[i].target)
     edge = [p for p in params if p.plausibility(vals[p.name]) is not None]
-    if st.edge_pull <= 0.0 or not edge:
-        return None
+    if st.edge_pull <= 0.0 or not edge or any(p.edge_side(vals[p.name]) != "fading" for p in edge):
+        return None          # the data want more of the effect than physics allows (or no end is declared)
     moved = model
     for p in edge:
         moved = with_value(moved, i, p.name, pulled_value(p, vals[p.name], st.edge_pull))

@@ -74,10 +74,12 @@ class Objective:
     def __init__(self, pb, base: tuple, effect: Effect, target: str, params, profile: bool, jac):
         self.pb, self.base, self.effect, self.target, self.params = pb, base, effect, target, params
         self.profile, self.jac = profile, jac
+        self.held = pb.held_values(effect.name, target)
 
     def model_of(self, units) -> tuple:
-        """The base with the candidate at ``units`` (unit coordinates of its parameters)."""
-        vals = {p.name: p.from_unit(u) for p, u in zip(self.params, units)}
+        """The base with the candidate at ``units`` (unit coordinates of its free parameters; the held ones
+        where they are held)."""
+        vals = {**self.held, **{p.name: p.from_unit(u) for p, u in zip(self.params, units)}}
         return self.base + (Applied.of(self.effect.name, self.target, vals),)
 
     def cost(self, model) -> float:
@@ -108,13 +110,14 @@ class Objective:
 def fit(pb, base: tuple, effect: Effect, target: str, opts: FitOptions = FitOptions()) -> FitResult:
     """Fit ``effect`` at ``target`` on top of ``base`` (:class:`FitOptions` says how)."""
     n0 = pb.sims.count
-    params = effect.parameters_for(pb.context, target)
+    held = pb.held_values(effect.name, target)   # pulled inside its range when added (edge.py): not refitted
+    params = [p for p in effect.parameters_for(pb.context, target) if p.name not in held]
     profile = opts.profile and bool(prof.nuisance_index(pb, base))
     jac = None
     stage = pb.sims.stage
     if profile:   # linearised at the nuisances' origin and the candidate's start (studies.discrepancy.profile)
         base = prof.at_origin(pb, base)
-        s0 = opts.start or effect.prior_values(pb.context, target)
+        s0 = {**(opts.start or effect.prior_values(pb.context, target)), **held}
         pb.sims.stage = f"{stage}/jacobian"
         jac = opts.jacobian if opts.jacobian is not None else \
             prof.nuisance_jacobian(pb, base + (Applied.of(effect.name, target, s0),))
@@ -139,7 +142,7 @@ def fit(pb, base: tuple, effect: Effect, target: str, opts: FitOptions = FitOpti
         cost, nuis = pb.fit_objective(ob.model_of(units))
         if profile:
             cost = ob.cost(ob.model_of(units))
-    vals = {p.name: p.from_unit(u) for p, u in zip(params, units)}
+    vals = {**held, **{p.name: p.from_unit(u) for p, u in zip(params, units)}}
     pb.sims.stage = stage
     return FitResult(vals, cost, nuis, pb.sims.count - n0, rejected, ob.jac)
 
@@ -290,7 +293,7 @@ def refine(pb, model: tuple, skip: frozenset = frozenset()) -> tuple:
             continue
         others = tuple(model[:i] + model[i + 1:])
         eff = pb.library[a.name]
-        if not eff.parameters_for(pb.context, a.target):
+        if not {p.name for p in eff.parameters_for(pb.context, a.target)} - set(pb.held_values(a.name, a.target)):
             continue
         vals = fit(pb, others, eff, a.target, FitOptions(start=a.value_dict, narrow=0.1, plausible_only=True)).values
         model[i] = Applied.of(a.name, a.target, vals)
@@ -323,9 +326,9 @@ def _polish_bounds(pb, model: tuple, idx: list, free: frozenset) -> tuple[np.nda
 
 def polish(pb, model: tuple, names: set, fixed: frozenset = frozenset(), least: int = 2,
            free: frozenset = frozenset()) -> tuple:
-    """Joint least-squares refit of the parameters of the applied effects named in ``names`` (the others and
-    the (index, parameter) pairs in ``fixed`` held), from their current values, each added effect kept inside
-    its plausible range and the effects in ``free`` within their search bounds (``_polish_bounds``);
+    """Joint least-squares refit of the parameters of the applied effects named in ``names`` (the others, the
+    (index, parameter) pairs in ``fixed`` and those ``Problem.held_values`` names held), from their current
+    values, each added effect kept inside its plausible range and the effects in ``free`` within their search bounds (``_polish_bounds``);
     ``model`` itself if that does not lower the fit cost, or if fewer than ``least`` parameters are free (one
     alone is better fitted by :func:`fit`'s grids).
 
@@ -333,7 +336,8 @@ def polish(pb, model: tuple, names: set, fixed: frozenset = frozenset(), least: 
     lower Cd both restore the delivery a soft seat loses); Gauss-Newton steps follow it.
     """
     idx = [(i, p) for i, a in enumerate(model) if a.name in names
-           for p in pb.eff(a.name).parameters_for(pb.context, a.target) if (i, p.name) not in fixed]
+           for p in pb.eff(a.name).parameters_for(pb.context, a.target)
+           if (i, p.name) not in fixed and p.name not in pb.held_values(a.name, a.target)]
     if len(idx) < least or not idx:
         return model
 

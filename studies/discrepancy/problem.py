@@ -116,7 +116,13 @@ class Problem:
         self.last_failure: str | None = None    # why the last failed simulation failed
         self.jacobians: dict = {}               # model -> its nuisance Jacobian (profile.base_jacobian)
         self.removals: dict = {}                # (model, index) -> the backward step's trial (backward.removal)
+        self.held: dict = {}                    # (effect, target) -> {parameter: value} pulled inside (edge.py)
         self.nuisance_effects = bounded_nuisances(library, settings, self.context)
+
+    def held_values(self, name: str, target: str) -> dict:
+        """The parameters of the added effect ``name`` at ``target`` that its judgement pulled inside their
+        plausible range (studies.discrepancy.edge), with their values: every later refit holds them."""
+        return self.held.get((name, target), {})
 
     def log(self, msg: str):
         """A progress line on stderr (when ``progress``)."""

@@ -122,6 +122,8 @@ def add(pb, state: State, winner: CandidateFit, rnd: int) -> bool:
     pb.log(f"round {rnd}: adding {winner.key} "
            f"{values_text(pb.eff(winner.effect), winner.reported, pb.context, winner.target)} "
            f"(held-out gap -{100 * (winner.held_improvement or winner.fit_improvement):.0f} %)")
+    if winner.pulled:      # judged at values pulled inside its range: held there from now on (edge.py)
+        pb.held[(winner.effect, winner.target)] = {n: winner.values[n] for n in winner.pulled}
     current = winner.model if pb.nuisance_effects else fitting.refine(pb, winner.model)
     if pb.nuisance_effects and st.round_polish:
         pb.sims.stage = f"round {rnd}/polish"
