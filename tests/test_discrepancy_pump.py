@@ -184,9 +184,6 @@ KNOWN_MISSES = {
         "Known limits)",
     ("disc", "flow_force [jet_weak]", 1):
         "a flow force of another jet law: its effective L_t 26.6 % off (the force itself is matched)",
-    ("disc", "squeeze_film [film_gap]", 1):
-        "the residual-gap film named with an extra inlet flow force: its jet angle at the 5 deg search bound is "
-        "pulled inside to 24 deg by the edge rule and added (held-out 26.1 -> 17.4 units; docs/discrepancy.md)",
     ("reed", "added_mass+quadratic_drag", 1):
         "the drag gains 1.33 held-out units beside the added mass, under the 1.5 floor: the added mass named alone "
         "(docs/discrepancy.md)",
