@@ -200,3 +200,17 @@ def test_complements_are_not_substitutes(jet):
     seat = cand(Applied.of("seat_compliance", "delivery", {"k_seat": 1.5e6}))
     assert indistinct._substitutes(pb, (cd,), lag, lag2)
     assert not indistinct._substitutes(pb, (cd,), lag, seat)
+
+
+def test_every_candidate_parameter_declares_where_its_effect_is_strongest():
+    """The edge rule reads the side once, where the parameter is declared: every candidate effect of the library
+    (each valve kind's variant too) says it; a seat is strongest soft and a jet angle at cos ~ 1, the rest high."""
+    from lumped.model.effect_library import LIBRARY
+
+    low = {("seat_compliance", "k_seat"), ("flow_force", "theta_jet")}
+    for eff in LIBRARY.effects.values():
+        if not eff.candidate:
+            continue
+        for params in (eff.parameters, *eff.variants.values()):
+            for p in params:
+                assert p.strong == ("low" if (eff.name, p.name) in low else "high"), (eff.name, p.name, p.strong)
