@@ -197,6 +197,7 @@ def run(args) -> dict:
         from studies.outputs import announce
         from studies.validation import input_uncertainty as iu
         from studies.validation.numerical import LADDER
+        from studies.validation.point import Point
         from studies.validation.vv20 import point_uncertainty
 
         first, most = iu.SCRAMBLES * 2 ** iu.FIRST_POWER, iu.SCRAMBLES * 2 ** iu.MAX_POWER
@@ -206,9 +207,8 @@ def run(args) -> dict:
                  costs.estimate(pump__fast=len(LADDER), pump__draw=first), f"measured per-run costs, {first} draws")
 
         m = model if args.air_content is None else with_values(model, {"oil.air_content": args.air_content})
-        out["uncertainty"] = point_uncertainty(m, speed, load, res, revolutions=args.revolutions,
-                                               max_revolutions=args.max_revolutions, circuit=args.circuit,
-                                               progress=True)
+        point = Point("point", m, speed, load, args.revolutions, args.max_revolutions, args.circuit)
+        out["uncertainty"] = point_uncertainty(point, res, progress=True)
     out["trace"] = None
     if "--trace" in outputs:
         write_trace_csv(res, outputs["--trace"], args.trace_valve)
