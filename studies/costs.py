@@ -34,9 +34,9 @@ SECONDS = {
     "cluster": 10.0,
     # a generation of a design study besides its evaluations (its sweep folder and dask round trip: 1.5-2 s)
     "generation": 2.0,
-    # the whole of `valvelab validate`, its fast path compiled (benchmarks/bench_validation.py: 340 s at load
-    # average 13.9) and with --quick (104 s)
-    "validate": 340.0, "validate:quick": 104.0,
+    # the whole of `valvelab validate`, its fast path compiled (benchmarks/bench_validation.py: 89.8 s on an idle
+    # machine, 340 s at load average 13.9) and with --quick (104 s at load 17)
+    "validate": 90.0, "validate:quick": 104.0,
     # one measured run of a discrepancy dataset through the whole workflow on two workers (bench_discrepancy.py:
     # median 8.6 s for six runs over 99 datasets, 6.0-21.3 s for 4-12 runs; the slowest, where two effects
     # trade, 35 s: four times the median)

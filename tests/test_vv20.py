@@ -12,7 +12,8 @@ import pytest
 from fea.convergence import gci, observed_order
 from studies.validation.measurement import (FLOW_METER_REL, dataset_uncertainty, delivery_uncertainty,
                                             paired_type_a)
-from studies.validation.vv20 import (area_metric, coverage_factor, u_pooling, vv20_row, welch_satterthwaite)
+from studies.validation.vv20 import (Components, area_metric, coverage_factor, u_pooling, vv20_row,
+                                     welch_satterthwaite)
 
 
 # --------------------------------------------------------------------------- GCI (Celik et al. 2008)
@@ -101,13 +102,13 @@ def test_gci_bad_input_exits_2_naming_the_flag(argv, flag, capsys):
 def test_vv20_row_by_hand():
     """The CONTRACT's example row: S = 1.7258, D = 1.72, u_num = 1e-5, u_input = 0.02, u_D = 0.05 cc/rev.
     By hand: E = 0.0058, u_val = sqrt(1e-10 + 4e-4 + 2.5e-3) = 0.0538516, U_val = 0.1077033."""
-    r = vv20_row("disc_inlet_baseline", "delivery_cc_per_rev", "cc/rev", 1.7258, 1.72, 1e-5, 0.02, 0.05)
+    r = vv20_row("disc_inlet_baseline", "delivery_cc_per_rev", "cc/rev", 1.7258, 1.72, Components(1e-5, 0.02, 0.05))
     assert r["E"] == pytest.approx(0.0058) and r["u_val"] == pytest.approx(0.0538516, abs=1e-7)
     assert r["k"] == 2.0 and r["U_val"] == pytest.approx(0.1077033, abs=1e-7)
     assert r["delta_model"] == pytest.approx([0.0058 - 0.1077033, 0.0058 + 0.1077033], abs=1e-7)
     assert r["verdict"] == "within" and "within the validation uncertainty" in r["words"]
     # a model-form error: E = 0.08, u_val = sqrt(3) 0.01, U_val = 0.034641
-    m = vv20_row("c", "delivery_cc_per_rev", "cc/rev", 1.80, 1.72, 0.01, 0.01, 0.01)
+    m = vv20_row("c", "delivery_cc_per_rev", "cc/rev", 1.80, 1.72, Components(0.01, 0.01, 0.01))
     assert m["verdict"] == "model_form_error"
     assert m["delta_model"] == pytest.approx([0.08 - 0.0346410, 0.08 + 0.0346410], abs=1e-6)
     assert m["words"] == "model-form error between 0.04536 and 0.1146 cc/rev"
@@ -118,9 +119,9 @@ def test_markdown_table_prints_a_column_of_one_output_to_the_same_decimals():
     measured D likewise; another output's column keeps its own decimals."""
     from studies.validation.vv20 import ValidationTable
 
-    rows = (vv20_row("a", "delivery_cc_per_rev", "cc/rev", 1.726, 1.72, 1e-6, 0.06, 0.03),
-            vv20_row("b", "delivery_cc_per_rev", "cc/rev", 1.70637, 1.684, 1e-6, 0.06, 0.03),
-            vv20_row("c", "closing_angle_deg", "deg", 12.5, 13.25, 0.01, 0.5, 0.2))
+    rows = (vv20_row("a", "delivery_cc_per_rev", "cc/rev", 1.726, 1.72, Components(1e-6, 0.06, 0.03)),
+            vv20_row("b", "delivery_cc_per_rev", "cc/rev", 1.70637, 1.684, Components(1e-6, 0.06, 0.03)),
+            vv20_row("c", "closing_angle_deg", "deg", 12.5, 13.25, Components(0.01, 0.5, 0.2)))
     cells = {line.split(" | ")[0].lstrip("| "): line.split(" | ")[2:4]
              for line in ValidationTable("t", rows).to_markdown().splitlines() if line.startswith("| ") and
              " [" in line and not line.startswith("| case")}
@@ -141,7 +142,7 @@ def test_welch_satterthwaite_gum_example():
 
 def test_dof_of_the_components_set_k():
     """A u_D with 3 dof dominating u_val gives k = t_95.45(nu_eff) > 2."""
-    r = vv20_row("c", "o", "-", 1.0, 1.0, 0.0, 0.0, 0.05, dof=(math.inf, math.inf, 3))
+    r = vv20_row("c", "o", "-", 1.0, 1.0, Components(0.0, 0.0, 0.05, (math.inf, math.inf, 3)))
     assert r["nu_eff"] == pytest.approx(3.0) and r["k"] == pytest.approx(3.307, abs=2e-3)
 
 
@@ -231,10 +232,11 @@ def test_tolerance_ladder_band_covers_the_reference_stepper():
     Radau, 1e-6) for the delivery and both valves' angles: an independent solver."""
     from lumped import load_model, simulate
     from studies.validation.numerical import numerical_uncertainty, output_values
+    from studies.validation.point import Point
 
     m = load_model("thesis-disc")
     ref = output_values(simulate(m, 593, 2.76e6, method="reference", revolutions=5, max_revolutions=12))
-    num = numerical_uncertainty(m, 593, 2.76e6, reported_method="fast", reported_rtol=1e-3)
+    num = numerical_uncertainty(Point("p", m, 593, 2.76e6, 5), reported_method="fast", reported_rtol=1e-3)
     for o in ("delivery_cc_per_rev", "inlet_opening_angle_deg", "inlet_closing_angle_deg",
               "delivery_opening_angle_deg", "delivery_closing_angle_deg"):
         e = num[o]

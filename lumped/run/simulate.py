@@ -317,8 +317,8 @@ def _run(m: PumpModel, speed: float, load: float, opts: RunOptions) -> PumpResul
                                  {"contact_atol": opts.solver.contact_atol, "max_steps": opts.solver.max_steps,
                                   "order": stepper.order})
         done.n_steps += checked.extra_steps
+    cpu = _time.process_time() - cpu0      # the integration and its check; the post-processing is not counted
     rt_modes = post.rates(done.last.span, problem, physics)
-    cpu = _time.process_time() - cpu0
     info = _RunInfo(opts.solver.method, rtol, atol, cpu, opts.trace.points if opts.trace else 0,
                     "warm" if warm else "cold", done.tol if done.tol else opts.stop.tolerance(rtol), tdc, checked)
     res = _result(m, problem, done, physics, info, rt_modes)

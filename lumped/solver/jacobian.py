@@ -39,6 +39,10 @@ from lumped.valves.kind import (
 )
 
 SQRT_EPS = 1.4901161193847656e-08
+#: inlined by numba into their callers (lumped.solver.compiled): called, each bound the parameter array and the
+#: records anew for every acceleration differenced, a cost the hot path pays 10-12 times per Jacobian
+#: (docs/extending.md, "Long kernels")
+INLINE = ("_valve_rows", "_accel", "_at", "_at_m", "_at_l", "_inputs", "_cylinder", "_load", "_time_partials")
 
 
 class Cylinder(NamedTuple):

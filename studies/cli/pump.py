@@ -155,29 +155,14 @@ def run(args) -> dict:
     """Run ``valvelab pump``: simulate a pump (a shipped model or your model file) with its check valves to cyclic
     steady state (the JSON of ``--json``; :mod:`studies.cli`)."""
     from lumped.run.simulate import simulate
-    from studies.outputs import check_distinct, check_new_file
+    from studies.outputs import check_distinct
 
     _check_args(args)
     check_distinct({"--trace": args.trace, "--plot": args.plot},
                    {"--model": args.model, "--reed-geometry": args.reed_geometry})
-    outputs = {}
-    for flag, path in (("--trace", args.trace), ("--plot", args.plot)):
-        if path is not None:                    # fail before the run, not after
-            if flag == "--plot":
-                from studies.plots import check_plot_suffix
-                path = check_plot_suffix(path)
-            outputs[flag] = check_new_file(path, flag, args.force, writable=True)
+    outputs = _output_files(args)
     model = model_for(args)
-    speed = args.speed_rpm if args.speed_rpm is not None else model.operating.speed_rpm
-    load = args.load_pressure_mpa * 1e6 if args.load_pressure_mpa is not None else model.operating.load_pressure
-    if speed is None:
-        raise InputError("--speed-rpm", f"missing: the model {model.name!r} has no [operating] speed_rpm")
-    if load is None:
-        raise InputError("--load-pressure-mpa", f"missing: the model {model.name!r} has no [operating] load_pressure")
-    if load < model.pump.tank_pressure:
-        flag = "--load-pressure-mpa" if args.load_pressure_mpa is not None else "operating.load_pressure"
-        raise InputError(flag, f"{load / 1e6:g} MPa is below the tank pressure {model.pump.tank_pressure / 1e6:g} MPa "
-                               "(absolute): a pump delivers into a load above its inlet")
+    speed, load = _operating_point(args, model)
     from lumped.model.plausible import input_warnings
 
     implausible = [w.to_dict() for w in input_warnings(model)]     # with the run's own (JSON and stderr)
@@ -192,23 +177,7 @@ def run(args) -> dict:
     out["reed_parameters"] = _reed_source(model)
     out["fluid"] = {pos: getattr(model.valve(pos), "fluid", "empirical") for pos in ("inlet", "delivery")}
     if args.uncertainty:
-        from lumped.model.model_file import with_values
-        from studies import costs
-        from studies.outputs import announce
-        from studies.validation import input_uncertainty as iu
-        from studies.validation.numerical import LADDER
-        from studies.validation.vv20 import point_uncertainty
-
-        first, most = iu.SCRAMBLES * 2 ** iu.FIRST_POWER, iu.SCRAMBLES * 2 ** iu.MAX_POWER
-        announce("pump", f"u_num from {len(LADDER)} runs of a tolerance ladder; u_input from {first} Monte Carlo "
-                         "draws of the model's declared input uncertainties, doubled until precise to "
-                         f"{iu.TARGET_PRECISION:.0%} (at most {most})",
-                 costs.estimate(pump__fast=len(LADDER), pump__draw=first), f"measured per-run costs, {first} draws")
-
-        m = model if args.air_content is None else with_values(model, {"oil.air_content": args.air_content})
-        out["uncertainty"] = point_uncertainty(m, speed, load, res, revolutions=args.revolutions,
-                                               max_revolutions=args.max_revolutions, circuit=args.circuit,
-                                               progress=True)
+        out["uncertainty"] = _uncertainty(args, model, (speed, load), res)
     out["trace"] = None
     if "--trace" in outputs:
         write_trace_csv(res, outputs["--trace"], args.trace_valve)
@@ -217,6 +186,56 @@ def run(args) -> dict:
         res.plot(outputs["--plot"], force=True)      # checked above, --force included
         out["plot"] = str(outputs["--plot"])
     return out
+
+
+def _output_files(args) -> dict:
+    """{flag: path} of the files the run writes (--trace, --plot), each checked before the run, not after."""
+    from studies.outputs import check_new_file
+
+    outputs = {}
+    for flag, path in (("--trace", args.trace), ("--plot", args.plot)):
+        if path is not None:
+            if flag == "--plot":
+                from studies.plots import check_plot_suffix
+                path = check_plot_suffix(path)
+            outputs[flag] = check_new_file(path, flag, args.force, writable=True)
+    return outputs
+
+
+def _operating_point(args, model) -> tuple[float, float]:
+    """(speed [rpm], load [Pa]) from the flags, else the model's [operating]; refused below the tank pressure."""
+    speed = args.speed_rpm if args.speed_rpm is not None else model.operating.speed_rpm
+    load = args.load_pressure_mpa * 1e6 if args.load_pressure_mpa is not None else model.operating.load_pressure
+    if speed is None:
+        raise InputError("--speed-rpm", f"missing: the model {model.name!r} has no [operating] speed_rpm")
+    if load is None:
+        raise InputError("--load-pressure-mpa", f"missing: the model {model.name!r} has no [operating] load_pressure")
+    if load < model.pump.tank_pressure:
+        flag = "--load-pressure-mpa" if args.load_pressure_mpa is not None else "operating.load_pressure"
+        raise InputError(flag, f"{load / 1e6:g} MPa is below the tank pressure {model.pump.tank_pressure / 1e6:g} MPa "
+                               "(absolute): a pump delivers into a load above its inlet")
+    return speed, load
+
+
+def _uncertainty(args, model, operating: tuple[float, float], res) -> dict:
+    """u_num and u_input of the run's outputs at ``operating`` (speed [rpm], load [Pa]) for ``--uncertainty``,
+    the cost announced first."""
+    from lumped.model.model_file import with_values
+    from studies import costs
+    from studies.outputs import announce
+    from studies.validation import input_uncertainty as iu
+    from studies.validation.numerical import LADDER
+    from studies.validation.point import Point
+    from studies.validation.vv20 import point_uncertainty
+
+    first, most = iu.SCRAMBLES * 2 ** iu.FIRST_POWER, iu.SCRAMBLES * 2 ** iu.MAX_POWER
+    announce("pump", f"u_num from {len(LADDER)} runs of a tolerance ladder; u_input from {first} Monte Carlo "
+                     "draws of the model's declared input uncertainties, doubled until precise to "
+                     f"{iu.TARGET_PRECISION:.0%} (at most {most})",
+             costs.estimate(pump__fast=len(LADDER), pump__draw=first), f"measured per-run costs, {first} draws")
+    m = model if args.air_content is None else with_values(model, {"oil.air_content": args.air_content})
+    point = Point("point", m, *operating, args.revolutions, args.max_revolutions, args.circuit)
+    return point_uncertainty(point, res, progress=True)
 
 
 def _reed_source(model) -> str | None:

@@ -161,7 +161,7 @@ def step_pump_cases(r: Run) -> None:
 
     selected = V.cases(valve=r.args.valve)
     _log(f"  {len(selected)} pump cases ({'quick' if r.args.quick else 'full'} settings)")
-    results = V.run_cases(selected, quick=r.args.quick, progress=True, jobs=r.jobs, pool=r.pool)
+    results = V.run_cases(selected, quick=r.args.quick, progress=True, workers=r.pool or r.jobs)
     plots = []
     for c, res in zip(selected, results):
         fig = V.FIGURES[(c["valve"], c["measured_valve"], c["condition"])]

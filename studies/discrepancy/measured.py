@@ -153,6 +153,14 @@ def parse_run_toml(data: dict, where: str) -> dict:
         )
     out["load_pressure_pa"] = p
 
+    out.update(_delivery_fields(data, where))
+    out["extra"] = {}
+    return out
+
+
+def _delivery_fields(data: dict, where: str) -> dict:
+    """run.toml's model, measured delivery [cc/rev], air content [-] and stated standard uncertainties, checked."""
+    out: dict = {}
     d = _num(data, "delivery_cc_per_rev", where, False)
     model = data.get("model")
     if model is not None and not isinstance(model, str):
@@ -183,7 +191,6 @@ def parse_run_toml(data: dict, where: str) -> dict:
         raise InputError(f"{where}: delivery_uncertainty_cc", f"{u:g} cc/rev is {u / d:.3g} times the measured "
                          f"delivery {d:g} cc/rev; a standard uncertainty is below {MAX_DELIVERY_UNCERTAINTY_REL:g} of "
                          "it (as for position_uncertainty_rel)")
-    out["extra"] = {}
     return out
 
 

@@ -173,7 +173,7 @@ def _row(what: tuple, values: tuple, u_num: float, sens: dict, u_d: tuple, distr
     run_name, name, unit = what
     s, d = values
     from studies.validation import joint
-    from studies.validation.vv20 import vv20_row
+    from studies.validation.vv20 import Components, vv20_row
 
     contrib = sorted(((k, abs(v)) for k, v in sens.items()), key=lambda kv: -kv[1])
     u_input = math.sqrt(sum(c * c for _, c in contrib))
@@ -186,7 +186,7 @@ def _row(what: tuple, values: tuple, u_num: float, sens: dict, u_d: tuple, distr
     samples = linear_samples(sens, distributions, b, rng)
     k, how = joint.interval(b, samples)
     E = difference(s, d, name)
-    row = vv20_row(run_name, name, unit, d + E, d, u_num, u_input, ud, dof=(math.inf, math.inf, dof),
+    row = vv20_row(run_name, name, unit, d + E, d, Components(u_num, u_input, ud, (math.inf, math.inf, dof)),
                    contributors=contrib[:3], coverage=(k, how))
     det = joint.detectable(samples, row["U_val"], 1.0) if u_val2 > 0.0 else None
     row["detectable"] = det

@@ -8,9 +8,11 @@ one and with the thesis's modeled value.
 
 from __future__ import annotations
 
+import inspect
 import os
 import sys
 from concurrent.futures import ProcessPoolExecutor
+from contextlib import nullcontext
 from dataclasses import replace
 from pathlib import Path
 
@@ -86,38 +88,30 @@ def run_case(case: dict, *, params: PumpModel | None = None, quick: bool = False
 
 
 def _run_one(args):
-    case, params, quick, trace, method, settings, warm = args
-    return run_case(case, params=params, quick=quick, trace=trace, method=method, settings=settings, warm=warm)
+    case, params, run = args
+    return run_case(case, params=params, **run)
 
 
-def run_cases(selected: list[dict], *, params_for=None, quick: bool = False, trace: bool = True,
-              progress: bool = False, jobs: int = 1, method: str = "reference", settings: dict | None = None,
-              warm: bool = True, pool=None) -> list[PumpResult]:
-    """Simulate the cases (in ``jobs`` processes, or on the executor ``pool``), progress as a count on stderr.
+def run_cases(selected: list[dict], *, params_for=None, progress: bool = False, workers=1, **run) -> list[PumpResult]:
+    """Simulate the cases, progress as a count on stderr.
 
-    ``params_for(case) -> PumpModel | None`` overrides the thesis configuration per case; ``settings``,
-    ``warm``: as :func:`run_case`.
+    ``params_for(case) -> PumpModel | None`` overrides the thesis configuration per case; ``workers``: a number of
+    processes, or an executor to map the cases on (the validate pipeline's pool); ``run``: :func:`run_case`'s
+    keywords for every case (``quick``, ``trace``, ``method``, ``settings``, ``warm``), checked before any case runs.
     """
-    work = [(c, params_for(c) if params_for else None, quick, trace, method, settings, warm) for c in selected]
+    unknown = sorted(set(run) - (set(inspect.signature(run_case).parameters) - {"case", "params", "progress"}))
+    if unknown:
+        raise TypeError(f"run_cases() got unexpected keyword arguments: {', '.join(unknown)}")
+    work = [(c, params_for(c) if params_for else None, run) for c in selected]
     bar = None
     if progress:
         from tqdm import tqdm
         bar = tqdm(total=len(work), desc="pump cases", unit="case", file=sys.stderr)
     results: list[PumpResult] = []
-    if pool is not None:
-        for r in pool.map(_run_one, work):
+    own = isinstance(workers, int) and workers > 1
+    with ProcessPoolExecutor(max_workers=workers) if own else nullcontext(workers) as ex:
+        for r in (map if isinstance(ex, int) else ex.map)(_run_one, work):
             results.append(r)
-            if bar:
-                bar.update(1)
-    elif jobs > 1:
-        with ProcessPoolExecutor(max_workers=jobs) as ex:
-            for r in ex.map(_run_one, work):
-                results.append(r)
-                if bar:
-                    bar.update(1)
-    else:
-        for w in work:
-            results.append(_run_one(w))
             if bar:
                 bar.update(1)
     if bar:
@@ -250,7 +244,7 @@ def add_table_5_1_column(selected: list[dict], rows: list[dict], quick: bool = F
     if not pairs:
         return
     res = run_cases([c for c, _ in pairs], params_for=table_5_1_dead_volume_model, quick=quick, trace=False,
-                    progress=progress, jobs=jobs, method=method, settings=None if quick or method != "fast" else LEGACY)
+                    progress=progress, workers=jobs, method=method, settings=None if quick or method != "fast" else LEGACY)
     for (c, row), r in zip(pairs, res):
         d = r.delivery_per_rev * 1e6
         row[TABLE_5_1_COLUMN] = round(d, 5)

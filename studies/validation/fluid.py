@@ -52,7 +52,7 @@ def _closed_form_verdict(e: float, s: float, u: float | None) -> str:
 def _cd_rows(name: str, valve, data: dict) -> list[dict]:
     """Cd at the stop (the bench's shims set the lift; eq 2.48 holds for every lift) at CD_REYNOLDS."""
     from lumped.fluid.orifice import discharge_coefficient
-    from studies.validation.vv20 import vv20_row
+    from studies.validation.vv20 import Components, vv20_row
 
     v = valve.params
     stop = max(p["lift"] for p in data["points"])
@@ -63,8 +63,8 @@ def _cd_rows(name: str, valve, data: dict) -> list[dict]:
             continue
         pt = pt[0]
         bench = float(discharge_coefficient(math.sqrt(re), v.cd_inf, v.cd_a, v.cd_b, v.cd_c))
-        vv = vv20_row(f"{name} Re {re:g}", "cd", "-", pt["cd"], bench, pt["u_num"].get("cd", 0.0), 0.0,
-                      BENCH_CD_REL * bench)
+        vv = vv20_row(f"{name} Re {re:g}", "cd", "-", pt["cd"], bench,
+                      Components(pt["u_num"].get("cd", 0.0), 0.0, BENCH_CD_REL * bench))
         rows.append(_row(name, f"Cd(Re = {re:g})", "-", (bench, pt["cd"], pt["u_num"].get("cd")), vv["verdict"],
                          "measured: eq 2.48 (flow bench, section 2.4.5)",
                          f"x = {stop * 1e3:.3g} mm; E = {vv['E']:+.4f} ({100 * vv['E'] / bench:+.1f} %), "
@@ -136,7 +136,7 @@ def reed_parameter_rows(model: str = "thesis-reed", progress: bool = True) -> li
     from fea.fluid.reed_compact import compact_forms, equilibrium_points, fit_multiplier
     from lumped.fluid.orifice import discharge_coefficient
     from lumped.valves.reed import pressure_load_multiplier
-    from studies.validation.vv20 import vv20_row
+    from studies.validation.vv20 import Components, vv20_row
 
     rows = []
     for pos in ("inlet", "delivery"):
@@ -151,8 +151,8 @@ def reed_parameter_rows(model: str = "thesis-reed", progress: bool = True) -> li
             re, x = pt["reynolds"], pt["opening"]
             bench = float(discharge_coefficient(math.sqrt(re), v.cd_inf, v.cd_a, v.cd_b, v.cd_c))
             S = float(pt["cd"])
-            vv = vv20_row(f"{name} x {x * 1e3:.3g} mm", "cd", "-", S, bench, REED_U_NUM["cd"] * S, 0.0,
-                          BENCH_CD_REL * bench)
+            vv = vv20_row(f"{name} x {x * 1e3:.3g} mm", "cd", "-", S, bench,
+                          Components(REED_U_NUM["cd"] * S, 0.0, BENCH_CD_REL * bench))
             rows.append(_row(name, f"Cd(x = {x * 1e3:.3g} mm, Re = {re:.3g})", "-", (bench, S, REED_U_NUM["cd"] * S),
                              vv["verdict"], "measured: eq 3.89 (flow bench, section 3.8.6)",
                              f"3-D on the operating line kappa (x - x_0) = X dP (dP = {pt['dp'] / 1e3:.3g} kPa); "
@@ -162,7 +162,8 @@ def reed_parameter_rows(model: str = "thesis-reed", progress: bool = True) -> li
             emp = pressure_load_multiplier(x, v.multiplier_poiseuille, v.multiplier_n1, v.multiplier_n0,
                                            v.multiplier_d2, v.multiplier_d1, v.multiplier_d0, v.multiplier_zero)
             S = float(np.interp(x, table["opening"], table["X"]))
-            vv = vv20_row(f"{name} x {x * 1e3:g} mm", "X", "-", S, emp, REED_U_NUM["X"] * S, 0.0, BENCH_CD_REL * emp)
+            vv = vv20_row(f"{name} x {x * 1e3:g} mm", "X", "-", S, emp,
+                          Components(REED_U_NUM["X"] * S, 0.0, BENCH_CD_REL * emp))
             beyond = x > table["opening"][-1]
             rows.append(_row(name, f"X(x = {x * 1e3:g} mm)", "-", (emp, S, REED_U_NUM["X"] * S), vv["verdict"],
                              "measured: eq 3.83 (flow bench, section 3.8.5)",
@@ -209,7 +210,8 @@ def pump_rows(quick: bool = False, progress: bool = True, kind: str = "disc", me
     from studies.validation.chain import case_name, cases, run_case
     from studies.validation.measurement import delivery_uncertainty
     from studies.validation.numerical import numerical_uncertainty
-    from studies.validation.vv20 import vv20_row
+    from studies.validation.point import Point
+    from studies.validation.vv20 import Components, vv20_row
 
     predicted = with_values(load_model(f"thesis-{kind}"), {"valves.inlet.fluid": "predicted",
                                                           "valves.delivery.fluid": "predicted"})
@@ -226,9 +228,11 @@ def pump_rows(quick: bool = False, progress: bool = True, kind: str = "disc", me
     ud = delivery_uncertainty(selected, {n: r[2].delivery_per_rev * 1e6 for n, r in runs.items()})
     for n, (c, emp, pre, m) in runs.items():
         S, D = pre.delivery_per_rev * 1e6, c["measured_delivery"] * 1e6
-        un = numerical_uncertainty(m, c["speed_rpm"], c["load_pressure"], reported={"delivery_cc_per_rev": S},
-                                   quick=True, outputs={"delivery_cc_per_rev": "cc/rev"})["delivery_cc_per_rev"].u
-        vv = vv20_row(n, "delivery_cc_per_rev", "cc/rev", S, D, un, 0.0, ud[n].u, dof=(math.inf, math.inf, ud[n].dof))
+        un = numerical_uncertainty(Point(n, m, c["speed_rpm"], c["load_pressure"], 5),
+                                   reported={"delivery_cc_per_rev": S}, quick=True,
+                                   outputs={"delivery_cc_per_rev": "cc/rev"})["delivery_cc_per_rev"].u
+        vv = vv20_row(n, "delivery_cc_per_rev", "cc/rev", S, D,
+                      Components(un, 0.0, ud[n].u, (math.inf, math.inf, ud[n].dof)))
         out.append({"case": n, "measured_cc": D, "empirical_cc": emp.delivery_per_rev * 1e6, "predicted_cc": S,
                     "error_empirical_pct": 100 * (emp.delivery_per_rev * 1e6 - D) / D,
                     "error_predicted_pct": 100 * (S - D) / D, "vv20": vv,

@@ -45,6 +45,7 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from studies.validation.numerical import OUTPUTS
+from studies.validation.point import Point
 
 #: the fast path's tolerances for the draws
 MC_RTOL, MC_ATOL = 1e-4, 1e-6
@@ -60,20 +61,6 @@ TOP = 3
 BATCH = 64
 #: at most this many revolutions per draw (unless the point's max_revolutions is larger)
 DRAW_MAX_REVOLUTIONS = 12
-
-
-@dataclass(frozen=True)
-class Point:
-    """One operating point to propagate to: a model with its declarations, speed [rpm], load [Pa]."""
-
-    name: str
-    model: object
-    speed_rpm: float
-    load_pressure: float
-    revolutions: int = 2
-    max_revolutions: int | None = 12
-    circuit: str | None = None
-    group: str | None = None        # points of one group share their draws (the same inputs at draw k)
 
 
 @dataclass(frozen=True)
@@ -206,7 +193,7 @@ def _estimate(state: _State, name: str, unit: str) -> InputUncertainty:
 def propagate(points, *, quick: bool = False, seed: int = 0, cluster=None, progress: bool = False,
               outputs=tuple(OUTPUTS), draws: dict | None = None,
               per_scramble: int | None = None) -> dict[str, dict[str, InputUncertainty]]:
-    """u_input of ``outputs`` at every :class:`Point` (see the module docstring); ``cluster``: a
+    """u_input of ``outputs`` at every :class:`~studies.validation.point.Point` (see the module docstring); ``cluster``: a
     :class:`studies.sweeps.cluster.Cluster` (None: in this process). ``per_scramble``: a fixed
     budget of that many points per scramble (a power of two), else the adaptive doubling. ``draws``: a
     dict that receives {point: {"z": standard scores (n x d), "scramble": scramble of each draw (n),

@@ -28,6 +28,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 from fea.convergence import FS_TWO, GCI_STANDARD_FACTOR, gci
+from studies.validation.point import Point
 
 #: fast-path tolerances of the ladder (coarse to fine) and of ``--quick``
 LADDER = (1e-3, 1e-4, 1e-5)
@@ -112,26 +113,27 @@ def ladder_tolerances(quick: bool = False, rtol: float | None = None) -> tuple[f
     return tuple(rtol / 10.0**k for k in range(n))
 
 
-def run_ladder(model, speed_rpm: float, load_pressure: float, tolerances, *, revolutions: int = 5,
-               max_revolutions: int | None = 12, circuit: str | None = None, outputs=OUTPUTS) -> list[dict]:
-    """{output: value} of the fast path at each tolerance (coarse to fine, as given)."""
+def run_ladder(point: Point, tolerances, outputs=OUTPUTS) -> list[dict]:
+    """{output: value} of the fast path at each tolerance (coarse to fine, as given) at ``point``."""
     from lumped.run.simulate import simulate
 
     out = []
     for t in tolerances:
         # each level at its own tolerance: the accuracy check would replace a loose level by a tighter one
-        r = simulate(model, speed_rpm, load_pressure, method="fast", rtol=t, atol=t * ATOL_PER_RTOL,
-                     revolutions=revolutions, max_revolutions=max_revolutions, circuit=circuit, accuracy_check=False)
+        r = simulate(point.model, point.speed_rpm, point.load_pressure, method="fast", rtol=t, atol=t * ATOL_PER_RTOL,
+                     revolutions=point.revolutions, max_revolutions=point.max_revolutions, circuit=point.circuit,
+                     accuracy_check=False)
         out.append(output_values(r, outputs))
     return out
 
 
-def numerical_uncertainty(model, speed_rpm: float, load_pressure: float, *, reported: dict | None = None,
-                          reported_method: str = "reference", reported_rtol: float | None = None,
-                          quick: bool = False, revolutions: int = 5, max_revolutions: int | None = 12,
-                          circuit: str | None = None, outputs=OUTPUTS) -> dict[str, NumericalUncertainty]:
-    """u_num of every output of one operating point (see the module docstring).
+def numerical_uncertainty(point: Point, *, reported: dict | None = None, reported_method: str = "reference",
+                          reported_rtol: float | None = None, quick: bool = False,
+                          outputs=OUTPUTS) -> dict[str, NumericalUncertainty]:
+    """u_num of every output at one operating point (see the module docstring).
 
+    ``point``: the model, speed, load, revolutions and circuit each level of the ladder runs
+    (:class:`~studies.validation.point.Point`; the studies run 5 revolutions after at most 12).
     ``reported``: the outputs of the run being reported ({output: value}); for
     ``reported_method = "fast"`` its ``reported_rtol`` starts the ladder and ``reported`` may be
     None (its level is the reported run); for "reference" the ladder is :data:`LADDER` and
@@ -141,8 +143,7 @@ def numerical_uncertainty(model, speed_rpm: float, load_pressure: float, *, repo
     if not fast and reported is None:
         raise ValueError("the reference stepper's outputs are needed as `reported`")
     tol = ladder_tolerances(quick, reported_rtol if fast else None)
-    levels = run_ladder(model, speed_rpm, load_pressure, tol, revolutions=revolutions,
-                        max_revolutions=max_revolutions, circuit=circuit, outputs=outputs)
+    levels = run_ladder(point, tol, outputs)
     if fast:
         reported = levels[0] if reported is None else reported
         by = f"fast rtol {tol[0]:g}"

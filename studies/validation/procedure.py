@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from studies.validation import joint
-from studies.validation.vv20 import vv20_row
+from studies.validation.vv20 import Components, vv20_row
 
 #: the condition whose runs calibrate each rig (its baseline: the thesis's reference point)
 CALIBRATION_CONDITION = {"disc": "baseline", "reed": "low_speed"}
@@ -62,8 +62,9 @@ def combination_row(rig: joint.Rig, c, case: str, values: tuple[float, float], r
     b = joint.budget(rig, c)
     samples = joint.error_samples(rig, c, b, rng, opts.samples)
     k, how = joint.interval(b, samples)
-    row = vv20_row(case, OUTPUT, unit or rig.unit, *values, b.u_num, b.u_input, b.u_D,
-                   dof=(None, None, b.u_D_dof), contributors=b.contributors[:3], coverage=(k, how))
+    u = Components(b.u_num, b.u_input, b.u_D, (None, None, b.u_D_dof))
+    row = vv20_row(case, OUTPUT, unit or rig.unit, *values, u,
+                   contributors=b.contributors[:3], coverage=(k, how))
     row["u_input_se"] = b.u_input_se
     det = joint.detectable(samples, row["U_val"], response) if opts.power else None
     row["detectable_pct"] = None if det is None else det * 100.0

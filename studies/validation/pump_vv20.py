@@ -175,13 +175,14 @@ def pump_validation(selected, results, *, quick: bool = False, cluster=None, pro
 
 def _ladders(selected, names, S, models, quick, progress) -> dict:
     from studies.validation.numerical import numerical_uncertainty
+    from studies.validation.point import Point
 
     unum = {}
     for n, c in zip(names, selected):
         if progress:
             print(f"  numerical uncertainty (tolerance ladder): {n}", file=sys.stderr, flush=True)
-        unum[n] = numerical_uncertainty(models[n], c["speed_rpm"], c["load_pressure"], reported=S[n], quick=quick,
-                                        **(LADDER_QUICK if quick else LADDER))
+        point = Point(n, models[n], c["speed_rpm"], c["load_pressure"], **(LADDER_QUICK if quick else LADDER))
+        unum[n] = numerical_uncertainty(point, reported=S[n], quick=quick)
     return unum
 
 

@@ -51,17 +51,36 @@ def coverage_factor(dof: float, p: float = COVERAGE) -> float:
     return float(t.ppf(q, dof))
 
 
-def vv20_row(case: str, output: str, unit: str, S: float, D: float, u_num: float, u_input: float, u_D: float,
-             dof=(math.inf, math.inf, math.inf), contributors=(), coverage: tuple[float, str] | None = None) -> dict:
+@dataclass(frozen=True)
+class Components:
+    """The three standard uncertainties of a comparison (V&V 20 eq 1-5.5), in the output's units.
+
+    ``u_num``: the numerics (solution verification), ``u_input``: the simulation's inputs, ``u_D``: the data;
+    ``dof``: their degrees of freedom in that order (None or inf for a Type B estimate), for the
+    Welch-Satterthwaite k.
+    """
+
+    u_num: float
+    u_input: float
+    u_D: float
+    dof: tuple = (math.inf, math.inf, math.inf)
+
+
+def vv20_row(case: str, output: str, unit: str, S: float, D: float, u: Components, contributors=(),
+             coverage: tuple[float, str] | None = None) -> dict:
     """One row of the table (CONTRACT keys, plus ``unit``, ``nu_eff``, ``words``), output units throughout.
 
-    ``dof``: degrees of freedom of u_num, u_input and u_D (None or inf for Type B estimates). ``coverage``:
+    ``u``: the three standard uncertainties and their degrees of freedom (:class:`Components`). ``coverage``:
     (k, "monte_carlo") from a Monte Carlo coverage interval (:func:`studies.validation.joint.interval`);
     default k = t(nu_eff) ("welch"). ``u_input_se`` (None here; the Monte Carlo's callers set it) is the
     standard error of u_input, a column of its own (the estimate's precision, not a degree of freedom).
+
+    >>> r = vv20_row("c", "delivery_cc_per_rev", "cc/rev", 1.80, 1.72, Components(0.0, 0.03, 0.04))
+    >>> round(r["E"], 4), round(r["u_val"], 4), r["k"], r["verdict"]
+    (0.08, 0.05, 2.0, 'within')
     """
-    comps = [float(u_num or 0.0), float(u_input or 0.0), float(u_D or 0.0)]
-    dofs = [math.inf if d is None else float(d) for d in dof]
+    comps = [float(u.u_num or 0.0), float(u.u_input or 0.0), float(u.u_D or 0.0)]
+    dofs = [math.inf if d is None else float(d) for d in u.dof]
     E = float(S) - float(D)
     u_val = math.sqrt(sum(c * c for c in comps))
     nu = welch_satterthwaite(comps, dofs)
@@ -312,7 +331,7 @@ def reed_validation(reed, rows: list[dict], *, quick: bool = False, progress: bo
         for q, unit in REED_UNITS.items():
             dE = ((getattr(an_p, q) - getattr(fp, q)) - (getattr(an_m, q) - getattr(fm, q))) / 2.0
             gq = g["quantities"][q]
-            row = vv20_row(f"{reed.name}/{fid}", q, unit, an[q], r[q], gq["u"], abs(dE), 0.0,
+            row = vv20_row(f"{reed.name}/{fid}", q, unit, an[q], r[q], Components(gq["u"], abs(dE), 0.0),
                            contributors=[("reed thickness (+-5 %, section 3.5.2)", abs(dE))])
             row["u_num_note"] = gq["gci"]["note"]
             out.append(row)
@@ -339,27 +358,24 @@ POINT_OUTPUTS = ("delivery_cc_per_rev", "inlet_opening_angle_deg", "inlet_closin
                  "delivery_opening_angle_deg", "delivery_closing_angle_deg")
 
 
-def point_uncertainty(model, speed_rpm: float, load_pressure: float, result, *, revolutions: int = 5,
-                      max_revolutions: int | None = None, circuit: str | None = None, quick: bool = False,
-                      cluster=None, progress: bool = False, outputs=POINT_OUTPUTS) -> dict:
-    """u_num and u_input of one run of any model (``result``: its PumpResult, on either stepper).
+def point_uncertainty(point, result, *, quick: bool = False, cluster=None, progress: bool = False,
+                      outputs=POINT_OUTPUTS) -> dict:
+    """u_num and u_input of one run of any model (``result``: its PumpResult, on either stepper) at ``point``
+    (:class:`~studies.validation.point.Point`: the model, speed, load, revolutions and circuit of the run).
 
     u_num: the tolerance ladder from the run's own tolerance (fast) or the fast ladder against
     the reference run; u_input: the model's declared uncertainties by Monte Carlo (none
     declared: 0). Returns ``{output: {"u_num", "u_input", "contributors", "unit", ...}}``.
     """
-    from studies.validation.input_uncertainty import Point, propagate
+    from studies.validation.input_uncertainty import propagate
     from studies.validation.numerical import OUTPUTS, numerical_uncertainty, output_values
 
     outs = {o: OUTPUTS[o] for o in outputs}
     reported = output_values(result, outs)
     fast = result.method == "fast"
-    num = numerical_uncertainty(model, speed_rpm, load_pressure, reported=reported,
-                                reported_method="fast" if fast else "reference", reported_rtol=result.rtol if fast else None,
-                                quick=quick, revolutions=revolutions, max_revolutions=max_revolutions, circuit=circuit,
-                                outputs=outs)
-    inp = propagate([Point("point", model, speed_rpm, load_pressure, revolutions, max_revolutions, circuit)],
-                    quick=quick, cluster=cluster, progress=progress, outputs=tuple(outputs))["point"]
+    num = numerical_uncertainty(point, reported=reported, reported_method="fast" if fast else "reference",
+                                reported_rtol=result.rtol if fast else None, quick=quick, outputs=outs)
+    inp = propagate([point], quick=quick, cluster=cluster, progress=progress, outputs=tuple(outputs))[point.name]
     return {o: {"value": reported[o], "unit": outs[o], "u_num": num[o].u, "u_input": inp[o].u,
                 "contributors": [list(c) for c in inp[o].contributors], "U_num": num[o].U,
                 "u_num_converging": num[o].converging, "u_num_note": num[o].note,

@@ -64,51 +64,56 @@ def expression_names(text: str, where: str) -> list[str]:
     >>> expression_names("step_length / valves.geometry.length", "derived.x")
     ['step_length', 'valves.geometry.length']
     """
+    names: list[str] = []
+    try:
+        _visit(_parse(text, where), where, names)
+    except RecursionError:
+        raise InputError(where, "nested too deeply to be an arithmetic expression") from None
+    return names
+
+
+def _parse(text: str, where: str) -> ast.Expression:
+    """The expression's syntax tree, or InputError naming ``where``."""
     if not isinstance(text, str):
         raise InputError(where, f"expected an arithmetic expression as a string, got {text!r}")
     if len(text) > MAX_LENGTH:
         raise InputError(where, f"an expression of {len(text)} characters; at most {MAX_LENGTH}")
     try:
-        tree = ast.parse(text, mode="eval")
+        return ast.parse(text, mode="eval")
     except SyntaxError as exc:
         raise InputError(where, f"not an arithmetic expression ({exc.msg})") from None
     except (RecursionError, MemoryError):
         raise InputError(where, "nested too deeply to be an arithmetic expression") from None
-    names = []
 
-    def visit(n):
-        if isinstance(n, ast.Expression):
-            return visit(n.body)
-        if isinstance(n, ast.Constant) and isinstance(n.value, (int, float)) and not isinstance(n.value, bool):
-            return
-        if isinstance(n, (ast.Name, ast.Attribute)):
-            d = _dotted(n)
-            if d is None:
-                raise InputError(where, "only names and numbers may be combined")
-            names.append(d)
-            return
-        if isinstance(n, ast.BinOp) and type(n.op) in _BINOPS:
-            visit(n.left), visit(n.right)
-            return
-        if isinstance(n, ast.UnaryOp) and isinstance(n.op, (ast.USub, ast.UAdd)):
-            return visit(n.operand)
-        if isinstance(n, ast.Call) and isinstance(n.func, ast.Name) and n.func.id in _FUNCS and not n.keywords:
-            lo, hi = _ARITY[n.func.id]
-            if len(n.args) < lo or (hi is not None and len(n.args) > hi) or \
-                    any(isinstance(a, ast.Starred) for a in n.args):
-                raise InputError(where, f"{n.func.id}() takes {lo if hi == lo else f'{lo} or more'} argument"
-                                        f"{'s' if lo > 1 else ''}")
-            for a in n.args:
-                visit(a)
-            return
-        raise InputError(where, f"unsupported element {type(n).__name__}: use numbers, variable names, "
-                                "+ - * / **, min, max, sqrt, exp, log, abs")
 
-    try:
-        visit(tree)
-    except RecursionError:
-        raise InputError(where, "nested too deeply to be an arithmetic expression") from None
-    return names
+def _visit(n, where: str, names: list[str]) -> None:
+    """Append the names node ``n`` reads to ``names``; InputError for an element outside the grammar."""
+    if isinstance(n, ast.Expression):
+        return _visit(n.body, where, names)
+    if isinstance(n, ast.Constant) and isinstance(n.value, (int, float)) and not isinstance(n.value, bool):
+        return None
+    if isinstance(n, (ast.Name, ast.Attribute)):
+        d = _dotted(n)
+        if d is None:
+            raise InputError(where, "only names and numbers may be combined")
+        names.append(d)
+        return None
+    if isinstance(n, ast.BinOp) and type(n.op) in _BINOPS:
+        _visit(n.left, where, names)
+        return _visit(n.right, where, names)
+    if isinstance(n, ast.UnaryOp) and isinstance(n.op, (ast.USub, ast.UAdd)):
+        return _visit(n.operand, where, names)
+    if isinstance(n, ast.Call) and isinstance(n.func, ast.Name) and n.func.id in _FUNCS and not n.keywords:
+        lo, hi = _ARITY[n.func.id]
+        if len(n.args) < lo or (hi is not None and len(n.args) > hi) or \
+                any(isinstance(a, ast.Starred) for a in n.args):
+            raise InputError(where, f"{n.func.id}() takes {lo if hi == lo else f'{lo} or more'} argument"
+                                    f"{'s' if lo > 1 else ''}")
+        for a in n.args:
+            _visit(a, where, names)
+        return None
+    raise InputError(where, f"unsupported element {type(n).__name__}: use numbers, variable names, "
+                            "+ - * / **, min, max, sqrt, exp, log, abs")
 
 
 def evaluate_expression(text: str, values: dict) -> float:
