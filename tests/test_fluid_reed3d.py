@@ -65,6 +65,50 @@ def test_duct_navier_stokes_keeps_the_developed_profile(duct):
     assert steps <= 8
 
 
+def test_duct_pseudo_transient_continuation_from_rest_reaches_the_series_flow(duct):
+    # from a start far outside Newton's basin (a tenth of the flow) pseudo-time steps with the
+    # physical mass reach the steady developed flow: the series flow rate within 1 %, and the
+    # iteration ends as Newton's (quadratic) with dt grown from its CFL start
+    system, unit = duct
+    dp = 1.0e5
+    x0 = ns3d.stokes(system, dp * unit, np.zeros(len(system.fixed)))
+    x, steps, factor = ns3d.ptc(system, dp * unit, 0.1 * x0)
+    factor.free()
+    assert -ns3d.boundary_flux(system, x, "inlet") == pytest.approx(_duct_flow(dp), rel=0.01)
+    r = ns3d.residual(system, x, dp * unit)[ns3d._free_dofs(system.ndofs, system.fixed)]
+    assert np.linalg.norm(r) < 1e-8 * np.linalg.norm(dp * unit)
+    assert steps <= ns3d.PTC_MAX_STEPS
+
+
+def test_mesh_peclet_of_a_uniform_flow():
+    # u = U e_x on a cube of cells of edge h (longest edge of the Kuhn tetrahedra: h sqrt(3)):
+    # P = U h sqrt(3) / (2 nu) on every cell
+    n, U = 4, 0.5
+    mesh = skfem.MeshTet.init_tensor(*[np.linspace(0, 1e-3, n + 1)] * 3)
+    system = ns3d.assemble(mesh.with_boundaries({"wall": lambda x: x[0] < -1.0}), ns3d.Fluid(RHO, MU),
+                           symmetry="none")
+    x = np.zeros(system.ndofs)
+    x[:system.nv] = U
+    h = 1e-3 / n
+    assert ns3d.mesh_peclet(system, x) == pytest.approx(U * h * np.sqrt(3) / (2 * MU / RHO), rel=1e-12)
+
+
+def test_continuation_steps_are_limited_in_reynolds_number():
+    # Re ~ dP^(1/2) from the last two points: a step to twice the last Re needs 4x its dP; a
+    # target below the limit is taken whole; near Stokes (Re < STEP_FREE_RE) no limit
+    def pt(dp, re):
+        return reed3d.FlowPoint(opening=1e-3, dp=dp, flow=0.0, reynolds=re, cd=0.0, multiplier=0.0,
+                                multiplier_pressure=0.0, force=0.0, dofs=0, newton_steps=0, seconds=0.0,
+                                peak_rss_gb=0.0)
+    run = reed3d._Continuation(system=None, valve=None, opening=1e-3, unit=None, history=[],
+                               out=[pt(100.0, 5.0), pt(400.0, 10.0)], progress=False, ratio=2.0)
+    assert reed3d._step_dp(run, 1e5) == pytest.approx(1600.0)
+    assert reed3d._step_dp(run, 900.0) == 900.0
+    run = reed3d._Continuation(system=None, valve=None, opening=1e-3, unit=None, history=[],
+                               out=[pt(1.0, 0.01)], progress=False, ratio=2.0)
+    assert reed3d._step_dp(run, 150.0) == 150.0          # Re 1.5 < STEP_FREE_RE
+
+
 COARSE = MeshOptions(1.2e-3, 4e-3, Layers(port=1, gap=2, reed=1, above=1))
 
 

@@ -266,6 +266,9 @@ def residual(sys_: System, x: np.ndarray, rhs: np.ndarray) -> np.ndarray:
 #: renewed at the current state
 KRYLOV_ACCEPT = 1e-4
 KRYLOV_MAX = 30
+#: a factorization whose GMRES needed more than this many iterations is renewed for the next step
+#: (a new LU costs about as much as 15-20 iterations on the reed's meshes)
+KRYLOV_REFRESH = 12
 
 
 def _newton_step(J_ff: sp.csr_matrix, r: np.ndarray, factor: Factor | None) -> tuple[np.ndarray, Factor, int]:
@@ -284,6 +287,15 @@ def _newton_step(J_ff: sp.csr_matrix, r: np.ndarray, factor: Factor | None) -> t
         factor.free()
     factor = Factor(J_ff)
     return factor.solve(-r), factor, 0
+
+
+def _refresh(factor: Factor | None, iterations: int) -> Factor | None:
+    """``factor``, or None (freed: the next step factorizes) when its last GMRES solve needed more
+    than :data:`KRYLOV_REFRESH` iterations."""
+    if factor is not None and iterations > KRYLOV_REFRESH:
+        factor.free()
+        return None
+    return factor
 
 
 def _line_search(sys_: System, x: np.ndarray, d_full: np.ndarray, rhs: np.ndarray, free: np.ndarray,
@@ -320,11 +332,12 @@ def newton(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max
     n3 = 3 * sys_.nv
     free = _free_dofs(sys_.ndofs, sys_.fixed)
     vel = np.flatnonzero(free < n3)            # velocity entries of the condensed vector
-    change, damped = np.inf, 0
+    change, damped, kry = np.inf, 0, 0
     for it in range(1, max_iter + 1):
         t0 = time.perf_counter()
         J = _saddle(sys_, _velocity_block(sys_, x[:n3], True))
         R = residual(sys_, x, rhs)
+        factor = _refresh(factor, kry)
         d, factor, kry = _newton_step(J[free][:, free].tocsr(), R[free], factor)
         d_full = np.zeros_like(x)
         d_full[free] = d
@@ -343,12 +356,114 @@ def newton(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max
                    f"(last relative velocity update {change:.2e})", factor)
 
 
+#: pseudo-transient continuation: the first pseudo-time step is PTC_CFL0 mean cell sizes over the
+#: largest velocity of the start (a convective CFL number of 10 on the mean cell)
+PTC_CFL0 = 10.0
+#: a PTC iterate counts as steady (not merely slow) only once dt is this multiple of dt_0: the mass
+#: term is then below its share of the start (the iteration is Newton's method)
+PTC_STEADY = 1e3
+#: growth of the pseudo-time step per PTC step at most (SER alone may jump by orders of magnitude
+#: after one good step and leave the basin the small steps found)
+PTC_GROWTH = 10.0
+#: PTC steps before a solve is abandoned
+PTC_MAX_STEPS = 30
+#: the factorization is renewed when 1/dt changed by more than this factor since it was made (GMRES
+#: preconditioned by a factorization of a very different pseudo-time step stalls)
+PTC_REFACTOR = 3.0
+
+
+def velocity_mass(sys_: System) -> sp.csr_matrix:
+    """rho int u . v dx on the three velocity components, zero on the pressure block (ndofs x ndofs)."""
+    M = sys_.fluid.rho * _mass.assemble(sys_.V).tocsr()
+    return sp.block_diag([M, M, M, sp.csr_matrix((sys_.Q.N, sys_.Q.N))], format="csr")
+
+
+def ptc(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max_iter: int = PTC_MAX_STEPS,
+        factor: Factor | None = None, progress: bool = False) -> tuple[np.ndarray, int, Factor]:
+    """Steady Navier-Stokes by pseudo-transient continuation (PTC) from x0, which carries the Dirichlet values.
+
+    Each step is one linearly implicit (backward Euler) step in pseudo-time of the momentum
+    equation, (M / dt_k + J(x_k)) d = -R(x_k) with M the velocity mass (rho, :func:`velocity_mass`)
+    and J the Newton Jacobian, x_{k+1} = x_k + d, no line search; the pseudo-time step follows the
+    residual by switched evolution relaxation, dt_{k+1} = dt_k ||R(x_k)|| / ||R(x_{k+1})||
+    (Mulder and van Leer 1985; by at most a factor :data:`PTC_GROWTH` either way), so the iteration follows the
+    time-dependent flow while the residual is large (where Newton's basin is small: a damped
+    Newton step is a Picard-like step with a large mass term) and becomes Newton's method as
+    the residual vanishes (dt -> infinity): global convergence to a stable steady state and
+    local quadratic convergence (Kelley and Keyes 1998). dt_0 = :data:`PTC_CFL0` mean cell sizes
+    over the largest velocity of x0. The linear systems as in :func:`newton` (GMRES preconditioned
+    by the last factorization, renewed when 1/dt changed by more than :data:`PTC_REFACTOR`).
+    Stops when the largest velocity update is below ``tol`` of the largest velocity with dt at least
+    :data:`PTC_STEADY` dt_0 (a small update from a small pseudo-time step is not a steady state). Returns
+    (state, steps, factorization in use); ModelFailure (with ``.factor``) after ``max_iter`` steps
+    or when the residual grows a thousandfold (no stable steady state reached).
+
+    References: C. T. Kelley and D. E. Keyes (1998), Convergence analysis of pseudo-transient
+    continuation, SIAM J. Numer. Anal. 35(2), 508-523; W. A. Mulder and B. van Leer (1985),
+    Experiments with implicit upwind methods for the Euler equations, J. Comput. Phys. 59, 232-246.
+    """
+    x = x0.copy()
+    n3 = 3 * sys_.nv
+    free = _free_dofs(sys_.ndofs, sys_.fixed)
+    vel = np.flatnonzero(free < n3)
+    M = velocity_mass(sys_)[free][:, free].tocsr()
+    h = float(np.cbrt(np.sum(sys_.V.dx) / sys_.mesh.t.shape[1]))        # mean cell size [m]
+    dt0 = dt = PTC_CFL0 * h / max(float(np.max(np.abs(x[:n3]))), 1e-300)
+    R = residual(sys_, x, rhs)
+    r0 = r = float(np.linalg.norm(R[free]))
+    dt_f, kry = np.inf, 0                  # the pseudo-time step of the factorization in use
+    for it in range(1, max_iter + 1):
+        t0 = time.perf_counter()
+        if factor is not None and max(dt_f / dt, dt / dt_f) > PTC_REFACTOR and min(dt, dt_f) < PTC_STEADY * dt0:
+            factor.free()
+            factor = None
+        J = _saddle(sys_, _velocity_block(sys_, x[:n3], True))[free][:, free].tocsr() + M / dt
+        factor = _refresh(factor, kry)
+        old = factor
+        d, factor, kry = _newton_step(J, R[free], factor)
+        if factor is not old:
+            dt_f = dt
+        x[free] += d
+        change = float(np.max(np.abs(d[vel])) / max(np.max(np.abs(x[:n3])), 1e-300))
+        R = residual(sys_, x, rhs)
+        r_new = float(np.linalg.norm(R[free]))
+        if progress:
+            print(f"  ptc {it}: |R|/|R0| = {r_new / r0:.2e}, |du|/|u| = {change:.2e}, dt = {dt:.2e} s, "
+                  f"{kry} GMRES steps ({time.perf_counter() - t0:.1f} s)", file=sys.stderr)
+        if change < tol and dt >= PTC_STEADY * dt0:       # a small update, not a small pseudo-time step
+            return fill_orphans(sys_, x), it, factor
+        if not np.isfinite(r_new) or r_new > 1e3 * r0:
+            raise _failure(f"pseudo-transient continuation diverged (residual {r_new / r0:.2e} of its start)", factor)
+        dt *= float(np.clip(r / r_new, 1.0 / PTC_GROWTH, PTC_GROWTH))
+        r = r_new
+    raise _failure(f"pseudo-transient continuation did not converge in {max_iter} steps "
+                   f"(last relative velocity update {change:.2e})", factor)
+
+
 def _failure(message: str, factor: Factor | None) -> ModelFailure:
     """A ModelFailure carrying the factorization in use (``.factor``: the caller may precondition a
     retry with it, and frees it)."""
     exc = ModelFailure(message)
     exc.factor = factor
     return exc
+
+
+def mesh_peclet(sys_: System, x: np.ndarray) -> np.ndarray:
+    """The mesh Peclet (cell Reynolds) number of each cell, P_T = |u|_T h_T / (2 nu) [-].
+
+    |u|_T the largest speed at the cell's vertices, h_T its longest edge, nu = mu / rho. Where
+    P_T > 1 the Galerkin discretization of convection is not resolved on the cell (Elman,
+    Silvester and Wathen 2014, section 6.3 and ch. 8: oscillations of the unstabilised scheme in
+    boundary and shear layers); reported beside the results, not used by the solver.
+    """
+    mesh, n = sys_.mesh, sys_.nv
+    vdofs = sys_.V.nodal_dofs[0]                                   # vertex -> its P2 DOF
+    speed = np.sqrt(sum(x[a * n + vdofs] ** 2 for a in range(3)))
+    t, p = mesh.t, mesh.p
+    pairs = [(i, j) for i in range(4) for j in range(i + 1, 4)]
+    h = np.max([np.linalg.norm(p[:, t[i]] - p[:, t[j]], axis=0) for i, j in pairs], axis=0)
+    nu = sys_.fluid.mu / sys_.fluid.rho
+    return np.max(speed[t], axis=0) * h / (2.0 * nu)
 
 
 def boundary_flux(sys_: System, x: np.ndarray, name: str) -> float:
