@@ -104,6 +104,7 @@ def test_continuation_steps_are_limited_in_reynolds_number():
                                out=[pt(100.0, 5.0), pt(400.0, 10.0)], progress=False, ratio=2.0)
     assert reed3d._step_dp(run, 1e5) == pytest.approx(1600.0)
     assert reed3d._step_dp(run, 900.0) == 900.0
+    assert reed3d._step_dp(run, 1900.0) == 1900.0        # within STEP_SLACK of the limit: taken whole
     run = reed3d._Continuation(system=None, valve=None, opening=1e-3, unit=None, history=[],
                                out=[pt(1.0, 0.01)], progress=False, ratio=2.0)
     assert reed3d._step_dp(run, 150.0) == 150.0          # Re 1.5 < STEP_FREE_RE

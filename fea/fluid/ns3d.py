@@ -315,7 +315,8 @@ MAX_DAMPED = 4
 
 
 def newton(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max_iter: int = 25,
-           factor: Factor | None = None, progress: bool = False) -> tuple[np.ndarray, int, Factor]:
+           factor: Factor | None = None, progress: bool = False,
+           max_damped: int = MAX_DAMPED) -> tuple[np.ndarray, int, Factor]:
     """Steady Navier-Stokes by (inexact, damped) Newton from x0, which carries the Dirichlet values.
 
     Each correction is solved by GMRES preconditioned with ``factor`` (a factorization of a
@@ -324,7 +325,7 @@ def newton(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max
     residual (``_line_search``). Stops when the largest velocity update is below ``tol``
     of the largest velocity after a full step. Returns (state, steps, the factorization in
     use). ModelFailure (its ``factor``: the factorization in use) when it does not converge
-    in ``max_iter`` steps or after :data:`MAX_DAMPED` damped steps in a row (a steady laminar
+    in ``max_iter`` steps or after ``max_damped`` damped steps in a row (a steady laminar
     solution may not exist at that Reynolds number, the mesh does not resolve it, or the
     start is too far from it).
     """
@@ -349,7 +350,7 @@ def newton(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max
         if change < tol and step == 1.0:
             return fill_orphans(sys_, x), it, factor
         damped = damped + 1 if step < 1.0 else 0
-        if damped >= MAX_DAMPED:
+        if damped >= max_damped:
             raise _failure(f"steady Navier-Stokes: {damped} damped Newton steps in a row (last relative "
                            f"velocity update {change:.2e}); the start is too far from a solution", factor)
     raise _failure(f"steady Navier-Stokes did not converge in {max_iter} Newton steps "

@@ -240,6 +240,8 @@ SWEEP_NEWTON = 10
 #: square-rooted after a failed one (at most MAX_HALVINGS times in a row); below STEP_FREE_RE the
 #: flow is near Stokes and the steps are not limited
 STEP_START, STEP_GROWTH, STEP_MAX, QUICK_STEPS, MAX_HALVINGS, STEP_FREE_RE = 2.0, 1.5, 4.0, 4, 4, 2.0
+#: a target within this factor of the step's limit is taken whole (no sliver of a step left after it)
+STEP_SLACK = 1.2
 
 
 @dataclass
@@ -256,30 +258,36 @@ class _Continuation:
     on_point: object = None
     factor: object = None         # the last factorization (GMRES preconditioner of the next solve)
     ratio: float = STEP_START     # the current largest Reynolds-number ratio of a step
+    pseudo_time: bool = False     # Newton failed once: PTC for the rest of the sweep
 
 
 def _step_dp(run: _Continuation, dp: float) -> float:
     """The next dP [Pa] toward ``dp``: ``dp`` itself unless the Reynolds number expected there
-    (Re ~ dP^a from the last two points, ``_next_dp``) exceeds the step's limit."""
+    (Re ~ dP^a from the last two points, ``_next_dp``) exceeds the step's limit (by more than
+    :data:`STEP_SLACK` in dP)."""
     last = run.out[-1]
     limit = max(run.ratio * last.reynolds, STEP_FREE_RE)
     d_limit = _next_dp(run.out, limit)
-    return dp if d_limit >= dp else d_limit
+    return dp if d_limit * STEP_SLACK >= dp else d_limit
 
 
 def _solve(run: _Continuation, d: float) -> tuple[np.ndarray, int]:
-    """The steady state at dP = d from the last solutions: Newton, then (when Newton fails)
-    pseudo-transient continuation from the same start (:func:`fea.fluid.ns3d.ptc`). ModelFailure if both fail."""
+    """The steady state at dP = d from the last solutions: Newton, then (when Newton needs a damped
+    step: the start is outside its basin) pseudo-transient continuation from the same start
+    (:func:`fea.fluid.ns3d.ptc`); once PTC was needed, the rest of the sweep goes to it directly
+    (Newton failed at a lower Reynolds number). ModelFailure if the last method fails."""
     guess = _guess(run.history, d, 3 * run.system.nv)
     rhs = d * run.unit
-    try:
-        x, steps, run.factor = ns3d.newton(run.system, rhs, guess, tol=SWEEP_TOL, max_iter=SWEEP_NEWTON, factor=run.factor,
-                                           progress=run.progress)
-        return x, steps
-    except Exception as exc:   # noqa: BLE001 - Newton's basin missed: pseudo-time from the same start
-        run.factor = getattr(exc, "factor", run.factor)
-        print(f"reed3d x = {run.opening * 1e3:.3g} mm, dP = {d:.4g} Pa: {exc}; pseudo-transient "
-              f"continuation", file=sys.stderr)
+    if not run.pseudo_time:
+        try:
+            x, steps, run.factor = ns3d.newton(run.system, rhs, guess, tol=SWEEP_TOL, max_iter=SWEEP_NEWTON,
+                                               factor=run.factor, progress=run.progress, max_damped=1)
+            return x, steps
+        except Exception as exc:   # noqa: BLE001 - Newton's basin missed: pseudo-time from the same start
+            run.factor = getattr(exc, "factor", run.factor)
+            run.pseudo_time = True
+            print(f"reed3d x = {run.opening * 1e3:.3g} mm, dP = {d:.4g} Pa: {exc}; pseudo-transient "
+                  f"continuation from here on", file=sys.stderr)
     x, steps, run.factor = ns3d.ptc(run.system, rhs, guess, tol=SWEEP_TOL, factor=run.factor, progress=run.progress)
     return x, steps
 
@@ -289,7 +297,7 @@ def _continue_to(run: _Continuation, dp: float) -> bool:
     Silvester and Wathen 2014, section 8.4 on continuation in the Reynolds number), with adaptive
     steps: each step goes at most to the Reynolds number ``run.ratio`` times the last (``_step_dp``),
     starts from the last solutions extrapolated (``_guess``) and is solved by :func:`_solve`; a
-    quick solve lets the next step grow, a failed one is retried with the step square-rooted (in
+    quick solve (at most :data:`QUICK_STEPS` Newton or PTC steps) lets the next step grow, a failed one is retried with the step square-rooted (in
     log dP, at most :data:`MAX_HALVINGS` times in a row). Every converged point is kept (``run.out``,
     ``on_point``). Returns whether ``dp`` was reached."""
     halvings = 0
