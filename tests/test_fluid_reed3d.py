@@ -80,6 +80,33 @@ def test_duct_pseudo_transient_continuation_from_rest_reaches_the_series_flow(du
     assert steps <= ns3d.PTC_MAX_STEPS
 
 
+def test_newton_jacobian_with_backflow_matches_finite_differences(duct):
+    # a random state (inflow and outflow on the duct's open ends): the Jacobian's action, the
+    # backflow stabilisation's derivative included, against finite differences of the residual
+    # (first order in the step: the error falls 100x per 100x smaller step)
+    system, _ = duct
+    rng = np.random.default_rng(1)
+    x, d = rng.normal(size=system.ndofs), rng.normal(size=system.ndofs)
+    rhs = np.zeros(system.ndofs)
+    Jd = ns3d._saddle(system, ns3d._velocity_block(system, x[:3 * system.nv], True)) @ d
+    r0 = ns3d.residual(system, x, rhs)
+    errs = [np.linalg.norm((ns3d.residual(system, x + e * d, rhs) - r0) / e - Jd) / np.linalg.norm(Jd)
+            for e in (1e-3, 1e-5)]
+    assert errs[1] < 1e-4 and errs[1] < 0.02 * errs[0]
+
+
+def test_backflow_stabilisation_dissipates_inflow_energy(duct):
+    # -beta rho int (u.n)_- |u|^2 dA >= 0 on a field entering through the outlet: the term's
+    # contribution to the energy balance (u . R) is beta rho int |u.n| |u|^2 over the inflow
+    system, _ = duct
+    n = system.nv
+    u = np.zeros(3 * n)
+    u[:n] = -1.0                                     # u = -e_x: inflow through the outlet (x = L)
+    blocks = ns3d._backflow(system, [u[:n], u[n:2 * n], u[2 * n:]], False)
+    energy = u[:n] @ (blocks[0][0] @ u[:n])
+    assert energy == pytest.approx(ns3d.BACKFLOW_BETA * RHO * 1.0 * (2 * A) * (2 * B), rel=1e-10)
+
+
 def test_mesh_peclet_of_a_uniform_flow():
     # u = U e_x on a cube of cells of edge h (longest edge of the Kuhn tetrahedra: h sqrt(3)):
     # P = U h sqrt(3) / (2 nu) on every cell
@@ -199,6 +226,25 @@ def test_small_opening_agrees_with_the_thin_film():
     film = reed_film.reed_film(valve, x)
     assert p.multiplier == pytest.approx(film.multiplier, rel=0.02)
     assert 0.90 * film.flow < p.flow < film.flow
+
+
+@pytest.mark.slow
+def test_continuation_reaches_the_pumps_reynolds_number_at_a_large_opening():
+    """At 1.71 mm (0.9 x_stop; Newton alone stalled near Re 12 there) the continuation with
+    pseudo-transient steps reaches Re 30 on the coarse mesh. Against independent numbers: the
+    first Navier-Stokes point (Re ~ 1) has the Stokes limit's Cd / sqrt(dP) within 3 % (below it:
+    inertia's share at Re 1), Cd grows with Re as the jet forms (eq 3.89's trend), and X stays between the
+    film's plateau and 0."""
+    valve = reed3d.prototype_valve(COARSE)
+    pts = reed3d.pressure_sweep(valve, 1.71e-3, (1.0, 10.0, 30.0), progress=False)
+    stokes, first, last = pts[0], pts[1], pts[-1]
+    assert last.reynolds == pytest.approx(30.0, rel=reed3d.REYNOLDS_SLACK)
+    # Stokes: Q ~ dP, so Cd / sqrt(dP) is constant; inertia only lowers the flow
+    ratio = (first.cd / np.sqrt(first.dp)) / (stokes.cd / np.sqrt(stokes.dp))
+    assert 0.97 < ratio < 1.0
+    cds = [p.cd for p in pts[1:]]
+    assert all(b > a for a, b in zip(cds, cds[1:]))
+    assert 0.0 < last.multiplier < 0.8356
 
 
 @pytest.mark.slow

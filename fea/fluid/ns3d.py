@@ -109,6 +109,7 @@ class System:
     fluid: Fluid
     fast: ScalarAssembler
     orphans: np.ndarray      # pressure DOFs (global) coupled to no free velocity (see :func:`assemble`)
+    backflow: FacetBasis | None = None   # the open boundaries stabilised against backflow (:func:`_backflow`)
 
     @property
     def nv(self) -> int:
@@ -125,8 +126,10 @@ def _facet_dofs(V: Basis, mesh, names) -> np.ndarray:
                                      if n in mesh.boundaries] or [np.zeros(0, int)]))
 
 
-def assemble(mesh: skfem.MeshTet, fluid: Fluid, no_slip=("wall", "reed"), symmetry: str = "symmetry") -> System:
-    """Bases and the Stokes matrices; velocity fixed on ``no_slip`` boundaries and u_y on ``symmetry``."""
+def assemble(mesh: skfem.MeshTet, fluid: Fluid, no_slip=("wall", "reed"), symmetry: str = "symmetry",
+             backflow=("outlet",)) -> System:
+    """Bases and the Stokes matrices; velocity fixed on ``no_slip`` boundaries and u_y on ``symmetry``;
+    the open boundaries ``backflow`` stabilised where fluid enters through them (:func:`_backflow`)."""
     V = Basis(mesh, ElementTetP2())
     Q = Basis(mesh, ElementTetP1(), quadrature=V.quadrature)
     K = _laplace.assemble(V).tocsr()
@@ -143,8 +146,10 @@ def assemble(mesh: skfem.MeshTet, fluid: Fluid, no_slip=("wall", "reed"), symmet
     free_v[fixed] = False
     coupled = np.asarray(abs(B[:, free_v]).sum(axis=1)).ravel() > 0
     orphans = 3 * n + np.flatnonzero(~coupled)
+    open_ = [mesh.boundaries[b] for b in backflow if b in mesh.boundaries and len(mesh.boundaries[b])]
+    fb = FacetBasis(mesh, ElementTetP2(), facets=np.concatenate(open_)) if open_ else None
     return System(mesh=mesh, V=V, Q=Q, K=K, B=B, fixed=np.concatenate([fixed, orphans]), fluid=fluid,
-                  fast=ScalarAssembler(V), orphans=orphans)
+                  fast=ScalarAssembler(V), orphans=orphans, backflow=fb)
 
 
 def fill_orphans(sys_: System, x: np.ndarray) -> np.ndarray:
@@ -179,6 +184,48 @@ def traction_load(sys_: System, pressures: dict[str, float]) -> np.ndarray:
     return rhs
 
 
+#: weight beta of the backflow stabilisation (:func:`_backflow`): 1 makes the inflow's convective
+#: energy flux dissipative (1/2 would only cancel it)
+BACKFLOW_BETA = 1.0
+
+
+@BilinearForm
+def _facet_weighted_mass(u, v, w):
+    return w["g"] * u * v
+
+
+def _backflow(sys_: System, comps: list[np.ndarray], newton: bool) -> list[list]:
+    """Blocks [a][b] of the backflow stabilisation on the open boundaries (None where zero).
+
+    The term -beta rho int (u . n)_- u . v dA, (u . n)_- = min(u . n, 0), added to the momentum
+    equation where fluid enters through an open ("do-nothing") boundary: the do-nothing
+    condition lets the inflow carry kinetic energy rho/2 |u|^2 (u . n) into the domain, which
+    destabilises steady and pseudo-time solves once a recirculation reaches the boundary
+    (here the chamber vortex at the open sides from Re ~ 10); with beta = 1 that flux is
+    dissipated. Zero where the flow leaves, so it leaves outflow (and the Stokes limit)
+    unchanged. ``newton``: with its derivative, -beta rho int H(-u . n) (du . n) u . v dA.
+    References: Bazilevs, Gohean, Hughes, Moser and Zhang (2009), Comput. Methods Appl. Mech.
+    Engrg. 198, 3534-3550, eq 14; Moghadam, Bazilevs, Hsia, Vignon-Clementel and Marsden (2011),
+    Comput. Mech. 48, 277-291.
+    """
+    fb, rho = sys_.backflow, sys_.fluid.rho
+    n = sys_.nv
+    uf = [fb.interpolate(c) for c in comps]
+    un = sum(np.asarray(uf[b]) * fb.normals[b] for b in range(3))
+    coef = -BACKFLOW_BETA * rho
+    blocks = [[None] * 3 for _ in range(3)]
+    diag = _facet_weighted_mass.assemble(fb, g=coef * np.minimum(un, 0.0)).tocsr()
+    for a in range(3):
+        blocks[a][a] = diag
+    if newton:
+        inflow = (un < 0.0).astype(float)
+        for a in range(3):
+            for b in range(3):
+                C = _facet_weighted_mass.assemble(fb, g=coef * inflow * np.asarray(uf[a]) * fb.normals[b]).tocsr()
+                blocks[a][b] = C if blocks[a][b] is None else blocks[a][b] + C
+    return blocks
+
+
 def _velocity_block(sys_: System, u: np.ndarray | None, newton: bool) -> sp.csr_matrix:
     """mu K + rho N(u) on each component (+ the rho d u_a / d x_b reaction blocks for Newton)."""
     mu, rho, n, V = sys_.fluid.mu, sys_.fluid.rho, sys_.nv, sys_.V
@@ -193,6 +240,12 @@ def _velocity_block(sys_: System, u: np.ndarray | None, newton: bool) -> sp.csr_
             for b in range(3):
                 C = rho * sys_.fast.weighted_mass(comps[a].grad[b])
                 blocks[a][b] = C if blocks[a][b] is None else blocks[a][b] + C
+    if sys_.backflow is not None:
+        extra = _backflow(sys_, [u[a * n:(a + 1) * n] for a in range(3)], newton)
+        for a in range(3):
+            for b in range(3):
+                if extra[a][b] is not None:
+                    blocks[a][b] = extra[a][b] if blocks[a][b] is None else blocks[a][b] + extra[a][b]
     return sp.bmat(blocks, format="csr")
 
 
@@ -371,6 +424,9 @@ PTC_MAX_STEPS = 30
 #: the factorization is renewed when 1/dt changed by more than this factor since it was made (GMRES
 #: preconditioned by a factorization of a very different pseudo-time step stalls)
 PTC_REFACTOR = 3.0
+#: a PTC solve whose residual grew to this multiple of its start is abandoned (a smaller continuation
+#: step is cheaper than waiting for the pseudo-time flow to come back)
+PTC_DIVERGED = 10.0
 
 
 def velocity_mass(sys_: System) -> sp.csr_matrix:
@@ -397,7 +453,7 @@ def ptc(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max_it
     Stops when the largest velocity update is below ``tol`` of the largest velocity with dt at least
     :data:`PTC_STEADY` dt_0 (a small update from a small pseudo-time step is not a steady state). Returns
     (state, steps, factorization in use); ModelFailure (with ``.factor``) after ``max_iter`` steps
-    or when the residual grows a thousandfold (no stable steady state reached).
+    or when the residual grows to :data:`PTC_DIVERGED` times its start (no stable steady state reached).
 
     References: C. T. Kelley and D. E. Keyes (1998), Convergence analysis of pseudo-transient
     continuation, SIAM J. Numer. Anal. 35(2), 508-523; W. A. Mulder and B. van Leer (1985),
@@ -433,7 +489,7 @@ def ptc(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max_it
                   f"{kry} GMRES steps ({time.perf_counter() - t0:.1f} s)", file=sys.stderr)
         if change < tol and dt >= PTC_STEADY * dt0:       # a small update, not a small pseudo-time step
             return fill_orphans(sys_, x), it, factor
-        if not np.isfinite(r_new) or r_new > 1e3 * r0:
+        if not np.isfinite(r_new) or r_new > PTC_DIVERGED * r0:
             raise _failure(f"pseudo-transient continuation diverged (residual {r_new / r0:.2e} of its start)", factor)
         dt *= float(np.clip(r / r_new, 1.0 / PTC_GROWTH, PTC_GROWTH))
         r = r_new
