@@ -45,7 +45,7 @@ from .reed3d import ReedValveFlow, displacement_sweep, pressure_cap, pressure_sw
 from .reed_film import reed_film
 
 #: version of the reed forms (part of the cache key)
-FORMS_VERSION = "reed-2"
+FORMS_VERSION = "reed-1"
 #: tip openings of the pressure sweeps, fractions of the stop gap (0.1 to 1.7 mm for the prototype)
 OPENING_FRACTIONS = (0.05, 0.15, 0.3, 0.5, 0.7, 0.9)
 #: Reynolds numbers of eq 3.87 aimed at (the thesis pump peaks near 62: 1.1e-4 m^3/s at 893 rpm)
