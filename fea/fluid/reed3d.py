@@ -559,11 +559,12 @@ def reed_point(valve, lift: float, reynolds: float, options=None):
     pts = pressure_sweep(flow, lift, (reynolds,), progress=progress)
     p = pts[-1]
     if len(pts) < 2 or abs(p.reynolds / reynolds - 1.0) > REYNOLDS_SLACK:
-        raise ModelFailure(f"3-D flow at x = {lift * 1e3:.4g} mm: Newton did not reach Re = {reynolds:g} "
+        raise ModelFailure(f"3-D flow at x = {lift * 1e3:.4g} mm: the continuation did not reach Re = {reynolds:g} "
                            f"(last converged Re = {p.reynolds:.3g}); see the messages above")
     extra = {"multiplier_pressure": p.multiplier_pressure, "reynolds_aimed": reynolds,
              "mesh": {"dofs": int(p.dofs), "size": flow.mesh.size_min, "size_max": flow.mesh.size_max},
-             "seconds": p.seconds, "peak_rss_gb": p.peak_rss_gb}
+             "seconds": p.seconds, "peak_rss_gb": p.peak_rss_gb,
+             "mesh_peclet": {"p95": p.peclet_p95, "max": p.peclet_max}}
     if opts.get("squeeze"):
         from .reed_film import reed_film
 
