@@ -109,7 +109,7 @@ class System:
     fluid: Fluid
     fast: ScalarAssembler
     orphans: np.ndarray      # pressure DOFs (global) coupled to no free velocity (see :func:`assemble`)
-    backflow: FacetBasis | None = None   # the open boundaries stabilised against backflow (:func:`_backflow`)
+    backflow: FacetBasis | None = None   # the open boundaries stabilised against backflow (``_backflow``)
 
     @property
     def nv(self) -> int:
@@ -129,7 +129,7 @@ def _facet_dofs(V: Basis, mesh, names) -> np.ndarray:
 def assemble(mesh: skfem.MeshTet, fluid: Fluid, no_slip=("wall", "reed"), symmetry: str = "symmetry",
              backflow=("outlet",)) -> System:
     """Bases and the Stokes matrices; velocity fixed on ``no_slip`` boundaries and u_y on ``symmetry``;
-    the open boundaries ``backflow`` stabilised where fluid enters through them (:func:`_backflow`)."""
+    the open boundaries ``backflow`` stabilised where fluid enters through them (``_backflow``)."""
     V = Basis(mesh, ElementTetP2())
     Q = Basis(mesh, ElementTetP1(), quadrature=V.quadrature)
     K = _laplace.assemble(V).tocsr()
@@ -184,7 +184,7 @@ def traction_load(sys_: System, pressures: dict[str, float]) -> np.ndarray:
     return rhs
 
 
-#: weight beta of the backflow stabilisation (:func:`_backflow`): 1 makes the inflow's convective
+#: weight beta of the backflow stabilisation (``_backflow``): 1 makes the inflow's convective
 #: energy flux dissipative (1/2 would only cancel it)
 BACKFLOW_BETA = 1.0
 

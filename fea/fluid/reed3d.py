@@ -189,7 +189,7 @@ def pressure_sweep(valve: ReedValveFlow, opening: float, reynolds=(), progress: 
     """Steady flows at tip opening ``opening`` [m] toward increasing Reynolds numbers ``reynolds`` (eq 3.87).
 
     One mesh; the Stokes limit first (at dP = 1 Pa, Re -> 0), then Navier-Stokes by natural-parameter
-    continuation in dP (:func:`_continue_to`: adaptive steps from the previous solutions, Newton,
+    continuation in dP (``_continue_to``: adaptive steps from the previous solutions, Newton,
     pseudo-transient continuation where Newton fails): each aim's dP is chosen from the previous
     points to give the next Reynolds number (``_next_dp``; the Re reached is the output, within
     ~10 % of the aim). ``dps`` [Pa]: solve at these pressure differences instead (a mesh study
@@ -250,7 +250,7 @@ STEP_SLACK = 1.2
 
 @dataclass
 class _Continuation:
-    """The state of one sweep's continuation (:func:`_continue_to`)."""
+    """The state of one sweep's continuation (``_continue_to``)."""
 
     system: ns3d.System
     valve: ReedValveFlow
@@ -306,7 +306,7 @@ def _continue_to(run: _Continuation, dp: float) -> bool:
     """Reach ``dp`` [Pa] from the last converged point by natural-parameter continuation (Elman,
     Silvester and Wathen 2014, section 8.4 on continuation in the Reynolds number), with adaptive
     steps: each step goes at most to the Reynolds number ``run.ratio`` times the last (``_step_dp``),
-    starts from the last solutions extrapolated (``_guess``) and is solved by :func:`_solve`; a
+    starts from the last solutions extrapolated (``_guess``) and is solved by ``_solve``; a
     quick solve (at most :data:`QUICK_STEPS` Newton or PTC steps) lets the next step grow, a failed one is retried with the step square-rooted (in
     log dP, at most :data:`MAX_HALVINGS` times in a row). Every converged point is kept (``run.out``,
     ``on_point``). Returns whether ``dp`` was reached."""
