@@ -1,13 +1,16 @@
 """Benchmark of the reed valve's fluid models (the reed rows of the fluid benchmark). Run on demand:
 
-    python benchmarks/bench_fluid_reed.py [--point] [--forms]
+    python benchmarks/bench_fluid_reed.py [--point] [--forms] [--grooves]
 
 Prints one JSON object: the load average when it started (timings on a loaded machine are
 not the code's), the thin film of the prototype (seconds per point, DOFs, X, F4), the cost the
 shipped compact forms of the prototype recorded when they were computed; with
 ``--point`` one 3-D point (the default mesh at 0.5 mm: Stokes and one Navier-Stokes solve near
 Re 10; DOFs, seconds, peak resident memory of that process); with ``--forms`` the
-prototype's compact forms computed afresh (wall and CPU seconds, the fitted forms).
+prototype's compact forms computed afresh (wall and CPU seconds, the fitted forms); with
+``--grooves`` the film's leakage at 0.024 and 0.095 mm with the grooves' depth scaled (0: none;
+the rectangular duct's conductance; 0.5; 10) and its element size halved (the check of the
+film's leakage against the 3-D flow, docs/fluid.md).
 :func:`reed_rows` is what ``benchmarks/bench_fluid.py`` adds as its reed rows.
 """
 
@@ -70,7 +73,32 @@ def shipped_row() -> dict:
             "forms_shipped_run": prov.get("run")}
 
 
-def reed_rows(point: bool = False, forms: bool = False) -> dict:
+def groove_rows() -> dict:
+    """Film leakage relative to the film as is, grooves scaled, and at half the element size."""
+    import numpy as np
+
+    from fea.fluid.reed_mesh import plan_view
+
+    valve = reed3d.prototype_valve()
+    plan = plan_view(valve.reed, valve.seat, reed_film.FILM_SIZE, 4 * reed_film.FILM_SIZE)
+    depth0 = plan.depth.copy()
+    w, h = 1.5875e-3, float(depth0.max())                 # the prototype's grooves: 1/16 in x 0.51 mm
+    n = np.arange(1, 400, 2)
+    duct = 1 - 192 * h / (np.pi**5 * w) * np.sum(np.tanh(n * np.pi * w / (2 * h)) / n**5)   # White eq 3-48
+    out = {"groove_duct_conductance_factor": round(float(duct), 4)}
+    for x in (0.024e-3, 0.095e-3):
+        ref = reed_film.reed_film(valve, x, plan=plan).flow
+        rel = {}
+        for label, scale in (("none", 0.0), ("duct", duct ** (1 / 3)), ("half", 0.5), ("x10", 10.0)):
+            plan.depth[:] = depth0 * scale
+            rel[label] = round(reed_film.reed_film(valve, x, plan=plan).flow / ref, 5)
+        plan.depth[:] = depth0
+        rel["half_element_size"] = round(reed_film.reed_film(valve, x, size=reed_film.FILM_SIZE / 2).flow / ref, 5)
+        out[f"film_leakage_relative_at_{x * 1e3:.3g}_mm"] = rel
+    return out
+
+
+def reed_rows(point: bool = False, forms: bool = False, grooves: bool = False) -> dict:
     out = {"loadavg_at_start": os.getloadavg()[0], "cores": os.cpu_count()}
     out.update(film_row())
     out.update(shipped_row())
@@ -78,6 +106,8 @@ def reed_rows(point: bool = False, forms: bool = False) -> dict:
         out.update(point_row())
     if forms:
         out.update(forms_row())
+    if grooves:
+        out.update(groove_rows())
     return out
 
 
@@ -85,8 +115,9 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--point", action="store_true", help="time one 3-D point")
     ap.add_argument("--forms", action="store_true", help="compute the prototype's compact forms afresh")
+    ap.add_argument("--grooves", action="store_true", help="the film's leakage with the grooves scaled")
     args = ap.parse_args(argv)
-    print(json.dumps(reed_rows(args.point, args.forms), indent=1))
+    print(json.dumps(reed_rows(args.point, args.forms, args.grooves), indent=1))
 
 
 if __name__ == "__main__":

@@ -109,6 +109,7 @@ class System:
     fluid: Fluid
     fast: ScalarAssembler
     orphans: np.ndarray      # pressure DOFs (global) coupled to no free velocity (see :func:`assemble`)
+    backflow: FacetBasis | None = None   # the open boundaries stabilised against backflow (``_backflow``)
 
     @property
     def nv(self) -> int:
@@ -125,8 +126,10 @@ def _facet_dofs(V: Basis, mesh, names) -> np.ndarray:
                                      if n in mesh.boundaries] or [np.zeros(0, int)]))
 
 
-def assemble(mesh: skfem.MeshTet, fluid: Fluid, no_slip=("wall", "reed"), symmetry: str = "symmetry") -> System:
-    """Bases and the Stokes matrices; velocity fixed on ``no_slip`` boundaries and u_y on ``symmetry``."""
+def assemble(mesh: skfem.MeshTet, fluid: Fluid, no_slip=("wall", "reed"), symmetry: str = "symmetry",
+             backflow=("outlet",)) -> System:
+    """Bases and the Stokes matrices; velocity fixed on ``no_slip`` boundaries and u_y on ``symmetry``;
+    the open boundaries ``backflow`` stabilised where fluid enters through them (``_backflow``)."""
     V = Basis(mesh, ElementTetP2())
     Q = Basis(mesh, ElementTetP1(), quadrature=V.quadrature)
     K = _laplace.assemble(V).tocsr()
@@ -143,8 +146,10 @@ def assemble(mesh: skfem.MeshTet, fluid: Fluid, no_slip=("wall", "reed"), symmet
     free_v[fixed] = False
     coupled = np.asarray(abs(B[:, free_v]).sum(axis=1)).ravel() > 0
     orphans = 3 * n + np.flatnonzero(~coupled)
+    open_ = [mesh.boundaries[b] for b in backflow if b in mesh.boundaries and len(mesh.boundaries[b])]
+    fb = FacetBasis(mesh, ElementTetP2(), facets=np.concatenate(open_)) if open_ else None
     return System(mesh=mesh, V=V, Q=Q, K=K, B=B, fixed=np.concatenate([fixed, orphans]), fluid=fluid,
-                  fast=ScalarAssembler(V), orphans=orphans)
+                  fast=ScalarAssembler(V), orphans=orphans, backflow=fb)
 
 
 def fill_orphans(sys_: System, x: np.ndarray) -> np.ndarray:
@@ -179,6 +184,48 @@ def traction_load(sys_: System, pressures: dict[str, float]) -> np.ndarray:
     return rhs
 
 
+#: weight beta of the backflow stabilisation (``_backflow``): 1 makes the inflow's convective
+#: energy flux dissipative (1/2 would only cancel it)
+BACKFLOW_BETA = 1.0
+
+
+@BilinearForm
+def _facet_weighted_mass(u, v, w):
+    return w["g"] * u * v
+
+
+def _backflow(sys_: System, comps: list[np.ndarray], newton: bool) -> list[list]:
+    """Blocks [a][b] of the backflow stabilisation on the open boundaries (None where zero).
+
+    The term -beta rho int (u . n)_- u . v dA, (u . n)_- = min(u . n, 0), added to the momentum
+    equation where fluid enters through an open ("do-nothing") boundary: the do-nothing
+    condition lets the inflow carry kinetic energy rho/2 |u|^2 (u . n) into the domain, which
+    destabilises steady and pseudo-time solves once a recirculation reaches the boundary
+    (here the chamber vortex at the open sides from Re ~ 10); with beta = 1 that flux is
+    dissipated. Zero where the flow leaves, so it leaves outflow (and the Stokes limit)
+    unchanged. ``newton``: with its derivative, -beta rho int H(-u . n) (du . n) u . v dA.
+    References: Bazilevs, Gohean, Hughes, Moser and Zhang (2009), Comput. Methods Appl. Mech.
+    Engrg. 198, 3534-3550, eq 14; Moghadam, Bazilevs, Hsia, Vignon-Clementel and Marsden (2011),
+    Comput. Mech. 48, 277-291.
+    """
+    fb, rho = sys_.backflow, sys_.fluid.rho
+    n = sys_.nv
+    uf = [fb.interpolate(c) for c in comps]
+    un = sum(np.asarray(uf[b]) * fb.normals[b] for b in range(3))
+    coef = -BACKFLOW_BETA * rho
+    blocks = [[None] * 3 for _ in range(3)]
+    diag = _facet_weighted_mass.assemble(fb, g=coef * np.minimum(un, 0.0)).tocsr()
+    for a in range(3):
+        blocks[a][a] = diag
+    if newton:
+        inflow = (un < 0.0).astype(float)
+        for a in range(3):
+            for b in range(3):
+                C = _facet_weighted_mass.assemble(fb, g=coef * inflow * np.asarray(uf[a]) * fb.normals[b]).tocsr()
+                blocks[a][b] = C if blocks[a][b] is None else blocks[a][b] + C
+    return blocks
+
+
 def _velocity_block(sys_: System, u: np.ndarray | None, newton: bool) -> sp.csr_matrix:
     """mu K + rho N(u) on each component (+ the rho d u_a / d x_b reaction blocks for Newton)."""
     mu, rho, n, V = sys_.fluid.mu, sys_.fluid.rho, sys_.nv, sys_.V
@@ -193,6 +240,12 @@ def _velocity_block(sys_: System, u: np.ndarray | None, newton: bool) -> sp.csr_
             for b in range(3):
                 C = rho * sys_.fast.weighted_mass(comps[a].grad[b])
                 blocks[a][b] = C if blocks[a][b] is None else blocks[a][b] + C
+    if sys_.backflow is not None:
+        extra = _backflow(sys_, [u[a * n:(a + 1) * n] for a in range(3)], newton)
+        for a in range(3):
+            for b in range(3):
+                if extra[a][b] is not None:
+                    blocks[a][b] = extra[a][b] if blocks[a][b] is None else blocks[a][b] + extra[a][b]
     return sp.bmat(blocks, format="csr")
 
 
@@ -266,6 +319,9 @@ def residual(sys_: System, x: np.ndarray, rhs: np.ndarray) -> np.ndarray:
 #: renewed at the current state
 KRYLOV_ACCEPT = 1e-4
 KRYLOV_MAX = 30
+#: a factorization whose GMRES needed more than this many iterations is renewed for the next step
+#: (a new LU costs about as much as 15-20 iterations on the reed's meshes)
+KRYLOV_REFRESH = 12
 
 
 def _newton_step(J_ff: sp.csr_matrix, r: np.ndarray, factor: Factor | None) -> tuple[np.ndarray, Factor, int]:
@@ -286,6 +342,15 @@ def _newton_step(J_ff: sp.csr_matrix, r: np.ndarray, factor: Factor | None) -> t
     return factor.solve(-r), factor, 0
 
 
+def _refresh(factor: Factor | None, iterations: int) -> Factor | None:
+    """``factor``, or None (freed: the next step factorizes) when its last GMRES solve needed more
+    than :data:`KRYLOV_REFRESH` iterations."""
+    if factor is not None and iterations > KRYLOV_REFRESH:
+        factor.free()
+        return None
+    return factor
+
+
 def _line_search(sys_: System, x: np.ndarray, d_full: np.ndarray, rhs: np.ndarray, free: np.ndarray,
                  r0: float) -> tuple[np.ndarray, float]:
     """Backtracking on the residual norm (free DOFs): the largest of 1, 1/2, 1/4, 1/8 of the
@@ -303,7 +368,8 @@ MAX_DAMPED = 4
 
 
 def newton(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max_iter: int = 25,
-           factor: Factor | None = None, progress: bool = False) -> tuple[np.ndarray, int, Factor]:
+           factor: Factor | None = None, progress: bool = False,
+           max_damped: int = MAX_DAMPED) -> tuple[np.ndarray, int, Factor]:
     """Steady Navier-Stokes by (inexact, damped) Newton from x0, which carries the Dirichlet values.
 
     Each correction is solved by GMRES preconditioned with ``factor`` (a factorization of a
@@ -312,7 +378,7 @@ def newton(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max
     residual (``_line_search``). Stops when the largest velocity update is below ``tol``
     of the largest velocity after a full step. Returns (state, steps, the factorization in
     use). ModelFailure (its ``factor``: the factorization in use) when it does not converge
-    in ``max_iter`` steps or after :data:`MAX_DAMPED` damped steps in a row (a steady laminar
+    in ``max_iter`` steps or after ``max_damped`` damped steps in a row (a steady laminar
     solution may not exist at that Reynolds number, the mesh does not resolve it, or the
     start is too far from it).
     """
@@ -320,11 +386,12 @@ def newton(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max
     n3 = 3 * sys_.nv
     free = _free_dofs(sys_.ndofs, sys_.fixed)
     vel = np.flatnonzero(free < n3)            # velocity entries of the condensed vector
-    change, damped = np.inf, 0
+    change, damped, kry = np.inf, 0, 0
     for it in range(1, max_iter + 1):
         t0 = time.perf_counter()
         J = _saddle(sys_, _velocity_block(sys_, x[:n3], True))
         R = residual(sys_, x, rhs)
+        factor = _refresh(factor, kry)
         d, factor, kry = _newton_step(J[free][:, free].tocsr(), R[free], factor)
         d_full = np.zeros_like(x)
         d_full[free] = d
@@ -336,10 +403,108 @@ def newton(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max
         if change < tol and step == 1.0:
             return fill_orphans(sys_, x), it, factor
         damped = damped + 1 if step < 1.0 else 0
-        if damped >= MAX_DAMPED:
+        if damped >= max_damped:
             raise _failure(f"steady Navier-Stokes: {damped} damped Newton steps in a row (last relative "
                            f"velocity update {change:.2e}); the start is too far from a solution", factor)
     raise _failure(f"steady Navier-Stokes did not converge in {max_iter} Newton steps "
+                   f"(last relative velocity update {change:.2e})", factor)
+
+
+#: pseudo-transient continuation: the first pseudo-time step is PTC_CFL0 mean cell sizes over the
+#: largest velocity of the start (a convective CFL number of 10 on the mean cell)
+PTC_CFL0 = 10.0
+#: a PTC iterate counts as steady (not merely slow) only once dt is this multiple of dt_0: the mass
+#: term is then below its share of the start (the iteration is Newton's method)
+PTC_STEADY = 1e3
+#: growth of the pseudo-time step per PTC step at most (SER alone may jump by orders of magnitude
+#: after one good step and leave the basin the small steps found)
+PTC_GROWTH = 10.0
+#: PTC steps before a solve is abandoned
+PTC_MAX_STEPS = 30
+#: the factorization is renewed when 1/dt changed by more than this factor since it was made (GMRES
+#: preconditioned by a factorization of a very different pseudo-time step stalls)
+PTC_REFACTOR = 3.0
+#: a PTC solve whose residual grew to this multiple of its start is abandoned (a smaller continuation
+#: step is cheaper than waiting for the pseudo-time flow to come back)
+PTC_DIVERGED = 10.0
+#: ... or whose residual set no new low in this many steps (the pseudo-time flow wanders: measured on
+#: the reed at Re ~ 15, 1.71 mm, the residual oscillating between 0.2 and 5 of its start)
+PTC_PATIENCE = 8
+
+
+def velocity_mass(sys_: System) -> sp.csr_matrix:
+    """rho int u . v dx on the three velocity components, zero on the pressure block (ndofs x ndofs)."""
+    M = sys_.fluid.rho * _mass.assemble(sys_.V).tocsr()
+    return sp.block_diag([M, M, M, sp.csr_matrix((sys_.Q.N, sys_.Q.N))], format="csr")
+
+
+def ptc(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max_iter: int = PTC_MAX_STEPS,
+        factor: Factor | None = None, progress: bool = False) -> tuple[np.ndarray, int, Factor]:
+    """Steady Navier-Stokes by pseudo-transient continuation (PTC) from x0, which carries the Dirichlet values.
+
+    Each step is one linearly implicit (backward Euler) step in pseudo-time of the momentum
+    equation, (M / dt_k + J(x_k)) d = -R(x_k) with M the velocity mass (rho, :func:`velocity_mass`)
+    and J the Newton Jacobian, x_{k+1} = x_k + d, no line search; the pseudo-time step follows the
+    residual by switched evolution relaxation, dt_{k+1} = dt_k ||R(x_k)|| / ||R(x_{k+1})||
+    (Mulder and van Leer 1985; by at most a factor :data:`PTC_GROWTH` either way), so the iteration follows the
+    time-dependent flow while the residual is large (where Newton's basin is small: a damped
+    Newton step is a Picard-like step with a large mass term) and becomes Newton's method as
+    the residual vanishes (dt -> infinity): global convergence to a stable steady state and
+    local quadratic convergence (Kelley and Keyes 1998). dt_0 = :data:`PTC_CFL0` mean cell sizes
+    over the largest velocity of x0. The linear systems as in :func:`newton` (GMRES preconditioned
+    by the last factorization, renewed when 1/dt changed by more than :data:`PTC_REFACTOR`).
+    Stops when the largest velocity update is below ``tol`` of the largest velocity with dt at least
+    :data:`PTC_STEADY` dt_0 (a small update from a small pseudo-time step is not a steady state). Returns
+    (state, steps, factorization in use); ModelFailure (with ``.factor``) after ``max_iter`` steps
+    or when the residual grows to :data:`PTC_DIVERGED` times its start or sets no new low in
+    :data:`PTC_PATIENCE` steps (no stable steady state reached).
+
+    References: C. T. Kelley and D. E. Keyes (1998), Convergence analysis of pseudo-transient
+    continuation, SIAM J. Numer. Anal. 35(2), 508-523; W. A. Mulder and B. van Leer (1985),
+    Experiments with implicit upwind methods for the Euler equations, J. Comput. Phys. 59, 232-246.
+    """
+    x = x0.copy()
+    n3 = 3 * sys_.nv
+    free = _free_dofs(sys_.ndofs, sys_.fixed)
+    vel = np.flatnonzero(free < n3)
+    M = velocity_mass(sys_)[free][:, free].tocsr()
+    h = float(np.cbrt(np.sum(sys_.V.dx) / sys_.mesh.t.shape[1]))        # mean cell size [m]
+    dt0 = dt = PTC_CFL0 * h / max(float(np.max(np.abs(x[:n3]))), 1e-300)
+    R = residual(sys_, x, rhs)
+    r0 = r = best = float(np.linalg.norm(R[free]))
+    dt_f, kry, since = np.inf, 0, 0                  # the pseudo-time step of the factorization in use
+    for it in range(1, max_iter + 1):
+        t0 = time.perf_counter()
+        if factor is not None and max(dt_f / dt, dt / dt_f) > PTC_REFACTOR and min(dt, dt_f) < PTC_STEADY * dt0:
+            factor.free()
+            factor = None
+        J = _saddle(sys_, _velocity_block(sys_, x[:n3], True))[free][:, free].tocsr() + M / dt
+        factor = _refresh(factor, kry)
+        old = factor
+        d, factor, kry = _newton_step(J, R[free], factor)
+        if factor is not old:
+            dt_f = dt
+        x[free] += d
+        change = float(np.max(np.abs(d[vel])) / max(np.max(np.abs(x[:n3])), 1e-300))
+        R = residual(sys_, x, rhs)
+        r_new = float(np.linalg.norm(R[free]))
+        if progress:
+            print(f"  ptc {it}: |R|/|R0| = {r_new / r0:.2e}, |du|/|u| = {change:.2e}, dt = {dt:.2e} s, "
+                  f"{kry} GMRES steps ({time.perf_counter() - t0:.1f} s)", file=sys.stderr)
+        if change < tol and dt >= PTC_STEADY * dt0:       # a small update, not a small pseudo-time step
+            return fill_orphans(sys_, x), it, factor
+        if not np.isfinite(r_new) or r_new > PTC_DIVERGED * r0:
+            raise _failure(f"pseudo-transient continuation diverged (residual {r_new / r0:.2e} of its start)", factor)
+        if r_new < best:
+            best, since = r_new, 0
+        else:
+            since += 1
+        if since >= PTC_PATIENCE:
+            raise _failure(f"pseudo-transient continuation does not settle (no new low of the residual in "
+                           f"{since} steps; {r_new / r0:.2e} of its start)", factor)
+        dt *= float(np.clip(r / r_new, 1.0 / PTC_GROWTH, PTC_GROWTH))
+        r = r_new
+    raise _failure(f"pseudo-transient continuation did not converge in {max_iter} steps "
                    f"(last relative velocity update {change:.2e})", factor)
 
 
@@ -349,6 +514,24 @@ def _failure(message: str, factor: Factor | None) -> ModelFailure:
     exc = ModelFailure(message)
     exc.factor = factor
     return exc
+
+
+def mesh_peclet(sys_: System, x: np.ndarray) -> np.ndarray:
+    """The mesh Peclet (cell Reynolds) number of each cell, P_T = |u|_T h_T / (2 nu) [-].
+
+    |u|_T the largest speed at the cell's vertices, h_T its longest edge, nu = mu / rho. Where
+    P_T > 1 the Galerkin discretization of convection is not resolved on the cell (Elman,
+    Silvester and Wathen 2014, section 6.3 and ch. 8: oscillations of the unstabilised scheme in
+    boundary and shear layers); reported beside the results, not used by the solver.
+    """
+    mesh, n = sys_.mesh, sys_.nv
+    vdofs = sys_.V.nodal_dofs[0]                                   # vertex -> its P2 DOF
+    speed = np.sqrt(sum(x[a * n + vdofs] ** 2 for a in range(3)))
+    t, p = mesh.t, mesh.p
+    pairs = [(i, j) for i in range(4) for j in range(i + 1, 4)]
+    h = np.max([np.linalg.norm(p[:, t[i]] - p[:, t[j]], axis=0) for i, j in pairs], axis=0)
+    nu = sys_.fluid.mu / sys_.fluid.rho
+    return np.max(speed[t], axis=0) * h / (2.0 * nu)
 
 
 def boundary_flux(sys_: System, x: np.ndarray, name: str) -> float:
