@@ -465,11 +465,8 @@ def ptc(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max_it
     """
     x = x0.copy()
     n3 = 3 * sys_.nv
-    free = _free_dofs(sys_.ndofs, sys_.fixed)
-    vel = np.flatnonzero(free < n3)
-    M = velocity_mass(sys_)[free][:, free].tocsr()
-    h = float(np.cbrt(np.sum(sys_.V.dx) / sys_.mesh.t.shape[1]))        # mean cell size [m]
-    dt0 = dt = PTC_CFL0 * h / max(float(np.max(np.abs(x[:n3]))), 1e-300)
+    free, vel, M, dt0 = _ptc_start(sys_, x)
+    dt = dt0
     R = residual(sys_, x, rhs)
     r0 = r = best = float(np.linalg.norm(R[free]))
     dt_f, kry, since = np.inf, 0, 0                  # the pseudo-time step of the factorization in use
@@ -493,19 +490,34 @@ def ptc(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max_it
                   f"{kry} GMRES steps ({time.perf_counter() - t0:.1f} s)", file=sys.stderr)
         if change < tol and dt >= PTC_STEADY * dt0:       # a small update, not a small pseudo-time step
             return fill_orphans(sys_, x), it, factor
-        if not np.isfinite(r_new) or r_new > PTC_DIVERGED * r0:
-            raise _failure(f"pseudo-transient continuation diverged (residual {r_new / r0:.2e} of its start)", factor)
-        if r_new < best:
-            best, since = r_new, 0
-        else:
-            since += 1
-        if since >= PTC_PATIENCE:
-            raise _failure(f"pseudo-transient continuation does not settle (no new low of the residual in "
-                           f"{since} steps; {r_new / r0:.2e} of its start)", factor)
+        best, since = _ptc_progress(r_new, r0, best, since, factor)
         dt *= float(np.clip(r / r_new, 1.0 / PTC_GROWTH, PTC_GROWTH))
         r = r_new
     raise _failure(f"pseudo-transient continuation did not converge in {max_iter} steps "
                    f"(last relative velocity update {change:.2e})", factor)
+
+
+def _ptc_start(sys_: System, x: np.ndarray) -> tuple:
+    """(free dofs, their velocity positions, the velocity mass on them, the first pseudo-time step [s]) of
+    :func:`ptc`: dt_0 = :data:`PTC_CFL0` mean cell sizes over the largest velocity of ``x``."""
+    n3 = 3 * sys_.nv
+    free = _free_dofs(sys_.ndofs, sys_.fixed)
+    M = velocity_mass(sys_)[free][:, free].tocsr()
+    h = float(np.cbrt(np.sum(sys_.V.dx) / sys_.mesh.t.shape[1]))        # mean cell size [m]
+    return free, np.flatnonzero(free < n3), M, PTC_CFL0 * h / max(float(np.max(np.abs(x[:n3]))), 1e-300)
+
+
+def _ptc_progress(r_new: float, r0: float, best: float, since: int, factor: Factor | None) -> tuple[float, int]:
+    """(the lowest residual so far, steps since it) after a :func:`ptc` step with residual norm ``r_new``;
+    ModelFailure when the residual grew to :data:`PTC_DIVERGED` times its start ``r0`` or set no new low in
+    :data:`PTC_PATIENCE` steps."""
+    if not np.isfinite(r_new) or r_new > PTC_DIVERGED * r0:
+        raise _failure(f"pseudo-transient continuation diverged (residual {r_new / r0:.2e} of its start)", factor)
+    best, since = (r_new, 0) if r_new < best else (best, since + 1)
+    if since >= PTC_PATIENCE:
+        raise _failure(f"pseudo-transient continuation does not settle (no new low of the residual in "
+                       f"{since} steps; {r_new / r0:.2e} of its start)", factor)
+    return best, since
 
 
 def _failure(message: str, factor: Factor | None) -> ModelFailure:

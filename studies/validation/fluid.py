@@ -134,7 +134,6 @@ def reed_parameter_rows(model: str = "thesis-reed", progress: bool = True) -> li
     from fea.fluid.point import load_fluid_valve
     from fea.fluid.reed3d import point_flow
     from fea.fluid.reed_compact import compact_forms, equilibrium_points, fit_multiplier
-    from lumped.fluid.orifice import discharge_coefficient
     from lumped.valves.reed import pressure_load_multiplier
     from studies.validation.vv20 import Components, vv20_row
 
@@ -147,16 +146,7 @@ def reed_parameter_rows(model: str = "thesis-reed", progress: bool = True) -> li
         flow = point_flow(valve)
         data = compact_forms(flow, progress=progress)
         f = data["forms"]
-        for pt in equilibrium_points(data["points"]["pressure"], flow, v.preload):
-            re, x = pt["reynolds"], pt["opening"]
-            bench = float(discharge_coefficient(math.sqrt(re), v.cd_inf, v.cd_a, v.cd_b, v.cd_c))
-            S = float(pt["cd"])
-            vv = vv20_row(f"{name} x {x * 1e3:.3g} mm", "cd", "-", S, bench,
-                          Components(REED_U_NUM["cd"] * S, 0.0, BENCH_CD_REL * bench))
-            rows.append(_row(name, f"Cd(x = {x * 1e3:.3g} mm, Re = {re:.3g})", "-", (bench, S, REED_U_NUM["cd"] * S),
-                             vv["verdict"], "measured: eq 3.89 (flow bench, section 3.8.6)",
-                             f"3-D on the operating line kappa (x - x_0) = X dP (dP = {pt['dp'] / 1e3:.3g} kPa); "
-                             f"E = {vv['E']:+.4f} ({100 * vv['E'] / bench:+.1f} %), U_val = {vv['U_val']:.4f}"))
+        rows += _reed_cd_rows(name, v, equilibrium_points(data["points"]["pressure"], flow, v.preload))
         table = f["multiplier"]
         for x in REED_X_OPENINGS:
             emp = pressure_load_multiplier(x, v.multiplier_poiseuille, v.multiplier_n1, v.multiplier_n0,
@@ -185,6 +175,26 @@ def reed_parameter_rows(model: str = "thesis-reed", progress: bool = True) -> li
             _row(name, "f2", "-", (v.f2, f["f2"], None), "replaces_estimate", "tuned to the pump (section 5.5.3)",
                  "as f1, opening"),
         ]
+    return rows
+
+
+def _reed_cd_rows(name: str, v, points) -> list[dict]:
+    """V&V 20 rows of the reed's Cd at the computed points of its operating line against eq 3.89 (the bench fit
+    in ``v``, the valve's parameters)."""
+    from lumped.fluid.orifice import discharge_coefficient
+    from studies.validation.vv20 import Components, vv20_row
+
+    rows = []
+    for pt in points:
+        re, x = pt["reynolds"], pt["opening"]
+        bench = float(discharge_coefficient(math.sqrt(re), v.cd_inf, v.cd_a, v.cd_b, v.cd_c))
+        S = float(pt["cd"])
+        vv = vv20_row(f"{name} x {x * 1e3:.3g} mm", "cd", "-", S, bench,
+                      Components(REED_U_NUM["cd"] * S, 0.0, BENCH_CD_REL * bench))
+        rows.append(_row(name, f"Cd(x = {x * 1e3:.3g} mm, Re = {re:.3g})", "-", (bench, S, REED_U_NUM["cd"] * S),
+                         vv["verdict"], "measured: eq 3.89 (flow bench, section 3.8.6)",
+                         f"3-D on the operating line kappa (x - x_0) = X dP (dP = {pt['dp'] / 1e3:.3g} kPa); "
+                         f"E = {vv['E']:+.4f} ({100 * vv['E'] / bench:+.1f} %), U_val = {vv['U_val']:.4f}"))
     return rows
 
 
