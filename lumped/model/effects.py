@@ -108,7 +108,7 @@ class Parameter:
         return None
 
     def edge_side(self, value: float, bound_tol: float = 0.01) -> str | None:
-        """Which end of the range an implausible ``value`` sits at: "strong" (the end :attr:`strong` names,
+        """Which end of the range an implausible ``value`` sits at: "strong" (the end ``strong`` names,
         where the effect is largest), "fading" (the other), or None where it is plausible or no end is
         declared. The nearer end in the search's unit scale counts."""
         if self.strong is None or self.plausibility(value, bound_tol) is None:
