@@ -230,6 +230,19 @@ def shipped(key: str, pattern: str = "*.json") -> dict | None:
     return None
 
 
+def stored(key: str, cache_name: str, pattern: str = "*.json") -> dict | None:
+    """The record of ``key``: shipped (:func:`shipped`, ``pattern``), else the user's cache file ``cache_name``
+    (in :func:`cache_dir`; one that does not read is ignored: it is recomputed), else None."""
+    found = shipped(key, pattern)
+    path = cache_dir() / cache_name
+    if found is None and path.exists():
+        try:
+            found = json.loads(path.read_text())
+        except (OSError, ValueError):
+            found = None
+    return found
+
+
 def compact_forms(valve: FluidValve, resolution: float = DEFAULT_RESOLUTION, recompute: bool = False,
                   progress: bool = True) -> dict:
     """The valve's compact forms: shipped, cached or computed (then cached); see the module docstring.
@@ -238,13 +251,7 @@ def compact_forms(valve: FluidValve, resolution: float = DEFAULT_RESOLUTION, rec
     """
     key = valve_key(valve, resolution)
     if not recompute:
-        found = shipped(key)
-        path = cache_dir() / f"fluid-{key}.json"
-        if found is None and path.exists():
-            try:
-                found = json.loads(path.read_text())
-            except (OSError, ValueError):
-                found = None
+        found = stored(key, f"fluid-{key}.json")
         if found is not None:
             return found
     _say(progress, f"fluid: characterising {valve.name} ({len(LIFT_FRACTIONS)} lifts x {len(REYNOLDS)} Re on "

@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .compact import cache_dir, fit_cd, shipped, store
+from .compact import cache_dir, fit_cd, store, stored
 from .reed3d import ReedValveFlow, displacement_sweep, pressure_cap, pressure_sweep
 from .reed_film import reed_film
 
@@ -296,12 +296,7 @@ def compact_forms(valve: ReedValveFlow, recompute: bool = False, progress: bool 
     key = reed_key(valve)
     path = cache_dir() / f"reed-{key}.json"
     if not recompute:
-        found = shipped(key, "reed-*.json")
-        if found is None and path.exists():
-            try:
-                found = json.loads(path.read_text())
-            except (OSError, ValueError):
-                found = None
+        found = stored(key, path.name, "reed-*.json")
         if found is not None:
             return found
     cost = cost_estimate()
