@@ -102,20 +102,16 @@ def run_cases(selected: list[dict], *, params_for=None, progress: bool = False, 
     unknown = sorted(set(run) - (set(inspect.signature(run_case).parameters) - {"case", "params", "progress"}))
     if unknown:
         raise TypeError(f"run_cases() got unexpected keyword arguments: {', '.join(unknown)}")
+    from tqdm import tqdm
+
     work = [(c, params_for(c) if params_for else None, run) for c in selected]
-    bar = None
-    if progress:
-        from tqdm import tqdm
-        bar = tqdm(total=len(work), desc="pump cases", unit="case", file=sys.stderr)
     results: list[PumpResult] = []
     own = isinstance(workers, int) and workers > 1
-    with ProcessPoolExecutor(max_workers=workers) if own else nullcontext(workers) as ex:
+    with tqdm(total=len(work), desc="pump cases", unit="case", file=sys.stderr, disable=not progress) as bar, \
+            (ProcessPoolExecutor(max_workers=workers) if own else nullcontext(workers)) as ex:
         for r in (map if isinstance(ex, int) else ex.map)(_run_one, work):
             results.append(r)
-            if bar:
-                bar.update(1)
-    if bar:
-        bar.close()
+            bar.update(1)
     return results
 
 
