@@ -214,3 +214,62 @@ def test_every_candidate_parameter_declares_where_its_effect_is_strongest():
         for params in (eff.parameters, *eff.variants.values()):
             for p in params:
                 assert p.strong == ("low" if (eff.name, p.name) in low else "high"), (eff.name, p.name, p.strong)
+
+
+def _seat_models(*ks):
+    cd = Applied.of("discharge_scale", "pump", {"scale": 1.0})
+    return [(cd, Applied.of("seat_compliance", "delivery", {"k_seat": k})) for k in ks]
+
+
+def test_where_two_models_differ_most_the_data_pick_the_one_whose_residual_is_the_noise():
+    """A delivery seat of 1e6 N/m hidden; the models 1e6 and 2e6 N/m differ by P A (1/1e6 - 1/2e6) = 0.335 mm (17
+    gap scales) in the delivery position of the suction strokes: there the true one's residual is the 10 um noise
+    (chi-square per sample ~1) and the other's is not, so the window picks the true one, whichever is first."""
+    pb = _problem((Applied.of("seat_compliance", "delivery", {"k_seat": 1e6}),))
+    right, wrong = (pb.evaluate(m) for m in _seat_models(1e6, 2e6))
+    places = indistinct.separating_evidence(pb, right, wrong)
+    judged = indistinct.window_test(pb, places, right, wrong)
+    assert judged["picks"] == 0, judged
+    assert judged["chi2_per_sample"][0] == pytest.approx(1.0, abs=0.3)
+    # (0.335 mm / 10 um)^2 ~ 1100 noise variances at the deepest sample
+    assert judged["chi2_per_sample"][1] > 100.0 and judged["p_noise"][1] < indistinct.WINDOW_P
+    assert indistinct.window_test(pb, places, wrong, right)["picks"] == 1
+
+
+def test_where_neither_model_is_the_noise_or_both_are_the_window_does_not_decide():
+    """The same data: seats of 2e6 and 4e6 N/m both miss by 0.33-0.50 mm where they differ most (neither is the
+    noise: no pick, however much better one fits there); seats of 1e6 and 1.0005e6 N/m differ by 0.3 um
+    nowhere above one gap scale (the whole cycle is judged) and both are the noise: no pick either."""
+    pb = _problem((Applied.of("seat_compliance", "delivery", {"k_seat": 1e6}),))
+    a, b = (pb.evaluate(m) for m in _seat_models(2e6, 4e6))
+    judged = indistinct.window_test(pb, indistinct.separating_evidence(pb, a, b), a, b)
+    assert judged["picks"] is None and max(judged["p_noise"]) < indistinct.WINDOW_P, judged
+    a, b = (pb.evaluate(m) for m in _seat_models(1e6, 1.0005e6))
+    places = indistinct.separating_evidence(pb, a, b)
+    judged = indistinct.window_test(pb, places, a, b)
+    assert places[0]["in_gap_scales"] < 1.0 and places[0]["crank_deg"] == [0.0, 360.0]
+    assert judged["picks"] is None and min(judged["p_noise"]) >= indistinct.WINDOW_P, judged
+
+
+def test_a_pair_alike_in_cost_is_told_apart_where_the_window_picks_the_winner(monkeypatch):
+    """Two candidates that fit alike and change the same residuals (the cost tests forced): the window that picks
+    the round's winner tells them apart (no group: the winner is named); when the winner is the wrong one, or
+    neither is the noise there, the pair stays indistinguishable and the window's verdict is in the sentence."""
+    monkeypatch.setattr(indistinct, "_alike", lambda pb, a, b: True)
+    monkeypatch.setattr(indistinct, "_substitutes", lambda pb, base, a, b: True)
+    pb = _problem((Applied.of("seat_compliance", "delivery", {"k_seat": 1e6}),))
+
+    def cand(name, model):
+        f = _fit(40.0, 0.2)
+        f.effect, f.model = name, model
+        return f
+
+    right, wrong, worse = _seat_models(1e6, 2e6, 4e6)
+    w, other = cand("a", right), cand("b", wrong)
+    assert indistinct.group(pb, (), [w, other], w, 1) is None
+    w, other = cand("a", wrong), cand("b", right)
+    g = indistinct.group(pb, (), [w, other], w, 1)
+    assert g is not None and g["separating"][0]["windows"]["picks"] == 1
+    assert "noise variances a sample" in g["sentence"]
+    w, other = cand("a", wrong), cand("b", worse)
+    assert indistinct.group(pb, (), [w, other], w, 1) is not None
