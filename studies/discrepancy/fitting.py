@@ -333,7 +333,8 @@ def polish(pb, model: tuple, names: set, fixed: frozenset = frozenset(), least: 
     alone is better fitted by :func:`fit`'s grids).
 
     One-at-a-time refits zigzag along a valley where two parameters trade (a stiffer seat and a
-    lower Cd both restore the delivery a soft seat loses); Gauss-Newton steps follow it.
+    lower Cd both restore the delivery a soft seat loses); Gauss-Newton steps follow it. The Jacobian is
+    taken by forward differences once and then updated along the steps (:class:`SecantJacobian`).
     """
     idx = [(i, p) for i, a in enumerate(model) if a.name in names
            for p in pb.eff(a.name).parameters_for(pb.context, a.target)
