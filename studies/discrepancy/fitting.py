@@ -365,7 +365,6 @@ def polish(pb, model: tuple, names: set, fixed: frozenset = frozenset(), least: 
     return out if pb.fit_objective(out)[0] < float(r0 @ r0) else model
 
 
-
 #: the forward-difference step of :func:`polish`'s Jacobian [unit coordinates of the search bounds]
 POLISH_STEP = 0.01
 
