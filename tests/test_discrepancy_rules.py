@@ -236,10 +236,10 @@ def test_where_two_models_differ_most_the_data_pick_the_one_whose_residual_is_th
     assert indistinct.window_test(pb, places, wrong, right)["picks"] == 1
 
 
-def test_where_neither_model_is_the_noise_or_both_are_the_window_does_not_decide():
+def test_where_neither_model_is_the_noise_or_both_fit_alike_the_window_does_not_decide():
     """The same data: seats of 2e6 and 4e6 N/m both miss by 0.33-0.50 mm where they differ most (neither is the
     noise: no pick, however much better one fits there); seats of 1e6 and 1.0005e6 N/m differ by 0.3 um
-    nowhere above one gap scale (the whole cycle is judged) and both are the noise: no pick either."""
+    nowhere above one gap scale (the whole cycle is judged) and both are the noise alike: no pick either."""
     pb = _problem((Applied.of("seat_compliance", "delivery", {"k_seat": 1e6}),))
     a, b = (pb.evaluate(m) for m in _seat_models(2e6, 4e6))
     judged = indistinct.window_test(pb, indistinct.separating_evidence(pb, a, b), a, b)
@@ -249,6 +249,20 @@ def test_where_neither_model_is_the_noise_or_both_are_the_window_does_not_decide
     judged = indistinct.window_test(pb, places, a, b)
     assert places[0]["in_gap_scales"] < 1.0 and places[0]["crank_deg"] == [0.0, 360.0]
     assert judged["picks"] is None and min(judged["p_noise"]) >= indistinct.WINDOW_P, judged
+
+
+@pytest.mark.parametrize("k_other, picks", [(1.01e6, 0), (1.002e6, None)])
+def test_two_models_both_consistent_with_the_noise_are_told_apart_by_their_likelihood_ratio(k_other, picks):
+    """Seats of 1e6 (the truth) and 1.01e6 N/m differ by P A (1/1e6 - 1/1.01e6) <= 6.6 um, under one gap scale:
+    both residuals pass as noise over the whole cycle, but over its ~1000 samples the wrong one's chi-square is
+    higher by sum (d / sigma)^2 >> 10 (very strong): the true one is picked. At 1.002e6 N/m (<= 1.3 um, a
+    chi-square difference ~25 times smaller) the data cannot tell: no pick."""
+    pb = _problem((Applied.of("seat_compliance", "delivery", {"k_seat": 1e6}),))
+    a, b = (pb.evaluate(m) for m in _seat_models(1e6, k_other))
+    judged = indistinct.window_test(pb, indistinct.separating_evidence(pb, a, b), a, b)
+    assert min(judged["p_noise"]) >= indistinct.WINDOW_P and judged["picks"] == picks, judged
+    dchi2 = judged["samples"] * (judged["chi2_per_sample"][1] - judged["chi2_per_sample"][0])
+    assert (dchi2 >= indistinct.WINDOW_DCHI2) == (picks == 0)
 
 
 def test_a_pair_alike_in_cost_is_told_apart_where_the_window_picks_the_winner(monkeypatch):

@@ -10,9 +10,10 @@ at each run's operating condition, the two models' revolutions differ most (a va
 pressure, the delivery), in the gap's scales (``studies.discrepancy.gap.GapScales``), measured there or not.
 
 Where they differ most, the data may still decide (:func:`window_test`): over the measured windows of that
-evidence, a model whose residual is the noise there while the other's is not (by three standard deviations,
-and by a chi-square difference that is very strong evidence) is the one the data pick; the winner so picked is
-told apart from the other. Where both residuals, or neither, are the noise, the pair stays indistinguishable.
+evidence, a model that fits them better by a chi-square difference that is very strong evidence, and whose
+residual there is the noise (within three standard deviations), is the one the data pick; the winner so picked
+is told apart from the other. Where neither residual is the noise, or they fit the windows alike, the pair
+stays indistinguishable.
 """
 
 from __future__ import annotations
@@ -30,12 +31,12 @@ from studies.discrepancy.selection import gain_reason
 _GRID = np.arange(0.0, 360.0, 0.5)
 #: at most this many places of evidence per pair (the largest differences)
 MAX_EVIDENCE = 3
-#: a window residual whose chi-square has at least this upper-tail probability under noise alone is consistent
-#: with the noise there, one below it is not (three standard deviations, one-sided) ...
-WINDOW_P = 1.35e-3
-#: ... and the one consistent must fit the windows better by at least this chi-square (2 ln of the likelihood
-#: ratio: "very strong" evidence on Kass & Raftery's 1995 scale)
+#: the model the windows pick fits them better by at least this chi-square (2 ln of the likelihood ratio: "very
+#: strong" evidence on Kass & Raftery's 1995 scale) ...
 WINDOW_DCHI2 = 10.0
+#: ... and its residual there is consistent with the noise: its chi-square has at least this upper-tail
+#: probability under noise alone (three standard deviations, one-sided)
+WINDOW_P = 1.35e-3
 
 
 def group(pb, base_model: tuple, order: list, winner: CandidateFit, rnd: int) -> dict | None:
@@ -54,7 +55,7 @@ def group(pb, base_model: tuple, order: list, winner: CandidateFit, rnd: int) ->
         except ModelFailure:
             evidence, judged = [], None
         if judged is not None and judged["picks"] == 0:
-            # where the two differ most, the winner's residual is the noise and the other's is not: told apart
+            # where the two differ most, the winner fits far better and its residual is the noise: told apart
             alike.remove(f)
             pb.log(f"round {rnd}: {winner.key} told apart from {f.key} where they differ most "
                    f"({_window_words(judged, winner.key, f.key)})")
@@ -128,9 +129,10 @@ def window_test(pb, places: list, ev_a, ev_b) -> dict | None:
     """The two models judged where they differ most: over the measured places of evidence (position and
     cylinder-pressure windows), each one's residual as chi-square in the white noise of each signal, chi2 =
     sum (r / sigma)^2 on the n samples of the windows, and its upper-tail probability under noise alone
-    (scipy.stats.chi2). ``picks``: 0 (the first model) or 1 when that one's residual is consistent with the
-    noise (p >= WINDOW_P) and the other's is not, by a chi-square difference of at least WINDOW_DCHI2; None when
-    both or neither are. None when no place has a measured trace (the delivery, an unmeasured signal)."""
+    (scipy.stats.chi2). ``picks``: 0 (the first model) or 1 when that one fits the windows better by a
+    chi-square difference of at least WINDOW_DCHI2 (the likelihood ratio of the two, the noise known) and its
+    residual is consistent with the noise there (p >= WINDOW_P: the better of two misfits is no pick); else
+    None. None when no place has a measured trace (the delivery, an unmeasured signal)."""
     used = [p for p in places if p["measured"] and p["crank_deg"] is not None and p["signal"] != "delivery"]
     stats = []
     for ev in (ev_a, ev_b):
@@ -144,10 +146,10 @@ def window_test(pb, places: list, ev_a, ev_b) -> dict | None:
         if n < 3:
             return None
         stats.append((chi2, n, float(_chi2.sf(chi2, n))))
-    ok = [p >= WINDOW_P for _, _, p in stats]
+    better = 0 if stats[0][0] <= stats[1][0] else 1
     picks = None
-    if ok[0] != ok[1] and abs(stats[0][0] - stats[1][0]) >= WINDOW_DCHI2:
-        picks = 0 if ok[0] else 1
+    if stats[better][2] >= WINDOW_P and stats[1 - better][0] - stats[better][0] >= WINDOW_DCHI2:
+        picks = better
     return {"places": [[p["run"], p["signal"], p["crank_deg"]] for p in used], "samples": stats[0][1],
             "chi2_per_sample": [c / n for c, n, _ in stats], "p_noise": [p for _, _, p in stats], "picks": picks}
 
