@@ -8,11 +8,19 @@ which is there: the workflow names
 neither and reports them in the JSON's ``indistinguishable`` with the evidence that would separate them: where,
 at each run's operating condition, the two models' revolutions differ most (a valve position, the cylinder
 pressure, the delivery), in the gap's scales (``studies.discrepancy.gap.GapScales``), measured there or not.
+
+Where they differ most, the data may still decide (:func:`window_test`): over the measured windows of that
+evidence, a model that fits them better by a chi-square difference that is very strong evidence, and whose
+residual there is the noise (within three standard deviations), is the one the data pick; the winner so picked
+is told apart from the other. Where neither residual is the noise, or they fit the windows alike, the pair
+stays indistinguishable.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from scipy.stats import chi2 as _chi2
 
 from geometry.errors import ModelFailure
 from studies.discrepancy.gap import crank_windows, periodic_interp
@@ -23,6 +31,12 @@ from studies.discrepancy.selection import gain_reason
 _GRID = np.arange(0.0, 360.0, 0.5)
 #: at most this many places of evidence per pair (the largest differences)
 MAX_EVIDENCE = 3
+#: the model the windows pick fits them better by at least this chi-square (2 ln of the likelihood ratio: "very
+#: strong" evidence on Kass & Raftery's 1995 scale) ...
+WINDOW_DCHI2 = 10.0
+#: ... and its residual there is consistent with the noise: its chi-square has at least this upper-tail
+#: probability under noise alone (three standard deviations, one-sided)
+WINDOW_P = 1.35e-3
 
 
 def group(pb, base_model: tuple, order: list, winner: CandidateFit, rnd: int) -> dict | None:
@@ -32,20 +46,28 @@ def group(pb, base_model: tuple, order: list, winner: CandidateFit, rnd: int) ->
     model the round's candidates extend."""
     alike = [f for f in order if f is not winner and f.effect != winner.effect and f.why_not_added is None
              and not f.failed and _alike(pb, winner, f) and _substitutes(pb, base_model, winner, f)]
+    separating = []
+    for f in list(alike):
+        try:
+            ev_w, ev_f = pb.evaluate(winner.model), pb.evaluate(f.model)
+            evidence = separating_evidence(pb, ev_w, ev_f)
+            judged = window_test(pb, evidence, ev_w, ev_f)
+        except ModelFailure:
+            evidence, judged = [], None
+        if judged is not None and judged["picks"] == 0:
+            # where the two differ most, the winner fits far better and its residual is the noise: told apart
+            alike.remove(f)
+            pb.log(f"round {rnd}: {winner.key} told apart from {f.key} where they differ most "
+                   f"({_window_words(judged, winner.key, f.key)})")
+            continue
+        separating.append({"effects": [winner.key, f.key], "evidence": evidence, "windows": judged})
     if not alike:
         return None
     fits = [winner, *alike]
-    separating = []
-    for f in alike:
-        try:
-            evidence = separating_evidence(pb, pb.evaluate(winner.model), pb.evaluate(f.model))
-        except ModelFailure:
-            evidence = []
-        separating.append({"effects": [winner.key, f.key], "evidence": evidence})
     return {"round": rnd, "effects": [f.key for f in fits], "parameters": {f.key: f.reported for f in fits},
             "fit_cost": [f.fit_cost for f in fits], "held_out_cost": [f.held_cost for f in fits],
             "base_fit_cost": winner.base_fit_cost, "base_held_out_cost": winner.base_held_cost,
-            "separating": separating, "sentence": _sentence(fits, separating[0]["evidence"])}
+            "separating": separating, "sentence": _sentence(fits, separating[0])}
 
 
 def _alike(pb, a: CandidateFit, b: CandidateFit) -> bool:
@@ -103,14 +125,74 @@ def separating_evidence(pb, ev_a, ev_b) -> list[dict]:
     return found[:MAX_EVIDENCE]
 
 
+def window_test(pb, places: list, ev_a, ev_b) -> dict | None:
+    """The two models judged where they differ most: over the measured places of evidence (position and
+    cylinder-pressure windows), each one's residual as chi-square in the white noise of each signal, chi2 =
+    sum (r / sigma)^2 on the n samples of the windows, and its upper-tail probability under noise alone
+    (scipy.stats.chi2). ``picks``: 0 (the first model) or 1 when that one fits the windows better by a
+    chi-square difference of at least WINDOW_DCHI2 (the likelihood ratio of the two, the noise known) and its
+    residual is consistent with the noise there (p >= WINDOW_P: the better of two misfits is no pick); else
+    None. None when no place has a measured trace (the delivery, an unmeasured signal)."""
+    used = [p for p in places if p["measured"] and p["crank_deg"] is not None and p["signal"] != "delivery"]
+    stats = []
+    for ev in (ev_a, ev_b):
+        chi2, n = 0.0, 0
+        for place in used:
+            got = _window_residual(pb, ev, place)
+            if got is None or not got[1] > 0.0:
+                return None
+            chi2 += float(np.sum((got[0] / got[1]) ** 2))
+            n += got[0].size
+        if n < 3:
+            return None
+        stats.append((chi2, n, float(_chi2.sf(chi2, n))))
+    better = 0 if stats[0][0] <= stats[1][0] else 1
+    picks = None
+    if stats[better][2] >= WINDOW_P and stats[1 - better][0] - stats[better][0] >= WINDOW_DCHI2:
+        picks = better
+    return {"places": [[p["run"], p["signal"], p["crank_deg"]] for p in used], "samples": stats[0][1],
+            "chi2_per_sample": [c / n for c, n, _ in stats], "p_noise": [p for _, _, p in stats], "picks": picks}
+
+
+def _window_residual(pb, ev, place: dict):
+    """(measured - modelled residuals in the place's crank window, the signal's white-noise deviation)."""
+    g = next((g for g in ev.gaps if g.run == place["run"]), None)
+    if g is None:
+        return None
+    if place["signal"] == "cylinder pressure":
+        if g.pressure is None:
+            return None
+        r, theta, sigma = g.pressure.residual_pa, g.pressure.crank_deg, pb.folded[g.run].pressure_noise_pa
+    else:
+        valve = place["signal"].split()[0]
+        v = next((v for v in g.valves if v.valve == valve), None)
+        if v is None:
+            return None
+        r, theta, sigma = v.residual_m, v.crank_deg, v.noise_m
+    a, e = place["crank_deg"]
+    width = 360.0 if e - a >= 360.0 else np.mod(e - a, 360.0)
+    inside = np.mod(np.asarray(theta) - a, 360.0) <= width
+    return np.asarray(r)[inside], float(sigma)
+
+
 def _place(run, signal: str, window, difference: float, unit: str, scales: float, measured: bool) -> dict:
     return {"run": run.name, "speed_rpm": float(run.speed_rpm), "load_pressure_pa": float(run.load_pressure_pa),
             "signal": signal, "crank_deg": window, "difference": float(difference), "unit": unit,
             "in_gap_scales": float(scales), "measured": bool(measured)}
 
 
-def _sentence(fits: list, evidence: list) -> str:
-    """The group in words, with the place the first two models differ most."""
+def _window_words(judged: dict, a: str, b: str) -> str:
+    """The window judgement in words: each model's chi-square per sample over the windows' samples."""
+    c = judged["chi2_per_sample"]
+    return (f"over {judged['samples']} measured samples in {len(judged['places'])} window(s) the residual is "
+            f"{c[0]:.2f} noise variances a sample for {a} (p = {judged['p_noise'][0]:.2g}) and {c[1]:.2f} for {b} "
+            f"(p = {judged['p_noise'][1]:.2g})")
+
+
+def _sentence(fits: list, sep: dict) -> str:
+    """The group in words, with the place the first two models differ most and, where measured, how each
+    fits there (``sep``: the first pair's entry of ``separating``)."""
+    evidence = sep["evidence"]
     keys = " and ".join(f.key for f in fits)
     costs = ", ".join(f"{f.fit_cost:.3g}" for f in fits)
     held = "" if any(f.held_cost is None for f in fits) else \
@@ -124,4 +206,6 @@ def _sentence(fits: list, evidence: list) -> str:
               f"{e['load_pressure_pa'] / 1e6:.2f} MPa{where} ({e['difference']:.3g} {e['unit']}, "
               f"{e['in_gap_scales']:.2g} gap scales; {'measured in' if e['measured'] else 'not measured in'} "
               f"run {e['run']})")
+    if sep.get("windows") is not None:
+        s += "; " + _window_words(sep["windows"], fits[0].key, fits[1].key)
     return s

@@ -15,6 +15,10 @@ import numpy as np
 
 from studies.discrepancy.records import with_value
 
+#: a nuisance fitted within this fraction of its range from a bound is linearised at its prior (:func:`at_origin`):
+#: for the Cd factor's 0.90-1.10, a factor more than 4 % from 1
+ORIGIN_EDGE = 0.3
+
 
 def nuisance_index(pb, model: tuple) -> list:
     """(position in ``model``, parameter) of every baseline-nuisance parameter the model carries."""
@@ -24,11 +28,13 @@ def nuisance_index(pb, model: tuple) -> list:
 
 def at_origin(pb, model: tuple) -> tuple:
     """``model`` with its baseline nuisances where the profile is linearised: at their fitted values, or at
-    their prior where a value lies within 10 % of its range from a bound.
+    their prior where a value lies within ORIGIN_EDGE of its range from a bound.
 
     The Cd factor moves the residuals nonlinearly over a few per cent, so the profile is linearised where the
-    factor was fitted; a factor pinned near its bound (a soft seat's lost delivery bought by Cd 0.90) is no
-    origin to trust (docs/discrepancy.md, "Settings and why")."""
+    factor was fitted; a factor far from its prior is no origin to trust: pinned near its bound (a soft seat's
+    lost delivery bought by Cd 0.90) or 5-7 % off where a missing effect trades with it (a reed's fluid
+    damping, Cd 0.94-0.95), the linear profile cannot carry it back and the effect that would is screened out
+    (docs/discrepancy.md, "Settings and why")."""
     out = []
     for a in model:
         if a.name in pb.nuisance_effects:
@@ -37,7 +43,7 @@ def at_origin(pb, model: tuple) -> tuple:
             for p in pb.nuisance_effects[a.name][0].parameters:
                 lo, hi = p.bounds
                 v = vals[p.name]
-                new[p.name] = v if min(v - lo, hi - v) > 0.1 * (hi - lo) else p.prior
+                new[p.name] = v if min(v - lo, hi - v) > ORIGIN_EDGE * (hi - lo) else p.prior
             a = a.with_values(new)
         out.append(a)
     return tuple(out)
