@@ -1,0 +1,187 @@
+"""The reed's 3-D flow at a prescribed flow rate: continuation in the Reynolds number through folds in dP.
+
+With the pressure difference prescribed (:func:`fea.fluid.reed3d.pressure_sweep`) the Reynolds
+number is an output and natural continuation in dP stops where the branch Re(dP) turns back
+(a fold: the Jacobian at fixed dP is singular there). Here the flow rate is prescribed instead
+and the inlet pressure is the unknown that enforces it: the momentum and continuity equations
+with the traction -P n on the inlet, plus the flux constraint int_inlet u . n dA = -Q / 2 (half
+domain), a Lagrange-multiplier ("defective") flow-rate condition that keeps the inlet's
+do-nothing form, so every solution is one of the pressure-driven problem's (Heywood, Rannacher
+and Turek 1996; Formaggia, Gerbeau, Nobile and Quarteroni 2002). The bordered Jacobian
+
+    [[J, -g], [-g^T, 0]] [dx; dP] = -[R(x) - P g; -g . x - q],   g = -int_inlet n . v dA,
+
+is regular at a fold in dP (where J alone is singular) as long as the flux varies along the
+null vector, so Newton continued in Re passes it and dP(Re) shows whether the branch folds:
+a maximum of dP(Re) is a fold of the dP-driven problem (Keller 1977's turning point, here
+parametrised by the flow instead of the arclength).
+
+SI units. References: J. G. Heywood, R. Rannacher and S. Turek (1996), Artificial boundaries
+and flux and pressure conditions for the incompressible Navier-Stokes equations, Int. J.
+Numer. Methods Fluids 22, 325-352; L. Formaggia, J.-F. Gerbeau, F. Nobile and A. Quarteroni
+(2002), Numerical treatment of defective boundary conditions for the Navier-Stokes equations,
+SIAM J. Numer. Anal. 40, 376-401; H. B. Keller (1977), Numerical solution of bifurcation and
+nonlinear eigenvalue problems, in Applications of Bifurcation Theory, Academic Press, 359-384.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from . import ns3d
+from .reed3d import FlowPoint, ReedValveFlow, point_outputs
+from .reed_mesh import fluid_mesh
+
+
+@dataclass
+class FluxProblem:
+    """One mesh's system with the inlet's unit traction load ``g`` (:func:`fea.fluid.ns3d.traction_load`
+    at P = 1 Pa) and its free DOFs; the flux out through the inlet is -g . x."""
+
+    system: ns3d.System
+    g: np.ndarray
+    free: np.ndarray
+
+    @classmethod
+    def build(cls, system: ns3d.System) -> "FluxProblem":
+        g = ns3d.traction_load(system, {"inlet": 1.0})
+        return cls(system=system, g=g, free=ns3d._free_dofs(system.ndofs, system.fixed))
+
+    def residual(self, x: np.ndarray, P: float, flux: float) -> tuple[np.ndarray, float]:
+        """(momentum/continuity residual on the free DOFs [N], flux residual [m^3/s]) at inlet pressure P [Pa]
+        for the half domain's prescribed outflux ``flux`` [m^3/s] through the inlet (negative: inflow)."""
+        R = ns3d.residual(self.system, x, P * self.g)[self.free]
+        return R, float(-self.g @ x - flux)
+
+
+def _weighted_norm(R: np.ndarray, c: float, weight: float) -> float:
+    return float(np.hypot(np.linalg.norm(R), weight * c))
+
+
+def flux_newton(prob: FluxProblem, flux: float, x0: np.ndarray, P0: float, tol: float = 1e-6,
+                max_iter: int = 10, factor: ns3d.Factor | None = None, max_damped: int = 2,
+                progress: bool = False) -> tuple[np.ndarray, float, int, ns3d.Factor]:
+    """Steady Navier-Stokes with the inlet's flux prescribed (module docstring): Newton on (x, P) from (x0, P0).
+
+    ``flux`` [m^3/s]: int_inlet u . n dA of the half domain (negative: into the domain). The bordered
+    corrections are solved as :func:`fea.fluid.ns3d.newton`'s (GMRES preconditioned by the last
+    factorization, else a new LU), damped by backtracking on the residual norm with the flux residual
+    weighted to the momentum's scale (|g| P / |flux|). Stops when the largest velocity update is below
+    ``tol`` of the largest velocity after a full step. Returns (state, P [Pa], steps, factorization);
+    ModelFailure (``.factor`` set) after ``max_iter`` steps or ``max_damped`` damped steps in a row.
+    """
+    sys_, free, g = prob.system, prob.free, prob.g
+    n3 = 3 * sys_.nv
+    gf = g[free]
+    vel = np.flatnonzero(free < n3)
+    weight = np.linalg.norm(gf) * abs(P0) / abs(flux)
+    x, P, damped, kry, change = x0.copy(), float(P0), 0, 0, np.inf
+    for it in range(1, max_iter + 1):
+        t0 = time.perf_counter()
+        J = ns3d._saddle(sys_, ns3d._velocity_block(sys_, x[:n3], True))[free][:, free]
+        Jb = sp.bmat([[J, -gf[:, None]], [-gf[None, :], None]], format="csr")
+        R, c = prob.residual(x, P, flux)
+        factor = ns3d._refresh(factor, kry)
+        d, factor, kry = ns3d._newton_step(Jb, np.append(R, c), factor)
+        r0 = _weighted_norm(R, c, weight)
+        for step in (1.0, 0.5, 0.25, 0.125):
+            xt = x.copy()
+            xt[free] += step * d[:-1]
+            Pt = P + step * d[-1]
+            if _weighted_norm(*prob.residual(xt, Pt, flux), weight) <= (1 - 1e-4 * step) * r0:
+                break
+        x, P = xt, Pt
+        change = step * np.max(np.abs(d[:-1][vel])) / max(np.max(np.abs(x[:n3])), 1e-300)
+        if progress:
+            print(f"  flux newton {it}: |du|/|u| = {change:.2e}, dP = {P:.6g} Pa, step {step:g}, {kry} GMRES "
+                  f"steps ({time.perf_counter() - t0:.1f} s)", file=sys.stderr)
+        if change < tol and step == 1.0:
+            return ns3d.fill_orphans(sys_, x), P, it, factor
+        damped = damped + 1 if step < 1.0 else 0
+        if damped >= max_damped:
+            raise ns3d._failure(f"flow-rate Newton: {damped} damped steps in a row (last update {change:.2e})", factor)
+    raise ns3d._failure(f"flow-rate Newton did not converge in {max_iter} steps (last update {change:.2e})", factor)
+
+
+#: continuation in Re: the first step's ratio Re_(k+1) / Re_k, its growth after a solve of at most
+#: QUICK Newton steps, its largest value; a failed step's ratio is square-rooted (MAX_CUTS times in a row)
+RATIO_START, RATIO_GROWTH, RATIO_MAX, QUICK, MAX_CUTS = 1.3, 1.2, 1.6, 4, 4
+
+
+def _flux_of(valve: ReedValveFlow, reynolds: float) -> float:
+    """The half domain's inlet outflux [m^3/s] at Reynolds number ``reynolds`` (eq 3.87, Re = 4 rho Q / (p_o mu))."""
+    return -0.5 * reynolds * valve.orifice_perimeter * valve.fluid.mu / (4.0 * valve.fluid.rho)
+
+
+def _predict(history: list, re: float) -> tuple[np.ndarray, float]:
+    """(state, P) at ``re`` extrapolated linearly in Re from the last two converged (Re, x, P) (the first
+    by scaling in proportion: the Stokes limit)."""
+    r1, x1, P1 = history[-1]
+    if len(history) < 2:
+        return x1 * (re / r1), P1 * (re / r1)
+    r0, x0, P0 = history[-2]
+    t = (re - r1) / (r1 - r0)
+    return x1 + t * (x1 - x0), P1 + t * (P1 - P0)
+
+
+def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = True, on_point=None,
+               max_cuts: int = MAX_CUTS) -> list[FlowPoint]:
+    """Steady flows at tip opening ``opening`` [m] at the Reynolds numbers ``reynolds`` (eq 3.87) with the flow
+    rate prescribed (module docstring): the Stokes limit, then Newton (:func:`flux_newton`) continued in Re
+    from the last two solutions with adaptive steps (ratio :data:`RATIO_START` growing to :data:`RATIO_MAX`,
+    square-rooted after a failure). Every converged point is returned (the intermediate ones included;
+    ``on_point(point)`` after each) with its dP an output; stops where a step fails ``max_cuts`` times
+    in a row (the reason on stderr)."""
+    t0 = time.perf_counter()
+    fm = fluid_mesh(valve.reed, valve.seat, opening, valve.shape, valve.mesh)
+    prob = FluxProblem.build(ns3d.assemble(fm.mesh, valve.fluid))
+    xs = ns3d.stokes(prob.system, prob.g, np.zeros(len(prob.system.fixed)))
+    stokes = point_outputs(prob.system, xs, valve, opening, 1.0, 0, time.perf_counter() - t0)
+    out = [stokes]
+    if on_point is not None:
+        on_point(stokes)
+    if progress:
+        print(f"reed_flux x = {opening * 1e3:.3g} mm: {prob.system.ndofs} DOFs, Stokes in {stokes.seconds:.0f} s",
+              file=sys.stderr)
+    history = [(stokes.reynolds, xs, 1.0)]
+    factor, ratio, cuts = None, RATIO_START, 0
+    for aim in sorted(float(r) for r in reynolds):
+        while history[-1][0] < aim * (1 - 1e-9):
+            re = min(aim, history[-1][0] * ratio) if len(history) > 1 else aim
+            re = aim if re * 1.15 >= aim else re
+            t1 = time.perf_counter()
+            try:
+                x, P = _predict(history, re)
+                x, P, steps, factor = flux_newton(prob, _flux_of(valve, re), x, P, factor=factor, progress=progress)
+            except Exception as exc:   # noqa: BLE001 - a failed step is retried shorter or ends the sweep
+                factor = getattr(exc, "factor", factor)
+                print(f"reed_flux x = {opening * 1e3:.3g} mm, Re = {re:.4g}: {exc}", file=sys.stderr)
+                cuts += 1
+                if cuts > max_cuts or len(history) < 2:
+                    _free(factor)
+                    return out
+                ratio = float(np.sqrt(ratio))
+                continue
+            cuts = 0
+            ratio = min(ratio * RATIO_GROWTH, RATIO_MAX) if steps <= QUICK else ratio
+            history = history[-1:] + [(re, x, P)]
+            p = point_outputs(prob.system, x, valve, opening, P, steps, time.perf_counter() - t1)
+            out.append(p)
+            if on_point is not None:
+                on_point(p)
+            if progress:
+                print(f"  Re = {p.reynolds:.4g}: dP = {P:.5g} Pa, Cd = {p.cd:.4f}, X = {p.multiplier:.4f}, mesh Peclet "
+                      f"{p.peclet_p95:.2g} / {p.peclet_max:.2g} ({steps} steps, {p.seconds:.0f} s, "
+                      f"{p.peak_rss_gb:.1f} GB)", file=sys.stderr)
+    _free(factor)
+    return out
+
+
+def _free(factor) -> None:
+    if factor is not None:
+        factor.free()
