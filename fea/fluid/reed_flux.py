@@ -111,6 +111,9 @@ def flux_newton(prob: FluxProblem, flux: float, x0: np.ndarray, P0: float, tol: 
 #: continuation in Re: the first step's ratio Re_(k+1) / Re_k, its growth after a solve of at most
 #: QUICK Newton steps, its largest value; a failed step's ratio is square-rooted (MAX_CUTS times in a row)
 RATIO_START, RATIO_GROWTH, RATIO_MAX, QUICK, MAX_CUTS = 1.3, 1.2, 1.6, 4, 4
+#: a sweep with a pressure cap ends at its first point within this fraction of the cap (as
+#: :func:`fea.fluid.reed3d.pressure_sweep`)
+CAP_NEAR = 0.9
 
 
 def _flux_of(valve: ReedValveFlow, reynolds: float) -> float:
@@ -129,14 +132,28 @@ def _predict(history: list, re: float) -> tuple[np.ndarray, float]:
     return x1 + t * (x1 - x0), P1 + t * (P1 - P0)
 
 
+def _capped(history: list, re: float, dp_max: float | None) -> float:
+    """``re``, or less: the Reynolds number expected at ``dp_max`` [Pa] (Re ~ dP^a, a the last two points'
+    log slope, 1 from the Stokes limit) when ``re`` is expected beyond it."""
+    if dp_max is None:
+        return re
+    r1, _, P1 = history[-1]
+    a = 1.0
+    if len(history) > 1 and history[-2][2] != P1:
+        r0, _, P0 = history[-2]
+        a = float(np.clip(np.log(r1 / r0) / np.log(P1 / P0), 0.3, 1.0))
+    return min(re, r1 * (dp_max / P1) ** a)
+
+
 def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = True, on_point=None,
-               max_cuts: int = MAX_CUTS) -> list[FlowPoint]:
+               max_cuts: int = MAX_CUTS, dp_max: float | None = None) -> list[FlowPoint]:
     """Steady flows at tip opening ``opening`` [m] at the Reynolds numbers ``reynolds`` (eq 3.87) with the flow
     rate prescribed (module docstring): the Stokes limit, then Newton (:func:`flux_newton`) continued in Re
     from the last two solutions with adaptive steps (ratio :data:`RATIO_START` growing to :data:`RATIO_MAX`,
     square-rooted after a failure). Every converged point is returned (the intermediate ones included;
     ``on_point(point)`` after each) with its dP an output; stops where a step fails ``max_cuts`` times
-    in a row (the reason on stderr)."""
+    in a row (the reason on stderr), or at ``dp_max`` [Pa] (the aim lowered to the Re expected there,
+    ``_capped``; the sweep ends at the first point within :data:`CAP_NEAR` of it)."""
     t0 = time.perf_counter()
     fm = fluid_mesh(valve.reed, valve.seat, opening, valve.shape, valve.mesh)
     prob = FluxProblem.build(ns3d.assemble(fm.mesh, valve.fluid))
@@ -152,6 +169,10 @@ def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = 
     factor, ratio, cuts = None, RATIO_START, 0
     for aim in sorted(float(r) for r in reynolds):
         while history[-1][0] < aim * (1 - 1e-9):
+            if dp_max is not None and history[-1][2] >= CAP_NEAR * dp_max:
+                _free(factor)
+                return out
+            aim = _capped(history, aim, dp_max)
             re = min(aim, history[-1][0] * ratio) if len(history) > 1 else aim
             re = aim if re * 1.15 >= aim else re
             t1 = time.perf_counter()
