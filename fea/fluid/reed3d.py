@@ -539,8 +539,9 @@ def reed_point(valve, lift: float, reynolds: float, options=None):
     :class:`fea.fluid.point.FluidValve` whose model names the reed's geometry, or ``flow.geometry``)
     at tip opening ``lift`` [m], aiming at ``reynolds`` (eq 3.87) from the Stokes limit on the default mesh.
 
-    The flow is driven by dP, so the Reynolds number is an output: the point's ``reynolds`` is the
-    one reached (within :data:`REYNOLDS_SLACK` of the aim; ModelFailure otherwise). Options:
+    The flow rate is prescribed (:func:`fea.fluid.reed_flux.flow_sweep`, continued in Re from the
+    Stokes limit) and dP is the output; ModelFailure when the continuation stops short of the aim
+    (by more than :data:`REYNOLDS_SLACK`). Options:
     ``squeeze`` adds ``film`` (the sealing film at ``lift``: ``C1`` = X in the Poiseuille regime,
     ``F4``, ``C2`` = c_sq x^3 [Pa s m^2] and ``c_squeeze`` [Pa s/m], eq 3.21's units);
     ``displacement`` adds f1, f2 and A_Q at tip speeds -+:data:`DISPLACEMENT_SPEED`; ``gci`` runs the
@@ -556,7 +557,9 @@ def reed_point(valve, lift: float, reynolds: float, options=None):
     flow = point_flow(valve)
     progress = bool(opts.get("progress", True))
     t0 = time.process_time()
-    pts = pressure_sweep(flow, lift, (reynolds,), progress=progress)
+    from .reed_flux import flow_sweep      # (it builds on this module)
+
+    pts = flow_sweep(flow, lift, (reynolds,), progress=progress)
     p = pts[-1]
     if len(pts) < 2 or abs(p.reynolds / reynolds - 1.0) > REYNOLDS_SLACK:
         raise ModelFailure(f"3-D flow at x = {lift * 1e3:.4g} mm: the continuation did not reach Re = {reynolds:g} "

@@ -174,7 +174,7 @@ def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = 
                 return out
             aim = _capped(history, aim, dp_max)
             re = min(aim, history[-1][0] * ratio) if len(history) > 1 else aim
-            re = aim if re * 1.15 >= aim else re
+            re = aim if re * 1.15 >= aim and not cuts else re      # no sliver left (but not after a failure)
             t1 = time.perf_counter()
             try:
                 x, P = _predict(history, re)
@@ -186,7 +186,7 @@ def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = 
                 if cuts > max_cuts or len(history) < 2:
                     _free(factor)
                     return out
-                ratio = float(np.sqrt(ratio))
+                ratio = float(np.sqrt(re / history[-1][0]))        # the failed step's ratio, square-rooted
                 continue
             cuts = 0
             ratio = min(ratio * RATIO_GROWTH, RATIO_MAX) if steps <= QUICK else ratio
