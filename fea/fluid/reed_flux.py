@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from . import ns3d
+from . import ns3d, reed3d
 from .reed3d import FlowPoint, ReedValveFlow, point_outputs
 from .reed_mesh import fluid_mesh
 
@@ -59,13 +59,16 @@ class FluxProblem:
         return R, float(-self.g @ x - flux)
 
 
+#: damped Newton steps in a row after which a flow-rate solve is abandoned (a shorter step in Re is cheaper)
+MAX_DAMPED = 2
+
+
 def _weighted_norm(R: np.ndarray, c: float, weight: float) -> float:
     return float(np.hypot(np.linalg.norm(R), weight * c))
 
 
 def flux_newton(prob: FluxProblem, flux: float, x0: np.ndarray, P0: float, tol: float = 1e-6,
-                max_iter: int = 10, factor: ns3d.Factor | None = None, max_damped: int = 2,
-                progress: bool = False) -> tuple[np.ndarray, float, int, ns3d.Factor]:
+                max_iter: int = 10, factor: ns3d.Factor | None = None, progress: bool = False) -> tuple[np.ndarray, float, int, ns3d.Factor]:
     """Steady Navier-Stokes with the inlet's flux prescribed (module docstring): Newton on (x, P) from (x0, P0).
 
     ``flux`` [m^3/s]: int_inlet u . n dA of the half domain (negative: into the domain). The bordered
@@ -73,7 +76,7 @@ def flux_newton(prob: FluxProblem, flux: float, x0: np.ndarray, P0: float, tol: 
     factorization, else a new LU), damped by backtracking on the residual norm with the flux residual
     weighted to the momentum's scale (|g| P / |flux|). Stops when the largest velocity update is below
     ``tol`` of the largest velocity after a full step. Returns (state, P [Pa], steps, factorization);
-    ModelFailure (``.factor`` set) after ``max_iter`` steps or ``max_damped`` damped steps in a row.
+    ModelFailure (``.factor`` set) after ``max_iter`` steps or :data:`MAX_DAMPED` damped steps in a row.
     """
     sys_, free, g = prob.system, prob.free, prob.g
     n3 = 3 * sys_.nv
@@ -103,7 +106,7 @@ def flux_newton(prob: FluxProblem, flux: float, x0: np.ndarray, P0: float, tol: 
         if change < tol and step == 1.0:
             return ns3d.fill_orphans(sys_, x), P, it, factor
         damped = damped + 1 if step < 1.0 else 0
-        if damped >= max_damped:
+        if damped >= MAX_DAMPED:
             raise ns3d._failure(f"flow-rate Newton: {damped} damped steps in a row (last update {change:.2e})", factor)
     raise ns3d._failure(f"flow-rate Newton did not converge in {max_iter} steps (last update {change:.2e})", factor)
 
@@ -206,3 +209,62 @@ def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = 
 def _free(factor) -> None:
     if factor is not None:
         factor.free()
+
+
+# ------------------------------------------------------------------------------ the 3d fidelity's point
+def reed_point(valve, lift: float, reynolds: float, options=None):
+    """The ``3d`` fluid fidelity's point (:mod:`fea.fluid`): a reed valve (a
+    :class:`fea.fluid.point.FluidValve` whose model names the reed's geometry, or ``flow.geometry``)
+    at tip opening ``lift`` [m], aiming at ``reynolds`` (eq 3.87) from the Stokes limit on the default mesh.
+
+    The flow rate is prescribed (:func:`fea.fluid.reed_flux.flow_sweep`, continued in Re from the
+    Stokes limit) and dP is the output; ModelFailure when the continuation stops short of the aim
+    (by more than :data:`fea.fluid.reed3d.REYNOLDS_SLACK`). Options:
+    ``squeeze`` adds ``film`` (the sealing film at ``lift``: ``C1`` = X in the Poiseuille regime,
+    ``F4``, ``C2`` = c_sq x^3 [Pa s m^2] and ``c_squeeze`` [Pa s/m], eq 3.21's units);
+    ``displacement`` adds f1, f2 and A_Q at tip speeds -+:data:`fea.fluid.reed3d.DISPLACEMENT_SPEED`; ``gci`` runs the
+    three meshes of :data:`fea.fluid.reed3d.STUDY_MESHES` at the point's dP and fills ``u_num`` (GCI32 / 1.15).
+    """
+    from geometry.errors import ModelFailure
+
+    from ..convergence import GCI_STANDARD_FACTOR
+    from .point import FlowPoint, check_lift, check_reynolds
+
+    lift, reynolds = check_lift(valve, lift), check_reynolds(reynolds)
+    opts = reed3d.check_point_options(options)
+    flow = reed3d.point_flow(valve)
+    progress = bool(opts.get("progress", True))
+    t0 = time.process_time()
+    pts = flow_sweep(flow, lift, (reynolds,), progress=progress)
+    p = pts[-1]
+    if len(pts) < 2 or abs(p.reynolds / reynolds - 1.0) > reed3d.REYNOLDS_SLACK:
+        raise ModelFailure(f"3-D flow at x = {lift * 1e3:.4g} mm: the continuation did not reach Re = {reynolds:g} "
+                           f"(last converged Re = {p.reynolds:.3g}); see the messages above")
+    extra = {"multiplier_pressure": p.multiplier_pressure, "reynolds_aimed": reynolds,
+             "mesh": {"dofs": int(p.dofs), "size": flow.mesh.size_min, "size_max": flow.mesh.size_max},
+             "seconds": p.seconds, "peak_rss_gb": p.peak_rss_gb,
+             "mesh_peclet": {"p95": p.peclet_p95, "max": p.peclet_max}}
+    if opts.get("squeeze"):
+        from .reed_film import reed_film
+
+        film = reed_film(flow, lift)
+        extra["film"] = {"C1": film.multiplier, "C2": film.squeeze_coefficient * lift**3, "F4": film.base_fraction,
+                         "c_squeeze": film.squeeze_coefficient, "leakage": film.flow}
+    if opts.get("displacement"):
+        moving = reed3d.displacement_sweep(flow, lift, (-reed3d.DISPLACEMENT_SPEED, reed3d.DISPLACEMENT_SPEED), progress=progress)
+        by = {m.speed: m for m in moving}
+        close, open_ = by.get(-reed3d.DISPLACEMENT_SPEED), by.get(reed3d.DISPLACEMENT_SPEED)
+        extra["displacement"] = {"f1": close.fraction if close else None, "f2": open_.fraction if open_ else None,
+                                 "A_Q_closing": close.area if close else None,
+                                 "A_Q_opening": open_.area if open_ else None}
+    u_num = {}
+    if opts.get("gci"):
+        study = reed3d.mesh_study(flow, lift, (p.dp,), progress=progress)
+        band = study.get(p.dp, {})
+        u_num = {"cd" if k == "cd" else ("pressure_load_multiplier" if k == "multiplier" else k):
+                 float(g.u_coarse / GCI_STANDARD_FACTOR) for k, g in band.items()}
+        extra["mesh_study"] = {"dofs": study["dofs"], "seconds": study["seconds"], "peak_rss_gb": study["peak_rss_gb"]}
+    extra["cpu_seconds"] = time.process_time() - t0
+    return FlowPoint(lift=lift, reynolds=p.reynolds, flow=p.flow, dp=p.dp, cd=float(p.cd), force=p.force,
+                     force_coefficient=p.force / (p.dp * flow.reed.face_area), pressure_load_multiplier=p.multiplier,
+                     u_num=u_num, extra=extra)
