@@ -114,6 +114,9 @@ def flux_newton(prob: FluxProblem, flux: float, x0: np.ndarray, P0: float, tol: 
 #: continuation in Re: the first step's ratio Re_(k+1) / Re_k, its growth after a solve of at most
 #: QUICK Newton steps, its largest value; a failed step's ratio is square-rooted (MAX_CUTS times in a row)
 RATIO_START, RATIO_GROWTH, RATIO_MAX, QUICK, MAX_CUTS = 1.3, 1.2, 1.6, 4, 4
+#: a sweep ends when a failed step's ratio square-rooted falls below this (steps of a few per cent in Re
+#: that fail in turn: the branch is near a singular point, measured on the prototype, docs/fluid.md)
+RATIO_MIN = 1.05
 #: a sweep with a pressure cap ends at its first point within this fraction of the cap (as
 #: :func:`fea.fluid.reed3d.pressure_sweep`)
 CAP_NEAR = 0.9
@@ -153,7 +156,7 @@ def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = 
     """Steady flows at tip opening ``opening`` [m] at the Reynolds numbers ``reynolds`` (eq 3.87) with the flow
     rate prescribed (module docstring): the Stokes limit, then Newton (:func:`flux_newton`) continued in Re
     from the last two solutions with adaptive steps (ratio :data:`RATIO_START` growing to :data:`RATIO_MAX`,
-    square-rooted after a failure). Every converged point is returned (the intermediate ones included;
+    the failed step's square-rooted after a failure, the sweep ended below :data:`RATIO_MIN`). Every converged point is returned (the intermediate ones included;
     ``on_point(point)`` after each) with its dP an output; stops where a step fails ``max_cuts`` times
     in a row (the reason on stderr), or at ``dp_max`` [Pa] (the aim lowered to the Re expected there,
     ``_capped``; the sweep ends at the first point within :data:`CAP_NEAR` of it)."""
@@ -186,10 +189,10 @@ def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = 
                 factor = getattr(exc, "factor", factor)
                 print(f"reed_flux x = {opening * 1e3:.3g} mm, Re = {re:.4g}: {exc}", file=sys.stderr)
                 cuts += 1
-                if cuts > max_cuts or len(history) < 2:
+                ratio = float(np.sqrt(re / history[-1][0]))        # the failed step's ratio, square-rooted
+                if cuts > max_cuts or len(history) < 2 or ratio < RATIO_MIN:
                     _free(factor)
                     return out
-                ratio = float(np.sqrt(re / history[-1][0]))        # the failed step's ratio, square-rooted
                 continue
             cuts = 0
             ratio = min(ratio * RATIO_GROWTH, RATIO_MAX) if steps <= QUICK else ratio
