@@ -123,7 +123,7 @@ def test_an_interrupted_characterisation_resumes_from_its_log(valve, tmp_path, m
 
 def test_the_cost_estimate_counts_the_solves():
     c = reed_compact.cost_estimate()
-    n_open, n_re = len(reed_compact.OPENING_FRACTIONS), len(reed_compact.REYNOLDS)
+    n_open, n_re = len(reed_compact.OPENING_FRACTIONS), reed_compact.SWEEP_POINTS
     n_move = len(reed_compact.DISPLACEMENT_FRACTIONS)
     assert c["stokes"] == n_open + n_move and c["newton"] == n_open * n_re + 2 * n_move
     lo, hi = c["wall_seconds"]

@@ -251,11 +251,16 @@ STOKES_SECONDS = {"wall": (25.0, 110.0), "cpu": 20.0}
 NEWTON_SECONDS = {"wall": (40.0, 600.0), "cpu": 40.0}
 
 
+#: Navier-Stokes solves of one flow-rate sweep, failed steps included (the prototype's: 1-11 points and
+#: 0-6 failed steps per opening, 40 points in all)
+SWEEP_POINTS = 12
+
+
 def cost_estimate() -> dict:
     """What a characterisation solves and how long that takes, from the measured per-solve costs:
     {"stokes", "newton" (at most), "wall_seconds" (low, high), "cpu_seconds"}."""
     stokes = len(OPENING_FRACTIONS) + len(DISPLACEMENT_FRACTIONS)
-    newton = len(OPENING_FRACTIONS) * len(REYNOLDS) + 2 * len(DISPLACEMENT_FRACTIONS)
+    newton = len(OPENING_FRACTIONS) * SWEEP_POINTS + 2 * len(DISPLACEMENT_FRACTIONS)
     wall = tuple(stokes * a + newton * b for a, b in zip(STOKES_SECONDS["wall"], NEWTON_SECONDS["wall"]))
     return {"stokes": stokes, "newton": newton, "wall_seconds": wall,
             "cpu_seconds": stokes * STOKES_SECONDS["cpu"] + newton * NEWTON_SECONDS["cpu"]}
