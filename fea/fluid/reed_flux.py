@@ -68,7 +68,8 @@ def _weighted_norm(R: np.ndarray, c: float, weight: float) -> float:
 
 
 def flux_newton(prob: FluxProblem, flux: float, x0: np.ndarray, P0: float, tol: float = 1e-6,
-                max_iter: int = 10, factor: ns3d.Factor | None = None, progress: bool = False) -> tuple[np.ndarray, float, int, ns3d.Factor]:
+                max_iter: int = 10, factor: ns3d.Factor | None = None,
+                progress: bool = False) -> tuple[np.ndarray, float, int, ns3d.Factor]:
     """Steady Navier-Stokes with the inlet's flux prescribed (module docstring): Newton on (x, P) from (x0, P0).
 
     ``flux`` [m^3/s]: int_inlet u . n dA of the half domain (negative: into the domain). The bordered
@@ -156,8 +157,9 @@ def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = 
     """Steady flows at tip opening ``opening`` [m] at the Reynolds numbers ``reynolds`` (eq 3.87) with the flow
     rate prescribed (module docstring): the Stokes limit, then Newton (:func:`flux_newton`) continued in Re
     from the last two solutions with adaptive steps (ratio :data:`RATIO_START` growing to :data:`RATIO_MAX`,
-    the failed step's square-rooted after a failure, the sweep ended below :data:`RATIO_MIN`). Every converged point is returned (the intermediate ones included;
-    ``on_point(point)`` after each) with its dP an output; stops where a step fails ``max_cuts`` times
+    the failed step's square-rooted after a failure, the sweep ended below :data:`RATIO_MIN`). Every
+    converged point is returned (the intermediate ones included; ``on_point(point)`` after each) with its
+    dP an output; stops where a step fails ``max_cuts`` times
     in a row (the reason on stderr), or at ``dp_max`` [Pa] (the aim lowered to the Re expected there,
     ``_capped``; the sweep ends at the first point within :data:`CAP_NEAR` of it)."""
     t0 = time.perf_counter()
@@ -254,7 +256,8 @@ def reed_point(valve, lift: float, reynolds: float, options=None):
         extra["film"] = {"C1": film.multiplier, "C2": film.squeeze_coefficient * lift**3, "F4": film.base_fraction,
                          "c_squeeze": film.squeeze_coefficient, "leakage": film.flow}
     if opts.get("displacement"):
-        moving = reed3d.displacement_sweep(flow, lift, (-reed3d.DISPLACEMENT_SPEED, reed3d.DISPLACEMENT_SPEED), progress=progress)
+        speed = reed3d.DISPLACEMENT_SPEED
+        moving = reed3d.displacement_sweep(flow, lift, (-speed, speed), progress=progress)
         by = {m.speed: m for m in moving}
         close, open_ = by.get(-reed3d.DISPLACEMENT_SPEED), by.get(reed3d.DISPLACEMENT_SPEED)
         extra["displacement"] = {"f1": close.fraction if close else None, "f2": open_.fraction if open_ else None,
