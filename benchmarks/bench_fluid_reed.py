@@ -5,8 +5,9 @@
 Prints one JSON object: the load average when it started (timings on a loaded machine are
 not the code's), the thin film of the prototype (seconds per point, DOFs, X, F4), the cost the
 shipped compact forms of the prototype recorded when they were computed; with
-``--point`` one 3-D point (the default mesh at 0.5 mm: Stokes and one Navier-Stokes solve near
-Re 10; DOFs, seconds, peak resident memory of that process); with ``--forms`` the
+``--point`` one 3-D point (the default mesh at 0.5 mm: Stokes and the flow-rate continuation to
+Re 10; DOFs, seconds, peak resident memory of that process; ``benchmarks/reed3d_flux.py`` prints
+each point of a continuation); with ``--forms`` the
 prototype's compact forms computed afresh (wall and CPU seconds, the fitted forms); with
 ``--grooves`` the film's leakage at 0.024 and 0.095 mm with the grooves' depth scaled (0: none;
 the rectangular duct's conductance; 0.5; 10) and its element size halved (the check of the
@@ -26,7 +27,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from fea.fluid import reed3d, reed_film  # noqa: E402
+from fea.fluid import reed3d, reed_film, reed_flux  # noqa: E402
 
 #: the 3-D point's target (one point: under 5 min and 8 GB on the 2-core machine)
 POINT_OPENING = 0.5e-3
@@ -46,7 +47,7 @@ def film_row() -> dict:
 def point_row() -> dict:
     valve = reed3d.prototype_valve()
     t = time.perf_counter()
-    pts = reed3d.pressure_sweep(valve, POINT_OPENING, (POINT_REYNOLDS,), progress=True)
+    pts = reed_flux.flow_sweep(valve, POINT_OPENING, (POINT_REYNOLDS,), progress=True)
     last = pts[-1]
     return {"point_opening_mm": POINT_OPENING * 1e3, "point_reynolds": round(last.reynolds, 3),
             "point_cd": round(last.cd, 5), "point_X": round(last.multiplier, 5), "point_dofs": int(last.dofs),

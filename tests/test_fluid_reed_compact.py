@@ -55,7 +55,7 @@ def test_multiplier_table_finds_the_zero():
 
 # ------------------------------------------------------------------------------ the run and its log
 def _fake_solvers(monkeypatch, fail_at=None):
-    """pressure_sweep / displacement_sweep / reed_film replaced by closed forms (Q = G x^3 dP), counting calls;
+    """flow_sweep / displacement_sweep / reed_film replaced by closed forms (Q = G x^3 dP), counting calls;
     the pressure sweep at opening ``fail_at`` [m] raises (an interrupted run) after logging its first point."""
     from dataclasses import dataclass
 
@@ -93,7 +93,7 @@ def _fake_solvers(monkeypatch, fail_at=None):
         calls["moving"].append(x)
         return [M(x, u, 0.23) for u in (0.0, *speeds)]
 
-    monkeypatch.setattr(reed_compact, "pressure_sweep", pressure)
+    monkeypatch.setattr(reed_compact, "flow_sweep", pressure)
     monkeypatch.setattr(reed_compact, "displacement_sweep", moving)
     monkeypatch.setattr(reed_compact, "reed_film", lambda valve, x: F())
     return calls
@@ -123,7 +123,7 @@ def test_an_interrupted_characterisation_resumes_from_its_log(valve, tmp_path, m
 
 def test_the_cost_estimate_counts_the_solves():
     c = reed_compact.cost_estimate()
-    n_open, n_re = len(reed_compact.OPENING_FRACTIONS), len(reed_compact.REYNOLDS)
+    n_open, n_re = len(reed_compact.OPENING_FRACTIONS), reed_compact.SWEEP_POINTS
     n_move = len(reed_compact.DISPLACEMENT_FRACTIONS)
     assert c["stokes"] == n_open + n_move and c["newton"] == n_open * n_re + 2 * n_move
     lo, hi = c["wall_seconds"]

@@ -93,8 +93,8 @@ _fluid_forms.register("reed", _reed_predicted)
 
 
 def _reed_point(valve, lift, reynolds, options=None):
-    """The reed's 3-D point (:func:`fea.fluid.reed3d.reed_point`, imported when asked)."""
-    from .reed3d import reed_point
+    """The reed's 3-D point (:func:`fea.fluid.reed_flux.reed_point`, imported when asked)."""
+    from .reed_flux import reed_point
 
     return reed_point(valve, lift, reynolds, options)
 

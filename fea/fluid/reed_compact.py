@@ -2,8 +2,9 @@
 
 :func:`characterise` runs, for one reed valve (:class:`fea.fluid.reed3d.ReedValveFlow`):
 
-- pressure sweeps (:func:`fea.fluid.reed3d.pressure_sweep`) at tip openings that are
-  fractions of the stop gap (:data:`OPENING_FRACTIONS`), aiming at the Reynolds numbers of
+- flow sweeps (:func:`fea.fluid.reed_flux.flow_sweep`: the flow rate prescribed, continued in
+  the Reynolds number through any fold in dP) at tip openings that are
+  fractions of the stop gap (:data:`OPENING_FRACTIONS`), to the Reynolds numbers of
   eq 3.87 in :data:`REYNOLDS` (up to the pump's maximum) as far as the pressure differences a
   reed held open by its stiffness sees (:func:`fea.fluid.reed3d.pressure_cap`): a small
   opening never carries the pump's largest flows;
@@ -41,11 +42,12 @@ from pathlib import Path
 import numpy as np
 
 from .compact import cache_dir, fit_cd, store, stored
-from .reed3d import ReedValveFlow, displacement_sweep, pressure_cap, pressure_sweep
+from .reed3d import ReedValveFlow, displacement_sweep, pressure_cap
+from .reed_flux import flow_sweep
 from .reed_film import reed_film
 
 #: version of the reed forms (part of the cache key)
-FORMS_VERSION = "reed-1"
+FORMS_VERSION = "reed-3"
 #: tip openings of the pressure sweeps, fractions of the stop gap (0.1 to 1.7 mm for the prototype)
 OPENING_FRACTIONS = (0.05, 0.15, 0.3, 0.5, 0.7, 0.9)
 #: Reynolds numbers of eq 3.87 aimed at (the thesis pump peaks near 62: 1.1e-4 m^3/s at 893 rpm)
@@ -145,7 +147,7 @@ def characterise(valve: ReedValveFlow, progress: bool = True, log=None, parts=PA
 
     rows, moving = [], []
     for f in OPENING_FRACTIONS if "pressure" in parts else ():
-        rows += sweep("pressure", f, lambda x, keep: pressure_sweep(
+        rows += sweep("pressure", f, lambda x, keep: flow_sweep(
             valve, x, REYNOLDS, progress=progress, on_point=keep, dp_max=pressure_cap(valve, x)))
     for f in DISPLACEMENT_FRACTIONS if "moving" in parts else ():
         moving += sweep("moving", f, lambda x, keep: [keep(p) for p in displacement_sweep(
@@ -249,11 +251,16 @@ STOKES_SECONDS = {"wall": (25.0, 110.0), "cpu": 20.0}
 NEWTON_SECONDS = {"wall": (40.0, 600.0), "cpu": 40.0}
 
 
+#: Navier-Stokes solves of one flow-rate sweep, failed steps included (the prototype's: 1-11 points and
+#: 0-6 failed steps per opening, 40 points in all)
+SWEEP_POINTS = 12
+
+
 def cost_estimate() -> dict:
     """What a characterisation solves and how long that takes, from the measured per-solve costs:
     {"stokes", "newton" (at most), "wall_seconds" (low, high), "cpu_seconds"}."""
     stokes = len(OPENING_FRACTIONS) + len(DISPLACEMENT_FRACTIONS)
-    newton = len(OPENING_FRACTIONS) * len(REYNOLDS) + 2 * len(DISPLACEMENT_FRACTIONS)
+    newton = len(OPENING_FRACTIONS) * SWEEP_POINTS + 2 * len(DISPLACEMENT_FRACTIONS)
     wall = tuple(stokes * a + newton * b for a, b in zip(STOKES_SECONDS["wall"], NEWTON_SECONDS["wall"]))
     return {"stokes": stokes, "newton": newton, "wall_seconds": wall,
             "cpu_seconds": stokes * STOKES_SECONDS["cpu"] + newton * NEWTON_SECONDS["cpu"]}

@@ -1,0 +1,60 @@
+"""The reed's 3-D flow continued in the Reynolds number at a prescribed flow rate (fea.fluid.reed_flux).
+
+    python benchmarks/reed3d_flux.py --opening MM [--mesh coarse|default|fine] [--re 1 3 10 20 40 60] [--log FILE]
+
+Prints one JSON line per converged point (opening, mesh, DOFs, Re, dP, Cd, eq 3.89's Cd at that Re,
+X, mesh Peclet, Newton steps, seconds, peak memory, load average) on stdout (and appends it to --log):
+whether dP(Re) has a maximum (a fold of the dP-driven problem) and how Cd follows eq 3.89.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from dataclasses import asdict, replace
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from fea.fluid import reed3d, reed_flux  # noqa: E402
+
+MESHES = dict(zip(("coarse", "default", "fine"), reed3d.STUDY_MESHES))
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--opening", type=float, required=True, help="tip opening [mm]")
+    ap.add_argument("--mesh", choices=tuple(MESHES), default="default")
+    ap.add_argument("--re", type=float, nargs="+", default=[1, 3, 10, 20, 40, 60])
+    ap.add_argument("--log")
+    args = ap.parse_args(argv)
+    valve = replace(reed3d.prototype_valve(), mesh=MESHES[args.mesh])
+    cd_law = _cd_law()
+
+    def emit(p):
+        row = {k: round(float(v), 7) for k, v in asdict(p).items()}
+        row.update(opening_mm=args.opening, mesh=args.mesh, cd_eq389=round(cd_law(p.reynolds), 6),
+                   loadavg=os.getloadavg()[0])
+        line = json.dumps(row)
+        print(line, flush=True)
+        if args.log:
+            with open(args.log, "a") as fh:
+                fh.write(line + "\n")
+    reed_flux.flow_sweep(valve, args.opening * 1e-3, args.re, on_point=emit)
+
+
+def _cd_law():
+    """Cd(Re) of eq 3.89 with the thesis-reed model's constants (the flow bench's fit)."""
+    import math
+
+    from lumped.fluid.orifice import discharge_coefficient
+    from lumped.model.model_file import load_model
+
+    v = load_model("thesis-reed").inlet
+    return lambda re: float(discharge_coefficient(math.sqrt(re), v.cd_inf, v.cd_a, v.cd_b, v.cd_c))
+
+
+if __name__ == "__main__":
+    main()

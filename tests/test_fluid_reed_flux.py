@@ -1,0 +1,87 @@
+"""The reed's 3-D flow at a prescribed flow rate (fea.fluid.reed_flux): closed forms and the dP-driven solver.
+
+Fast: the bordered (Lagrange-multiplier) Newton in a rectangular duct returns the series
+solution's pressure difference for the series flow rate at Re ~ 40. Slow (``-m slow``): on the
+prototype (coarse mesh, 1.71 mm) the flow-rate continuation passes Re 10 to 15 with dP rising,
+and its point at Re 10 is the dP-driven solver's at the same dP.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import skfem
+
+from fea.fluid import ns3d, reed_flux
+
+MU, RHO = 0.0683, 876.0
+A, B, LD = 1.0e-3, 0.25e-3, 6.0e-3       # duct half width, half height, length [m]
+
+
+def _duct(n: int) -> skfem.MeshTet:
+    m = skfem.MeshTet.init_tensor(np.linspace(0, LD, 3 * n + 1), np.linspace(-A, A, 2 * n + 1),
+                                  np.linspace(-B, B, max(2, n // 2) + 1))
+    return m.with_boundaries({"inlet": lambda x: np.isclose(x[0], 0.0), "outlet": lambda x: np.isclose(x[0], LD),
+                              "wall": lambda x: np.isclose(np.abs(x[1]), A) | np.isclose(np.abs(x[2]), B)})
+
+
+def _duct_dp(q: float) -> float:
+    """dP [Pa] that drives Q [m^3/s] through the 2a x 2b duct of length L (White, Viscous Fluid Flow, eq 3-48)."""
+    n = np.arange(1, 400, 2)
+    series = 1 - 192 * B / (np.pi**5 * A) * np.sum(np.tanh(n * np.pi * A / (2 * B)) / n**5)
+    return q * 3 * MU * LD / (4 * A * B**3 * series)
+
+
+def test_prescribed_flow_rate_gives_the_series_pressure_difference():
+    # the flow rate of the series at 1e5 Pa (Re ~ 40 on the hydraulic diameter) prescribed: the inlet
+    # pressure the bordered Newton finds, from half the Stokes state and half the pressure, is the
+    # series' within 1 %, and the flux is met to round-off
+    system = ns3d.assemble(_duct(4), ns3d.Fluid(RHO, MU), symmetry="none")
+    prob = reed_flux.FluxProblem.build(system)
+    q = 4 * A * B**3 * 1e5 / (3 * MU * LD)                          # of the order of the series' flow
+    dp_series = _duct_dp(q)
+    x0 = ns3d.stokes(system, dp_series * prob.g, np.zeros(len(system.fixed)))
+    x, P, steps, factor = reed_flux.flux_newton(prob, -q, 0.5 * x0, 0.5 * dp_series)
+    factor.free()
+    assert RHO * q / (4 * A * B) * (4 * A * B / (A + B)) / MU > 30.0
+    assert P == pytest.approx(dp_series, rel=0.01)
+    assert -ns3d.boundary_flux(system, x, "inlet") == pytest.approx(q, rel=1e-9)
+    assert steps <= 8
+
+
+def test_the_reynolds_number_sets_the_half_domains_flux():
+    # eq 3.87: Re = 4 rho Q / (p_o mu) with Q both halves; the half domain's inlet outflux is -Q / 2
+    from types import SimpleNamespace
+
+    valve = SimpleNamespace(orifice_perimeter=0.0912, fluid=ns3d.Fluid(RHO, MU))
+    flux = reed_flux._flux_of(valve, 40.0)
+    assert 4 * RHO * (-2.0 * flux) / (0.0912 * MU) == pytest.approx(40.0, rel=1e-12)
+
+
+def test_the_aim_is_lowered_to_the_pressure_cap():
+    # Stokes-like history (Re ~ dP): the Re expected at the cap is proportional; with Re ~ dP^0.5, its root
+    x = np.zeros(3)
+    assert reed_flux._capped([(0.01, x, 1.0)], 5.0, 100.0) == pytest.approx(1.0)
+    hist = [(1.0, x, 100.0), (2.0, x, 400.0)]
+    assert reed_flux._capped(hist, 50.0, 1600.0) == pytest.approx(4.0)
+    assert reed_flux._capped(hist, 3.0, 1600.0) == 3.0 and reed_flux._capped(hist, 3.0, None) == 3.0
+
+
+@pytest.mark.slow
+def test_flow_rate_continuation_on_the_prototype_matches_the_pressure_driven_solve():
+    # coarse mesh at 1.71 mm: the flow-rate continuation reaches Re 15 with dP rising at each point;
+    # the dP-driven Newton at its Re-10 point's dP returns its flow (the same discrete problem: the
+    # Lagrange multiplier is the inlet pressure) within 1e-5
+    from dataclasses import replace
+
+    from fea.fluid import reed3d
+
+    valve = replace(reed3d.prototype_valve(), mesh=reed3d.STUDY_MESHES[0])
+    pts = reed_flux.flow_sweep(valve, 1.71e-3, (1.0, 10.0, 15.0), progress=False)
+    assert pts[-1].reynolds == pytest.approx(15.0, rel=1e-6)
+    dps = [p.dp for p in pts[1:]]
+    assert all(b > a for a, b in zip(dps, dps[1:]))
+    at10 = next(p for p in pts if abs(p.reynolds - 10.0) < 1e-6)
+    ref = reed3d.pressure_sweep(valve, 1.71e-3, dps=(at10.dp / 4, at10.dp / 2, at10.dp), progress=False)[-1]
+    assert ref.flow == pytest.approx(at10.flow, rel=1e-5)
+    assert ref.multiplier == pytest.approx(at10.multiplier, rel=1e-5)
