@@ -18,22 +18,7 @@ from skfem import ElementTetP1, FacetBasis, Functional
 from fea.fluid import ns3d, reed3d
 from fea.fluid.reed_mesh import Layers, MeshOptions, fluid_mesh
 
-MU, RHO = 0.0683, 876.0
-A, B, LD = 1.0e-3, 0.25e-3, 6.0e-3       # duct half width, half height, length [m]
-
-
-def _duct(n: int) -> skfem.MeshTet:
-    m = skfem.MeshTet.init_tensor(np.linspace(0, LD, 3 * n + 1), np.linspace(-A, A, 2 * n + 1),
-                                  np.linspace(-B, B, max(2, n // 2) + 1))
-    return m.with_boundaries({"inlet": lambda x: np.isclose(x[0], 0.0), "outlet": lambda x: np.isclose(x[0], LD),
-                              "wall": lambda x: np.isclose(np.abs(x[1]), A) | np.isclose(np.abs(x[2]), B)})
-
-
-def _duct_flow(dp: float) -> float:
-    """Q of the 2a x 2b duct of length L (White, Viscous Fluid Flow, eq 3-48)."""
-    n = np.arange(1, 400, 2)
-    series = 1 - 192 * B / (np.pi**5 * A) * np.sum(np.tanh(n * np.pi * A / (2 * B)) / n**5)
-    return 4 * A * B**3 * dp / (3 * MU * LD) * series
+from duct import A, B, MU, RHO, duct as _duct, duct_flow as _duct_flow
 
 
 @pytest.fixture(scope="module")
