@@ -33,6 +33,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from lumped.reed.fluid import orifice_reynolds
+
 from . import ns3d, reed3d
 from .reed3d import FlowPoint, ReedValveFlow, point_outputs
 from .reed_mesh import fluid_mesh
@@ -118,14 +120,13 @@ RATIO_START, RATIO_GROWTH, RATIO_MAX, QUICK, MAX_CUTS = 1.3, 1.2, 1.6, 4, 4
 #: a sweep ends when a failed step's ratio square-rooted falls below this (steps of a few per cent in Re
 #: that fail in turn: the branch is near a singular point, measured on the prototype, docs/fluid.md)
 RATIO_MIN = 1.05
-#: a sweep with a pressure cap ends at its first point within this fraction of the cap (as
-#: :func:`fea.fluid.reed3d.pressure_sweep`)
-CAP_NEAR = 0.9
 
 
 def _flux_of(valve: ReedValveFlow, reynolds: float) -> float:
-    """The half domain's inlet outflux [m^3/s] at Reynolds number ``reynolds`` (eq 3.87, Re = 4 rho Q / (p_o mu))."""
-    return -0.5 * reynolds * valve.orifice_perimeter * valve.fluid.mu / (4.0 * valve.fluid.rho)
+    """The half domain's inlet outflux [m^3/s] at Reynolds number ``reynolds``: eq 3.87
+    (:func:`lumped.reed.fluid.orifice_reynolds`, linear in Q) inverted, half the flow, into the domain."""
+    per_flow = float(orifice_reynolds(1.0, valve.fluid.rho, valve.orifice_perimeter, valve.fluid.mu))
+    return -0.5 * reynolds / per_flow
 
 
 def _predict(history: list, re: float) -> tuple[np.ndarray, float]:
@@ -161,7 +162,8 @@ def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = 
     converged point is returned (the intermediate ones included; ``on_point(point)`` after each) with its
     dP an output; stops where a step fails ``max_cuts`` times
     in a row (the reason on stderr), or at ``dp_max`` [Pa] (the aim lowered to the Re expected there,
-    ``_capped``; the sweep ends at the first point within :data:`CAP_NEAR` of it)."""
+    ``_capped``; the sweep ends at the first point within :data:`fea.fluid.reed3d.CAP_NEAR` of it, as
+    :func:`fea.fluid.reed3d.pressure_sweep`)."""
     t0 = time.perf_counter()
     fm = fluid_mesh(valve.reed, valve.seat, opening, valve.shape, valve.mesh)
     prob = FluxProblem.build(ns3d.assemble(fm.mesh, valve.fluid))
@@ -177,7 +179,7 @@ def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = 
     factor, ratio, cuts = None, RATIO_START, 0
     for aim in sorted(float(r) for r in reynolds):
         while history[-1][0] < aim * (1 - 1e-9):
-            if dp_max is not None and history[-1][2] >= CAP_NEAR * dp_max:
+            if dp_max is not None and history[-1][2] >= reed3d.CAP_NEAR * dp_max:
                 _free(factor)
                 return out
             aim = _capped(history, aim, dp_max)
