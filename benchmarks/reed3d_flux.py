@@ -1,10 +1,13 @@
 """The reed's 3-D flow continued in the Reynolds number at a prescribed flow rate (fea.fluid.reed_flux).
 
     python benchmarks/reed3d_flux.py --opening MM [--mesh coarse|default|fine] [--re 1 3 10 20 40 60] [--log FILE]
+        [--grad-div GAMMA_OVER_MU] [--eigs K]
 
 Prints one JSON line per converged point (opening, mesh, DOFs, Re, dP, Cd, eq 3.89's Cd at that Re,
 X, mesh Peclet, Newton steps, seconds, peak memory, load average) on stdout (and appends it to --log):
 whether dP(Re) has a maximum (a fold of the dP-driven problem) and how Cd follows eq 3.89.
+``--grad-div``: the grad-div term's gamma / mu; ``--eigs K``: the K eigenvalues nearest zero of the
+bordered Jacobian at every point (``reed_flux.spectrum``: a fold or bifurcation where one reaches zero).
 """
 
 from __future__ import annotations
@@ -29,20 +32,32 @@ def main(argv=None) -> None:
     ap.add_argument("--mesh", choices=tuple(MESHES), default="default")
     ap.add_argument("--re", type=float, nargs="+", default=[1, 3, 10, 20, 40, 60])
     ap.add_argument("--log")
+    ap.add_argument("--grad-div", type=float, default=0.0)
+    ap.add_argument("--eigs", type=int, default=0)
     args = ap.parse_args(argv)
-    valve = replace(reed3d.prototype_valve(), mesh=MESHES[args.mesh])
+    valve = replace(reed3d.prototype_valve(), mesh=MESHES[args.mesh], grad_div=args.grad_div)
     cd_law = _cd_law()
+    tags = {"opening_mm": args.opening, "mesh": args.mesh, "grad_div": args.grad_div}
 
     def emit(p):
         row = {k: round(float(v), 7) for k, v in asdict(p).items()}
-        row.update(opening_mm=args.opening, mesh=args.mesh, cd_eq389=round(cd_law(p.reynolds), 6),
-                   loadavg=os.getloadavg()[0])
-        line = json.dumps(row)
-        print(line, flush=True)
-        if args.log:
-            with open(args.log, "a") as fh:
-                fh.write(line + "\n")
-    reed_flux.flow_sweep(valve, args.opening * 1e-3, args.re, on_point=emit)
+        row.update(tags, cd_eq389=round(cd_law(p.reynolds), 6), loadavg=os.getloadavg()[0])
+        _write(row, args.log)
+
+    def emit_state(prob, x, P, p):
+        if args.eigs:
+            vals = reed_flux.spectrum(prob, x, args.eigs)
+            _write(dict(tags, reynolds=p.reynolds, eigenvalues=[[round(float(v.real), 6), round(float(v.imag), 6)]
+                                                                 for v in vals]), args.log)
+    reed_flux.flow_sweep(valve, args.opening * 1e-3, args.re, on_point=emit, on_state=emit_state)
+
+
+def _write(row: dict, log: str | None) -> None:
+    line = json.dumps(row)
+    print(line, flush=True)
+    if log:
+        with open(log, "a") as fh:
+            fh.write(line + "\n")
 
 
 def _cd_law():

@@ -46,7 +46,8 @@ class ReedValveFlow:
     ``shape``: (s [m], psi) with psi(L) = 1 (the deflected shape and the mode function);
     ``orifice_length`` l_o [m] and ``orifice_perimeter`` p_o [m] define Cd and Re (eqs 3.25,
     3.86); ``area_min`` A_1 and ``area_max`` A_2 [m^2] define f (eq 3.26); ``stiffness``
-    kappa [Pa/m] (eq 3.30) sets the pressure differences worth computing (:func:`pressure_cap`).
+    kappa [Pa/m] (eq 3.30) sets the pressure differences worth computing (:func:`pressure_cap`);
+    ``grad_div`` gamma / mu of the flow-rate solves' grad-div term (:func:`fea.fluid.ns3d.grad_div_matrix`).
     """
 
     reed: Reed
@@ -59,6 +60,7 @@ class ReedValveFlow:
     area_max: float
     stiffness: float
     mesh: MeshOptions = field(default_factory=MeshOptions)
+    grad_div: float = 0.0        # gamma / mu of the grad-div stabilisation (ns3d.grad_div_matrix; 0: none)
 
     def psi(self, s):
         """psi(s) on the reed (interpolated shape; 0 before the clamp, psi(L) beyond the tip)."""

@@ -89,8 +89,7 @@ def flux_newton(prob: FluxProblem, flux: float, x0: np.ndarray, P0: float, tol: 
     x, P, damped, kry, change = x0.copy(), float(P0), 0, 0, np.inf
     for it in range(1, max_iter + 1):
         t0 = time.perf_counter()
-        J = ns3d._saddle(sys_, ns3d._velocity_block(sys_, x[:n3], True))[free][:, free]
-        Jb = sp.bmat([[J, -gf[:, None]], [-gf[None, :], None]], format="csr")
+        Jb = bordered_jacobian(prob, x)
         R, c = prob.residual(x, P, flux)
         factor = ns3d._refresh(factor, kry)
         d, factor, kry = ns3d._newton_step(Jb, np.append(R, c), factor)
@@ -154,7 +153,7 @@ def _capped(history: list, re: float, dp_max: float | None) -> float:
 
 
 def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = True, on_point=None,
-               max_cuts: int = MAX_CUTS, dp_max: float | None = None) -> list[FlowPoint]:
+               max_cuts: int = MAX_CUTS, dp_max: float | None = None, on_state=None) -> list[FlowPoint]:
     """Steady flows at tip opening ``opening`` [m] at the Reynolds numbers ``reynolds`` (eq 3.87) with the flow
     rate prescribed (module docstring): the Stokes limit, then Newton (:func:`flux_newton`) continued in Re
     from the last two solutions with adaptive steps (ratio :data:`RATIO_START` growing to :data:`RATIO_MAX`,
@@ -163,10 +162,11 @@ def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = 
     dP an output; stops where a step fails ``max_cuts`` times
     in a row (the reason on stderr), or at ``dp_max`` [Pa] (the aim lowered to the Re expected there,
     ``_capped``; the sweep ends at the first point within :data:`fea.fluid.reed3d.CAP_NEAR` of it, as
-    :func:`fea.fluid.reed3d.pressure_sweep`)."""
+    :func:`fea.fluid.reed3d.pressure_sweep`). ``on_state(problem, x, P, point)`` after each Navier-Stokes
+    point, with its state (e.g. for :func:`spectrum`)."""
     t0 = time.perf_counter()
     fm = fluid_mesh(valve.reed, valve.seat, opening, valve.shape, valve.mesh)
-    prob = FluxProblem.build(ns3d.assemble(fm.mesh, valve.fluid))
+    prob = FluxProblem.build(ns3d.assemble(fm.mesh, valve.fluid, grad_div=valve.grad_div * valve.fluid.mu))
     xs = ns3d.stokes(prob.system, prob.g, np.zeros(len(prob.system.fixed)))
     stokes = point_outputs(prob.system, xs, valve, opening, 1.0, 0, time.perf_counter() - t0)
     out = [stokes]
@@ -205,12 +205,47 @@ def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = 
             out.append(p)
             if on_point is not None:
                 on_point(p)
+            if on_state is not None:
+                on_state(prob, x, P, p)
             if progress:
                 print(f"  Re = {p.reynolds:.4g}: dP = {P:.5g} Pa, Cd = {p.cd:.4f}, X = {p.multiplier:.4f}, mesh Peclet "
                       f"{p.peclet_p95:.2g} / {p.peclet_max:.2g} ({steps} steps, {p.seconds:.0f} s, "
                       f"{p.peak_rss_gb:.1f} GB)", file=sys.stderr)
     _free(factor)
     return out
+
+
+def bordered_jacobian(prob: FluxProblem, x: np.ndarray) -> sp.csr_matrix:
+    """The bordered Jacobian [[J, -g], [-g^T, 0]] of :func:`flux_newton` at state ``x`` (free DOFs and P)."""
+    n3, free = 3 * prob.system.nv, prob.free
+    J = ns3d._saddle(prob.system, ns3d._velocity_block(prob.system, x[:n3], True))[free][:, free]
+    gf = prob.g[free]
+    return sp.bmat([[J, -gf[:, None]], [-gf[None, :], None]], format="csr")
+
+
+def spectrum(prob: FluxProblem, x: np.ndarray, k: int = 6) -> np.ndarray:
+    """The ``k`` eigenvalues lambda [1/s] nearest zero of J_b v = lambda M_b v at the converged state ``x``.
+
+    J_b the bordered Jacobian (:func:`bordered_jacobian`), M_b the fluid's velocity mass (rho, zero on
+    the pressures and on P): the linearised flow at the prescribed flow rate, M_b dv/dt = -J_b v, grows
+    as exp(-lambda t). A real lambda through zero along a branch is a fold (the branch turns back in
+    Re) or a steady bifurcation (a second branch), Re(lambda) < 0 an unstable steady flow, a complex
+    pair crossing Re(lambda) = 0 a Hopf bifurcation (Keller 1977; Cliffe, Spence and Tavener 2000,
+    Acta Numerica 9, 39-131). ARPACK shift-invert at sigma = 0 with one direct factorization of J_b.
+    """
+    import scipy.sparse.linalg as sla
+
+    Jb = bordered_jacobian(prob, x)
+    M = ns3d.velocity_mass(prob.system)[prob.free][:, prob.free]
+    Mb = sp.block_diag([M, sp.csr_matrix((1, 1))], format="csr")
+    lu = ns3d.Factor(Jb)
+    try:
+        op = sla.LinearOperator(Jb.shape, matvec=lu.solve, dtype=float)
+        vals = sla.eigs(Jb, k=k, M=Mb, sigma=0.0, OPinv=op, which="LM", return_eigenvectors=False,
+                        ncv=max(4 * k, 24), tol=1e-8)
+    finally:
+        lu.free()
+    return vals[np.argsort(np.abs(vals))]
 
 
 def _free(factor) -> None:
