@@ -38,6 +38,19 @@ def test_prescribed_flow_rate_gives_the_series_pressure_difference():
     assert steps <= 8
 
 
+def test_pseudo_transient_flow_from_rest_reaches_the_series_solution():
+    # the flow-rate PTC from rest (zero velocity, P = 0) at the series flow rate of 1e5 Pa (Re ~ 40) settles
+    # to the steady duct flow: the series' dP within 1 % and the flux to round-off
+    system = ns3d.assemble(_duct(4), ns3d.Fluid(RHO, MU), symmetry="none")
+    prob = reed_flux.FluxProblem.build(system)
+    q = 4 * A * B**3 * 1e5 / (3 * MU * LD)
+    x, P, steps, factor = reed_flux.flux_ptc(prob, -q, np.zeros(system.ndofs), 0.0)
+    factor.free()
+    assert P == pytest.approx(_duct_dp(q), rel=0.01)
+    assert -ns3d.boundary_flux(system, x, "inlet") == pytest.approx(q, rel=1e-9)
+    assert steps < 40
+
+
 def test_the_reynolds_number_sets_the_half_domains_flux():
     # eq 3.87: Re = 4 rho Q / (p_o mu) with Q both halves; the half domain's inlet outflux is -Q / 2
     from types import SimpleNamespace

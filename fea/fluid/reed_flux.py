@@ -113,6 +113,60 @@ def flux_newton(prob: FluxProblem, flux: float, x0: np.ndarray, P0: float, tol: 
     raise ns3d._failure(f"flow-rate Newton did not converge in {max_iter} steps (last update {change:.2e})", factor)
 
 
+def flux_ptc(prob: FluxProblem, flux: float, x0: np.ndarray, P0: float, tol: float = 1e-6,
+             max_iter: int = 60, progress: bool = False) -> tuple[np.ndarray, float, int, ns3d.Factor]:
+    """Steady flow at the prescribed flux by pseudo-transient continuation from (x0, P0): which steady
+    flow the time-dependent one settles to (where two exist, the stable one the start leads to).
+
+    Backward-Euler steps in pseudo-time of the bordered system (:func:`flux_newton`'s),
+    (M_b / dt + J_b) d = -R_b, M_b the velocity mass (zero on the pressures and on P), the flux met at
+    every step; dt by switched evolution relaxation from :data:`fea.fluid.ns3d.PTC_CFL0` as
+    :func:`fea.fluid.ns3d.ptc` (Kelley and Keyes 1998), with a new factorization when dt changed by more
+    than :data:`fea.fluid.ns3d.PTC_REFACTOR`. Converged: largest velocity update below ``tol`` of the
+    largest velocity with dt at least :data:`fea.fluid.ns3d.PTC_STEADY` dt_0. Returns (state, P [Pa],
+    steps, factorization); ModelFailure as :func:`fea.fluid.ns3d.ptc`'s (diverged, no progress, too many steps).
+    """
+    sys_, free, n3 = prob.system, prob.free, 3 * prob.system.nv
+    _, vel, M, dt0 = ns3d._ptc_start(sys_, x0 if np.any(x0[:n3]) else _stokes_scale(prob, flux))
+    Mb = sp.block_diag([M, sp.csr_matrix((1, 1))], format="csr")
+    x, P, dt, dt_f, factor, kry, since = x0.copy(), float(P0), dt0, np.inf, None, 0, 0
+    weight = np.linalg.norm(prob.g[free]) * max(abs(P0), 1.0) / abs(flux)
+    r0 = None             # the residual after the first step (the flux met) is the scale: from rest only c is not 0
+    for it in range(1, max_iter + 1):
+        if factor is not None and max(dt_f / dt, dt / dt_f) > ns3d.PTC_REFACTOR and min(dt, dt_f) < ns3d.PTC_STEADY * dt0:
+            factor.free()
+            factor = None
+        R, c = prob.residual(x, P, flux)
+        old = ns3d._refresh(factor, kry)
+        d, factor, kry = ns3d._newton_step((bordered_jacobian(prob, x) + Mb / dt).tocsr(), np.append(R, c), old)
+        dt_f = dt if factor is not old else dt_f
+        x[free] += d[:-1]
+        P += d[-1]
+        change = float(np.max(np.abs(d[:-1][vel])) / max(np.max(np.abs(x[:n3])), 1e-300))
+        r_new = _weighted_norm(*prob.residual(x, P, flux), weight)
+        if r0 is None:
+            r = r0 = best = r_new
+        if progress:
+            print(f"  flux ptc {it}: |R|/|R0| = {r_new / r0:.2e}, |du|/|u| = {change:.2e}, dP = {P:.6g} Pa, "
+                  f"dt = {dt:.2e} s, {kry} GMRES steps", file=sys.stderr)
+        if change < tol and dt >= ns3d.PTC_STEADY * dt0:
+            return ns3d.fill_orphans(sys_, x), P, it, factor
+        best, since = ns3d._ptc_progress(r_new, r0, best, since, factor)
+        dt *= float(np.clip(r / r_new, 1.0 / ns3d.PTC_GROWTH, ns3d.PTC_GROWTH))
+        r = r_new
+    raise ns3d._failure(f"flow-rate PTC did not converge in {max_iter} steps", factor)
+
+
+def _stokes_scale(prob: FluxProblem, flux: float) -> np.ndarray:
+    """A state whose largest velocity is the mean inlet speed at ``flux`` (sets dt_0 for a start from rest):
+    the inlet's area is sum |g_i| (the P2 functions' integrals over a face are those of a partition of unity,
+    the vertex ones zero)."""
+    x = np.zeros(prob.system.ndofs)
+    area = float(np.sum(np.abs(prob.g))) or 1.0
+    x[0] = abs(flux) / area
+    return x
+
+
 #: continuation in Re: the first step's ratio Re_(k+1) / Re_k, its growth after a solve of at most
 #: QUICK Newton steps, its largest value; a failed step's ratio is square-rooted (MAX_CUTS times in a row)
 RATIO_START, RATIO_GROWTH, RATIO_MAX, QUICK, MAX_CUTS = 1.3, 1.2, 1.6, 4, 4
