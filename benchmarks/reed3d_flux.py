@@ -1,13 +1,14 @@
 """The reed's 3-D flow continued in the Reynolds number at a prescribed flow rate (fea.fluid.reed_flux).
 
     python benchmarks/reed3d_flux.py --opening MM [--mesh coarse|default|fine] [--re 1 3 10 20 40 60] [--log FILE]
-        [--grad-div GAMMA_OVER_MU] [--eigs K]
+        [--grad-div GAMMA_OVER_MU] [--eigs K] [--inlet-total]
 
 Prints one JSON line per converged point (opening, mesh, DOFs, Re, dP, Cd, eq 3.89's Cd at that Re,
 X, mesh Peclet, Newton steps, seconds, peak memory, load average) on stdout (and appends it to --log):
 whether dP(Re) has a maximum (a fold of the dP-driven problem) and how Cd follows eq 3.89.
 ``--grad-div``: the grad-div term's gamma / mu; ``--eigs K``: the K eigenvalues nearest zero of the
-bordered Jacobian at every point (``reed_flux.spectrum``: a fold or bifurcation where one reaches zero).
+bordered Jacobian at every point (``reed_flux.spectrum``: a fold or bifurcation where one reaches zero);
+``--inlet-total``: the inlet's pressure a total pressure (``ReedValveFlow.inlet_total``).
 """
 
 from __future__ import annotations
@@ -34,10 +35,12 @@ def main(argv=None) -> None:
     ap.add_argument("--log")
     ap.add_argument("--grad-div", type=float, default=0.0)
     ap.add_argument("--eigs", type=int, default=0)
+    ap.add_argument("--inlet-total", action="store_true")
     args = ap.parse_args(argv)
-    valve = replace(reed3d.prototype_valve(), mesh=MESHES[args.mesh], grad_div=args.grad_div)
+    valve = replace(reed3d.prototype_valve(), mesh=MESHES[args.mesh], grad_div=args.grad_div,
+                    inlet_total=args.inlet_total)
     cd_law = _cd_law()
-    tags = {"opening_mm": args.opening, "mesh": args.mesh, "grad_div": args.grad_div}
+    tags = {"opening_mm": args.opening, "mesh": args.mesh, "grad_div": args.grad_div, "inlet_total": args.inlet_total}
 
     def emit(p):
         row = {k: round(float(v), 7) for k, v in asdict(p).items()}

@@ -116,6 +116,7 @@ class System:
     orphans: np.ndarray      # pressure DOFs (global) coupled to no free velocity (see :func:`assemble`)
     backflow: FacetBasis | None = None   # the open boundaries stabilised against backflow (``_backflow``)
     grad_div: sp.csr_matrix | None = None   # gamma (div u, div v) on the velocities (``grad_div_matrix``)
+    inflow: FacetBasis | None = None     # inlets at a total pressure (``_backflow`` with INFLOW_BETA)
 
     @property
     def nv(self) -> int:
@@ -150,10 +151,11 @@ def grad_div_matrix(fast: ScalarAssembler, gamma: float) -> sp.csr_matrix:
 
 
 def assemble(mesh: skfem.MeshTet, fluid: Fluid, no_slip=("wall", "reed"), symmetry: str = "symmetry",
-             backflow=("outlet",), grad_div: float = 0.0) -> System:
+             backflow=("outlet",), grad_div: float = 0.0, inflow=()) -> System:
     """Bases and the Stokes matrices; velocity fixed on ``no_slip`` boundaries and u_y on ``symmetry``;
     the open boundaries ``backflow`` stabilised where fluid enters through them (``_backflow``);
-    ``grad_div`` gamma [Pa s] > 0 adds :func:`grad_div_matrix` to the velocity block."""
+    ``grad_div`` gamma [Pa s] > 0 adds :func:`grad_div_matrix` to the velocity block; the open boundaries
+    ``inflow`` take their traction as a total pressure (``_backflow`` with :data:`INFLOW_BETA`)."""
     V = Basis(mesh, ElementTetP2())
     Q = Basis(mesh, ElementTetP1(), quadrature=V.quadrature)
     K = _laplace.assemble(V).tocsr()
@@ -170,12 +172,17 @@ def assemble(mesh: skfem.MeshTet, fluid: Fluid, no_slip=("wall", "reed"), symmet
     free_v[fixed] = False
     coupled = np.asarray(abs(B[:, free_v]).sum(axis=1)).ravel() > 0
     orphans = 3 * n + np.flatnonzero(~coupled)
-    open_ = [mesh.boundaries[b] for b in backflow if b in mesh.boundaries and len(mesh.boundaries[b])]
-    fb = FacetBasis(mesh, ElementTetP2(), facets=np.concatenate(open_)) if open_ else None
+    fb, fin = (_open_basis(mesh, names) for names in (backflow, inflow))
     fast = ScalarAssembler(V)
     return System(mesh=mesh, V=V, Q=Q, K=K, B=B, fixed=np.concatenate([fixed, orphans]), fluid=fluid,
-                  fast=fast, orphans=orphans, backflow=fb,
+                  fast=fast, orphans=orphans, backflow=fb, inflow=fin,
                   grad_div=grad_div_matrix(fast, grad_div) if grad_div > 0.0 else None)
+
+
+def _open_basis(mesh: skfem.MeshTet, names) -> FacetBasis | None:
+    """A P2 facet basis on the named boundaries (those the mesh has), None when there are none."""
+    open_ = [mesh.boundaries[b] for b in names if b in mesh.boundaries and len(mesh.boundaries[b])]
+    return FacetBasis(mesh, ElementTetP2(), facets=np.concatenate(open_)) if open_ else None
 
 
 def fill_orphans(sys_: System, x: np.ndarray) -> np.ndarray:
@@ -213,6 +220,10 @@ def traction_load(sys_: System, pressures: dict[str, float]) -> np.ndarray:
 #: weight beta of the backflow stabilisation (``_backflow``): 1 makes the inflow's convective
 #: energy flux dissipative (1/2 would only cancel it)
 BACKFLOW_BETA = 1.0
+#: beta on an inlet (``assemble``'s ``inflow``): 1/2 cancels the convective energy flux the inflow
+#: carries in (the "directional do-nothing" condition, Braack and Mucha 2014), and makes the prescribed
+#: P the total pressure there: for an inflow u = -U n the normal stress is -(P - rho U^2 / 2)
+INFLOW_BETA = 0.5
 
 
 @BilinearForm
@@ -220,7 +231,7 @@ def _facet_weighted_mass(u, v, w):
     return w["g"] * u * v
 
 
-def _backflow(sys_: System, comps: list[np.ndarray], newton: bool) -> list[list]:
+def _backflow(fb: FacetBasis, beta: float, rho: float, comps: list[np.ndarray], newton: bool) -> list[list]:
     """Blocks [a][b] of the backflow stabilisation on the open boundaries (None where zero).
 
     The term -beta rho int (u . n)_- u . v dA, (u . n)_- = min(u . n, 0), added to the momentum
@@ -234,11 +245,9 @@ def _backflow(sys_: System, comps: list[np.ndarray], newton: bool) -> list[list]
     Engrg. 198, 3534-3550, eq 14; Moghadam, Bazilevs, Hsia, Vignon-Clementel and Marsden (2011),
     Comput. Mech. 48, 277-291.
     """
-    fb, rho = sys_.backflow, sys_.fluid.rho
-    n = sys_.nv
     uf = [fb.interpolate(c) for c in comps]
     un = sum(np.asarray(uf[b]) * fb.normals[b] for b in range(3))
-    coef = -BACKFLOW_BETA * rho
+    coef = -beta * rho
     blocks = [[None] * 3 for _ in range(3)]
     diag = _facet_weighted_mass.assemble(fb, g=coef * np.minimum(un, 0.0)).tocsr()
     for a in range(3):
@@ -268,8 +277,10 @@ def _velocity_block(sys_: System, u: np.ndarray | None, newton: bool) -> sp.csr_
             for b in range(3):
                 C = rho * sys_.fast.weighted_mass(comps[a].grad[b])
                 blocks[a][b] = C if blocks[a][b] is None else blocks[a][b] + C
-    if sys_.backflow is not None:
-        extra = _backflow(sys_, [u[a * n:(a + 1) * n] for a in range(3)], newton)
+    for fb, beta in ((sys_.backflow, BACKFLOW_BETA), (sys_.inflow, INFLOW_BETA)):
+        if fb is None:
+            continue
+        extra = _backflow(fb, beta, rho, [u[a * n:(a + 1) * n] for a in range(3)], newton)
         for a in range(3):
             for b in range(3):
                 if extra[a][b] is not None:

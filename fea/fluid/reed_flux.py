@@ -220,7 +220,7 @@ def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = 
     point, with its state (e.g. for :func:`spectrum`)."""
     t0 = time.perf_counter()
     fm = fluid_mesh(valve.reed, valve.seat, opening, valve.shape, valve.mesh)
-    prob = FluxProblem.build(ns3d.assemble(fm.mesh, valve.fluid, grad_div=valve.grad_div * valve.fluid.mu))
+    prob = FluxProblem.build(reed3d.flow_system(valve, fm.mesh))
     xs = ns3d.stokes(prob.system, prob.g, np.zeros(len(prob.system.fixed)))
     stokes = point_outputs(prob.system, xs, valve, opening, 1.0, 0, time.perf_counter() - t0)
     out = [stokes]
@@ -244,7 +244,10 @@ def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = 
                 x, P = _predict(history, re)
                 x, P, steps, factor = flux_newton(prob, _flux_of(valve, re), x, P, factor=factor, progress=progress)
             except Exception as exc:   # noqa: BLE001 - a failed step is retried shorter or ends the sweep
-                factor = getattr(exc, "factor", factor)
+                # the failed solve's factorization is of a state far from the branch: as the retry's GMRES
+                # preconditioner it gives small preconditioned residuals with wrong corrections
+                _free(getattr(exc, "factor", factor))
+                factor = None
                 print(f"reed_flux x = {opening * 1e3:.3g} mm, Re = {re:.4g}: {exc}", file=sys.stderr)
                 cuts += 1
                 ratio = float(np.sqrt(re / history[-1][0]))        # the failed step's ratio, square-rooted
