@@ -51,6 +51,55 @@ def test_pseudo_transient_flow_from_rest_reaches_the_series_solution():
     assert steps < 40
 
 
+def test_a_total_pressure_inlet_is_the_static_pressure_plus_the_dynamic_one():
+    # Bernoulli at the inlet: for a uniform inflow U the inflow term (beta = 1/2) acts on the momentum
+    # equation as the traction of a static pressure lower than P by rho U^2 / 2
+    U = 0.7
+    load = None
+    for inflow in ((), ("inlet",)):
+        system = ns3d.assemble(_duct(2), ns3d.Fluid(RHO, MU), symmetry="none", inflow=inflow)
+        u = np.zeros(3 * system.nv)
+        u[:system.nv] = U                                  # the inlet is x = 0, its normal -x: inflow
+        r = ns3d._velocity_block(system, u, False) @ u
+        load = r if load is None else r - load
+    dyn = ns3d.traction_load(system, {"inlet": 0.5 * RHO * U**2})[:3 * system.nv]
+    assert np.allclose(load, dyn, rtol=1e-10, atol=1e-12 * np.max(np.abs(dyn)))
+
+
+def _kinetic_flux(system, x, name: str) -> float:
+    """rho / 2 int (u . n) |u|^2 dA over boundary ``name`` [W] (kinetic energy leaving)."""
+    from skfem import ElementTetP2, FacetBasis, Functional
+
+    fb = FacetBasis(system.mesh, ElementTetP2(), facets=system.mesh.boundaries[name])
+    n = system.nv
+    u = [fb.interpolate(x[a * n:(a + 1) * n]) for a in range(3)]
+
+    @Functional
+    def ke(w):
+        un = w["u0"] * w.n[0] + w["u1"] * w.n[1] + w["u2"] * w.n[2]
+        return 0.5 * RHO * un * (w["u0"] ** 2 + w["u1"] ** 2 + w["u2"] ** 2)
+    return float(ke.assemble(fb, u0=u[0], u1=u[1], u2=u[2]))
+
+
+def test_total_pressure_times_flow_is_dissipation_plus_the_kinetic_energy_leaving():
+    # energy balance of the duct at Re ~ 40 with the inlet at a total pressure: P Q = mu int |grad u|^2 +
+    # the kinetic energy flux out of the outlet (the inflow's own flux is cancelled by beta = 1/2); the
+    # static-pressure (do-nothing) inlet misses it by the inflow's kinetic energy flux, several per cent here
+    q = 4 * A * B**3 * 1e5 / (3 * MU * LD)
+    miss = {}
+    for inflow in ((), ("inlet",)):
+        system = ns3d.assemble(_duct(4), ns3d.Fluid(RHO, MU), symmetry="none", inflow=inflow)
+        prob = reed_flux.FluxProblem.build(system)
+        x0 = ns3d.stokes(system, _duct_dp(q) * prob.g, np.zeros(len(system.fixed)))
+        x, P, _, factor = reed_flux.flux_newton(prob, -q, x0, _duct_dp(q))
+        factor.free()
+        n = system.nv
+        dissipation = MU * sum(x[a * n:(a + 1) * n] @ (system.K @ x[a * n:(a + 1) * n]) for a in range(3))
+        miss[bool(inflow)] = P * q / (dissipation + _kinetic_flux(system, x, "outlet")) - 1.0
+    assert abs(miss[True]) < 0.005
+    assert abs(miss[False]) > 0.02
+
+
 def test_the_reynolds_number_sets_the_half_domains_flux():
     # eq 3.87: Re = 4 rho Q / (p_o mu) with Q both halves; the half domain's inlet outflux is -Q / 2
     from types import SimpleNamespace
