@@ -239,11 +239,13 @@ def _backflow(fb: FacetBasis, beta: float, rho: float, comps: list[np.ndarray], 
     condition lets the inflow carry kinetic energy rho/2 |u|^2 (u . n) into the domain, which
     destabilises steady and pseudo-time solves once a recirculation reaches the boundary
     (here the chamber vortex at the open sides from Re ~ 10); with beta = 1 that flux is
-    dissipated. Zero where the flow leaves, so it leaves outflow (and the Stokes limit)
-    unchanged. ``newton``: with its derivative, -beta rho int H(-u . n) (du . n) u . v dA.
+    dissipated, with beta = 1/2 cancelled (an inlet's P is then a total pressure, :data:`INFLOW_BETA`).
+    Zero where the flow leaves, so it leaves outflow (and the Stokes limit) unchanged.
+    ``newton``: with its derivative, -beta rho int H(-u . n) (du . n) u . v dA.
     References: Bazilevs, Gohean, Hughes, Moser and Zhang (2009), Comput. Methods Appl. Mech.
     Engrg. 198, 3534-3550, eq 14; Moghadam, Bazilevs, Hsia, Vignon-Clementel and Marsden (2011),
-    Comput. Mech. 48, 277-291.
+    Comput. Mech. 48, 277-291; M. Braack and P. B. Mucha (2014), Directional do-nothing condition
+    for the Navier-Stokes equations, J. Comput. Math. 32, 507-521.
     """
     uf = [fb.interpolate(c) for c in comps]
     un = sum(np.asarray(uf[b]) * fb.normals[b] for b in range(3))

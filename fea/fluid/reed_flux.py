@@ -133,7 +133,8 @@ def flux_ptc(prob: FluxProblem, flux: float, x0: np.ndarray, P0: float, tol: flo
     weight = np.linalg.norm(prob.g[free]) * max(abs(P0), 1.0) / abs(flux)
     r0 = None             # the residual after the first step (the flux met) is the scale: from rest only c is not 0
     for it in range(1, max_iter + 1):
-        if factor is not None and max(dt_f / dt, dt / dt_f) > ns3d.PTC_REFACTOR and min(dt, dt_f) < ns3d.PTC_STEADY * dt0:
+        stale = max(dt_f / dt, dt / dt_f) > ns3d.PTC_REFACTOR and min(dt, dt_f) < ns3d.PTC_STEADY * dt0
+        if factor is not None and stale:
             factor.free()
             factor = None
         R, c = prob.residual(x, P, flux)
@@ -244,9 +245,7 @@ def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = 
                 x, P = _predict(history, re)
                 x, P, steps, factor = flux_newton(prob, _flux_of(valve, re), x, P, factor=factor, progress=progress)
             except Exception as exc:   # noqa: BLE001 - a failed step is retried shorter or ends the sweep
-                # the failed solve's factorization is of a state far from the branch: as the retry's GMRES
-                # preconditioner it gives small preconditioned residuals with wrong corrections
-                _free(getattr(exc, "factor", factor))
+                _free(getattr(exc, "factor", factor))    # of a state off the branch: a misleading preconditioner
                 factor = None
                 print(f"reed_flux x = {opening * 1e3:.3g} mm, Re = {re:.4g}: {exc}", file=sys.stderr)
                 cuts += 1
@@ -264,12 +263,16 @@ def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = 
                 on_point(p)
             if on_state is not None:
                 on_state(prob, x, P, p)
-            if progress:
-                print(f"  Re = {p.reynolds:.4g}: dP = {P:.5g} Pa, Cd = {p.cd:.4f}, X = {p.multiplier:.4f}, mesh Peclet "
-                      f"{p.peclet_p95:.2g} / {p.peclet_max:.2g} ({steps} steps, {p.seconds:.0f} s, "
-                      f"{p.peak_rss_gb:.1f} GB)", file=sys.stderr)
+            _say_point(progress, p)
     _free(factor)
     return out
+
+
+def _say_point(progress: bool, p: FlowPoint) -> None:
+    if progress:
+        print(f"  Re = {p.reynolds:.4g}: dP = {p.dp:.5g} Pa, Cd = {p.cd:.4f}, X = {p.multiplier:.4f}, mesh Peclet "
+              f"{p.peclet_p95:.2g} / {p.peclet_max:.2g} ({p.newton_steps} steps, {p.seconds:.0f} s, "
+              f"{p.peak_rss_gb:.1f} GB)", file=sys.stderr)
 
 
 def bordered_jacobian(prob: FluxProblem, x: np.ndarray) -> sp.csr_matrix:
