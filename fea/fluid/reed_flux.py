@@ -287,7 +287,7 @@ def spectrum(prob: FluxProblem, x: np.ndarray, k: int = 6) -> np.ndarray:
     """The ``k`` eigenvalues lambda [1/s] nearest zero of J_b v = lambda M_b v at the converged state ``x``.
 
     J_b the bordered Jacobian (:func:`bordered_jacobian`), M_b the fluid's velocity mass (rho, zero on
-    the pressures and on P): the linearised flow at the prescribed flow rate, M_b dv/dt = -J_b v, grows
+    the pressures and on P): the linearised flow at the prescribed flow rate, M_b dv/dt = -J_b v, evolves
     as exp(-lambda t). A real lambda through zero along a branch is a fold (the branch turns back in
     Re) or a steady bifurcation (a second branch), Re(lambda) < 0 an unstable steady flow, a complex
     pair crossing Re(lambda) = 0 a Hopf bifurcation (Keller 1977; Cliffe, Spence and Tavener 2000,
