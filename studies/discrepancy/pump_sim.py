@@ -115,6 +115,14 @@ class PumpSimulator:
         """What effect priors are computed for: the model itself (its geometry, oil, air content)."""
         return self.model
 
+    def prepare(self) -> float:
+        """The fast path compiled or loaded from numba's disk cache in this process (lumped.run.simulate.
+        ensure_compiled; the seconds it took the first time): called before the workflow forks its workers,
+        which then inherit it."""
+        from lumped.run.simulate import ensure_compiled
+
+        return ensure_compiled()
+
     def accurate(self) -> "PumpSimulator":
         """This simulator at the truth's tolerance (synthetic data)."""
         return replace(self, rtol=TRUTH_RTOL)
