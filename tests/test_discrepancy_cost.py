@@ -106,3 +106,32 @@ def test_the_workers_are_forked_after_the_simulator_is_ready():
     assert _PREPARED["pid"] == os.getpid()                      # prepared here, once, before the pool
     assert all(o.positions["inlet"][0] == 1.0 for o in out)     # ... and every worker inherited it
     assert any(o.positions["delivery"][0] != os.getpid() for o in out)   # the revolutions ran in the workers
+
+
+class SlowAt:
+    """A simulator that takes longer at the condition named "slow" (a revolution of 0.2 s against 0.01 s)."""
+
+    def __call__(self, cond, effects):
+        import time
+
+        time.sleep(0.2 if cond.name == "slow" else 0.01)
+        crank = np.linspace(0.0, 359.0, 360)
+        k = sum(v for a in effects for _, v in a.values)
+        return CycleTrace(crank, {"inlet": np.full(360, cond.speed_rpm + k), "delivery": np.zeros(360)}, 1e-6)
+
+
+def test_a_batch_goes_to_the_workers_longest_first_with_the_same_results():
+    conds = [RunCondition(n, "disc", 600.0 + i, 2.8e6, None) for i, n in enumerate(("a", "b", "slow", "c"))]
+    model = (Applied.of("seat_compliance", "delivery", {"k_seat": 1e6}),)
+    par, ser = Simulations(SlowAt(), workers=2), Simulations(SlowAt(), workers=1)
+    try:
+        par.many([(c, ()) for c in conds])
+        # the slow condition's last seconds known: it goes first, of the same effects or of any
+        assert par._longest_first([(c, ()) for c in conds])[0] == 2
+        assert par._longest_first([(c, model) for c in conds])[0] == 2
+        got = par.many([(c, model) for c in conds])
+    finally:
+        par.__exit__()
+    want = ser.many([(c, model) for c in conds])
+    assert [g.positions["inlet"][0] for g in got] == [w.positions["inlet"][0] for w in want]
+    assert got[2].seconds >= 0.2 and got[0].seconds < 0.2
