@@ -37,8 +37,9 @@ SECONDS_PER_SAMPLE_ROUND = 1.6e-4
 #: fit residuals kept per problem (:meth:`Problem.fit_residuals`), the most recently used: a third of a search's
 #: residual vectors are asked for again for a model just computed (the candidate's screening cost and then its
 #: profile, a polish's start and its Jacobian's base; v2_03 of the independent suite: 376 asked, 230 distinct),
-#: and their sensor fit and residuals are a fifth of the workflow's own seconds beside the simulations. 64 of
-#: ~25,000 residuals each: ~13 MB
+#: and their sensor fit and residuals are most of the workflow's own seconds beside the simulations. 64 of
+#: ~15,000 residuals each (four fitting runs of the independent suite): 7.5 MB; at most ~60 MB (four fitting
+#: runs of MAX_TRACE_SAMPLES samples, two valves and the cylinder pressure)
 RESIDUAL_MEMO = 64
 
 
