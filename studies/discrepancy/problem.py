@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import sys
+from collections import OrderedDict
 from dataclasses import replace
 
 import numpy as np
@@ -33,6 +34,13 @@ from studies.discrepancy.simulations import SimulationFailure, Simulations
 #: 20,000 samples, one round: 6.0 vs 14.6 s on 2 workers)
 MAX_TRACE_SAMPLES = 10_000
 SECONDS_PER_SAMPLE_ROUND = 1.6e-4
+#: fit residuals kept per problem (:meth:`Problem.fit_residuals`), the most recently used: a third of a search's
+#: residual vectors are asked for again for a model just computed (the candidate's screening cost and then its
+#: profile, a polish's start and its Jacobian's base; v2_03 of the independent suite: 376 asked, 230 distinct),
+#: and their sensor fit and residuals are most of the workflow's own seconds beside the simulations. 64 of
+#: ~15,000 residuals each (four fitting runs of the independent suite): 7.5 MB; at most ~60 MB (four fitting
+#: runs of MAX_TRACE_SAMPLES samples, two valves and the cylinder pressure)
+RESIDUAL_MEMO = 64
 
 
 def coarsened(run: Run) -> tuple[Run, str | None]:
@@ -118,6 +126,7 @@ class Problem:
         self.removals: dict = {}                # (model, index) -> the backward step's trial (backward.removal)
         self.held: dict = {}                    # (effect, target) -> {parameter: value} pulled inside (edge.py)
         self.nuisance_effects = bounded_nuisances(library, settings, self.context)
+        self._residuals: OrderedDict = OrderedDict()   # model -> (residuals, Nuisance, failure) (fit_residuals)
 
     def held_values(self, name: str, target: str) -> dict:
         """The parameters of the added effect ``name`` at ``target`` that its judgement pulled inside their
@@ -178,12 +187,30 @@ class Problem:
         """Scaled residuals on the fitting runs, nuisances profiled out (None if a simulation
         failed): each position trace divided by the position tolerance and sqrt(samples), so
         it weighs as its mean square; each delivery by the delivery tolerance; each
-        cylinder-pressure trace by the pressure tolerance and sqrt(samples)."""
+        cylinder-pressure trace by the pressure tolerance and sqrt(samples).
+
+        A pure function of ``model`` (its simulations are cached): the last RESIDUAL_MEMO results are kept and
+        a copy handed out again."""
+        hit = self._residuals.get(model)
+        if hit is None:
+            hit = self._fit_residuals(model)
+            self._residuals[model] = hit
+            if len(self._residuals) > RESIDUAL_MEMO:
+                self._residuals.popitem(last=False)
+        else:
+            self._residuals.move_to_end(model)
+        res, nuis, failure = hit
+        if failure is not None:
+            self.last_failure = failure
+            return None, nuis
+        return res.copy(), nuis
+
+    def _fit_residuals(self, model: tuple) -> tuple[np.ndarray | None, Nuisance, str | None]:
+        """:meth:`fit_residuals` computed: (residuals, sensor nuisances, why a simulation failed or None)."""
         sims = self.simulate(model, self.fit_runs)
         bad = [s for s in sims.values() if isinstance(s, SimulationFailure)]
         if bad:
-            self.last_failure = bad[0].reason
-            return None, Nuisance()
+            return None, Nuisance(), bad[0].reason
         nuis = self.sensor_nuisance(sims)
         sc = self.settings.scales
         out = []
@@ -202,7 +229,7 @@ class Problem:
                 out.append(np.array([(s.delivery_m3_per_rev - r.delivery_m3_per_rev)
                                      / r.delivery_m3_per_rev / sc.delivery_frac]))
         out.append(self.prior_residuals(model))
-        return np.concatenate(out), nuis
+        return np.concatenate(out), nuis, None
 
     def fit_objective(self, model: tuple) -> tuple[float, Nuisance]:
         """Cost on the fitting runs, nuisances profiled out (inf if a simulation failed)."""
@@ -219,7 +246,8 @@ class Problem:
         bad = [n for n, s in sims.items() if isinstance(s, SimulationFailure)]
         if bad:
             raise ModelFailure(f"the model failed for run {bad[0]}: {sims[bad[0]].reason}")
-        nuis = self.sensor_nuisance(sims)
+        hit = self._residuals.get(model)
+        nuis = hit[1] if hit is not None and hit[2] is None else self.sensor_nuisance(sims)   # the same fit
         gaps = []
         for r in self.runs:
             folded = self.folded.get(r.name)

@@ -115,6 +115,10 @@ class PumpSimulator:
         """What effect priors are computed for: the model itself (its geometry, oil, air content)."""
         return self.model
 
+    def prepare(self) -> float:
+        """:func:`prepare` (the workflow calls it before it forks its workers)."""
+        return prepare()
+
     def accurate(self) -> "PumpSimulator":
         """This simulator at the truth's tolerance (synthetic data)."""
         return replace(self, rtol=TRUTH_RTOL)
@@ -179,6 +183,15 @@ class PumpSimulator:
                 if i == len(RETRIES) - 1:
                     raise RuntimeError(f"{exc} (first attempt: {first})") from exc
         raise AssertionError("unreachable")
+
+
+def prepare() -> float:
+    """The fast path compiled or loaded from numba's disk cache in this process (lumped.run.simulate.
+    ensure_compiled; the seconds it took the first time): called before the workflow forks its workers, which
+    then inherit it instead of each loading it (0.33 s a process)."""
+    from lumped.run.simulate import ensure_compiled
+
+    return ensure_compiled()
 
 
 def revolution(model: PumpModel, speed_rpm: float, load_pressure: float, warm: np.ndarray | None, rtol: float,
@@ -302,6 +315,7 @@ def simulate(cond, effects: tuple, warm=None) -> CycleTrace:
 
 
 simulate.warm_start = True
+simulate.prepare = prepare
 
 
 def model_for(cond, effects: tuple) -> PumpModel:

@@ -32,6 +32,7 @@ class Simulations:
         self.stage = "other"
         self.tally: dict = {}
         self._index: dict = {}      # condition -> effect structure -> (parameter vectors, TDC states)
+        self._seconds: dict = {}    # condition, and (condition, effect structure) -> seconds of the latest one
 
     def __enter__(self):
         return self
@@ -93,6 +94,28 @@ class Simulations:
         vecs.append(vec)
         states.append(state)
 
+    def _start_pool(self) -> ProcessPoolExecutor:
+        """The worker pool, started once the simulator has made itself ready (its ``prepare``, if it declares
+        one: the fast path's compiled code loaded from numba's cache, 0.3 s a process), so that the workers,
+        forked from this process, inherit it instead of each loading it again. The pool is kept for the
+        whole search (:meth:`__exit__` shuts it down)."""
+        prepare = getattr(self.simulator, "prepare", None)
+        if callable(prepare):
+            prepare()
+        return ProcessPoolExecutor(max_workers=self.workers)
+
+    def _longest_first(self, todo: list) -> list[int]:
+        """The indices of a batch's jobs in the order they go to the workers: the longest expected first (the
+        seconds of the latest simulation of the same effects at that condition, else of any at it), so that
+        the workers finish together instead of one waiting on a long job handed out last (longest processing
+        time first). The results do not depend on the order: each job's warm start is chosen beforehand from
+        earlier batches only."""
+        def expected(i):
+            cond, model = todo[i]
+            return self._seconds.get((cond, _structure(model)[0]), self._seconds.get(cond, 0.0))
+
+        return sorted(range(len(todo)), key=expected, reverse=True)
+
     def many(self, jobs: list[tuple[RunCondition, tuple]]) -> list[CycleTrace | None]:
         """Simulations of (condition, model) pairs; None where the model failed."""
         todo = []
@@ -104,13 +127,20 @@ class Simulations:
             warm = [self._warm_state(j) if self.warm else None for j in todo]
             if self.workers > 1 and len(todo) > 1:
                 if self._pool is None:
-                    self._pool = ProcessPoolExecutor(max_workers=self.workers)
-                results = list(self._pool.map(_safe_simulate, [self.simulator] * len(todo), todo, warm))
+                    self._pool = self._start_pool()
+                order = self._longest_first(todo)
+                done = self._pool.map(_safe_simulate, [self.simulator] * len(todo), [todo[i] for i in order],
+                                      [warm[i] for i in order])
+                results = [None] * len(todo)
+                for i, res in zip(order, done):
+                    results[i] = res
             else:
                 results = [_safe_simulate(self.simulator, j, w) for j, w in zip(todo, warm)]
             for job, res in zip(todo, results):
                 self.cache[job] = res
                 self._remember(job, res)
+                if hasattr(res, "seconds"):
+                    self._seconds[job[0]] = self._seconds[(job[0], _structure(job[1])[0])] = res.seconds
             self.count += len(todo)
             t = self.tally.setdefault(self.stage, [0, 0.0])
             t[0] += len(todo)
@@ -136,13 +166,20 @@ def _structure(model: tuple) -> tuple[tuple, np.ndarray]:
 
 
 def _safe_simulate(simulator, job, warm=None):
+    """``simulator`` on ``job`` (from ``warm``): its CycleTrace, with the seconds it took (``seconds``), or a
+    SimulationFailure."""
     cond, model = job
+    t0 = time.perf_counter()
     try:
         out = simulator(cond, model, warm) if warm is not None else simulator(cond, model)
     except (ArithmeticError, ValueError, RuntimeError) as exc:  # a model that fails is a bad fit, not a crash
         return SimulationFailure(f"{type(exc).__name__}: {exc}")
     if not all(np.all(np.isfinite(x)) for x in out.positions.values()) or not math.isfinite(out.delivery_m3_per_rev):
         return SimulationFailure("non-finite result")
+    try:
+        object.__setattr__(out, "seconds", time.perf_counter() - t0)
+    except (AttributeError, TypeError):     # a simulator's own result type without a __dict__
+        pass
     return out
 
 
