@@ -87,7 +87,7 @@ def test_backflow_stabilisation_dissipates_inflow_energy(duct):
     n = system.nv
     u = np.zeros(3 * n)
     u[:n] = -1.0                                     # u = -e_x: inflow through the outlet (x = L)
-    blocks = ns3d._backflow(system, [u[:n], u[n:2 * n], u[2 * n:]], False)
+    blocks = ns3d._backflow(system.backflow, ns3d.BACKFLOW_BETA, RHO, [u[:n], u[n:2 * n], u[2 * n:]], False)
     energy = u[:n] @ (blocks[0][0] @ u[:n])
     assert energy == pytest.approx(ns3d.BACKFLOW_BETA * RHO * 1.0 * (2 * A) * (2 * B), rel=1e-10)
 

@@ -83,6 +83,11 @@ class ScalarAssembler:
         gp = self.phi * (g * self.dx)[None]
         return self._csr(np.einsum("ieq,jeq->ije", self.phi, gp, optimize=True))
 
+    def derivative_pair(self, a: int, b: int) -> sp.csr_matrix:
+        """int (d phi_j / d x_b) (d phi_i / d x_a) dx: the (a, b) block of the grad-div form (div u, div v)."""
+        gp = self.dphi[:, b] * self.dx[None]
+        return self._csr(np.einsum("ieq,jeq->ije", self.dphi[:, a], gp, optimize=True))
+
     def convection(self, w: list[np.ndarray]) -> sp.csr_matrix:
         """int (w . grad phi_j) phi_i dx for the velocity w (3 arrays (ne, nq))."""
         adv = sum(w[b][None] * self.dphi[:, b] for b in range(3)) * self.dx[None]   # (nl, ne, nq), trial j
@@ -110,6 +115,8 @@ class System:
     fast: ScalarAssembler
     orphans: np.ndarray      # pressure DOFs (global) coupled to no free velocity (see :func:`assemble`)
     backflow: FacetBasis | None = None   # the open boundaries stabilised against backflow (``_backflow``)
+    grad_div: sp.csr_matrix | None = None   # gamma (div u, div v) on the velocities (``grad_div_matrix``)
+    inflow: FacetBasis | None = None     # inlets at a total pressure (``_backflow`` with INFLOW_BETA)
 
     @property
     def nv(self) -> int:
@@ -126,10 +133,29 @@ def _facet_dofs(V: Basis, mesh, names) -> np.ndarray:
                                      if n in mesh.boundaries] or [np.zeros(0, int)]))
 
 
+def grad_div_matrix(fast: ScalarAssembler, gamma: float) -> sp.csr_matrix:
+    """gamma int (div u)(div v) dx on the three velocity components (3 nV x 3 nV), gamma [Pa s].
+
+    Grad-div stabilisation: consistent (zero on a solenoidal field, so the exact solution is
+    unchanged), it penalises the discrete divergence Taylor-Hood leaves (its velocity is only
+    weakly solenoidal), which improves mass conservation and the conditioning of the Newton and
+    Oseen systems as the Reynolds number grows (Olshanskii and Reusken 2004; Olshanskii, Lube,
+    Heister and Loewe 2009, where gamma of order the viscosity to O(1) in units rho U L is advised).
+
+    References: M. A. Olshanskii and A. Reusken (2004), Grad-div stabilization for Stokes
+    equations, Math. Comp. 73, 1699-1718; M. Olshanskii, G. Lube, T. Heister and J. Loewe
+    (2009), Grad-div stabilization and subgrid pressure models for the incompressible
+    Navier-Stokes equations, Comput. Methods Appl. Mech. Engrg. 198, 3975-3988.
+    """
+    return gamma * sp.bmat([[fast.derivative_pair(a, b) for b in range(3)] for a in range(3)], format="csr")
+
+
 def assemble(mesh: skfem.MeshTet, fluid: Fluid, no_slip=("wall", "reed"), symmetry: str = "symmetry",
-             backflow=("outlet",)) -> System:
+             backflow=("outlet",), grad_div: float = 0.0, inflow=()) -> System:
     """Bases and the Stokes matrices; velocity fixed on ``no_slip`` boundaries and u_y on ``symmetry``;
-    the open boundaries ``backflow`` stabilised where fluid enters through them (``_backflow``)."""
+    the open boundaries ``backflow`` stabilised where fluid enters through them (``_backflow``);
+    ``grad_div`` gamma [Pa s] > 0 adds :func:`grad_div_matrix` to the velocity block; the open boundaries
+    ``inflow`` take their traction as a total pressure (``_backflow`` with :data:`INFLOW_BETA`)."""
     V = Basis(mesh, ElementTetP2())
     Q = Basis(mesh, ElementTetP1(), quadrature=V.quadrature)
     K = _laplace.assemble(V).tocsr()
@@ -146,10 +172,17 @@ def assemble(mesh: skfem.MeshTet, fluid: Fluid, no_slip=("wall", "reed"), symmet
     free_v[fixed] = False
     coupled = np.asarray(abs(B[:, free_v]).sum(axis=1)).ravel() > 0
     orphans = 3 * n + np.flatnonzero(~coupled)
-    open_ = [mesh.boundaries[b] for b in backflow if b in mesh.boundaries and len(mesh.boundaries[b])]
-    fb = FacetBasis(mesh, ElementTetP2(), facets=np.concatenate(open_)) if open_ else None
+    fb, fin = (_open_basis(mesh, names) for names in (backflow, inflow))
+    fast = ScalarAssembler(V)
     return System(mesh=mesh, V=V, Q=Q, K=K, B=B, fixed=np.concatenate([fixed, orphans]), fluid=fluid,
-                  fast=ScalarAssembler(V), orphans=orphans, backflow=fb)
+                  fast=fast, orphans=orphans, backflow=fb, inflow=fin,
+                  grad_div=grad_div_matrix(fast, grad_div) if grad_div > 0.0 else None)
+
+
+def _open_basis(mesh: skfem.MeshTet, names) -> FacetBasis | None:
+    """A P2 facet basis on the named boundaries (those the mesh has), None when there are none."""
+    open_ = [mesh.boundaries[b] for b in names if b in mesh.boundaries and len(mesh.boundaries[b])]
+    return FacetBasis(mesh, ElementTetP2(), facets=np.concatenate(open_)) if open_ else None
 
 
 def fill_orphans(sys_: System, x: np.ndarray) -> np.ndarray:
@@ -187,6 +220,10 @@ def traction_load(sys_: System, pressures: dict[str, float]) -> np.ndarray:
 #: weight beta of the backflow stabilisation (``_backflow``): 1 makes the inflow's convective
 #: energy flux dissipative (1/2 would only cancel it)
 BACKFLOW_BETA = 1.0
+#: beta on an inlet (``assemble``'s ``inflow``): 1/2 cancels the convective energy flux the inflow
+#: carries in (the "directional do-nothing" condition, Braack and Mucha 2014), and makes the prescribed
+#: P the total pressure there: for an inflow u = -U n the normal stress is -(P - rho U^2 / 2)
+INFLOW_BETA = 0.5
 
 
 @BilinearForm
@@ -194,7 +231,7 @@ def _facet_weighted_mass(u, v, w):
     return w["g"] * u * v
 
 
-def _backflow(sys_: System, comps: list[np.ndarray], newton: bool) -> list[list]:
+def _backflow(fb: FacetBasis, beta: float, rho: float, comps: list[np.ndarray], newton: bool) -> list[list]:
     """Blocks [a][b] of the backflow stabilisation on the open boundaries (None where zero).
 
     The term -beta rho int (u . n)_- u . v dA, (u . n)_- = min(u . n, 0), added to the momentum
@@ -202,17 +239,17 @@ def _backflow(sys_: System, comps: list[np.ndarray], newton: bool) -> list[list]
     condition lets the inflow carry kinetic energy rho/2 |u|^2 (u . n) into the domain, which
     destabilises steady and pseudo-time solves once a recirculation reaches the boundary
     (here the chamber vortex at the open sides from Re ~ 10); with beta = 1 that flux is
-    dissipated. Zero where the flow leaves, so it leaves outflow (and the Stokes limit)
-    unchanged. ``newton``: with its derivative, -beta rho int H(-u . n) (du . n) u . v dA.
+    dissipated, with beta = 1/2 cancelled (an inlet's P is then a total pressure, :data:`INFLOW_BETA`).
+    Zero where the flow leaves, so it leaves outflow (and the Stokes limit) unchanged.
+    ``newton``: with its derivative, -beta rho int H(-u . n) (du . n) u . v dA.
     References: Bazilevs, Gohean, Hughes, Moser and Zhang (2009), Comput. Methods Appl. Mech.
     Engrg. 198, 3534-3550, eq 14; Moghadam, Bazilevs, Hsia, Vignon-Clementel and Marsden (2011),
-    Comput. Mech. 48, 277-291.
+    Comput. Mech. 48, 277-291; M. Braack and P. B. Mucha (2014), Directional do-nothing condition
+    for the Navier-Stokes equations, J. Comput. Math. 32, 507-521.
     """
-    fb, rho = sys_.backflow, sys_.fluid.rho
-    n = sys_.nv
     uf = [fb.interpolate(c) for c in comps]
     un = sum(np.asarray(uf[b]) * fb.normals[b] for b in range(3))
-    coef = -BACKFLOW_BETA * rho
+    coef = -beta * rho
     blocks = [[None] * 3 for _ in range(3)]
     diag = _facet_weighted_mass.assemble(fb, g=coef * np.minimum(un, 0.0)).tocsr()
     for a in range(3):
@@ -227,11 +264,13 @@ def _backflow(sys_: System, comps: list[np.ndarray], newton: bool) -> list[list]
 
 
 def _velocity_block(sys_: System, u: np.ndarray | None, newton: bool) -> sp.csr_matrix:
-    """mu K + rho N(u) on each component (+ the rho d u_a / d x_b reaction blocks for Newton)."""
+    """mu K + rho N(u) on each component (+ the rho d u_a / d x_b reaction blocks for Newton), and the
+    grad-div term when the system has one."""
     mu, rho, n, V = sys_.fluid.mu, sys_.fluid.rho, sys_.nv, sys_.V
     diag = mu * sys_.K
     if u is None:
-        return sp.block_diag([diag] * 3, format="csr")
+        A = sp.block_diag([diag] * 3, format="csr")
+        return A if sys_.grad_div is None else (A + sys_.grad_div).tocsr()
     comps = [V.interpolate(u[a * n:(a + 1) * n]) for a in range(3)]
     diag = diag + rho * sys_.fast.convection([np.asarray(c) for c in comps])
     blocks = [[diag if a == b else None for b in range(3)] for a in range(3)]
@@ -240,13 +279,16 @@ def _velocity_block(sys_: System, u: np.ndarray | None, newton: bool) -> sp.csr_
             for b in range(3):
                 C = rho * sys_.fast.weighted_mass(comps[a].grad[b])
                 blocks[a][b] = C if blocks[a][b] is None else blocks[a][b] + C
-    if sys_.backflow is not None:
-        extra = _backflow(sys_, [u[a * n:(a + 1) * n] for a in range(3)], newton)
+    for fb, beta in ((sys_.backflow, BACKFLOW_BETA), (sys_.inflow, INFLOW_BETA)):
+        if fb is None:
+            continue
+        extra = _backflow(fb, beta, rho, [u[a * n:(a + 1) * n] for a in range(3)], newton)
         for a in range(3):
             for b in range(3):
                 if extra[a][b] is not None:
                     blocks[a][b] = extra[a][b] if blocks[a][b] is None else blocks[a][b] + extra[a][b]
-    return sp.bmat(blocks, format="csr")
+    A = sp.bmat(blocks, format="csr")
+    return A if sys_.grad_div is None else (A + sys_.grad_div).tocsr()
 
 
 def _saddle(sys_: System, A: sp.csr_matrix) -> sp.csr_matrix:

@@ -46,7 +46,9 @@ class ReedValveFlow:
     ``shape``: (s [m], psi) with psi(L) = 1 (the deflected shape and the mode function);
     ``orifice_length`` l_o [m] and ``orifice_perimeter`` p_o [m] define Cd and Re (eqs 3.25,
     3.86); ``area_min`` A_1 and ``area_max`` A_2 [m^2] define f (eq 3.26); ``stiffness``
-    kappa [Pa/m] (eq 3.30) sets the pressure differences worth computing (:func:`pressure_cap`).
+    kappa [Pa/m] (eq 3.30) sets the pressure differences worth computing (:func:`pressure_cap`);
+    ``grad_div`` gamma / mu of the grad-div term (:func:`fea.fluid.ns3d.grad_div_matrix`); ``inlet_total``:
+    the inlet's pressure is a total pressure (:data:`fea.fluid.ns3d.INFLOW_BETA`, :func:`flow_system`).
     """
 
     reed: Reed
@@ -59,6 +61,8 @@ class ReedValveFlow:
     area_max: float
     stiffness: float
     mesh: MeshOptions = field(default_factory=MeshOptions)
+    grad_div: float = 0.0        # gamma / mu of the grad-div stabilisation (ns3d.grad_div_matrix; 0: none)
+    inlet_total: bool = True     # the inlet's P a total pressure (ns3d.INFLOW_BETA), else the traction's
 
     def psi(self, s):
         """psi(s) on the reed (interpolated shape; 0 before the clamp, psi(L) beyond the tip)."""
@@ -90,6 +94,15 @@ class FlowPoint:
     peak_rss_gb: float
     peclet_max: float = float("nan")       # the largest mesh Peclet number (ns3d.mesh_peclet)
     peclet_p95: float = float("nan")       # its 95th percentile over the cells
+
+
+def flow_system(valve: ReedValveFlow, mesh) -> ns3d.System:
+    """The Navier-Stokes system of a reed's fluid mesh (:func:`fea.fluid.ns3d.assemble`): no slip on the
+    walls and the reed, the outlet stabilised against backflow, the inlet's traction a total pressure when
+    ``valve.inlet_total`` (the port fed from a plenum at P_up: for an inflow U the static pressure there is
+    P_up - rho U^2 / 2) and the grad-div term gamma = ``valve.grad_div`` mu."""
+    return ns3d.assemble(mesh, valve.fluid, grad_div=valve.grad_div * valve.fluid.mu,
+                         inflow=("inlet",) if valve.inlet_total else ())
 
 
 def _peak_rss_gb() -> float:
@@ -200,7 +213,7 @@ def pressure_sweep(valve: ReedValveFlow, opening: float, reynolds=(), progress: 
     """
     t0 = time.perf_counter()
     fm = fluid_mesh(valve.reed, valve.seat, opening, valve.shape, valve.mesh)
-    system = ns3d.assemble(fm.mesh, valve.fluid)
+    system = flow_system(valve, fm.mesh)
     unit = ns3d.traction_load(system, {"inlet": 1.0})
     x1 = ns3d.stokes(system, unit, np.zeros(len(system.fixed)))
     out = [point_outputs(system, x1, valve, opening, 1.0, 0, time.perf_counter() - t0)]
@@ -372,7 +385,7 @@ def displacement_sweep(valve: ReedValveFlow, opening: float, speeds, progress: b
     """
     t0 = time.perf_counter()
     fm = fluid_mesh(valve.reed, valve.seat, opening, valve.shape, valve.mesh)
-    system = ns3d.assemble(fm.mesh, valve.fluid)
+    system = flow_system(valve, fm.mesh)
     zero = np.zeros(system.ndofs)
     x1 = ns3d.stokes(system, zero, _reed_velocity(system, valve, 1.0))
     out = [_displacement(system, x1, valve, opening, 0.0, 0, time.perf_counter() - t0)]

@@ -47,7 +47,7 @@ from .reed_flux import flow_sweep
 from .reed_film import reed_film
 
 #: version of the reed forms (part of the cache key)
-FORMS_VERSION = "reed-3"
+FORMS_VERSION = "reed-4"
 #: tip openings of the pressure sweeps, fractions of the stop gap (0.1 to 1.7 mm for the prototype)
 OPENING_FRACTIONS = (0.05, 0.15, 0.3, 0.5, 0.7, 0.9)
 #: Reynolds numbers of eq 3.87 aimed at (the thesis pump peaks near 62: 1.1e-4 m^3/s at 893 rpm)
@@ -75,7 +75,8 @@ def reed_key(valve: ReedValveFlow) -> str:
             "shape": [round(float(v), 9) for v in np.interp(np.linspace(0, valve.reed.length, 41), s, psi)],
             "definitions": [valve.orifice_length, valve.orifice_perimeter, valve.area_min, valve.area_max],
             "stiffness": round(float(valve.stiffness), 3),
-            "mesh": repr(valve.mesh), "openings": OPENING_FRACTIONS, "reynolds": REYNOLDS,
+            "mesh": repr(valve.mesh), "inlet_total": valve.inlet_total, "grad_div": valve.grad_div,
+            "openings": OPENING_FRACTIONS, "reynolds": REYNOLDS,
             "displacement": [DISPLACEMENT_FRACTIONS, TIP_SPEED], "version": FORMS_VERSION}
     return hashlib.sha256(json.dumps(what, sort_keys=True, default=str).encode()).hexdigest()[:20]
 
@@ -270,7 +271,8 @@ def _data(valve: ReedValveFlow, raw: dict, key: str) -> dict:
     """The stored record: forms, points and provenance."""
     return {"key": key, "reed": valve.reed.name, "forms": fit_forms(raw, valve),
             "points": {"pressure": raw["rows"], "moving": raw["moving"], "film": raw["film"]},
-            "provenance": {"version": FORMS_VERSION, "mesh": repr(valve.mesh), "openings": OPENING_FRACTIONS,
+            "provenance": {"version": FORMS_VERSION, "mesh": repr(valve.mesh), "inlet_total": valve.inlet_total,
+                           "openings": OPENING_FRACTIONS,
                            "reynolds": REYNOLDS, "tip_speed": TIP_SPEED, "wall_seconds": raw["wall_seconds"],
                            "cpu_seconds": raw["cpu_seconds"],
                            "solve_seconds": sum(r["seconds"] for r in raw["rows"] + raw["moving"]),

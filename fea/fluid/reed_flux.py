@@ -89,8 +89,7 @@ def flux_newton(prob: FluxProblem, flux: float, x0: np.ndarray, P0: float, tol: 
     x, P, damped, kry, change = x0.copy(), float(P0), 0, 0, np.inf
     for it in range(1, max_iter + 1):
         t0 = time.perf_counter()
-        J = ns3d._saddle(sys_, ns3d._velocity_block(sys_, x[:n3], True))[free][:, free]
-        Jb = sp.bmat([[J, -gf[:, None]], [-gf[None, :], None]], format="csr")
+        Jb = bordered_jacobian(prob, x)
         R, c = prob.residual(x, P, flux)
         factor = ns3d._refresh(factor, kry)
         d, factor, kry = ns3d._newton_step(Jb, np.append(R, c), factor)
@@ -112,6 +111,61 @@ def flux_newton(prob: FluxProblem, flux: float, x0: np.ndarray, P0: float, tol: 
         if damped >= MAX_DAMPED:
             raise ns3d._failure(f"flow-rate Newton: {damped} damped steps in a row (last update {change:.2e})", factor)
     raise ns3d._failure(f"flow-rate Newton did not converge in {max_iter} steps (last update {change:.2e})", factor)
+
+
+def flux_ptc(prob: FluxProblem, flux: float, x0: np.ndarray, P0: float, tol: float = 1e-6,
+             max_iter: int = 60, progress: bool = False) -> tuple[np.ndarray, float, int, ns3d.Factor]:
+    """Steady flow at the prescribed flux by pseudo-transient continuation from (x0, P0): which steady
+    flow the time-dependent one settles to (where two exist, the stable one the start leads to).
+
+    Backward-Euler steps in pseudo-time of the bordered system (:func:`flux_newton`'s),
+    (M_b / dt + J_b) d = -R_b, M_b the velocity mass (zero on the pressures and on P), the flux met at
+    every step; dt by switched evolution relaxation from :data:`fea.fluid.ns3d.PTC_CFL0` as
+    :func:`fea.fluid.ns3d.ptc` (Kelley and Keyes 1998), with a new factorization when dt changed by more
+    than :data:`fea.fluid.ns3d.PTC_REFACTOR`. Converged: largest velocity update below ``tol`` of the
+    largest velocity with dt at least :data:`fea.fluid.ns3d.PTC_STEADY` dt_0. Returns (state, P [Pa],
+    steps, factorization); ModelFailure as :func:`fea.fluid.ns3d.ptc`'s (diverged, no progress, too many steps).
+    """
+    sys_, free, n3 = prob.system, prob.free, 3 * prob.system.nv
+    _, vel, M, dt0 = ns3d._ptc_start(sys_, x0 if np.any(x0[:n3]) else _stokes_scale(prob, flux))
+    Mb = sp.block_diag([M, sp.csr_matrix((1, 1))], format="csr")
+    x, P, dt, dt_f, factor, kry, since = x0.copy(), float(P0), dt0, np.inf, None, 0, 0
+    weight = np.linalg.norm(prob.g[free]) * max(abs(P0), 1.0) / abs(flux)
+    r0 = None             # the residual after the first step (the flux met) is the scale: from rest only c is not 0
+    for it in range(1, max_iter + 1):
+        stale = max(dt_f / dt, dt / dt_f) > ns3d.PTC_REFACTOR and min(dt, dt_f) < ns3d.PTC_STEADY * dt0
+        if factor is not None and stale:
+            factor.free()
+            factor = None
+        R, c = prob.residual(x, P, flux)
+        old = ns3d._refresh(factor, kry)
+        d, factor, kry = ns3d._newton_step((bordered_jacobian(prob, x) + Mb / dt).tocsr(), np.append(R, c), old)
+        dt_f = dt if factor is not old else dt_f
+        x[free] += d[:-1]
+        P += d[-1]
+        change = float(np.max(np.abs(d[:-1][vel])) / max(np.max(np.abs(x[:n3])), 1e-300))
+        r_new = _weighted_norm(*prob.residual(x, P, flux), weight)
+        if r0 is None:
+            r = r0 = best = r_new
+        if progress:
+            print(f"  flux ptc {it}: |R|/|R0| = {r_new / r0:.2e}, |du|/|u| = {change:.2e}, dP = {P:.6g} Pa, "
+                  f"dt = {dt:.2e} s, {kry} GMRES steps", file=sys.stderr)
+        if change < tol and dt >= ns3d.PTC_STEADY * dt0:
+            return ns3d.fill_orphans(sys_, x), P, it, factor
+        best, since = ns3d._ptc_progress(r_new, r0, best, since, factor)
+        dt *= float(np.clip(r / r_new, 1.0 / ns3d.PTC_GROWTH, ns3d.PTC_GROWTH))
+        r = r_new
+    raise ns3d._failure(f"flow-rate PTC did not converge in {max_iter} steps", factor)
+
+
+def _stokes_scale(prob: FluxProblem, flux: float) -> np.ndarray:
+    """A state whose largest velocity is the mean inlet speed at ``flux`` (sets dt_0 for a start from rest):
+    the inlet's area is sum |g_i| (the P2 functions' integrals over a face are those of a partition of unity,
+    the vertex ones zero)."""
+    x = np.zeros(prob.system.ndofs)
+    area = float(np.sum(np.abs(prob.g))) or 1.0
+    x[0] = abs(flux) / area
+    return x
 
 
 #: continuation in Re: the first step's ratio Re_(k+1) / Re_k, its growth after a solve of at most
@@ -154,7 +208,7 @@ def _capped(history: list, re: float, dp_max: float | None) -> float:
 
 
 def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = True, on_point=None,
-               max_cuts: int = MAX_CUTS, dp_max: float | None = None) -> list[FlowPoint]:
+               max_cuts: int = MAX_CUTS, dp_max: float | None = None, on_state=None) -> list[FlowPoint]:
     """Steady flows at tip opening ``opening`` [m] at the Reynolds numbers ``reynolds`` (eq 3.87) with the flow
     rate prescribed (module docstring): the Stokes limit, then Newton (:func:`flux_newton`) continued in Re
     from the last two solutions with adaptive steps (ratio :data:`RATIO_START` growing to :data:`RATIO_MAX`,
@@ -163,10 +217,11 @@ def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = 
     dP an output; stops where a step fails ``max_cuts`` times
     in a row (the reason on stderr), or at ``dp_max`` [Pa] (the aim lowered to the Re expected there,
     ``_capped``; the sweep ends at the first point within :data:`fea.fluid.reed3d.CAP_NEAR` of it, as
-    :func:`fea.fluid.reed3d.pressure_sweep`)."""
+    :func:`fea.fluid.reed3d.pressure_sweep`). ``on_state(problem, x, P, point)`` after each Navier-Stokes
+    point, with its state (e.g. for :func:`spectrum`)."""
     t0 = time.perf_counter()
     fm = fluid_mesh(valve.reed, valve.seat, opening, valve.shape, valve.mesh)
-    prob = FluxProblem.build(ns3d.assemble(fm.mesh, valve.fluid))
+    prob = FluxProblem.build(reed3d.flow_system(valve, fm.mesh))
     xs = ns3d.stokes(prob.system, prob.g, np.zeros(len(prob.system.fixed)))
     stokes = point_outputs(prob.system, xs, valve, opening, 1.0, 0, time.perf_counter() - t0)
     out = [stokes]
@@ -190,7 +245,8 @@ def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = 
                 x, P = _predict(history, re)
                 x, P, steps, factor = flux_newton(prob, _flux_of(valve, re), x, P, factor=factor, progress=progress)
             except Exception as exc:   # noqa: BLE001 - a failed step is retried shorter or ends the sweep
-                factor = getattr(exc, "factor", factor)
+                _free(getattr(exc, "factor", factor))    # of a state off the branch: a misleading preconditioner
+                factor = None
                 print(f"reed_flux x = {opening * 1e3:.3g} mm, Re = {re:.4g}: {exc}", file=sys.stderr)
                 cuts += 1
                 ratio = float(np.sqrt(re / history[-1][0]))        # the failed step's ratio, square-rooted
@@ -205,12 +261,51 @@ def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = 
             out.append(p)
             if on_point is not None:
                 on_point(p)
-            if progress:
-                print(f"  Re = {p.reynolds:.4g}: dP = {P:.5g} Pa, Cd = {p.cd:.4f}, X = {p.multiplier:.4f}, mesh Peclet "
-                      f"{p.peclet_p95:.2g} / {p.peclet_max:.2g} ({steps} steps, {p.seconds:.0f} s, "
-                      f"{p.peak_rss_gb:.1f} GB)", file=sys.stderr)
+            if on_state is not None:
+                on_state(prob, x, P, p)
+            _say_point(progress, p)
     _free(factor)
     return out
+
+
+def _say_point(progress: bool, p: FlowPoint) -> None:
+    if progress:
+        print(f"  Re = {p.reynolds:.4g}: dP = {p.dp:.5g} Pa, Cd = {p.cd:.4f}, X = {p.multiplier:.4f}, mesh Peclet "
+              f"{p.peclet_p95:.2g} / {p.peclet_max:.2g} ({p.newton_steps} steps, {p.seconds:.0f} s, "
+              f"{p.peak_rss_gb:.1f} GB)", file=sys.stderr)
+
+
+def bordered_jacobian(prob: FluxProblem, x: np.ndarray) -> sp.csr_matrix:
+    """The bordered Jacobian [[J, -g], [-g^T, 0]] of :func:`flux_newton` at state ``x`` (free DOFs and P)."""
+    n3, free = 3 * prob.system.nv, prob.free
+    J = ns3d._saddle(prob.system, ns3d._velocity_block(prob.system, x[:n3], True))[free][:, free]
+    gf = prob.g[free]
+    return sp.bmat([[J, -gf[:, None]], [-gf[None, :], None]], format="csr")
+
+
+def spectrum(prob: FluxProblem, x: np.ndarray, k: int = 6) -> np.ndarray:
+    """The ``k`` eigenvalues lambda [1/s] nearest zero of J_b v = lambda M_b v at the converged state ``x``.
+
+    J_b the bordered Jacobian (:func:`bordered_jacobian`), M_b the fluid's velocity mass (rho, zero on
+    the pressures and on P): the linearised flow at the prescribed flow rate, M_b dv/dt = -J_b v, evolves
+    as exp(-lambda t). A real lambda through zero along a branch is a fold (the branch turns back in
+    Re) or a steady bifurcation (a second branch), Re(lambda) < 0 an unstable steady flow, a complex
+    pair crossing Re(lambda) = 0 a Hopf bifurcation (Keller 1977; Cliffe, Spence and Tavener 2000,
+    Acta Numerica 9, 39-131). ARPACK shift-invert at sigma = 0 with one direct factorization of J_b.
+    """
+    import scipy.sparse.linalg as sla
+
+    Jb = bordered_jacobian(prob, x)
+    M = ns3d.velocity_mass(prob.system)[prob.free][:, prob.free]
+    Mb = sp.block_diag([M, sp.csr_matrix((1, 1))], format="csr")
+    lu = ns3d.Factor(Jb)
+    try:
+        op = sla.LinearOperator(Jb.shape, matvec=lu.solve, dtype=float)
+        vals = sla.eigs(Jb, k=k, M=Mb, sigma=0.0, OPinv=op, which="LM", return_eigenvectors=False,
+                        ncv=max(4 * k, 24), tol=1e-8)
+    finally:
+        lu.free()
+    return vals[np.argsort(np.abs(vals))]
 
 
 def _free(factor) -> None:
