@@ -406,6 +406,23 @@ def displacement_sweep(valve: ReedValveFlow, opening: float, speeds, progress: b
     return out
 
 
+def squeeze_coefficient(valve: ReedValveFlow, opening: float) -> float:
+    """The squeeze ("stiction") coefficient of eq 3.51 at tip opening ``opening`` [m] from a 3-D Stokes solve [Pa s/m].
+
+    c = -F / (u int_0^L psi W ds): F [N] the psi-weighted generalised force of the full stress on the reed
+    (:func:`reed_forces`, both halves) when its faces move at a tip speed u in the frozen geometry, inlet and
+    outlet at one pressure (the Stokes limit u -> 0, so c does not depend on u). The wall moves at
+    (1 - floor_fraction) psi(s) u, the rate at which the gap family of :func:`fea.fluid.reed_mesh.gap_profile`
+    opens, as the sealing film's squeeze solve has it (:func:`fea.fluid.reed_film.reed_film`), so the two are
+    the same quantity where both hold (gap / land width << 1). Compare c = 1727 Pa s/m of eq 3.81.
+    """
+    fm = fluid_mesh(valve.reed, valve.seat, opening, valve.shape, valve.mesh)
+    system = flow_system(valve, fm.mesh)
+    speed = 1.0 - valve.seat.floor_fraction
+    x = ns3d.stokes(system, np.zeros(system.ndofs), _reed_velocity(system, valve, speed))
+    return -reed_forces(system, x, valve)[0] / valve.modal_area
+
+
 def _displacement(system, x, valve: ReedValveFlow, opening: float, speed: float, steps: int,
                   seconds: float) -> DisplacementPoint:
     Q = -2.0 * ns3d.boundary_flux(system, x, "inlet")
