@@ -384,10 +384,8 @@ def displacement_sweep(valve: ReedValveFlow, opening: float, speeds, progress: b
     from the scaled Stokes field at each speed (the two signs differ through inertia only).
     """
     t0 = time.perf_counter()
-    fm = fluid_mesh(valve.reed, valve.seat, opening, valve.shape, valve.mesh)
-    system = flow_system(valve, fm.mesh)
+    system, x1 = _moving_wall_stokes(valve, opening, 1.0)
     zero = np.zeros(system.ndofs)
-    x1 = ns3d.stokes(system, zero, _reed_velocity(system, valve, 1.0))
     out = [_displacement(system, x1, valve, opening, 0.0, 0, time.perf_counter() - t0)]
     factor = None
     for u in speeds:
@@ -416,11 +414,16 @@ def squeeze_coefficient(valve: ReedValveFlow, opening: float) -> float:
     opens, as the sealing film's squeeze solve has it (:func:`fea.fluid.reed_film.reed_film`), so the two are
     the same quantity where both hold (gap / land width << 1). Compare c = 1727 Pa s/m of eq 3.81.
     """
+    system, x = _moving_wall_stokes(valve, opening, 1.0 - valve.seat.floor_fraction)
+    return -reed_forces(system, x, valve)[0] / valve.modal_area
+
+
+def _moving_wall_stokes(valve: ReedValveFlow, opening: float, speed: float) -> tuple[ns3d.System, np.ndarray]:
+    """(system, Stokes state) at tip opening ``opening`` [m] with the reed's faces moving at psi(s) ``speed``
+    [m/s], inlet and outlet at one pressure."""
     fm = fluid_mesh(valve.reed, valve.seat, opening, valve.shape, valve.mesh)
     system = flow_system(valve, fm.mesh)
-    speed = 1.0 - valve.seat.floor_fraction
-    x = ns3d.stokes(system, np.zeros(system.ndofs), _reed_velocity(system, valve, speed))
-    return -reed_forces(system, x, valve)[0] / valve.modal_area
+    return system, ns3d.stokes(system, np.zeros(system.ndofs), _reed_velocity(system, valve, speed))
 
 
 def _displacement(system, x, valve: ReedValveFlow, opening: float, speed: float, steps: int,

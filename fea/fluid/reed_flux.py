@@ -128,7 +128,7 @@ def flux_ptc(prob: FluxProblem, flux: float, x0: np.ndarray, P0: float, tol: flo
     """
     sys_, free, n3 = prob.system, prob.free, 3 * prob.system.nv
     _, vel, M, dt0 = ns3d._ptc_start(sys_, x0 if np.any(x0[:n3]) else _stokes_scale(prob, flux))
-    Mb = sp.block_diag([M, sp.csr_matrix((1, 1))], format="csr")
+    Mb = _bordered_mass(M)
     x, P, dt, dt_f, factor, kry, since = x0.copy(), float(P0), dt0, np.inf, None, 0, 0
     weight = np.linalg.norm(prob.g[free]) * max(abs(P0), 1.0) / abs(flux)
     r0 = None             # the residual after the first step (the flux met) is the scale: from rest only c is not 0
@@ -296,8 +296,7 @@ def spectrum(prob: FluxProblem, x: np.ndarray, k: int = 6) -> np.ndarray:
     import scipy.sparse.linalg as sla
 
     Jb = bordered_jacobian(prob, x)
-    M = ns3d.velocity_mass(prob.system)[prob.free][:, prob.free]
-    Mb = sp.block_diag([M, sp.csr_matrix((1, 1))], format="csr")
+    Mb = _bordered_mass(ns3d.velocity_mass(prob.system)[prob.free][:, prob.free])
     lu = ns3d.Factor(Jb)
     try:
         op = sla.LinearOperator(Jb.shape, matvec=lu.solve, dtype=float)
@@ -306,6 +305,11 @@ def spectrum(prob: FluxProblem, x: np.ndarray, k: int = 6) -> np.ndarray:
     finally:
         lu.free()
     return vals[np.argsort(np.abs(vals))]
+
+
+def _bordered_mass(M: sp.csr_matrix) -> sp.csr_matrix:
+    """The mass M_b of the bordered system: the velocity mass ``M`` on the free DOFs, zero on the inlet pressure P."""
+    return sp.block_diag([M, sp.csr_matrix((1, 1))], format="csr")
 
 
 def _free(factor) -> None:
