@@ -209,6 +209,21 @@ def test_hidden_effect_named_reed(case):
 
 
 @pytest.mark.slow
+def test_a_fit_lost_to_the_cd_factors_trade_is_found_from_the_factors_prior():
+    """The thesis reed's added mass, seed 1 (Gamma_f 3.85, no Cd error): the baseline fits the Cd factor at 0.969
+    without it, and the candidate's profile linearised there ends at Gamma_f 4.08 with the held-out gap 169 ->
+    190 units (nothing named); fitted again from the factor's prior (Settings.second_start) it is named within
+    1 %. The same dataset without the second start names nothing: the mechanism, not the seed, finds it."""
+    from dataclasses import replace
+
+    sim = choose(valve_type="reed")
+    on = run_case("added_mass", CASES["reed"]["added_mass"], "reed", 1, sim, SETTINGS)
+    assert on["found"] == ["added_mass"] and abs(on["relative_errors"]["added_mass.Gamma_f"]) < 0.01, on
+    off = run_case("added_mass", CASES["reed"]["added_mass"], "reed", 1, sim, replace(SETTINGS, second_start=False))
+    assert off["found"] == [], off
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("valve,case", [_known(v, c, 1, v, c) for v in ("disc", "reed") for c in MISMATCH[v]])
 def test_hidden_effect_named_in_data_of_another_model_form(valve, case):
     """Data made with a model form the library lacks (studies/discrepancy/mismatch.py), seed 1: the hidden effect

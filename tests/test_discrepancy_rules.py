@@ -300,3 +300,49 @@ def test_the_profile_is_linearised_at_the_prior_where_the_fitted_cd_factor_is_fa
     for fitted, origin in ((0.972, 0.972), (1.035, 1.035), (0.95, 1.0), (1.045, 1.0), (0.90, 1.0)):
         model = (Applied.of("discharge_scale", "pump", {"scale": fitted}),)
         assert prof.at_origin(pb, model)[0].value_dict["scale"] == pytest.approx(origin), fitted
+
+
+def _second_start_case(monkeypatch, first_fit, first_held, second_fit, second_held):
+    """search._second_start on the stand-in's problem, its base's Cd factor fitted 3 % high, with the second
+    fit and its verdict's costs given: (the fit kept, the base the second fit started from, or None)."""
+    from studies.discrepancy import search
+    from studies.discrepancy.fitting import FitResult
+    from studies.discrepancy.selection import Base
+
+    pb = _problem(())
+    base_model = (Applied.of("discharge_scale", "pump", {"scale": 1.03}),)
+    base = Base(base_model, pb.evaluate(base_model), 100.0)
+    eff = pb.library["closing_lag"]
+    started = []
+
+    def fit(pb_, origin, eff_, target, opts):
+        started.append(origin)
+        return FitResult({"lag_deg": 2.0}, second_fit, None, 0, False, None)
+
+    def judge(pb_, base_, t):
+        return CandidateFit(eff.name, "both", {"lag_deg": 2.0}, {}, second_fit, second_held, -20.0, None, 0, 100.0,
+                            50.0, model=t.model)
+
+    monkeypatch.setattr(search.fitting, "fit", fit)
+    monkeypatch.setattr(search, "judge", judge)
+    first = CandidateFit(eff.name, "both", {"lag_deg": 3.0}, {}, first_fit, first_held, -20.0, None, 0, 100.0, 50.0)
+    kept = search._second_start(pb, base, eff, "both", first, 0)
+    return kept, (started[0] if started else None)
+
+
+@pytest.mark.parametrize("first_fit,first_held,second_fit,second_held,again,kept", [
+    (28.0, 60.0, 20.0, 1.0, True, "second"),    # decisive on the fit, worse held out (50 -> 60): the second fits better
+    (28.0, 60.0, 35.0, 1.0, True, "first"),     # ... the second fits worse: kept out, however well it holds out
+    (28.0, 45.0, 20.0, 1.0, False, "first"),    # better held out (a partial explanation): no second start
+    (97.0, 60.0, 20.0, 1.0, False, "first"),    # not decisive on the fit (3 %): no second start
+])
+def test_a_fit_decisive_on_the_fitting_runs_but_worse_held_out_is_started_again_from_the_prior(
+        monkeypatch, first_fit, first_held, second_fit, second_held, again, kept):
+    """The held-out runs judge the fit kept, they never choose it: of the two starts the lower fit cost is kept."""
+    out, origin = _second_start_case(monkeypatch, first_fit, first_held, second_fit, second_held)
+    assert (origin is not None) == again
+    if again:
+        assert origin[0].value_dict["scale"] == 1.0                        # the Cd factor at its prior
+        assert out.second_start["kept"] == kept
+        assert out.second_start["first_fit_cost"] == first_fit and out.second_start["fit_cost"] == second_fit
+    assert out.fit_cost == (second_fit if kept == "second" else first_fit)

@@ -66,6 +66,7 @@ class CandidateFit:
     joint_with: str | None = None      # fitted jointly with this added effect (joint.joint_candidate)
     pulled_inside: str | None = None   # a fit at its plausible edge judged inside it (edge.pull_inside) ...
     pulled: tuple = ()                 # ... the parameters pulled: held where they are by later refits
+    second_start: dict | None = None   # fitted again from the nuisances' prior (search._second_start)
 
     @property
     def key(self) -> str:
@@ -119,6 +120,7 @@ class CandidateFit:
             "gap_change_by_kind": self.parts_change(), "why_not_added": self.why_not_added,
             "hopeless": self.rejected, "screened_out": self.screened_out is not None,
             "fitted_jointly_with": self.joint_with, "pulled_inside": self.pulled_inside,
+            "second_start": self.second_start,
         })
 
 
