@@ -332,10 +332,10 @@ def _second_start(pb, base: Base, eff: Effect, target: str, first: CandidateFit,
 
     Why: a fit that explains the fitting runs decisively and the held-out runs worse than without it either
     stands in for another effect, or has followed a nuisance trade into the wrong valley (a candidate that
-    explains part of both is a partial explanation, not this contradiction: on the independent suite's v2_08,
-    six such second starts changed no fit cost by 1 % and cost 1,250 simulations, 56 % of the dataset's). The profile is linear in
-    the Cd factor from where the base fitted it, and the factor moves the residuals nonlinearly over a few
-    per cent: measured on the thesis reed's added mass (seed 1, Gamma_f 3.85 hidden, Cd factor 1), the base
+    explains part of both is a partial explanation, not this contradiction: on the independent suite's
+    v2_08, six such second starts changed no fit cost by 1 % and cost 1,250 simulations, 56 % of the
+    dataset's). The profile is linear in the Cd factor from where the base fitted it, and the factor moves
+    the residuals nonlinearly over a few per cent: measured on the thesis reed's added mass (seed 1, Gamma_f 3.85 hidden, Cd factor 1), the base
     fits Cd 0.969 without the added mass, the valley of the fit cost is 0.1 wide in Gamma_f and 0.01 in the
     factor around the truth (63.4 units there; 110-117 all along Cd 0.98), and the fit from the base's
     origin ends at Gamma_f 4.08 and Cd 0.995 (145.9 units; 74 with forward-difference Gauss-Newton steps to
@@ -361,22 +361,19 @@ def _second_start(pb, base: Base, eff: Effect, target: str, first: CandidateFit,
         res = None
     if res is None or res.rejected or not math.isfinite(res.cost):
         pb.sims.stage = stage
-        first.second_start = {"fit_cost": None, "kept": "first", "simulations": pb.sims.count - n1}
+        first.n_sims = pb.sims.count - n0
+        first.second_start = {"fit_cost": None, "first_fit_cost": first.fit_cost, "kept": "first",
+                              "simulations": pb.sims.count - n1}
         return first
     model = prof.profiled_model(pb, origin + (Applied.of(eff.name, target, res.values),), res.jacobian)
     second = judge(pb, base, Trial(eff, target, model, res.cost, res.nuisance, first.base_fit_cost, n0, stage))
     pb.sims.stage = stage
     kept = second if second.failed is None and second.fit_cost < first.fit_cost else first
     kept.n_sims = pb.sims.count - n0
-    kept.second_start = {"fit_cost": json_cost(second.fit_cost), "first_fit_cost": json_cost(first.fit_cost),
+    kept.second_start = {"fit_cost": second.fit_cost, "first_fit_cost": first.fit_cost,     # json_safe'd in row()
                          "kept": "second" if kept is second else "first", "simulations": pb.sims.count - n1}
     pb.log(f"{eff.name}@{target}: fitted again from the nuisances' prior (decisive on the fit, "
            f"{first.base_held_cost:.4g} -> {first.held_cost:.4g} held out): fit cost {first.fit_cost:.4g} -> "
            f"{second.fit_cost:.4g}, the {'second' if kept is second else 'first'} kept "
            f"({values_text(eff, kept.values, vt, target)})")
     return kept
-
-
-def json_cost(c: float) -> float | None:
-    """A cost for the JSON (None if not finite)."""
-    return float(c) if math.isfinite(c) else None

@@ -55,8 +55,8 @@ class Settings:
     joint_fraction: float = 0.0              # ... if more than this fraction of the baseline's gap is left
     backward: bool = True                    # the backward step after each addition and at the end
     round_polish: bool = True                # each round's winner refitted jointly with every added effect
-    second_start: bool = True                # a candidate decisive on the fit but not held out fitted again with
-                                             # the nuisances' profile from their prior (search._second_start)
+    second_start: bool = True                # a candidate decisive on the fit but worse held out fitted again
+                                             # with the nuisances' profile from their prior (search._second_start)
     large_gap_units_per_run: float = 2.0     # a gap left above this per run is reported as large
     max_rounds: int = 3                      # most effects added
     # -- the fits
