@@ -67,11 +67,8 @@ def _from_rest(valve, opening: float, reynolds: float, out) -> None:
 
     import numpy as np
 
-    from fea.fluid.reed_mesh import fluid_mesh
-
     t0 = time.perf_counter()
-    fm = fluid_mesh(valve.reed, valve.seat, opening, valve.shape, valve.mesh)
-    prob = reed_flux.FluxProblem.build(reed3d.flow_system(valve, fm.mesh))
+    prob = reed_flux.flux_problem(valve, opening)
     x, P, steps, factor = reed_flux.flux_ptc(prob, reed_flux._flux_of(valve, reynolds), np.zeros(prob.system.ndofs),
                                              0.0, progress=True)
     factor.free()

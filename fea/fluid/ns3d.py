@@ -266,29 +266,28 @@ def _backflow(fb: FacetBasis, beta: float, rho: float, comps: list[np.ndarray], 
 def _velocity_block(sys_: System, u: np.ndarray | None, newton: bool) -> sp.csr_matrix:
     """mu K + rho N(u) on each component (+ the rho d u_a / d x_b reaction blocks for Newton), and the
     grad-div term when the system has one."""
-    mu, rho, n, V = sys_.fluid.mu, sys_.fluid.rho, sys_.nv, sys_.V
-    diag = mu * sys_.K
-    if u is None:
-        A = sp.block_diag([diag] * 3, format="csr")
-        return A if sys_.grad_div is None else (A + sys_.grad_div).tocsr()
-    comps = [V.interpolate(u[a * n:(a + 1) * n]) for a in range(3)]
-    diag = diag + rho * sys_.fast.convection([np.asarray(c) for c in comps])
+    A = sp.block_diag([sys_.fluid.mu * sys_.K] * 3, format="csr") if u is None else _flow_blocks(sys_, u, newton)
+    return A if sys_.grad_div is None else (A + sys_.grad_div).tocsr()
+
+
+def _flow_blocks(sys_: System, u: np.ndarray, newton: bool) -> sp.csr_matrix:
+    """:func:`_velocity_block` at a velocity ``u`` without the grad-div term: the viscous and convective
+    blocks, Newton's reaction blocks, the open boundaries' backflow terms."""
+    rho, n = sys_.fluid.rho, sys_.nv
+    comps = [sys_.V.interpolate(u[a * n:(a + 1) * n]) for a in range(3)]
+    diag = sys_.fluid.mu * sys_.K + rho * sys_.fast.convection([np.asarray(c) for c in comps])
     blocks = [[diag if a == b else None for b in range(3)] for a in range(3)]
+    extras = []
     if newton:
-        for a in range(3):
-            for b in range(3):
-                C = rho * sys_.fast.weighted_mass(comps[a].grad[b])
-                blocks[a][b] = C if blocks[a][b] is None else blocks[a][b] + C
-    for fb, beta in ((sys_.backflow, BACKFLOW_BETA), (sys_.inflow, INFLOW_BETA)):
-        if fb is None:
-            continue
-        extra = _backflow(fb, beta, rho, [u[a * n:(a + 1) * n] for a in range(3)], newton)
+        extras.append([[rho * sys_.fast.weighted_mass(comps[a].grad[b]) for b in range(3)] for a in range(3)])
+    extras += [_backflow(fb, beta, rho, [u[a * n:(a + 1) * n] for a in range(3)], newton)
+               for fb, beta in ((sys_.backflow, BACKFLOW_BETA), (sys_.inflow, INFLOW_BETA)) if fb is not None]
+    for extra in extras:
         for a in range(3):
             for b in range(3):
                 if extra[a][b] is not None:
                     blocks[a][b] = extra[a][b] if blocks[a][b] is None else blocks[a][b] + extra[a][b]
-    A = sp.bmat(blocks, format="csr")
-    return A if sys_.grad_div is None else (A + sys_.grad_div).tocsr()
+    return sp.bmat(blocks, format="csr")
 
 
 def _saddle(sys_: System, A: sp.csr_matrix) -> sp.csr_matrix:
@@ -514,9 +513,7 @@ def ptc(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max_it
     dt_f, kry, since = np.inf, 0, 0                  # the pseudo-time step of the factorization in use
     for it in range(1, max_iter + 1):
         t0 = time.perf_counter()
-        if factor is not None and max(dt_f / dt, dt / dt_f) > PTC_REFACTOR and min(dt, dt_f) < PTC_STEADY * dt0:
-            factor.free()
-            factor = None
+        factor = _ptc_current(factor, dt, dt_f, dt0)
         J = _saddle(sys_, _velocity_block(sys_, x[:n3], True))[free][:, free].tocsr() + M / dt
         factor = _refresh(factor, kry)
         old = factor
@@ -533,7 +530,7 @@ def ptc(sys_: System, rhs: np.ndarray, x0: np.ndarray, tol: float = 1e-7, max_it
         if change < tol and dt >= PTC_STEADY * dt0:       # a small update, not a small pseudo-time step
             return fill_orphans(sys_, x), it, factor
         best, since = _ptc_progress(r_new, r0, best, since, factor)
-        dt *= float(np.clip(r / r_new, 1.0 / PTC_GROWTH, PTC_GROWTH))
+        dt = _ptc_next_dt(dt, r, r_new)
         r = r_new
     raise _failure(f"pseudo-transient continuation did not converge in {max_iter} steps "
                    f"(last relative velocity update {change:.2e})", factor)
@@ -547,6 +544,22 @@ def _ptc_start(sys_: System, x: np.ndarray) -> tuple:
     M = velocity_mass(sys_)[free][:, free].tocsr()
     h = float(np.cbrt(np.sum(sys_.V.dx) / sys_.mesh.t.shape[1]))        # mean cell size [m]
     return free, np.flatnonzero(free < n3), M, PTC_CFL0 * h / max(float(np.max(np.abs(x[:n3]))), 1e-300)
+
+
+def _ptc_current(factor: Factor | None, dt: float, dt_f: float, dt0: float) -> Factor | None:
+    """The factorization to precondition a :func:`ptc` step at pseudo-time step ``dt`` with (``dt_f``: the one
+    it was made at): freed and None when 1/dt changed by more than :data:`PTC_REFACTOR` since, unless both
+    steps are steady-sized (at least :data:`PTC_STEADY` dt_0, where the mass term no longer matters)."""
+    if factor is not None and max(dt_f / dt, dt / dt_f) > PTC_REFACTOR and min(dt, dt_f) < PTC_STEADY * dt0:
+        factor.free()
+        return None
+    return factor
+
+
+def _ptc_next_dt(dt: float, r: float, r_new: float) -> float:
+    """The next pseudo-time step by switched evolution relaxation, dt ||R_k|| / ||R_k+1||, by at most a factor
+    :data:`PTC_GROWTH` either way (:func:`ptc`)."""
+    return dt * float(np.clip(r / r_new, 1.0 / PTC_GROWTH, PTC_GROWTH))
 
 
 def _ptc_progress(r_new: float, r0: float, best: float, since: int, factor: Factor | None) -> tuple[float, int]:

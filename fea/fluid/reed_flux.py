@@ -87,10 +87,10 @@ def flux_newton(prob: FluxProblem, flux: float, x0: np.ndarray, P0: float, tol: 
     vel = np.flatnonzero(free < n3)
     weight = np.linalg.norm(gf) * abs(P0) / abs(flux)
     x, P, damped, kry, change = x0.copy(), float(P0), 0, 0, np.inf
+    R, c = prob.residual(x, P, flux)
     for it in range(1, max_iter + 1):
         t0 = time.perf_counter()
         Jb = bordered_jacobian(prob, x)
-        R, c = prob.residual(x, P, flux)
         factor = ns3d._refresh(factor, kry)
         d, factor, kry = ns3d._newton_step(Jb, np.append(R, c), factor)
         r0 = _weighted_norm(R, c, weight)
@@ -98,7 +98,8 @@ def flux_newton(prob: FluxProblem, flux: float, x0: np.ndarray, P0: float, tol: 
             xt = x.copy()
             xt[free] += step * d[:-1]
             Pt = P + step * d[-1]
-            if _weighted_norm(*prob.residual(xt, Pt, flux), weight) <= (1 - 1e-4 * step) * r0:
+            R, c = prob.residual(xt, Pt, flux)        # the accepted trial's is the next step's residual
+            if _weighted_norm(R, c, weight) <= (1 - 1e-4 * step) * r0:
                 break
         x, P = xt, Pt
         change = step * np.max(np.abs(d[:-1][vel])) / max(np.max(np.abs(x[:n3])), 1e-300)
@@ -132,19 +133,17 @@ def flux_ptc(prob: FluxProblem, flux: float, x0: np.ndarray, P0: float, tol: flo
     x, P, dt, dt_f, factor, kry, since = x0.copy(), float(P0), dt0, np.inf, None, 0, 0
     weight = np.linalg.norm(prob.g[free]) * max(abs(P0), 1.0) / abs(flux)
     r0 = None             # the residual after the first step (the flux met) is the scale: from rest only c is not 0
+    R, c = prob.residual(x, P, flux)
     for it in range(1, max_iter + 1):
-        stale = max(dt_f / dt, dt / dt_f) > ns3d.PTC_REFACTOR and min(dt, dt_f) < ns3d.PTC_STEADY * dt0
-        if factor is not None and stale:
-            factor.free()
-            factor = None
-        R, c = prob.residual(x, P, flux)
+        factor = ns3d._ptc_current(factor, dt, dt_f, dt0)
         old = ns3d._refresh(factor, kry)
         d, factor, kry = ns3d._newton_step((bordered_jacobian(prob, x) + Mb / dt).tocsr(), np.append(R, c), old)
         dt_f = dt if factor is not old else dt_f
         x[free] += d[:-1]
         P += d[-1]
         change = float(np.max(np.abs(d[:-1][vel])) / max(np.max(np.abs(x[:n3])), 1e-300))
-        r_new = _weighted_norm(*prob.residual(x, P, flux), weight)
+        R, c = prob.residual(x, P, flux)
+        r_new = _weighted_norm(R, c, weight)
         if r0 is None:
             r = r0 = best = r_new
         if progress:
@@ -153,7 +152,7 @@ def flux_ptc(prob: FluxProblem, flux: float, x0: np.ndarray, P0: float, tol: flo
         if change < tol and dt >= ns3d.PTC_STEADY * dt0:
             return ns3d.fill_orphans(sys_, x), P, it, factor
         best, since = ns3d._ptc_progress(r_new, r0, best, since, factor)
-        dt *= float(np.clip(r / r_new, 1.0 / ns3d.PTC_GROWTH, ns3d.PTC_GROWTH))
+        dt = ns3d._ptc_next_dt(dt, r, r_new)
         r = r_new
     raise ns3d._failure(f"flow-rate PTC did not converge in {max_iter} steps", factor)
 
@@ -220,8 +219,7 @@ def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = 
     :func:`fea.fluid.reed3d.pressure_sweep`). ``on_state(problem, x, P, point)`` after each Navier-Stokes
     point, with its state (e.g. for :func:`spectrum`)."""
     t0 = time.perf_counter()
-    fm = fluid_mesh(valve.reed, valve.seat, opening, valve.shape, valve.mesh)
-    prob = FluxProblem.build(reed3d.flow_system(valve, fm.mesh))
+    prob = flux_problem(valve, opening)
     xs = ns3d.stokes(prob.system, prob.g, np.zeros(len(prob.system.fixed)))
     stokes = point_outputs(prob.system, xs, valve, opening, 1.0, 0, time.perf_counter() - t0)
     out = [stokes]
@@ -266,6 +264,12 @@ def flow_sweep(valve: ReedValveFlow, opening: float, reynolds, progress: bool = 
             _say_point(progress, p)
     _free(factor)
     return out
+
+
+def flux_problem(valve: ReedValveFlow, opening: float) -> FluxProblem:
+    """The flow-rate problem of the reed's fluid mesh at tip opening ``opening`` [m] (:func:`fea.fluid.reed3d.flow_system`)."""
+    return FluxProblem.build(reed3d.flow_system(valve, fluid_mesh(valve.reed, valve.seat, opening, valve.shape,
+                                                                   valve.mesh).mesh))
 
 
 def _say_point(progress: bool, p: FlowPoint) -> None:

@@ -28,7 +28,7 @@ def nuisance_index(pb, model: tuple) -> list:
 
 def at_prior(pb, model: tuple) -> tuple:
     """``model`` with its baseline nuisances at their prior (the Cd factor at 1): the second origin of a
-    candidate's profile (search._second_start)."""
+    candidate's profile (search._second_start); its own origin (:func:`at_origin` keeps a prior)."""
     return tuple(a.with_values({p.name: p.prior for p in pb.nuisance_effects[a.name][0].parameters})
                  if a.name in pb.nuisance_effects else a for a in model)
 
@@ -109,13 +109,12 @@ def profiled_cost(pb, model: tuple, jac: np.ndarray | None) -> float:
     return math.inf if r is None else float(r @ r)
 
 
-def base_jacobian(pb, current: tuple, origin=None) -> np.ndarray | None:
-    """The nuisance Jacobian of ``current`` with its nuisances at their origin (``origin``: the function that
-    puts them there, :func:`at_origin` by default), taken once per model: every candidate's coarse grid is
-    profiled with it (the Jacobian is taken again at the best coarse point)."""
+def base_jacobian(pb, current: tuple) -> np.ndarray | None:
+    """The nuisance Jacobian of ``current`` with its nuisances at their origin, taken once per model: every
+    candidate's coarse grid is profiled with it (the Jacobian is taken again at the best coarse point)."""
     if not nuisance_index(pb, current):
         return None
-    key = (origin or at_origin)(pb, current)
+    key = at_origin(pb, current)
     if key not in pb.jacobians:
         stage = pb.sims.stage
         pb.sims.stage = "base jacobian"

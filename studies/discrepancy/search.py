@@ -317,11 +317,18 @@ def candidate(pb, base: Base, eff: Effect, target: str, start: dict | None = Non
         return CandidateFit(eff.name, target, vals, eff.report(vals, vt, target), cost, None, math.inf,
                             eff.plausibility(vals, vt, target), pb.sims.count - n0, base_fit, cur.held_cost,
                             nuisance=res.nuisance, rejected=True)
-    model = base.model + (Applied.of(eff.name, target, vals),)
-    if pb.nuisance_effects:                   # the nuisances where the profile put them
-        model = prof.profiled_model(pb, prof.at_origin(pb, base.model) + model[-1:], res.jacobian)
-    f = judge(pb, base, Trial(eff, target, model, cost, res.nuisance, base_fit, n0, stage))
+    f = _judged(pb, base, base.model, eff, target, res, base_fit, n0, stage)
     return _second_start(pb, base, eff, target, f, n0) if pb.settings.second_start else f
+
+
+def _judged(pb, base: Base, origin: tuple, eff: Effect, target: str, res: fitting.FitResult, base_fit: float,
+            n0: int, stage: str) -> CandidateFit:
+    """A candidate's fit ``res`` on top of ``origin`` (the base's effects and nuisances), its nuisances where
+    the profile put them, judged (:func:`studies.discrepancy.selection.judge`)."""
+    model = origin + (Applied.of(eff.name, target, res.values),)
+    if pb.nuisance_effects:
+        model = prof.profiled_model(pb, prof.at_origin(pb, origin) + model[-1:], res.jacobian)
+    return judge(pb, base, Trial(eff, target, model, res.cost, res.nuisance, base_fit, n0, stage))
 
 
 def _second_start(pb, base: Base, eff: Effect, target: str, first: CandidateFit, n0: int) -> CandidateFit:
@@ -356,7 +363,7 @@ def _second_start(pb, base: Base, eff: Effect, target: str, first: CandidateFit,
     try:
         res = fitting.fit(pb, origin, eff, target,
                           fitting.FitOptions(start=first.values, profile=True, reject_margin=st.hopeless_units,
-                                             jacobian=prof.base_jacobian(pb, origin, prof.at_prior)))
+                                             jacobian=prof.base_jacobian(pb, origin)))
     except (ArithmeticError, ValueError, RuntimeError):
         res = None
     if res is None or res.rejected or not math.isfinite(res.cost):
@@ -365,8 +372,7 @@ def _second_start(pb, base: Base, eff: Effect, target: str, first: CandidateFit,
         first.second_start = {"fit_cost": None, "first_fit_cost": first.fit_cost, "kept": "first",
                               "simulations": pb.sims.count - n1}
         return first
-    model = prof.profiled_model(pb, origin + (Applied.of(eff.name, target, res.values),), res.jacobian)
-    second = judge(pb, base, Trial(eff, target, model, res.cost, res.nuisance, first.base_fit_cost, n0, stage))
+    second = _judged(pb, base, origin, eff, target, res, first.base_fit_cost, n0, stage)
     pb.sims.stage = stage
     kept = second if second.failed is None and second.fit_cost < first.fit_cost else first
     kept.n_sims = pb.sims.count - n0
