@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from tqdm import tqdm
 
@@ -317,18 +317,24 @@ def candidate(pb, base: Base, eff: Effect, target: str, start: dict | None = Non
         return CandidateFit(eff.name, target, vals, eff.report(vals, vt, target), cost, None, math.inf,
                             eff.plausibility(vals, vt, target), pb.sims.count - n0, base_fit, cur.held_cost,
                             nuisance=res.nuisance, rejected=True)
-    f = _judged(pb, base, base.model, eff, target, res, base_fit, n0, stage)
+    f = _judged(pb, base, _trial(base.model, eff, target, res, base_fit, n0, stage), res.jacobian)
     return _second_start(pb, base, eff, target, f, n0) if pb.settings.second_start else f
 
 
-def _judged(pb, base: Base, origin: tuple, eff: Effect, target: str, res: fitting.FitResult, base_fit: float,
-            n0: int, stage: str) -> CandidateFit:
-    """A candidate's fit ``res`` on top of ``origin`` (the base's effects and nuisances), its nuisances where
-    the profile put them, judged (:func:`studies.discrepancy.selection.judge`)."""
-    model = origin + (Applied.of(eff.name, target, res.values),)
+def _trial(origin: tuple, eff: Effect, target: str, res: fitting.FitResult, base_fit: float, n0: int,
+           stage: str) -> Trial:
+    """A candidate's fit ``res`` on top of ``origin`` (the base's effects and nuisances) as a Trial."""
+    return Trial(eff, target, origin + (Applied.of(eff.name, target, res.values),), res.cost, res.nuisance,
+                 base_fit, n0, stage)
+
+
+def _judged(pb, base: Base, t: Trial, jacobian) -> CandidateFit:
+    """The trial with its nuisances where the profile (``jacobian``, linearised at the origin of the model it
+    extends) put them, judged (:func:`studies.discrepancy.selection.judge`)."""
+    model = t.model
     if pb.nuisance_effects:
-        model = prof.profiled_model(pb, prof.at_origin(pb, origin) + model[-1:], res.jacobian)
-    return judge(pb, base, Trial(eff, target, model, res.cost, res.nuisance, base_fit, n0, stage))
+        model = prof.profiled_model(pb, prof.at_origin(pb, model[:-1]) + model[-1:], jacobian)
+    return judge(pb, base, replace(t, model=model))
 
 
 def _second_start(pb, base: Base, eff: Effect, target: str, first: CandidateFit, n0: int) -> CandidateFit:
@@ -372,7 +378,7 @@ def _second_start(pb, base: Base, eff: Effect, target: str, first: CandidateFit,
         first.second_start = {"fit_cost": None, "first_fit_cost": first.fit_cost, "kept": "first",
                               "simulations": pb.sims.count - n1}
         return first
-    second = _judged(pb, base, origin, eff, target, res, first.base_fit_cost, n0, stage)
+    second = _judged(pb, base, _trial(origin, eff, target, res, first.base_fit_cost, n0, stage), res.jacobian)
     pb.sims.stage = stage
     kept = second if second.failed is None and second.fit_cost < first.fit_cost else first
     kept.n_sims = pb.sims.count - n0
